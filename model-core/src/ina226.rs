@@ -1,0 +1,258 @@
+//! INA226 register values as they travel from the chip to the host, and their scale
+//! (TI INA226 datasheet, SBOS547). Pure data: the I²C driver lives in the firmware crate.
+
+use serde::{Deserialize, Serialize};
+
+/// Shunt voltage register (01h): signed, LSB 2.5 µV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ShuntVoltageRaw(pub i16);
+
+/// Bus voltage register (02h): unsigned, LSB 1.25 mV (bit 15 is always 0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct BusVoltageRaw(pub u16);
+
+/// Current register (04h): signed, LSB set by the calibration register.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct CurrentRaw(pub i16);
+
+/// Power register (03h): unsigned magnitude, LSB 25 × current LSB. Its sign is the current's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct PowerRaw(pub u16);
+
+/// Shunt voltage LSB [nV] (datasheet 7.6.1.2).
+pub const SHUNT_LSB_NV: u32 = 2_500;
+/// Bus voltage LSB [µV] (datasheet 7.6.1.3).
+pub const BUS_LSB_UV: u32 = 1_250;
+/// Power LSB is this many current LSBs (datasheet Eq 4).
+pub const POWER_LSB_PER_CURRENT_LSB: u32 = 25;
+
+/// The four measurement registers of one chip, read in one sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Registers {
+    pub shunt: ShuntVoltageRaw,
+    pub bus: BusVoltageRaw,
+    pub current: CurrentRaw,
+    pub power: PowerRaw,
+}
+
+impl Registers {
+    /// Power with its sign taken from the current register, in power LSBs (the power register
+    /// holds |I|·V only).
+    pub fn signed_power_lsb(&self) -> i32 {
+        let magnitude = i32::from(self.power.0);
+        if self.current.0 < 0 {
+            -magnitude
+        } else {
+            magnitude
+        }
+    }
+}
+
+/// Scale of the calibrated registers, as announced by the board in its hello frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Scale {
+    /// Current LSB [nA] (0.5 mA on our board).
+    pub current_lsb_na: u32,
+    /// Shunt resistance [µΩ] (5 mΩ on our board).
+    pub shunt_micro_ohm: u32,
+}
+
+impl Scale {
+    /// Our board: 5 mΩ shunts, 0.5 mA current LSB → CAL 2048, 12.5 mW power LSB.
+    pub const BOARD: Scale = Scale {
+        current_lsb_na: 500_000,
+        shunt_micro_ohm: 5_000,
+    };
+
+    /// Power LSB [µW].
+    pub const fn power_lsb_uw(&self) -> u32 {
+        // nA → µW per LSB: × 25 / 1000, done in u64 so no LSB a u32 can hold overflows.
+        (self.current_lsb_na as u64 * POWER_LSB_PER_CURRENT_LSB as u64 / 1000) as u32
+    }
+
+    pub fn shunt_v(&self, raw: ShuntVoltageRaw) -> f64 {
+        f64::from(raw.0) * f64::from(SHUNT_LSB_NV) * 1e-9
+    }
+
+    pub fn bus_v(&self, raw: BusVoltageRaw) -> f64 {
+        f64::from(raw.0) * f64::from(BUS_LSB_UV) * 1e-6
+    }
+
+    pub fn current_a(&self, raw: CurrentRaw) -> f64 {
+        f64::from(raw.0) * f64::from(self.current_lsb_na) * 1e-9
+    }
+
+    /// Power [W] from a signed power-LSB count.
+    pub fn power_w(&self, signed_power_lsb: i32) -> f64 {
+        f64::from(signed_power_lsb) * f64::from(self.power_lsb_uw()) * 1e-6
+    }
+
+    /// Energy [J] from an accumulated count of power LSB × µs.
+    pub fn energy_j(&self, energy_lsb_us: i64) -> f64 {
+        energy_lsb_us as f64 * f64::from(self.power_lsb_uw()) * 1e-12
+    }
+}
+
+/// Number of samples averaged per result (AVG bits 11–9 of the configuration register).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Averaging {
+    X1,
+    X4,
+    X16,
+    X64,
+    X128,
+    X256,
+    X512,
+    X1024,
+}
+
+impl Averaging {
+    pub const ALL: [Averaging; 8] = [
+        Averaging::X1,
+        Averaging::X4,
+        Averaging::X16,
+        Averaging::X64,
+        Averaging::X128,
+        Averaging::X256,
+        Averaging::X512,
+        Averaging::X1024,
+    ];
+
+    /// The 3-bit field value.
+    pub const fn bits(self) -> u16 {
+        self as u16
+    }
+
+    pub const fn count(self) -> u32 {
+        match self {
+            Averaging::X1 => 1,
+            Averaging::X4 => 4,
+            Averaging::X16 => 16,
+            Averaging::X64 => 64,
+            Averaging::X128 => 128,
+            Averaging::X256 => 256,
+            Averaging::X512 => 512,
+            Averaging::X1024 => 1024,
+        }
+    }
+
+    pub fn from_bits(bits: u16) -> Averaging {
+        Averaging::ALL[usize::from(bits & 0b111)]
+    }
+}
+
+/// Conversion time of one shunt or bus measurement (VBUSCT bits 8–6, VSHCT bits 5–3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ConversionTime {
+    Us140,
+    Us204,
+    Us332,
+    Us588,
+    Us1100,
+    Us2116,
+    Us4156,
+    Us8244,
+}
+
+impl ConversionTime {
+    pub const ALL: [ConversionTime; 8] = [
+        ConversionTime::Us140,
+        ConversionTime::Us204,
+        ConversionTime::Us332,
+        ConversionTime::Us588,
+        ConversionTime::Us1100,
+        ConversionTime::Us2116,
+        ConversionTime::Us4156,
+        ConversionTime::Us8244,
+    ];
+
+    pub const fn bits(self) -> u16 {
+        self as u16
+    }
+
+    pub const fn micros(self) -> u32 {
+        match self {
+            ConversionTime::Us140 => 140,
+            ConversionTime::Us204 => 204,
+            ConversionTime::Us332 => 332,
+            ConversionTime::Us588 => 588,
+            ConversionTime::Us1100 => 1100,
+            ConversionTime::Us2116 => 2116,
+            ConversionTime::Us4156 => 4156,
+            ConversionTime::Us8244 => 8244,
+        }
+    }
+
+    pub fn from_bits(bits: u16) -> ConversionTime {
+        ConversionTime::ALL[usize::from(bits & 0b111)]
+    }
+}
+
+/// Averaging and conversion times of both chips (continuous shunt and bus mode).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AdcConfig {
+    pub averaging: Averaging,
+    pub bus_conversion: ConversionTime,
+    pub shunt_conversion: ConversionTime,
+}
+
+impl AdcConfig {
+    /// Board default: 16 × (140 µs + 140 µs) = 4.48 ms per result, read every 5 ms (200 Hz):
+    /// smooth enough for the seed's turns of a few seconds without over-filtering.
+    pub const BOARD_DEFAULT: AdcConfig = AdcConfig {
+        averaging: Averaging::X16,
+        bus_conversion: ConversionTime::Us140,
+        shunt_conversion: ConversionTime::Us140,
+    };
+
+    /// Time between two new results in continuous shunt-and-bus mode [µs] (datasheet 7.3.1).
+    pub const fn update_period_us(&self) -> u32 {
+        self.averaging.count() * (self.bus_conversion.micros() + self.shunt_conversion.micros())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn board_scale() {
+        assert_eq!(Scale::BOARD.power_lsb_uw(), 12_500);
+        // Datasheet worked example: 1 mA current LSB → 25 mW power LSB.
+        let example = Scale {
+            current_lsb_na: 1_000_000,
+            shunt_micro_ohm: 2_000,
+        };
+        assert_eq!(example.power_lsb_uw(), 25_000);
+        assert!((example.power_w(0x12B8) - 119.8).abs() < 1e-9);
+        assert!((example.bus_v(BusVoltageRaw(0x2570)) - 11.98).abs() < 1e-9);
+        assert!((example.shunt_v(ShuntVoltageRaw(0x1F40)) - 0.020).abs() < 1e-12);
+        assert!((example.current_a(CurrentRaw(0x2710)) - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn power_sign_comes_from_current() {
+        let mut regs = Registers {
+            current: CurrentRaw(-200),
+            power: PowerRaw(96),
+            ..Default::default()
+        };
+        assert_eq!(regs.signed_power_lsb(), -96);
+        regs.current = CurrentRaw(200);
+        assert_eq!(regs.signed_power_lsb(), 96);
+        regs.power = PowerRaw(u16::MAX);
+        regs.current = CurrentRaw(i16::MIN);
+        assert_eq!(regs.signed_power_lsb(), -65_535);
+    }
+
+    #[test]
+    fn field_bits_round_trip() {
+        for a in Averaging::ALL {
+            assert_eq!(Averaging::from_bits(a.bits()), a);
+        }
+        for c in ConversionTime::ALL {
+            assert_eq!(ConversionTime::from_bits(c.bits()), c);
+        }
+        assert_eq!(AdcConfig::BOARD_DEFAULT.update_period_us(), 4_480);
+    }
+}

@@ -1,0 +1,44 @@
+//! The science and the wire format of rover-power, shared by the board and the host.
+//!
+//! `#![no_std]`, no allocation, `f32` so the same code runs on the STM32F411 (with its FPU) and on
+//! the host. Equation numbers refer to the seed thesis (`shared/seeds/000_…`): chapters are
+//! "Eq 2.4"; the appended paper's equations are "paper Eq 20".
+#![cfg_attr(not(test), no_std)]
+
+pub mod energy;
+pub mod geometry;
+pub mod ina226;
+pub mod kinematics;
+pub mod wire;
+
+pub use geometry::Rover;
+pub use kinematics::{Regime, SideSpeeds, TurnDirection};
+
+/// A value per drive side (left and right motor driver).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub struct Sides<T> {
+    pub left: T,
+    pub right: T,
+}
+
+impl<T> Sides<T> {
+    pub const fn new(left: T, right: T) -> Self {
+        Self { left, right }
+    }
+
+    /// Applies `f` to each side.
+    pub fn map<U>(self, mut f: impl FnMut(T) -> U) -> Sides<U> {
+        Sides {
+            left: f(self.left),
+            right: f(self.right),
+        }
+    }
+
+    /// Swaps left and right (the mirror image of a manoeuvre).
+    pub fn mirrored(self) -> Self {
+        Self {
+            left: self.right,
+            right: self.left,
+        }
+    }
+}
