@@ -1,0 +1,131 @@
+//! One period of the board, independent of the HAL: apply pending host commands, take a sample,
+//! and queue the sample plus the periodic model and status frames. The RTIC app calls
+//! [`Board::tick`] from its sample task; the host's simulated board calls the same function.
+
+use crate::link::Link;
+use crate::sampler::{Sampler, SamplerConfig};
+use embedded_hal::i2c::I2c;
+use model_core::wire::{BoardFrame, Command, Status};
+
+/// Model frames (power, energy, τ per side) every 100 ms.
+pub const MODEL_PERIOD_US: u64 = 100_000;
+/// Status frames every second.
+pub const STATUS_PERIOD_US: u64 = 1_000_000;
+
+/// Access to the link, which the USB interrupt shares: on the board a short RTIC lock, on the
+/// host a plain `&mut Link`.
+pub trait LinkAccess {
+    fn with_link<R>(&mut self, f: impl FnOnce(&mut Link) -> R) -> R;
+}
+
+impl LinkAccess for Link {
+    fn with_link<R>(&mut self, f: impl FnOnce(&mut Link) -> R) -> R {
+        f(self)
+    }
+}
+
+/// The sampler plus the schedule of periodic frames.
+#[derive(Debug, Clone)]
+pub struct Board {
+    sampler: Sampler,
+    last_model_us: Option<u64>,
+    last_status_us: Option<u64>,
+}
+
+impl Board {
+    pub fn new(config: SamplerConfig) -> Self {
+        Self {
+            sampler: Sampler::new(config),
+            last_model_us: None,
+            last_status_us: None,
+        }
+    }
+
+    pub fn sampler(&self) -> &Sampler {
+        &self.sampler
+    }
+
+    /// The period until the next tick [µs] (host-configurable).
+    pub fn sample_period_us(&self) -> u32 {
+        self.sampler.sample_period_us()
+    }
+
+    /// One sampling period at board time `now_us`. I²C time is spent outside the link, so the
+    /// USB interrupt is held off only while frames are queued.
+    pub fn tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
+        if link.with_link(|l| l.take_hello_due()) {
+            let hello = self.sampler.hello();
+            link.with_link(|l| l.send(&BoardFrame::Hello(hello)));
+        }
+        while let Some(frame) = link.with_link(|l| l.next_command()) {
+            let outcome = self.sampler.apply(i2c, &frame.command);
+            let reply = match outcome {
+                Ok(()) => BoardFrame::Ack { id: frame.id },
+                Err(reason) => BoardFrame::Rejected {
+                    id: Some(frame.id),
+                    reason,
+                },
+            };
+            let extra = match (outcome, frame.command) {
+                (Ok(()), Command::GetHello) => Some(BoardFrame::Hello(self.sampler.hello())),
+                (Ok(()), Command::GetStatus) => None, // sent below, with the link's counters
+                _ => None,
+            };
+            let status_now = outcome.is_ok() && frame.command == Command::GetStatus;
+            link.with_link(|l| {
+                if let Some(extra) = extra {
+                    l.send(&extra);
+                }
+                if status_now {
+                    let status = self.status(l, now_us);
+                    l.send(&BoardFrame::Status(status));
+                }
+                l.send(&reply);
+            });
+        }
+        let sample = self.sampler.sample(i2c, now_us);
+        let model_due = due(&mut self.last_model_us, now_us, MODEL_PERIOD_US);
+        let status_due = due(&mut self.last_status_us, now_us, STATUS_PERIOD_US);
+        link.with_link(|l| {
+            if let Some(sample) = sample {
+                l.send(&BoardFrame::Sample(sample));
+            }
+            if model_due && sample.is_some() {
+                if let Some(model) = self.sampler.model() {
+                    l.send(&BoardFrame::Model(model));
+                }
+            }
+            if status_due {
+                let status = self.status(l, now_us);
+                l.send(&BoardFrame::Status(status));
+            }
+        });
+    }
+
+    /// Health counters of sampler and link.
+    pub fn status(&self, link: &Link, now_us: u64) -> Status {
+        let s = &self.sampler;
+        Status {
+            uptime_us: now_us,
+            samples: s.samples(),
+            running: s.running(),
+            i2c_errors: s.i2c_errors(),
+            reinits: s.reinits(),
+            last_fault: s.last_faults(),
+            queue_drops: link.queue_drops(),
+            rx_errors: link.rx_errors(),
+            adc: s.adc(),
+            sample_period_us: s.sample_period_us(),
+            wheel_rates_rad_s: s.measurements().wheel_rates(),
+        }
+    }
+}
+
+/// Whether a periodic frame is due at `now_us`; records the time when it is.
+fn due(last_us: &mut Option<u64>, now_us: u64, period_us: u64) -> bool {
+    let is_due = last_us.is_none_or(|last| now_us.wrapping_sub(last) >= period_us);
+    if is_due {
+        *last_us = Some(now_us);
+    }
+    is_due
+}

@@ -1,0 +1,427 @@
+//! TI INA226 current/power monitor driver over `embedded_hal::i2c::I2c` (datasheet SBOS547).
+//!
+//! The driver does not own the bus: both chips share I²C1, so each call borrows it.
+
+use embedded_hal::i2c::{ErrorKind, I2c, NoAcknowledgeSource};
+use model_core::ina226::{
+    AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
+};
+use model_core::wire::ChipFault;
+
+/// Register pointers (datasheet Table 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Register {
+    Configuration = 0x00,
+    ShuntVoltage = 0x01,
+    BusVoltage = 0x02,
+    Power = 0x03,
+    Current = 0x04,
+    Calibration = 0x05,
+    MaskEnable = 0x06,
+    AlertLimit = 0x07,
+    ManufacturerId = 0xFE,
+    DieId = 0xFF,
+}
+
+/// Manufacturer ID register value ("TI").
+pub const MANUFACTURER_ID: u16 = 0x5449;
+/// Die ID register value of the INA226.
+pub const DIE_ID: u16 = 0x2260;
+
+/// Configuration register: bit 15 resets the chip.
+const CONFIG_RESET: u16 = 1 << 15;
+/// Bits 14–12 read back as 100b; written the same way.
+const CONFIG_FIXED_BITS: u16 = 0b100 << 12;
+/// MODE = 111b: shunt and bus, continuous.
+const MODE_SHUNT_BUS_CONTINUOUS: u16 = 0b111;
+/// Mask/Enable register: conversion-ready flag (cleared by reading the register).
+const MASK_CVRF: u16 = 1 << 3;
+
+/// Numerator of the calibration equation (datasheet Eq 1, CAL = 0.00512 / (I_LSB · R_shunt))
+/// with I_LSB in nA and R in µΩ: 0.00512 / (1e-9 · 1e-6) = 5.12e12.
+const CAL_NUMERATOR: u64 = 5_120_000_000_000;
+
+/// The calibration register value for a shunt and current LSB.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Calibration {
+    value: u16,
+    scale: Scale,
+}
+
+/// The requested current LSB cannot be programmed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrationError {
+    /// Zero shunt resistance or current LSB.
+    Zero,
+    /// CAL would not fit the register's 15 bits (current LSB too small for the shunt).
+    TooLarge(u64),
+    /// CAL would round to 0 (current LSB too large for the shunt).
+    TooSmall,
+}
+
+impl Calibration {
+    /// Datasheet Eq 1, rounded to the nearest integer and checked against the 15-bit field.
+    pub const fn new(scale: Scale) -> Result<Self, CalibrationError> {
+        let denominator = scale.current_lsb_na as u64 * scale.shunt_micro_ohm as u64;
+        if denominator == 0 {
+            return Err(CalibrationError::Zero);
+        }
+        let value = (CAL_NUMERATOR + denominator / 2) / denominator;
+        if value > 0x7FFF {
+            Err(CalibrationError::TooLarge(value))
+        } else if value == 0 {
+            Err(CalibrationError::TooSmall)
+        } else {
+            Ok(Self {
+                value: value as u16,
+                scale,
+            })
+        }
+    }
+
+    pub const fn value(&self) -> u16 {
+        self.value
+    }
+
+    pub const fn scale(&self) -> Scale {
+        self.scale
+    }
+
+    /// What the current register must hold for a shunt reading (datasheet Eq 3), used to spot a
+    /// chip that lost its calibration: shunt × CAL / 2048.
+    pub fn expected_current(&self, shunt: ShuntVoltageRaw) -> i32 {
+        i32::from(shunt.0) * i32::from(self.value) / 2048
+    }
+}
+
+/// Board calibration: 5 mΩ shunt, 0.5 mA LSB → CAL 2048, power LSB 12.5 mW.
+pub const BOARD_CALIBRATION: Calibration = match Calibration::new(Scale::BOARD) {
+    Ok(c) => c,
+    Err(_) => panic!("board calibration must fit the register"),
+};
+
+/// A driver error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Error<E> {
+    I2c(E),
+    /// The device answered but is not an INA226.
+    WrongId {
+        manufacturer: u16,
+        die: u16,
+    },
+}
+
+impl<E: embedded_hal::i2c::Error> Error<E> {
+    /// The fault as reported on the wire.
+    pub fn fault(&self) -> ChipFault {
+        match self {
+            Error::I2c(e) => fault_of(e),
+            Error::WrongId { .. } => ChipFault::WrongId,
+        }
+    }
+}
+
+impl<E> From<E> for Error<E> {
+    fn from(e: E) -> Self {
+        Error::I2c(e)
+    }
+}
+
+/// Maps an embedded-hal I²C error onto the wire's fault codes.
+pub fn fault_of<E: embedded_hal::i2c::Error>(e: &E) -> ChipFault {
+    match e.kind() {
+        ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data) => ChipFault::DataNack,
+        ErrorKind::NoAcknowledge(_) => ChipFault::AddressNack,
+        ErrorKind::ArbitrationLoss => ChipFault::ArbitrationLoss,
+        ErrorKind::Bus => ChipFault::Bus,
+        ErrorKind::Overrun => ChipFault::Overrun,
+        _ => ChipFault::Other,
+    }
+}
+
+/// One INA226 at a 7-bit address.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ina226 {
+    address: u8,
+    calibration: Calibration,
+    adc: AdcConfig,
+}
+
+impl Ina226 {
+    pub const fn new(address: u8, calibration: Calibration, adc: AdcConfig) -> Self {
+        Self {
+            address,
+            calibration,
+            adc,
+        }
+    }
+
+    pub const fn address(&self) -> u8 {
+        self.address
+    }
+
+    pub const fn calibration(&self) -> Calibration {
+        self.calibration
+    }
+
+    pub const fn adc(&self) -> AdcConfig {
+        self.adc
+    }
+
+    /// The configuration register word for `adc` in continuous shunt-and-bus mode.
+    pub const fn config_word(adc: AdcConfig) -> u16 {
+        CONFIG_FIXED_BITS
+            | adc.averaging.bits() << 9
+            | adc.bus_conversion.bits() << 6
+            | adc.shunt_conversion.bits() << 3
+            | MODE_SHUNT_BUS_CONTINUOUS
+    }
+
+    /// Checks the IDs, then writes configuration and calibration.
+    pub fn init<I: I2c>(&mut self, i2c: &mut I) -> Result<(), Error<I::Error>> {
+        let manufacturer = self.read(i2c, Register::ManufacturerId)?;
+        let die = self.read(i2c, Register::DieId)?;
+        if manufacturer != MANUFACTURER_ID || die != DIE_ID {
+            return Err(Error::WrongId { manufacturer, die });
+        }
+        self.configure(i2c, self.adc)?;
+        self.write(i2c, Register::Calibration, self.calibration.value)?;
+        Ok(())
+    }
+
+    /// Sets averaging and conversion times (continuous shunt and bus).
+    pub fn configure<I: I2c>(&mut self, i2c: &mut I, adc: AdcConfig) -> Result<(), I::Error> {
+        self.adc = adc;
+        self.write(i2c, Register::Configuration, Self::config_word(adc))
+    }
+
+    /// Software reset: all registers return to their defaults (CAL = 0).
+    pub fn reset<I: I2c>(&mut self, i2c: &mut I) -> Result<(), I::Error> {
+        self.write(i2c, Register::Configuration, CONFIG_RESET)
+    }
+
+    /// Whether a new conversion finished since the last call (reading clears the flag).
+    pub fn conversion_ready<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
+        Ok(self.read(i2c, Register::MaskEnable)? & MASK_CVRF != 0)
+    }
+
+    /// Whether the chip lost its calibration (it reset: brown-out or power cycle).
+    pub fn calibration_lost<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
+        Ok(self.read(i2c, Register::Calibration)? == 0)
+    }
+
+    /// Reads shunt, bus, current and power.
+    pub fn read_registers<I: I2c>(&mut self, i2c: &mut I) -> Result<Registers, I::Error> {
+        Ok(Registers {
+            shunt: ShuntVoltageRaw(self.read(i2c, Register::ShuntVoltage)? as i16),
+            bus: BusVoltageRaw(self.read(i2c, Register::BusVoltage)?),
+            current: CurrentRaw(self.read(i2c, Register::Current)? as i16),
+            power: PowerRaw(self.read(i2c, Register::Power)?),
+        })
+    }
+
+    /// Whether a set of registers shows a chip that forgot its calibration: with CAL = 0 the
+    /// current register stays 0 whatever the shunt voltage. Free (no bus traffic) and catches a
+    /// reset at the first sample with load.
+    pub fn registers_show_reset(&self, regs: &Registers) -> bool {
+        regs.current.0 == 0 && self.calibration.expected_current(regs.shunt) != 0
+    }
+
+    pub fn read<I: I2c>(&self, i2c: &mut I, register: Register) -> Result<u16, I::Error> {
+        let mut buf = [0u8; 2];
+        i2c.write_read(self.address, &[register as u8], &mut buf)?;
+        Ok(u16::from_be_bytes(buf))
+    }
+
+    pub fn write<I: I2c>(
+        &self,
+        i2c: &mut I,
+        register: Register,
+        value: u16,
+    ) -> Result<(), I::Error> {
+        let [hi, lo] = value.to_be_bytes();
+        i2c.write(self.address, &[register as u8, hi, lo])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+    use model_core::ina226::{Averaging, ConversionTime};
+
+    /// Datasheet worked example (section 7.5.1, Table 1 values): 10 A through 2 mΩ at 12 V with a
+    /// 1 mA current LSB.
+    const EXAMPLE: Scale = Scale {
+        current_lsb_na: 1_000_000,
+        shunt_micro_ohm: 2_000,
+    };
+
+    fn read(addr: u8, reg: Register, value: u16) -> T {
+        T::write_read(addr, vec![reg as u8], value.to_be_bytes().to_vec())
+    }
+
+    fn write(addr: u8, reg: Register, value: u16) -> T {
+        let [hi, lo] = value.to_be_bytes();
+        T::write(addr, vec![reg as u8, hi, lo])
+    }
+
+    #[test]
+    fn calibration_matches_the_datasheet_and_our_board() {
+        assert_eq!(Calibration::new(EXAMPLE).map(|c| c.value()), Ok(0x0A00));
+        assert_eq!(BOARD_CALIBRATION.value(), 2048);
+        assert_eq!(BOARD_CALIBRATION.scale().power_lsb_uw(), 12_500);
+        // Rounding, not truncation: 5.12e12 / (300_000 nA · 5000 µΩ) = 3413.33 → 3413;
+        // 5.12e12 / (700_000 · 5000) = 1462.857 → 1463.
+        let cal = |na| {
+            Calibration::new(Scale {
+                current_lsb_na: na,
+                shunt_micro_ohm: 5_000,
+            })
+            .map(|c| c.value())
+        };
+        assert_eq!(cal(300_000), Ok(3413));
+        assert_eq!(cal(700_000), Ok(1463));
+        // 15-bit field: a 10 µA LSB on 5 mΩ needs CAL 102400.
+        assert_eq!(cal(10_000), Err(CalibrationError::TooLarge(102_400)));
+        assert_eq!(cal(0), Err(CalibrationError::Zero));
+        assert_eq!(cal(u32::MAX), Err(CalibrationError::TooSmall));
+    }
+
+    #[test]
+    fn init_and_read_the_datasheet_example() {
+        let addr = 0x40;
+        let adc = AdcConfig::BOARD_DEFAULT;
+        let mut i2c = Mock::new(&[
+            read(addr, Register::ManufacturerId, 0x5449),
+            read(addr, Register::DieId, 0x2260),
+            // 100b fixed | AVG 16 (010b) | VBUSCT 140 µs | VSHCT 140 µs | MODE 111b.
+            write(addr, Register::Configuration, 0x4407),
+            write(addr, Register::Calibration, 0x0A00),
+            read(addr, Register::MaskEnable, 0x0008),
+            read(addr, Register::ShuntVoltage, 0x1F40),
+            read(addr, Register::BusVoltage, 0x2570),
+            read(addr, Register::Current, 0x2710),
+            read(addr, Register::Power, 0x12B8),
+        ]);
+        let mut chip = Ina226::new(addr, Calibration::new(EXAMPLE).expect("fits"), adc);
+        chip.init(&mut i2c).expect("init");
+        assert!(chip.conversion_ready(&mut i2c).expect("read"));
+        let regs = chip.read_registers(&mut i2c).expect("read");
+        assert!(!chip.registers_show_reset(&regs));
+        assert!((EXAMPLE.shunt_v(regs.shunt) - 0.020).abs() < 1e-12);
+        assert!((EXAMPLE.bus_v(regs.bus) - 11.98).abs() < 1e-9);
+        assert!((EXAMPLE.current_a(regs.current) - 10.0).abs() < 1e-12);
+        assert!((EXAMPLE.power_w(regs.signed_power_lsb()) - 119.8).abs() < 1e-9);
+        // The chip's own arithmetic (datasheet Eq 3 and 4) reproduces its registers.
+        assert_eq!(chip.calibration().expected_current(regs.shunt), 0x2710);
+        assert_eq!(
+            i32::from(regs.current.0) * i32::from(regs.bus.0) / 20_000,
+            0x12B8
+        );
+        i2c.done();
+    }
+
+    #[test]
+    fn config_word_fields() {
+        assert_eq!(
+            Ina226::config_word(AdcConfig {
+                averaging: Averaging::X1,
+                bus_conversion: ConversionTime::Us1100,
+                shunt_conversion: ConversionTime::Us1100
+            }),
+            0x4127,
+            "power-on default"
+        );
+        assert_eq!(
+            Ina226::config_word(AdcConfig {
+                averaging: Averaging::X1024,
+                bus_conversion: ConversionTime::Us8244,
+                shunt_conversion: ConversionTime::Us8244
+            }),
+            0x4FFF
+        );
+    }
+
+    #[test]
+    fn negative_current_and_shunt_are_signed() {
+        let mut i2c = Mock::new(&[
+            read(0x45, Register::ShuntVoltage, 0xE0C0), // −8000 → −20 mV
+            read(0x45, Register::BusVoltage, 0x2570),
+            read(0x45, Register::Current, 0xD8F0), // −10000 → −10 A
+            read(0x45, Register::Power, 0x12B8),
+        ]);
+        let mut chip = Ina226::new(
+            0x45,
+            Calibration::new(EXAMPLE).expect("fits"),
+            AdcConfig::BOARD_DEFAULT,
+        );
+        let regs = chip.read_registers(&mut i2c).expect("read");
+        assert_eq!(regs.shunt.0, -8000);
+        assert_eq!(regs.current.0, -10000);
+        assert!((EXAMPLE.power_w(regs.signed_power_lsb()) + 119.8).abs() < 1e-9);
+        i2c.done();
+    }
+
+    #[test]
+    fn wrong_ids_and_bus_errors_are_reported() {
+        let mut i2c = Mock::new(&[
+            read(0x40, Register::ManufacturerId, 0x5449),
+            read(0x40, Register::DieId, 0x2270), // an INA230-like die
+            read(0x45, Register::ManufacturerId, 0)
+                .with_error(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)),
+            read(0x45, Register::ShuntVoltage, 0).with_error(ErrorKind::Bus),
+            read(0x45, Register::ShuntVoltage, 0)
+                .with_error(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data)),
+        ]);
+        let mut left = Ina226::new(0x40, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        let err = left.init(&mut i2c).expect_err("wrong die");
+        assert_eq!(
+            err,
+            Error::WrongId {
+                manufacturer: 0x5449,
+                die: 0x2270
+            }
+        );
+        assert_eq!(err.fault(), ChipFault::WrongId);
+        let mut right = Ina226::new(0x45, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        assert_eq!(
+            right.init(&mut i2c).expect_err("nack").fault(),
+            ChipFault::AddressNack
+        );
+        assert_eq!(
+            right.read_registers(&mut i2c).map_err(|e| fault_of(&e)),
+            Err(ChipFault::Bus)
+        );
+        assert_eq!(
+            right.read_registers(&mut i2c).map_err(|e| fault_of(&e)),
+            Err(ChipFault::DataNack)
+        );
+        i2c.done();
+    }
+
+    #[test]
+    fn reset_is_detected_from_calibration_or_registers() {
+        let mut i2c = Mock::new(&[
+            write(0x40, Register::Configuration, 0x8000),
+            read(0x40, Register::Calibration, 0x0000),
+            read(0x40, Register::Calibration, 0x0800),
+        ]);
+        let mut chip = Ina226::new(0x40, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        chip.reset(&mut i2c).expect("write");
+        assert!(chip.calibration_lost(&mut i2c).expect("read"));
+        assert!(!chip.calibration_lost(&mut i2c).expect("read"));
+        // With CAL = 2048 the current register equals the shunt register; 0 current under load
+        // means the calibration is gone.
+        let lost = Registers {
+            shunt: ShuntVoltageRaw(400),
+            current: CurrentRaw(0),
+            ..Default::default()
+        };
+        assert!(chip.registers_show_reset(&lost));
+        let idle = Registers::default();
+        assert!(!chip.registers_show_reset(&idle));
+        i2c.done();
+    }
+}

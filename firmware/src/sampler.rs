@@ -1,0 +1,490 @@
+//! One sampling period: read both chips, stamp, count, and feed the running measurements.
+//! A failing chip never stops the other chip or the stream: its part of the sample says why.
+
+use crate::ina226::{Calibration, Ina226};
+use embedded_hal::i2c::I2c;
+use model_core::energy::RunningMeasurements;
+use model_core::ina226::{AdcConfig, Registers, BUS_LSB_UV, SHUNT_LSB_NV};
+use model_core::wire::{
+    ChipFault, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
+    PROTOCOL_VERSION,
+};
+use model_core::Sides;
+
+/// Left and right motor-driver chips (A0/A1 to GND and to VS respectively).
+pub const BOARD_ADDRESSES: Sides<u8> = Sides::new(0x40, 0x45);
+/// Default sampling period: one fresh 4.48 ms result per read (200 Hz).
+pub const DEFAULT_SAMPLE_PERIOD_US: u32 = 5_000;
+/// Calibration is read back every this many samples (the register check in each sample only
+/// sees a reset while current flows).
+const CALIBRATION_CHECK_EVERY: u32 = 256;
+
+/// This firmware's version, from Cargo.
+pub fn firmware_version() -> FirmwareVersion {
+    let v = |s: &str| s.parse().unwrap_or(0);
+    FirmwareVersion {
+        major: v(env!("CARGO_PKG_VERSION_MAJOR")),
+        minor: v(env!("CARGO_PKG_VERSION_MINOR")),
+        patch: v(env!("CARGO_PKG_VERSION_PATCH")),
+    }
+}
+
+/// How the sampler starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SamplerConfig {
+    pub addresses: Sides<u8>,
+    pub calibration: Calibration,
+    pub adc: AdcConfig,
+    pub sample_period_us: u32,
+}
+
+impl SamplerConfig {
+    /// Our board: 0x40/0x45, 5 mΩ shunts, 0.5 mA LSB, 16 × 140 µs averaging, 200 Hz.
+    pub const BOARD: SamplerConfig = SamplerConfig {
+        addresses: BOARD_ADDRESSES,
+        calibration: crate::ina226::BOARD_CALIBRATION,
+        adc: AdcConfig::BOARD_DEFAULT,
+        sample_period_us: DEFAULT_SAMPLE_PERIOD_US,
+    };
+}
+
+/// One chip and what the sampler knows of its health.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Chip {
+    driver: Ina226,
+    /// Configured and calibrated since its last reset.
+    ready: bool,
+    /// Has been ready at least once (a later init is a re-initialisation).
+    was_ready: bool,
+    errors: u32,
+    reinits: u32,
+    last_fault: Option<ChipFault>,
+}
+
+impl Chip {
+    fn new(driver: Ina226) -> Self {
+        Self {
+            driver,
+            ready: false,
+            was_ready: false,
+            errors: 0,
+            reinits: 0,
+            last_fault: None,
+        }
+    }
+
+    fn fail(&mut self, fault: ChipFault) -> ChipReading {
+        if fault != ChipFault::ResetDetected {
+            self.errors = self.errors.saturating_add(1);
+        }
+        self.last_fault = Some(fault);
+        ChipReading::Failed(fault)
+    }
+
+    fn read<I: I2c>(&mut self, i2c: &mut I, check_calibration: bool) -> ChipReading {
+        if !self.ready {
+            if let Err(e) = self.driver.init(i2c) {
+                return self.fail(e.fault());
+            }
+            if self.was_ready {
+                self.reinits = self.reinits.saturating_add(1);
+            }
+            self.ready = true;
+            self.was_ready = true;
+        } else if check_calibration {
+            match self.driver.calibration_lost(i2c) {
+                Ok(true) => return self.lost_calibration(),
+                Ok(false) => {}
+                Err(e) => return self.fail(crate::ina226::fault_of(&e)),
+            }
+        }
+        let fresh = match self.driver.conversion_ready(i2c) {
+            Ok(fresh) => fresh,
+            Err(e) => return self.fail(crate::ina226::fault_of(&e)),
+        };
+        let regs = match self.driver.read_registers(i2c) {
+            Ok(regs) => regs,
+            Err(e) => return self.fail(crate::ina226::fault_of(&e)),
+        };
+        if self.driver.registers_show_reset(&regs) {
+            return self.lost_calibration();
+        }
+        self.last_fault = None;
+        if fresh {
+            ChipReading::Fresh(regs)
+        } else {
+            ChipReading::Stale(regs)
+        }
+    }
+
+    /// The chip reset: its current and power registers are meaningless until it is set up again
+    /// (next period).
+    fn lost_calibration(&mut self) -> ChipReading {
+        self.ready = false;
+        self.fail(ChipFault::ResetDetected)
+    }
+}
+
+/// Polls both chips once per period and keeps the running measurements.
+#[derive(Debug, Clone)]
+pub struct Sampler {
+    chips: Sides<Chip>,
+    seq: u32,
+    running: bool,
+    sample_period_us: u32,
+    measurements: RunningMeasurements,
+    last_sample: Option<(u64, u32)>,
+}
+
+impl Sampler {
+    pub fn new(config: SamplerConfig) -> Self {
+        let chip = |address| Chip::new(Ina226::new(address, config.calibration, config.adc));
+        Self {
+            chips: Sides::new(chip(config.addresses.left), chip(config.addresses.right)),
+            seq: 0,
+            running: true,
+            sample_period_us: config.sample_period_us,
+            measurements: RunningMeasurements::new(config.calibration.scale()),
+            last_sample: None,
+        }
+    }
+
+    /// Takes one sample stamped `t_us`; `None` while stopped by the host.
+    pub fn sample<I: I2c>(&mut self, i2c: &mut I, t_us: u64) -> Option<Sample> {
+        if !self.running {
+            return None;
+        }
+        let check = self.seq % CALIBRATION_CHECK_EVERY == 0;
+        let chips = Sides::new(
+            self.chips.left.read(i2c, check),
+            self.chips.right.read(i2c, check),
+        );
+        self.measurements.update(t_us, chips.map(|c| c.registers()));
+        let sample = Sample {
+            t_us,
+            seq: self.seq,
+            chips,
+        };
+        self.last_sample = Some((t_us, self.seq));
+        self.seq = self.seq.wrapping_add(1);
+        Some(sample)
+    }
+
+    /// Carries out a command that concerns sampling; the board answers with ack or rejection.
+    pub fn apply<I: I2c>(&mut self, i2c: &mut I, command: &Command) -> Result<(), Rejection> {
+        command.validate()?;
+        match *command {
+            Command::Configure {
+                adc,
+                sample_period_us,
+            } => {
+                self.sample_period_us = sample_period_us;
+                let mut outcome = Ok(());
+                for chip in [&mut self.chips.left, &mut self.chips.right] {
+                    if let Err(e) = chip.driver.configure(i2c, adc) {
+                        // Re-initialised (with the new settings) at the next period.
+                        chip.ready = false;
+                        let fault = crate::ina226::fault_of(&e);
+                        chip.fail(fault);
+                        outcome = Err(Rejection::Chip(fault));
+                    }
+                }
+                outcome
+            }
+            Command::SetWheelRates(rates) => {
+                self.measurements.set_wheel_rates(Some(rates));
+                Ok(())
+            }
+            Command::ClearWheelRates => {
+                self.measurements.set_wheel_rates(None);
+                Ok(())
+            }
+            Command::ResetEnergy => {
+                self.measurements.reset_energy();
+                Ok(())
+            }
+            Command::Start => {
+                self.running = true;
+                Ok(())
+            }
+            Command::Stop => {
+                self.running = false;
+                Ok(())
+            }
+            Command::GetStatus | Command::GetHello => Ok(()),
+        }
+    }
+
+    pub fn hello(&self) -> Hello {
+        let scale = self.measurements.scale();
+        Hello {
+            protocol: PROTOCOL_VERSION,
+            firmware: firmware_version(),
+            scale,
+            power_lsb_uw: scale.power_lsb_uw(),
+            shunt_lsb_nv: SHUNT_LSB_NV,
+            bus_lsb_uv: BUS_LSB_UV,
+            addresses: self.chips.map(|c| c.driver.address()),
+            adc: self.adc(),
+            sample_period_us: self.sample_period_us,
+        }
+    }
+
+    /// The running measurements after the latest sample (`None` before the first).
+    pub fn model(&self) -> Option<Model> {
+        let (t_us, seq) = self.last_sample?;
+        Some(Model {
+            t_us,
+            seq,
+            snapshot: self.measurements.snapshot(),
+        })
+    }
+
+    pub fn measurements(&self) -> &RunningMeasurements {
+        &self.measurements
+    }
+
+    pub fn sample_period_us(&self) -> u32 {
+        self.sample_period_us
+    }
+
+    pub fn adc(&self) -> AdcConfig {
+        self.chips.left.driver.adc()
+    }
+
+    pub fn running(&self) -> bool {
+        self.running
+    }
+
+    /// Samples taken so far (the next sample's sequence number).
+    pub fn samples(&self) -> u32 {
+        self.seq
+    }
+
+    pub fn i2c_errors(&self) -> Sides<u32> {
+        self.chips.map(|c| c.errors)
+    }
+
+    pub fn reinits(&self) -> Sides<u32> {
+        self.chips.map(|c| c.reinits)
+    }
+
+    pub fn last_faults(&self) -> Sides<Option<ChipFault>> {
+        self.chips.map(|c| c.last_fault)
+    }
+}
+
+/// The registers of a reading, for tests and the simulated board.
+pub fn registers_of(reading: &ChipReading) -> Option<Registers> {
+    reading.registers()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ina226::Register;
+    use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
+    use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+
+    fn read(addr: u8, reg: Register, value: u16) -> T {
+        T::write_read(addr, vec![reg as u8], value.to_be_bytes().to_vec())
+    }
+
+    fn write(addr: u8, reg: Register, value: u16) -> T {
+        let [hi, lo] = value.to_be_bytes();
+        T::write(addr, vec![reg as u8, hi, lo])
+    }
+
+    fn init(addr: u8) -> Vec<T> {
+        vec![
+            read(addr, Register::ManufacturerId, 0x5449),
+            read(addr, Register::DieId, 0x2260),
+            write(addr, Register::Configuration, 0x4407),
+            write(addr, Register::Calibration, 2048),
+        ]
+    }
+
+    /// A reading of `amps` at 24 V: on our board the current register equals the shunt register.
+    fn reading(addr: u8, fresh: bool, amps: f64) -> Vec<T> {
+        let lsb = (amps / 0.0005).round() as i16;
+        let bus = 19_200u16; // 24 V
+        let power = (i32::from(lsb).unsigned_abs() * u32::from(bus) / 20_000) as u16;
+        vec![
+            read(addr, Register::MaskEnable, if fresh { 0x0008 } else { 0 }),
+            read(addr, Register::ShuntVoltage, lsb as u16),
+            read(addr, Register::BusVoltage, bus),
+            read(addr, Register::Current, lsb as u16),
+            read(addr, Register::Power, power),
+        ]
+    }
+
+    fn cal_ok(addr: u8) -> T {
+        read(addr, Register::Calibration, 2048)
+    }
+
+    #[test]
+    fn first_sample_initialises_both_chips_and_counts() {
+        let mut tx = init(0x40);
+        tx.extend(reading(0x40, true, 2.0));
+        tx.extend(init(0x45));
+        tx.extend(reading(0x45, false, -1.0));
+        tx.extend(reading(0x40, true, 2.0));
+        tx.extend(reading(0x45, true, -1.0));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        let first = s.sample(&mut i2c, 1_000).expect("running");
+        assert_eq!(first.seq, 0);
+        assert!(matches!(first.chips.left, ChipReading::Fresh(_)));
+        assert!(matches!(first.chips.right, ChipReading::Stale(_)));
+        let second = s.sample(&mut i2c, 6_000).expect("running");
+        assert_eq!((second.seq, second.t_us), (1, 6_000));
+        let snap = s.model().expect("sampled").snapshot;
+        // 48 W and −24 W for 5 ms.
+        assert_eq!(snap.power_lsb, Sides::new(Some(3840), Some(-1920)));
+        assert_eq!(snap.energy_lsb_us, Sides::new(3840 * 5_000, -1920 * 5_000));
+        assert_eq!(s.i2c_errors(), Sides::new(0, 0));
+        i2c.done();
+    }
+
+    #[test]
+    fn a_nacking_chip_does_not_stop_the_other_and_recovers() {
+        let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
+        let mut tx = init(0x40);
+        tx.extend(reading(0x40, true, 1.0));
+        tx.push(read(0x45, Register::ManufacturerId, 0).with_error(nack)); // right absent
+        tx.extend(reading(0x40, true, 1.0));
+        tx.push(read(0x45, Register::ManufacturerId, 0).with_error(nack));
+        tx.extend(reading(0x40, true, 1.0));
+        tx.extend(init(0x45)); // right plugged in
+        tx.extend(reading(0x45, true, 1.0));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        for k in 0..3u64 {
+            let sample = s.sample(&mut i2c, k * 5_000).expect("running");
+            assert!(
+                matches!(sample.chips.left, ChipReading::Fresh(_)),
+                "left keeps streaming"
+            );
+            let right_failed = sample.chips.right == ChipReading::Failed(ChipFault::AddressNack);
+            assert_eq!(right_failed, k < 2, "sample {k}: {:?}", sample.chips.right);
+        }
+        assert_eq!(s.i2c_errors(), Sides::new(0, 2));
+        assert_eq!(s.last_faults(), Sides::new(None, None));
+        // First successful init of a chip is not a re-initialisation.
+        assert_eq!(s.reinits(), Sides::new(0, 0));
+        i2c.done();
+    }
+
+    #[test]
+    fn a_reset_chip_is_detected_and_reinitialised() {
+        let mut tx = init(0x40);
+        tx.extend(reading(0x40, true, 1.0));
+        tx.extend(init(0x45));
+        tx.extend(reading(0x45, true, 1.0));
+        // Left browns out: CAL = 0 → current register 0 under load.
+        tx.push(read(0x40, Register::MaskEnable, 0x0008));
+        tx.push(read(0x40, Register::ShuntVoltage, 2000));
+        tx.push(read(0x40, Register::BusVoltage, 19_200));
+        tx.push(read(0x40, Register::Current, 0));
+        tx.push(read(0x40, Register::Power, 0));
+        tx.extend(reading(0x45, true, 1.0));
+        tx.extend(init(0x40));
+        tx.extend(reading(0x40, true, 1.0));
+        tx.extend(reading(0x45, true, 1.0));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        s.sample(&mut i2c, 0);
+        let lost = s.sample(&mut i2c, 5_000).expect("running");
+        assert_eq!(
+            lost.chips.left,
+            ChipReading::Failed(ChipFault::ResetDetected)
+        );
+        assert!(matches!(lost.chips.right, ChipReading::Fresh(_)));
+        let back = s.sample(&mut i2c, 10_000).expect("running");
+        assert!(matches!(back.chips.left, ChipReading::Fresh(_)));
+        assert_eq!(s.reinits(), Sides::new(1, 0));
+        assert_eq!(s.i2c_errors(), Sides::new(0, 0));
+        i2c.done();
+    }
+
+    #[test]
+    fn calibration_is_read_back_periodically() {
+        let mut tx = Vec::new();
+        for addr in [0x40, 0x45] {
+            tx.extend(init(addr));
+            tx.extend(reading(addr, true, 0.0));
+        }
+        for _ in 1..CALIBRATION_CHECK_EVERY {
+            tx.extend(reading(0x40, true, 0.0));
+            tx.extend(reading(0x45, true, 0.0));
+        }
+        tx.push(cal_ok(0x40));
+        tx.extend(reading(0x40, true, 0.0));
+        tx.push(read(0x45, Register::Calibration, 0)); // idle chip that reset: no load to show it
+        tx.extend(reading(0x40, true, 0.0));
+        tx.extend(init(0x45));
+        tx.extend(reading(0x45, true, 0.0));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        for k in 0..CALIBRATION_CHECK_EVERY {
+            s.sample(&mut i2c, u64::from(k) * 5_000);
+        }
+        let check = s.sample(&mut i2c, 0).expect("running");
+        assert_eq!(
+            check.chips.right,
+            ChipReading::Failed(ChipFault::ResetDetected)
+        );
+        s.sample(&mut i2c, 5_000);
+        assert_eq!(s.reinits(), Sides::new(0, 1));
+        i2c.done();
+    }
+
+    #[test]
+    fn commands_change_sampling() {
+        let mut tx = Vec::new();
+        tx.push(write(0x40, Register::Configuration, 0x4FFF));
+        tx.push(write(0x45, Register::Configuration, 0x4FFF).with_error(ErrorKind::Bus));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        let slowest = AdcConfig {
+            averaging: model_core::ina226::Averaging::X1024,
+            bus_conversion: model_core::ina226::ConversionTime::Us8244,
+            shunt_conversion: model_core::ina226::ConversionTime::Us8244,
+        };
+        assert_eq!(
+            s.apply(
+                &mut i2c,
+                &Command::Configure {
+                    adc: slowest,
+                    sample_period_us: 1_000
+                }
+            ),
+            Err(Rejection::OutOfRange)
+        );
+        assert_eq!(
+            s.sample_period_us(),
+            DEFAULT_SAMPLE_PERIOD_US,
+            "refused command changes nothing"
+        );
+        assert_eq!(
+            s.apply(
+                &mut i2c,
+                &Command::Configure {
+                    adc: slowest,
+                    sample_period_us: 500_000
+                }
+            ),
+            Err(Rejection::Chip(ChipFault::Bus))
+        );
+        assert_eq!(s.sample_period_us(), 500_000);
+        assert_eq!(s.hello().adc, slowest);
+        assert_eq!(s.apply(&mut i2c, &Command::Stop), Ok(()));
+        assert!(s.sample(&mut i2c, 0).is_none());
+        assert_eq!(
+            s.apply(&mut i2c, &Command::SetWheelRates(Sides::new(0.0, 3.6))),
+            Ok(())
+        );
+        assert_eq!(s.measurements().wheel_rates(), Some(Sides::new(0.0, 3.6)));
+        i2c.done();
+    }
+}
