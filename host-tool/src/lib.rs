@@ -1,0 +1,3 @@
+//! rover-power host tool, library first: the CLI in `main.rs` only parses arguments.
+
+pub mod decode;
