@@ -204,6 +204,7 @@ mod app {
             Some(Other) => "I2C error",
             Some(WrongId) => "not an INA226",
             Some(ResetDetected) => "reset, re-initialising",
+            Some(AwaitingConversion) => "waiting for its first conversion",
         }
     }
 }

@@ -56,6 +56,8 @@ struct Chip {
     ready: bool,
     /// Has been ready at least once (a later init is a re-initialisation).
     was_ready: bool,
+    /// Initialised, but no conversion has completed with the new settings yet.
+    awaiting_conversion: bool,
     errors: u32,
     reinits: u32,
     last_fault: Option<ChipFault>,
@@ -67,6 +69,7 @@ impl Chip {
             driver,
             ready: false,
             was_ready: false,
+            awaiting_conversion: false,
             errors: 0,
             reinits: 0,
             last_fault: None,
@@ -74,8 +77,16 @@ impl Chip {
     }
 
     fn fail(&mut self, fault: ChipFault) -> ChipReading {
-        if fault != ChipFault::ResetDetected {
+        if !matches!(
+            fault,
+            ChipFault::ResetDetected | ChipFault::AwaitingConversion
+        ) {
             self.errors = self.errors.saturating_add(1);
+        }
+        if fault == ChipFault::AddressNack {
+            // The chip was gone (unplugged, unpowered) and may come back with its power-on
+            // defaults: set it up again as soon as it answers.
+            self.ready = false;
         }
         self.last_fault = Some(fault);
         ChipReading::Failed(fault)
@@ -91,6 +102,9 @@ impl Chip {
             }
             self.ready = true;
             self.was_ready = true;
+            // Writing the configuration cleared the conversion-ready flag; the current and power
+            // registers still hold a result computed with the old calibration.
+            self.awaiting_conversion = true;
         } else if check_calibration {
             match self.driver.calibration_lost(i2c) {
                 Ok(true) => return self.lost_calibration(),
@@ -102,6 +116,12 @@ impl Chip {
             Ok(fresh) => fresh,
             Err(e) => return self.fail(crate::ina226::fault_of(&e)),
         };
+        if self.awaiting_conversion {
+            if !fresh {
+                return self.fail(ChipFault::AwaitingConversion);
+            }
+            self.awaiting_conversion = false;
+        }
         let regs = match self.driver.read_registers(i2c) {
             Ok(regs) => regs,
             Err(e) => return self.fail(crate::ina226::fault_of(&e)),
@@ -327,21 +347,33 @@ mod tests {
         let mut tx = init(0x40);
         tx.extend(reading(0x40, true, 2.0));
         tx.extend(init(0x45));
-        tx.extend(reading(0x45, false, -1.0));
+        // No conversion since the configuration write: nothing valid to read yet.
+        tx.push(read(0x45, Register::MaskEnable, 0));
         tx.extend(reading(0x40, true, 2.0));
+        tx.extend(reading(0x45, true, -1.0));
+        tx.extend(reading(0x40, false, 2.0));
         tx.extend(reading(0x45, true, -1.0));
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
         let first = s.sample(&mut i2c, 1_000).expect("running");
         assert_eq!(first.seq, 0);
         assert!(matches!(first.chips.left, ChipReading::Fresh(_)));
-        assert!(matches!(first.chips.right, ChipReading::Stale(_)));
+        assert_eq!(
+            first.chips.right,
+            ChipReading::Failed(ChipFault::AwaitingConversion)
+        );
         let second = s.sample(&mut i2c, 6_000).expect("running");
         assert_eq!((second.seq, second.t_us), (1, 6_000));
+        assert!(matches!(second.chips.right, ChipReading::Fresh(_)));
+        let third = s.sample(&mut i2c, 11_000).expect("running");
+        assert!(
+            matches!(third.chips.left, ChipReading::Stale(_)),
+            "re-read without a new conversion"
+        );
         let snap = s.model().expect("sampled").snapshot;
-        // 48 W and −24 W for 5 ms.
+        // 48 W for 10 ms on the left; −24 W for 5 ms on the right (its first reading anchors time).
         assert_eq!(snap.power_lsb, Sides::new(Some(3840), Some(-1920)));
-        assert_eq!(snap.energy_lsb_us, Sides::new(3840 * 5_000, -1920 * 5_000));
+        assert_eq!(snap.energy_lsb_us, Sides::new(3840 * 10_000, -1920 * 5_000));
         assert_eq!(s.i2c_errors(), Sides::new(0, 0));
         i2c.done();
     }

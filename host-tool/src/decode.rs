@@ -13,7 +13,10 @@ pub enum Event {
     /// A frame was discarded (corrupted, truncated, foreign protocol version).
     BadFrame(FrameError),
     /// `missing` samples were never received between the previous sample and this one.
-    SampleGap { after_seq: u32, missing: u32 },
+    SampleGap {
+        after_seq: u32,
+        missing: u32,
+    },
 }
 
 /// Counters of what arrived and what was lost.
@@ -111,11 +114,15 @@ impl StreamDecoder {
             if missing != 0 && sample.seq != 0 {
                 self.stats.gaps += 1;
                 self.stats.lost_samples += u64::from(missing);
-                on_event(Event::SampleGap { after_seq: last, missing });
+                on_event(Event::SampleGap {
+                    after_seq: last,
+                    missing,
+                });
             }
         }
         self.last_seq = Some(sample.seq);
-        self.measurements.update(sample.t_us, sample.chips.map(|c| c.registers()));
+        self.measurements
+            .update(sample.t_us, sample.chips.map(|c| c.registers()));
     }
 
     pub fn stats(&self) -> StreamStats {
@@ -160,7 +167,10 @@ mod tests {
         BoardFrame::Sample(Sample {
             t_us: u64::from(seq) * 5_000,
             seq,
-            chips: Sides::new(ChipReading::Fresh(regs), ChipReading::Failed(model_core::wire::ChipFault::AddressNack)),
+            chips: Sides::new(
+                ChipReading::Fresh(regs),
+                ChipReading::Failed(model_core::wire::ChipFault::AddressNack),
+            ),
         })
     }
 

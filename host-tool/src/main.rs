@@ -33,7 +33,9 @@ fn main() -> Result<()> {
 fn decode(path: &PathBuf) -> Result<()> {
     let mut bytes = Vec::new();
     if path.as_os_str() == "-" {
-        std::io::stdin().read_to_end(&mut bytes).context("reading stdin")?;
+        std::io::stdin()
+            .read_to_end(&mut bytes)
+            .context("reading stdin")?;
     } else {
         bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     }
@@ -61,7 +63,12 @@ fn decode(path: &PathBuf) -> Result<()> {
     }
     println!(
         "frames {}, samples {}, bad frames {} ({} CRC), lost samples {} in {} gaps",
-        stats.frames, stats.samples, stats.bad_frames, stats.crc_errors, stats.lost_samples, stats.gaps
+        stats.frames,
+        stats.samples,
+        stats.bad_frames,
+        stats.crc_errors,
+        stats.lost_samples,
+        stats.gaps
     );
     if let (Some(a), Some(b)) = (first_t, last_t) {
         println!("duration {:.3} s", b.wrapping_sub(a) as f64 * 1e-6);

@@ -68,6 +68,9 @@ pub enum ChipFault {
     WrongId,
     /// The calibration register read back 0: the chip reset (brown-out); it is being re-initialised.
     ResetDetected,
+    /// Just (re-)initialised: its registers still hold a result computed with the old settings,
+    /// so none is reported until the first conversion with the new ones completes.
+    AwaitingConversion,
 }
 
 /// One chip's part of a sample.
