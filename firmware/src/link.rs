@@ -179,7 +179,8 @@ mod tests {
         while link.send(&ack(sent)) {
             sent += 1;
         }
-        assert!(link.send(&ack(9)) == false && link.queue_drops() == 2);
+        assert!(!link.send(&ack(9)));
+        assert_eq!(link.queue_drops(), 2, "the frame that did not fit, and this one");
         let frames = decode_all(&drain(&mut link));
         assert_eq!(frames.len(), usize::from(sent));
         assert!(frames

@@ -80,10 +80,12 @@ mod app {
             hclk: rcc.clocks.hclk(),
         };
         // 'static storage handed out exactly once; init runs once, so these cannot fail.
-        let ep_memory = cortex_m::singleton!(EP_MEMORY: [u32; 320] = [0; 320]).unwrap();
+        // Buffers for received (OUT) packets, sized like the F411's 1.25 KiB USB FIFO.
+        let ep_memory =
+            cortex_m::singleton!(EP_MEMORY: [u32; 320] = [0; 320]).expect("init runs once");
         let usb_bus: &'static UsbBusAllocator<UsbBusType> =
             cortex_m::singleton!(USB_BUS: UsbBusAllocator<UsbBusType> = UsbBus::new(usb, ep_memory))
-                .unwrap();
+                .expect("init runs once");
         // The class allocates its endpoints before the device is built.
         let serial = SerialPort::new(usb_bus);
         let usb_dev = UsbDeviceBuilder::new(usb_bus, UsbVidPid(0x16c0, 0x27dd))
@@ -92,7 +94,7 @@ mod app {
                 .manufacturer("rover-power")
                 .product("rover-power INA226 board")
                 .serial_number("RP-0001")])
-            .unwrap()
+            .expect("one language of string descriptors")
             .build();
 
         let board = Board::new(SamplerConfig::BOARD);

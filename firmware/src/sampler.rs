@@ -174,7 +174,7 @@ impl Sampler {
         if !self.running {
             return None;
         }
-        let check = self.seq % CALIBRATION_CHECK_EVERY == 0;
+        let check = self.seq.is_multiple_of(CALIBRATION_CHECK_EVERY);
         let chips = Sides::new(
             self.chips.left.read(i2c, check),
             self.chips.right.read(i2c, check),
@@ -473,9 +473,10 @@ mod tests {
 
     #[test]
     fn commands_change_sampling() {
-        let mut tx = Vec::new();
-        tx.push(write(0x40, Register::Configuration, 0x4FFF));
-        tx.push(write(0x45, Register::Configuration, 0x4FFF).with_error(ErrorKind::Bus));
+        let tx = [
+            write(0x40, Register::Configuration, 0x4FFF),
+            write(0x45, Register::Configuration, 0x4FFF).with_error(ErrorKind::Bus),
+        ];
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
         let slowest = AdcConfig {

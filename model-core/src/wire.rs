@@ -637,7 +637,9 @@ mod tests {
             body[end..end + 4].copy_from_slice(&crc.to_le_bytes());
             let mut enc = [0u8; 130];
             let n = cobs::encode(&body[..end + 4], &mut enc);
-            let _ = decode_frame::<BoardFrame>(&mut enc.clone()[..n]);
+            // Decoding works in place, so each decoder gets its own copy.
+            let mut copy = enc;
+            let _ = decode_frame::<BoardFrame>(&mut copy[..n]);
             let _ = decode_frame::<HostFrame>(&mut enc[..n]);
         }
     }
