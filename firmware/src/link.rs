@@ -180,7 +180,11 @@ mod tests {
             sent += 1;
         }
         assert!(!link.send(&ack(9)));
-        assert_eq!(link.queue_drops(), 2, "the frame that did not fit, and this one");
+        assert_eq!(
+            link.queue_drops(),
+            2,
+            "the frame that did not fit, and this one"
+        );
         let frames = decode_all(&drain(&mut link));
         assert_eq!(frames.len(), usize::from(sent));
         assert!(frames
