@@ -102,14 +102,20 @@ impl RunningMeasurements {
 
     /// Feeds one sample; a side whose read failed is `None` and keeps its previous state.
     pub fn update(&mut self, t_us: u64, readings: Sides<Option<Registers>>) {
-        let Sides { left, right } = readings;
-        for (side, reading) in [(Side::Left, left), (Side::Right, right)] {
-            if let Some(regs) = reading {
-                let p = regs.signed_power_lsb();
-                side.of_mut(&mut self.energy).add(t_us, p);
-                *side.of_mut(&mut self.last_power_lsb) = Some(p);
-            }
-        }
+        // Side by side rather than a loop over (side, reading) pairs: on the Cortex-M4 at
+        // opt-level "s" the array of pairs cost four memcpys per sample (469 vs ~160 instructions).
+        update_side(
+            &mut self.energy.left,
+            &mut self.last_power_lsb.left,
+            t_us,
+            readings.left,
+        );
+        update_side(
+            &mut self.energy.right,
+            &mut self.last_power_lsb.right,
+            t_us,
+            readings.right,
+        );
     }
 
     /// Sets the commanded wheel rates used for τ ∝ P/ω (`None` clears them).
@@ -156,18 +162,16 @@ impl RunningMeasurements {
     }
 }
 
-#[derive(Clone, Copy)]
-enum Side {
-    Left,
-    Right,
-}
-
-impl Side {
-    fn of_mut<T>(self, sides: &mut Sides<T>) -> &mut T {
-        match self {
-            Side::Left => &mut sides.left,
-            Side::Right => &mut sides.right,
-        }
+fn update_side(
+    energy: &mut EnergyAccumulator,
+    last_power_lsb: &mut Option<i32>,
+    t_us: u64,
+    reading: Option<Registers>,
+) {
+    if let Some(regs) = reading {
+        let p = regs.signed_power_lsb();
+        energy.add(t_us, p);
+        *last_power_lsb = Some(p);
     }
 }
 
