@@ -4,7 +4,8 @@
 
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::Scale;
-use model_core::wire::{BoardFrame, FrameDecoder, FrameError, Hello, Model, Sample};
+use model_core::wire::{BoardFrame, FrameDecoder, FrameError, Hello, Model, Sample, Status};
+use std::fmt;
 
 /// One decoded event of the stream.
 #[derive(Debug, Clone, PartialEq)]
@@ -146,6 +147,118 @@ impl StreamDecoder {
     /// moment it arrived: equal when no sample was lost, since both run the same model-core code.
     pub fn board_vs_host_energy(&self) -> Option<(Model, [i64; 2])> {
         Some((self.last_model?, self.host_at_last_model?))
+    }
+}
+
+/// What a capture holds: the board, what arrived and what was lost, and the energy check.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    pub bytes: usize,
+    pub hello: Option<Hello>,
+    pub stats: StreamStats,
+    /// First and last sample time [µs].
+    pub span_us: Option<(u64, u64)>,
+    pub scale: Scale,
+    /// Host energy per side from every raw sample [power LSB × µs].
+    pub host_energy_lsb_us: [i64; 2],
+    /// The board's latest model frame and the host's energy at that sample.
+    pub board_vs_host: Option<(Model, [i64; 2])>,
+    pub last_status: Option<Status>,
+}
+
+impl Summary {
+    /// Decodes a whole capture.
+    pub fn of(bytes: &[u8]) -> Summary {
+        let mut dec = StreamDecoder::new();
+        let mut span_us: Option<(u64, u64)> = None;
+        let mut last_status = None;
+        dec.feed(bytes, |event| match event {
+            Event::Frame(BoardFrame::Sample(s)) => {
+                span_us = Some((span_us.map_or(s.t_us, |(first, _)| first), s.t_us));
+            }
+            Event::Frame(BoardFrame::Status(s)) => last_status = Some(s),
+            _ => {}
+        });
+        let host = dec.measurements().snapshot().energy_lsb_us;
+        Summary {
+            bytes: bytes.len(),
+            hello: dec.hello().copied(),
+            stats: dec.stats(),
+            span_us,
+            scale: dec.scale(),
+            host_energy_lsb_us: [host.left, host.right],
+            board_vs_host: dec.board_vs_host_energy(),
+            last_status,
+        }
+    }
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let j = |lsb_us: i64| self.scale.energy_j(lsb_us);
+        writeln!(f, "{} bytes", self.bytes)?;
+        match &self.hello {
+            Some(h) => writeln!(
+                f,
+                "board: firmware {}.{}.{}, protocol {}, shunt {} µΩ, current LSB {} nA, chips {:#04x}/{:#04x}, period {} µs",
+                h.firmware.major,
+                h.firmware.minor,
+                h.firmware.patch,
+                h.protocol,
+                h.scale.shunt_micro_ohm,
+                h.scale.current_lsb_na,
+                h.addresses.left,
+                h.addresses.right,
+                h.sample_period_us
+            )?,
+            None => writeln!(f, "board: no hello frame in the capture (assuming the rover-power board's scale)")?,
+        }
+        let s = &self.stats;
+        writeln!(
+            f,
+            "frames {}, samples {}, bad frames {} ({} CRC), lost samples {} in {} gaps",
+            s.frames, s.samples, s.bad_frames, s.crc_errors, s.lost_samples, s.gaps
+        )?;
+        if let Some((first, last)) = self.span_us {
+            writeln!(
+                f,
+                "duration {:.3} s",
+                last.wrapping_sub(first) as f64 * 1e-6
+            )?;
+        }
+        let [left, right] = self.host_energy_lsb_us;
+        writeln!(
+            f,
+            "host energy from raw samples: left {:.3} J, right {:.3} J",
+            j(left),
+            j(right)
+        )?;
+        if let Some((model, host)) = &self.board_vs_host {
+            let board = model.snapshot.energy_lsb_us;
+            writeln!(
+                f,
+                "board energy at sample {}: left {:.3} J, right {:.3} J; host recomputation differs by {:.6} J / {:.6} J",
+                model.seq,
+                j(board.left),
+                j(board.right),
+                j(host[0] - board.left),
+                j(host[1] - board.right)
+            )?;
+        }
+        if let Some(st) = &self.last_status {
+            writeln!(
+                f,
+                "last status: uptime {:.1} s, I²C errors {}/{}, re-inits {}/{}, queue drops {}, host-frame errors {}",
+                st.uptime_us as f64 * 1e-6,
+                st.i2c_errors.left,
+                st.i2c_errors.right,
+                st.reinits.left,
+                st.reinits.right,
+                st.queue_drops,
+                st.rx_errors
+            )?;
+        }
+        Ok(())
     }
 }
 

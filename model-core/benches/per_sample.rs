@@ -35,56 +35,62 @@ fn sample_frame(k: usize, r: Sides<Registers>) -> BoardFrame {
     })
 }
 
+/// A turn in progress: running measurements with commanded wheel rates (so τ is computed), fed
+/// the k-th of 1024 distinct readings at 200 Hz.
+struct Board {
+    readings: Vec<Sides<Registers>>,
+    measurements: RunningMeasurements,
+    k: usize,
+}
+
+impl Board {
+    fn new() -> Self {
+        let mut measurements = RunningMeasurements::new(Scale::BOARD);
+        measurements.set_wheel_rates(Some(Sides::new(-1.2, 3.6)));
+        Self {
+            readings: readings(),
+            measurements,
+            k: 0,
+        }
+    }
+
+    /// One sample's update; returns its registers.
+    fn update(&mut self) -> Sides<Registers> {
+        self.k = self.k.wrapping_add(1);
+        let r = self.readings[self.k & 1023];
+        self.measurements.update(
+            black_box(self.k as u64 * 5_000),
+            black_box(Sides::new(Some(r.left), Some(r.right))),
+        );
+        r
+    }
+}
+
 /// Running power and exact energy update for one sample (both sides).
 #[divan::bench]
 fn update(bencher: Bencher) {
-    let readings = readings();
-    let mut m = RunningMeasurements::new(Scale::BOARD);
-    m.set_wheel_rates(Some(Sides::new(-1.2, 3.6)));
-    let mut k = 0usize;
-    bencher.bench_local(|| {
-        k = k.wrapping_add(1);
-        let r = readings[k & 1023];
-        m.update(
-            black_box(k as u64 * 5_000),
-            black_box(Sides::new(Some(r.left), Some(r.right))),
-        );
-    });
+    let mut board = Board::new();
+    bencher.bench_local(|| board.update());
 }
 
 /// Update plus the model snapshot (power, energy, τ ∝ P/ω per side) sent in model frames.
 #[divan::bench]
 fn update_and_snapshot(bencher: Bencher) {
-    let readings = readings();
-    let mut m = RunningMeasurements::new(Scale::BOARD);
-    m.set_wheel_rates(Some(Sides::new(-1.2, 3.6)));
-    let mut k = 0usize;
+    let mut board = Board::new();
     bencher.bench_local(|| {
-        k = k.wrapping_add(1);
-        let r = readings[k & 1023];
-        m.update(
-            black_box(k as u64 * 5_000),
-            black_box(Sides::new(Some(r.left), Some(r.right))),
-        );
-        black_box(m.snapshot())
+        board.update();
+        black_box(board.measurements.snapshot())
     });
 }
 
 /// The board's full per-sample model-core work: update + encode the sample frame for USB.
 #[divan::bench]
 fn update_and_encode(bencher: Bencher) {
-    let readings = readings();
-    let mut m = RunningMeasurements::new(Scale::BOARD);
+    let mut board = Board::new();
     let mut buf = [0u8; MAX_FRAME];
-    let mut k = 0usize;
     bencher.bench_local(|| {
-        k = k.wrapping_add(1);
-        let r = readings[k & 1023];
-        m.update(
-            black_box(k as u64 * 5_000),
-            black_box(Sides::new(Some(r.left), Some(r.right))),
-        );
-        wire::encode(black_box(&sample_frame(k, r)), &mut buf)
+        let r = board.update();
+        wire::encode(black_box(&sample_frame(board.k, r)), &mut buf)
             .map(black_box)
             .ok();
     });

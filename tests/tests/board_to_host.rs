@@ -6,7 +6,7 @@ use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operatio
 use firmware::board::Board;
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
-use host_tool::decode::{Event, StreamDecoder};
+use host_tool::decode::{Event, StreamDecoder, Summary};
 use model_core::ina226::AdcConfig;
 use model_core::wire::{self, BoardFrame, ChipFault, ChipReading, Command, HostFrame, Rejection};
 use model_core::Sides;
@@ -238,6 +238,23 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
     assert!(
         (got_j - expected_j).abs() < 0.01 * expected_j.abs(),
         "{got_j} J vs {expected_j} J"
+    );
+    // The capture summary (`host-tool decode`) tells the same story.
+    let summary = Summary::of(&rig.wire);
+    assert_eq!(summary.stats.samples, 4_000);
+    assert_eq!(
+        summary.host_energy_lsb_us[0] + summary.host_energy_lsb_us[1],
+        board_total
+    );
+    assert_eq!(
+        summary.hello.map(|h| h.addresses),
+        Some(Sides::new(0x40, 0x45))
+    );
+    let text = summary.to_string();
+    assert!(text.contains("lost samples 0 in 0 gaps"), "{text}");
+    assert!(
+        text.contains("differs by 0.000000 J / 0.000000 J"),
+        "{text}"
     );
     // The regenerating side reports negative power at times (sign from the current register).
     assert!(samples.iter().any(|s| s
