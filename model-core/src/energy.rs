@@ -74,6 +74,20 @@ pub struct Snapshot {
     pub torque_proportional: Sides<Option<f32>>,
 }
 
+impl Snapshot {
+    /// Total power of both drivers in power LSBs; `None` until both sides have been read.
+    pub fn total_power_lsb(&self) -> Option<i32> {
+        Some(self.power_lsb.left? + self.power_lsb.right?)
+    }
+
+    /// Total energy of both sides in power-LSB × µs.
+    pub fn total_energy_lsb_us(&self) -> i64 {
+        self.energy_lsb_us
+            .left
+            .saturating_add(self.energy_lsb_us.right)
+    }
+}
+
 /// Per-side running power, energy and torque-proportional estimates, fed with raw INA226 readings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunningMeasurements {
@@ -201,6 +215,8 @@ mod tests {
         }
         let s = m.snapshot();
         assert_eq!(s.power_lsb, Sides::new(Some(3840), Some(-1000)));
+        assert_eq!(s.total_power_lsb(), Some(2840));
+        assert_eq!(s.total_energy_lsb_us(), m.total_energy_lsb_us());
         // 1000 intervals of 5 ms = 5 s.
         assert_eq!(s.energy_lsb_us.left, 3840 * 5_000_000);
         let scale = Scale::BOARD;
@@ -266,6 +282,7 @@ mod tests {
     #[test]
     fn torque_proportional_is_undefined_for_a_still_inner_wheel() {
         let mut m = RunningMeasurements::new(Scale::BOARD);
+        assert_eq!(m.snapshot().total_power_lsb(), None, "no reading yet");
         m.update(0, Sides::new(Some(regs(100, 800)), Some(regs(400, 2400))));
         assert_eq!(m.snapshot().torque_proportional, Sides::new(None, None));
         // R' turn at v_c = 0.3 m/s on a Husky: inner ω = 0, outer 0.6 / 0.165 rad/s.
