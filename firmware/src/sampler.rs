@@ -4,7 +4,7 @@
 use crate::ina226::{Calibration, Ina226};
 use embedded_hal::i2c::I2c;
 use model_core::energy::RunningMeasurements;
-use model_core::ina226::{AdcConfig, Registers, BUS_LSB_UV, SHUNT_LSB_NV};
+use model_core::ina226::{AdcConfig, BUS_LSB_UV, SHUNT_LSB_NV};
 use model_core::wire::{
     ChipFault, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
     PROTOCOL_VERSION,
@@ -292,11 +292,6 @@ impl Sampler {
     pub fn last_faults(&self) -> Sides<Option<ChipFault>> {
         self.chips.map(|c| c.last_fault)
     }
-}
-
-/// The registers of a reading, for tests and the simulated board.
-pub fn registers_of(reading: &ChipReading) -> Option<Registers> {
-    reading.registers()
 }
 
 #[cfg(test)]
