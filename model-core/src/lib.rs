@@ -9,6 +9,7 @@ pub mod energy;
 pub mod geometry;
 pub mod ina226;
 pub mod kinematics;
+pub mod power;
 pub mod wire;
 
 pub use geometry::Rover;
