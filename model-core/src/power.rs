@@ -242,9 +242,10 @@ impl DogruFriction {
     /// Eq 1.20: μ(R).
     pub fn mu(&self, radius_m: f64) -> f64 {
         let (hl, hb) = (self.length_m / 2.0, self.width_m / 2.0);
-        let geometry =
-            libm::sqrt(((hl - libm::fabs(self.com_x_m)).powi(2) + hb * hb) / (hl * hl + hb * hb));
-        let skid = 2.0 * self.length_m * (0.25 - (self.com_x_m / self.length_m).powi(2));
+        let fore_aft = hl - libm::fabs(self.com_x_m);
+        let geometry = libm::sqrt((fore_aft * fore_aft + hb * hb) / (hl * hl + hb * hb));
+        let offset = self.com_x_m / self.length_m;
+        let skid = 2.0 * self.length_m * (0.25 - offset * offset);
         (radius_m + self.com_y_m) / (radius_m + hb) * geometry * self.mu_rolling
             + skid / (radius_m + hb) * self.mu_skid
     }
