@@ -1,14 +1,16 @@
 //! The science and the wire format of rover-power, shared by the board and the host.
 //!
 //! `#![no_std]`, no allocation, `f32` so the same code runs on the STM32F411 (with its FPU) and on
-//! the host. Equation numbers refer to the seed thesis (`shared/seeds/000_…`): chapters are
-//! "Eq 2.4"; the appended paper's equations are "paper Eq 20".
+//! the host (except [`paths`], which plans on the host in `f64`). Equation numbers refer to the
+//! seed thesis (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are
+//! "paper Eq 20".
 #![cfg_attr(not(test), no_std)]
 
 pub mod energy;
 pub mod geometry;
 pub mod ina226;
 pub mod kinematics;
+pub mod paths;
 pub mod power;
 pub mod wire;
 
