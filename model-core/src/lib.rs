@@ -1,7 +1,7 @@
 //! The science and the wire format of rover-power, shared by the board and the host.
 //!
 //! `#![no_std]`, no allocation, `f32` so the same code runs on the STM32F411 (with its FPU) and on
-//! the host. Equation numbers refer to the seed thesis (`shared/seeds/000_…`): chapters are
+//! the host. The exception is [`soil`]: host-simulator models in `f64` (still no_std, no alloc). Equation numbers refer to the seed thesis (`shared/seeds/000_…`): chapters are
 //! "Eq 2.4"; the appended paper's equations are "paper Eq 20".
 #![cfg_attr(not(test), no_std)]
 
@@ -10,6 +10,7 @@ pub mod geometry;
 pub mod ina226;
 pub mod kinematics;
 pub mod power;
+pub mod soil;
 pub mod wire;
 
 pub use geometry::Rover;
