@@ -1,8 +1,9 @@
 //! The science and the wire format of rover-power, shared by the board and the host.
 //!
 //! `#![no_std]`, no allocation, `f32` so the same code runs on the STM32F411 (with its FPU) and on
-//! the host (except [`paths`], which plans on the host in `f64`). Equation numbers refer to the
-//! seed thesis (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are
+//! the host. The models the host evaluates (simulator, validation, diagnosis, planner) use `f64`,
+//! still no_std and allocation-free: [`power`], [`soil`] and [`paths`]. Equation numbers refer to the seed
+//! thesis (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are
 //! "paper Eq 20".
 #![cfg_attr(not(test), no_std)]
 
@@ -12,6 +13,7 @@ pub mod ina226;
 pub mod kinematics;
 pub mod paths;
 pub mod power;
+pub mod soil;
 pub mod wire;
 
 pub use geometry::Rover;
