@@ -1,15 +1,21 @@
 //! The science and the wire format of rover-power, shared by the board and the host.
 //!
 //! `#![no_std]`, no allocation, `f32` so the same code runs on the STM32F411 (with its FPU) and on
-//! the host. Equation numbers refer to the seed thesis (`shared/seeds/000_…`): chapters are
+//! the host. The post-processing modules [`fit`] (least squares, the seed's power fits) and
+//! [`tracking`] (total-station track, Section 5.1) run on the host and work in `f64`, still without
+//! `std` or allocation. Equation numbers refer to the seed thesis (`shared/seeds/000_…`): chapters are
 //! "Eq 2.4"; the appended paper's equations are "paper Eq 20".
 #![cfg_attr(not(test), no_std)]
 
 pub mod energy;
+pub mod fit;
 pub mod geometry;
 pub mod ina226;
 pub mod kinematics;
 pub mod power;
+#[cfg(test)]
+mod test_support;
+pub mod tracking;
 pub mod wire;
 
 pub use geometry::Rover;
