@@ -8,6 +8,7 @@
 //!
 //! This is post-processing (host) code, so it works in `f64`; it is still `no_std` and allocation-
 //! free: observations stream in one at a time and the state is O(N²).
+#![warn(missing_docs)]
 
 use crate::kinematics::{self, SideSpeeds};
 
@@ -272,7 +273,9 @@ impl<const N: usize> LinearFit<N> {
 /// One fitted coefficient with its standard error and two-sided confidence bounds.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Estimate {
+    /// The least-squares value of the coefficient.
     pub value: f64,
+    /// Its standard error, s √[(XᵀX)⁻¹]_jj.
     pub standard_error: f64,
     /// Lower confidence bound: value − t · SE.
     pub lower: f64,
@@ -513,6 +516,7 @@ pub struct PitchRollFit {
 }
 
 impl PitchRollFit {
+    /// An empty Eq 4.1 fit.
     pub const fn new() -> Self {
         Self {
             fit: LinearFit::new(),
@@ -575,8 +579,11 @@ pub struct PitchRollModel {
     pub eta_w_per_deg: Estimate,
     /// ζ: power on level ground [W].
     pub zeta_w: Estimate,
+    /// r² (Tables 4.2, 4.3); `None` when all powers are equal.
     pub r_squared: Option<f64>,
+    /// Residual standard error of the power [W].
     pub residual_standard_error_w: f64,
+    /// Number of samples fitted.
     pub n: usize,
 }
 
@@ -602,6 +609,7 @@ pub const MAX_FIT_RADIUS_M: f64 = 20.0;
 /// Whether a sample went into a fit or was left out by the seed's conventions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SampleUse {
+    /// The sample went into the fit.
     Used,
     /// R > [`MAX_FIT_RADIUS_M`] (or no motion, hence no radius).
     Dropped,
@@ -622,6 +630,7 @@ pub struct TurnPitchFit {
 }
 
 impl TurnPitchFit {
+    /// An empty Table 4.3 fit.
     pub const fn new() -> Self {
         Self {
             fit: LinearFit::new(),
@@ -702,8 +711,11 @@ pub struct TurnPitchModel {
     pub c2_w: Estimate,
     /// c₃ [W/deg].
     pub c3_w_per_deg: Estimate,
+    /// r² (Tables 4.2, 4.3); `None` when all powers are equal.
     pub r_squared: Option<f64>,
+    /// Residual standard error of the power [W].
     pub residual_standard_error_w: f64,
+    /// Number of samples fitted.
     pub n: usize,
 }
 

@@ -12,6 +12,7 @@
 //! the seed, tracks are **left turns** (counter-clockwise seen from above) with the prism mounted
 //! δx_lp = 0.21 m to the right of the rover's centre (Fig. 5.3), i.e. outboard of the turn.
 //! Angles are in radians, yaw positive counter-clockwise.
+#![warn(missing_docs)]
 
 use crate::fit::{FitError, LinearFit};
 use crate::geometry::Rover;
@@ -105,8 +106,11 @@ fn wrap_angle_rad(a: f64) -> f64 {
 /// A circle in the total-station frame: (x − x_c)² + (y − y_c)² = R² (Section 5.1).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Circle {
+    /// x_c [m].
     pub centre_x_m: f64,
+    /// y_c [m].
     pub centre_y_m: f64,
+    /// R (R_lp for the prism track) [m].
     pub radius_m: f64,
 }
 
@@ -632,9 +636,13 @@ pub fn corrected_headings_rad(
 /// refer to a left turn: the inner wheels are on the rover's left.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WheelPositions {
+    /// Eq 5.6: inner (left) front wheel.
     pub inner_front_m: (f64, f64),
+    /// Eq 5.7: inner (left) back wheel.
     pub inner_back_m: (f64, f64),
+    /// Eq 5.8: outer (right) front wheel.
     pub outer_front_m: (f64, f64),
+    /// Eq 5.9: outer (right) back wheel.
     pub outer_back_m: (f64, f64),
 }
 
