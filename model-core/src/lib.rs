@@ -1,19 +1,24 @@
 //! The science and the wire format of rover-power, shared by the board and the host.
 //!
 //! `#![no_std]`, no allocation, `f32` so the same code runs on the STM32F411 (with its FPU) and on
-//! the host. The models the host evaluates (simulator, validation, diagnosis, planner) use `f64`,
-//! still no_std and allocation-free: [`power`], [`soil`] and [`paths`]. Equation numbers refer to the seed
-//! thesis (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are
-//! "paper Eq 20".
+//! the host. The models and post-processing the host evaluates (simulator, validation,
+//! diagnosis, planner) use `f64`, still without `std` or allocation: [`power`], [`soil`],
+//! [`paths`], [`fit`] (least squares and the seed's power fits) and [`tracking`] (the
+//! total-station track, Section 5.1). Equation numbers refer to the seed thesis
+//! (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are "paper Eq 20".
 #![cfg_attr(not(test), no_std)]
 
 pub mod energy;
+pub mod fit;
 pub mod geometry;
 pub mod ina226;
 pub mod kinematics;
 pub mod paths;
 pub mod power;
 pub mod soil;
+#[cfg(test)]
+mod test_support;
+pub mod tracking;
 pub mod wire;
 
 pub use geometry::Rover;
