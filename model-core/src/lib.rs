@@ -15,6 +15,7 @@ pub mod ina226;
 pub mod kinematics;
 pub mod paths;
 pub mod power;
+pub mod search;
 pub mod soil;
 #[cfg(test)]
 mod test_support;

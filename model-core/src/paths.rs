@@ -526,44 +526,12 @@ fn minimise_radius(
     }
     let lo = (best.0 - step_m).max(0.0);
     let hi = (best.0 + step_m).min(r_max_m);
-    let golden = golden_section(&f, lo, hi);
+    let golden =
+        crate::search::golden_section_min(&f, lo, hi, RADIUS_TOLERANCE_M, MAX_GOLDEN_ITERATIONS);
     if golden.1 < best.1 {
         best = golden;
     }
     best
-}
-
-/// Golden-section search for a minimum of `f` on [lo, hi], down to [`RADIUS_TOLERANCE_M`] or
-/// [`MAX_GOLDEN_ITERATIONS`]. Needs no derivative, so a kink does not disturb it.
-fn golden_section(f: &impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> (f64, f64) {
-    const INV_PHI: f64 = 0.618_033_988_749_894_8;
-    let mut c = hi - INV_PHI * (hi - lo);
-    let mut d = lo + INV_PHI * (hi - lo);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..MAX_GOLDEN_ITERATIONS {
-        if hi - lo <= RADIUS_TOLERANCE_M {
-            break;
-        }
-        // Ties (e.g. both infeasible) move towards smaller radii, which are more often feasible.
-        if fc <= fd {
-            hi = d;
-            d = c;
-            fd = fc;
-            c = hi - INV_PHI * (hi - lo);
-            fc = f(c);
-        } else {
-            lo = c;
-            c = d;
-            fc = fd;
-            d = lo + INV_PHI * (hi - lo);
-            fd = f(d);
-        }
-    }
-    if fc <= fd {
-        (c, fc)
-    } else {
-        (d, fd)
-    }
 }
 
 #[cfg(test)]

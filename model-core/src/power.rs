@@ -167,6 +167,18 @@ impl SimplifiedIcr {
         }
     }
 
+    /// Eq 2.12 with the coefficients of a Table 4.3-form fit ([`crate::fit::TurnPitchFit`]) and
+    /// the slip track B_s: the fitted c₁/R holds above R' and levels off below it, as the model
+    /// says (the fit form itself, used by the seed on mixed radii, has no plateau).
+    pub fn from_fit(fit: &crate::fit::TurnPitchModel, slip_track_m: f64) -> Self {
+        Self {
+            c1_w_m: fit.c1_w_m.value,
+            c2_w: fit.c2_w.value,
+            c3_w_per_deg: fit.c3_w_per_deg.value,
+            slip_track_m,
+        }
+    }
+
     /// Eq 2.12 at turning radius `radius_m` (INFINITY for straight) and pitch [deg].
     pub fn power_w(&self, radius_m: f64, pitch_deg: f64) -> f64 {
         let r_prime = self.slip_track_m / 2.0;
@@ -435,6 +447,36 @@ mod tests {
         let s = SimplifiedIcr::from_physical(0.5, 30.0, 1.0, 63.0, 0.5, 1.1, 0.3);
         assert!((s.c3_w_per_deg - 63.0 * 9.81 * 0.3 * core::f64::consts::PI / 180.0).abs() < 1e-9);
         assert!((s.c2_w - 18.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_table_4_3_fit_becomes_eq_2_12() {
+        // Noiseless samples of the Table 4.3 law above R' = 0.55 m, fitted, then used as Eq 2.12.
+        let truth = SimplifiedIcr {
+            c1_w_m: 5.55,
+            c2_w: 139.4,
+            c3_w_per_deg: 6.608,
+            slip_track_m: 1.1,
+        };
+        let mut fit = crate::fit::TurnPitchFit::new();
+        for (r, pitch) in [
+            (0.6, -3.0),
+            (0.8, 0.0),
+            (1.2, 2.0),
+            (2.0, 5.0),
+            (4.0, -1.0),
+            (9.0, 4.0),
+        ] {
+            fit.add(r, pitch, truth.power_w(r, pitch))
+                .expect("finite sample");
+        }
+        let model = SimplifiedIcr::from_fit(&fit.solve().expect("well posed"), 1.1);
+        for (r, pitch) in [(0.0, 0.0), (0.3, 1.0), (0.55, 0.0), (3.0, -2.0)] {
+            assert!(
+                (model.power_w(r, pitch) - truth.power_w(r, pitch)).abs() < 1e-6,
+                "R = {r}"
+            );
+        }
     }
 
     #[test]

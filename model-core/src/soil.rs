@@ -932,33 +932,15 @@ impl SandBulldozing {
     /// golden-section search over the interval ([`FAILURE_ANGLE_ITERATIONS`] steps, one
     /// evaluation each).
     fn minimising_angle_rad(&self, average_sinkage_m: f64, pile_area2_m2: f64) -> f64 {
-        const INV_PHI: f64 = 0.618_033_988_749_894_9; // (√5 − 1) / 2
         let f = |x: f64| self.shape_m2(average_sinkage_m, pile_area2_m2, x);
-        let mut a = FAILURE_ANGLE_MARGIN_RAD;
-        let mut b = self.max_failure_angle_rad - FAILURE_ANGLE_MARGIN_RAD;
-        let mut c = b - INV_PHI * (b - a);
-        let mut d = a + INV_PHI * (b - a);
-        let (mut fc, mut fd) = (f(c), f(d));
-        for _ in 0..FAILURE_ANGLE_ITERATIONS {
-            if fc < fd {
-                b = d;
-                d = c;
-                fd = fc;
-                c = b - INV_PHI * (b - a);
-                fc = f(c);
-            } else {
-                a = c;
-                c = d;
-                fc = fd;
-                d = a + INV_PHI * (b - a);
-                fd = f(d);
-            }
-        }
-        if fc < fd {
-            c
-        } else {
-            d
-        }
+        let (angle, _) = crate::search::golden_section_min(
+            f,
+            FAILURE_ANGLE_MARGIN_RAD,
+            self.max_failure_angle_rad - FAILURE_ANGLE_MARGIN_RAD,
+            0.0,
+            FAILURE_ANGLE_ITERATIONS as usize,
+        );
+        angle
     }
 
     /// Eq 5.29–5.36: the sand bulldozing force on a wheel of projected width w (Eq 5.31) at
