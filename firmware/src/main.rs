@@ -28,6 +28,7 @@ mod app {
         prelude::*,
         rcc::Config,
         timer::MonoTimerUs,
+        watchdog::IndependentWatchdog,
     };
     use usb_device::{bus::UsbBusAllocator, prelude::*};
     use usbd_serial::SerialPort;
@@ -39,6 +40,10 @@ mod app {
 
     /// USB full-speed bulk packet size.
     const USB_PACKET: usize = 64;
+    /// The sample task feeds the watchdog every period (≤ 1 s, `wire::MAX_SAMPLE_PERIOD_US`); the
+    /// HAL's I²C busy-waits without a timeout, so a bus stuck without an error flag would hang
+    /// sampling for good. The reset restarts the stream (a new hello, `seq` from 0).
+    const WATCHDOG_MS: u32 = 2_000;
 
     defmt::timestamp!("{=u64:us}", Mono::now().ticks());
 
@@ -51,6 +56,7 @@ mod app {
     struct Local {
         i2c: I2c<pac::I2C1>,
         board: Board,
+        watchdog: IndependentWatchdog,
         usb_dev: UsbDevice<'static, UsbBusType>,
         serial: SerialPort<'static, UsbBusType>,
     }
@@ -97,6 +103,11 @@ mod app {
             .expect("one language of string descriptors")
             .build();
 
+        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+        // Halted at a breakpoint, the debugger must not be reset under us.
+        watchdog.stop_on_debug(&dp.DBGMCU, true);
+        watchdog.start(WATCHDOG_MS.millis());
+
         let board = Board::new(SamplerConfig::BOARD);
         defmt::info!(
             "rover-power firmware {=str}: sysclk {=u32} Hz, sampling every {=u32} us",
@@ -110,6 +121,7 @@ mod app {
             Local {
                 i2c,
                 board,
+                watchdog,
                 usb_dev,
                 serial,
             },
@@ -126,7 +138,7 @@ mod app {
     }
 
     /// Drift-free sampling on absolute deadlines; the period can change at every tick.
-    #[task(priority = 1, local = [i2c, board], shared = [link])]
+    #[task(priority = 1, local = [i2c, board, watchdog], shared = [link])]
     async fn sample(mut cx: sample::Context) {
         let mut next: Instant = Mono::now();
         let mut faults = model_core::Sides::new(None, None);
