@@ -164,14 +164,11 @@ impl SimBus {
 
     /// Makes the next `count` transactions to `address` fail with `kind` without reaching the
     /// chip (e.g. `NoAcknowledge(Data)`, `Bus`, `ArbitrationLoss`); replaces any pending fault.
-    /// Works for any address, with or without a chip.
+    /// A count of 0 cancels. An address without a chip NACKs every transaction anyway, so
+    /// nothing is stored for it.
     pub fn fail_next(&mut self, address: u8, count: u32, kind: ErrorKind) {
-        let fault = (count > 0).then_some((count, kind));
-        match self.chips.get_mut(&address) {
-            Some(slot) => slot.fault = fault,
-            None => {
-                // An address without a chip NACKs anyway; remember nothing.
-            }
+        if let Some(slot) = self.chips.get_mut(&address) {
+            slot.fault = (count > 0).then_some((count, kind));
         }
     }
 
