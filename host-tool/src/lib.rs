@@ -1,3 +1,4 @@
 //! rover-power host tool, library first: the CLI in `main.rs` only parses arguments.
 
 pub mod decode;
+pub mod sim;

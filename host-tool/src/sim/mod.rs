@@ -1,0 +1,660 @@
+//! The simulated board's hardware: INA226 register models on an I²C bus that implements
+//! `embedded_hal::i2c::I2c`, so the firmware's driver and sampler run against it unchanged.
+//!
+//! The bus holds the simulation time ([`SimBus::set_time_us`]); every chip with power processes
+//! the conversions that completed by then, each sampling its held analog input at that
+//! conversion's time. Set a chip's inputs before moving the time past them.
+
+pub mod ina226;
+
+pub use ina226::{Analog, SimIna226};
+
+use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
+use std::collections::BTreeMap;
+
+/// Transaction counters of one address.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct TransactionCounts {
+    /// Transactions addressed to it (successful or not).
+    pub transactions: u64,
+    /// Of those, the ones that failed (NACK, injected fault).
+    pub failed: u64,
+}
+
+/// One chip on the bus, with its power state and pending injected faults.
+#[derive(Debug, Clone)]
+struct Slot {
+    chip: SimIna226,
+    plugged: bool,
+    /// Fail this many more transactions with this error.
+    fault: Option<(u32, ErrorKind)>,
+}
+
+/// An I²C bus with INA226 models by 7-bit address, fault injection and counters.
+#[derive(Debug, Clone, Default)]
+pub struct SimBus {
+    now_us: u64,
+    chips: BTreeMap<u8, Slot>,
+    counts: BTreeMap<u8, TransactionCounts>,
+}
+
+impl SimBus {
+    /// An empty bus at t = 0.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The board's bus: ideal chips at 0x40 (left) and 0x45 (right) on 5 mΩ shunts.
+    pub fn board() -> Self {
+        let mut bus = Self::new();
+        bus.insert(0x40, SimIna226::new(Analog::IDEAL));
+        bus.insert(0x45, SimIna226::new(Analog::IDEAL));
+        bus
+    }
+
+    /// Puts `chip` at `address`, powered up now (power-on defaults; its analog front end and
+    /// inputs are kept). Returns the chip it replaces.
+    pub fn insert(&mut self, address: u8, mut chip: SimIna226) -> Option<SimIna226> {
+        chip.power_on(self.now_us);
+        self.chips
+            .insert(
+                address,
+                Slot {
+                    chip,
+                    plugged: true,
+                    fault: None,
+                },
+            )
+            .map(|s| s.chip)
+    }
+
+    /// The simulation time [µs].
+    pub fn now_us(&self) -> u64 {
+        self.now_us
+    }
+
+    /// Moves the simulation time to `t_us` (never backwards) and lets every powered chip carry
+    /// out the conversions that completed by then.
+    pub fn set_time_us(&mut self, t_us: u64) {
+        self.now_us = self.now_us.max(t_us);
+        for slot in self.chips.values_mut() {
+            if slot.plugged {
+                slot.chip.advance_to(self.now_us);
+            } else {
+                slot.chip.prune_inputs(self.now_us);
+            }
+        }
+    }
+
+    /// Sets the true current [A] and bus voltage [V] of the chip at `address` from `t_us` on;
+    /// false if there is no chip there.
+    pub fn set_input(&mut self, address: u8, t_us: u64, current_a: f64, bus_v: f64) -> bool {
+        match self.chips.get_mut(&address) {
+            Some(slot) => {
+                slot.chip.set_input(t_us, current_a, bus_v);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The chip at `address` (plugged or not).
+    pub fn chip(&self, address: u8) -> Option<&SimIna226> {
+        self.chips.get(&address).map(|s| &s.chip)
+    }
+
+    /// The chip at `address`, mutably (plugged or not).
+    pub fn chip_mut(&mut self, address: u8) -> Option<&mut SimIna226> {
+        self.chips.get_mut(&address).map(|s| &mut s.chip)
+    }
+
+    /// A register of the chip at `address` as it stands at the bus time, without bus traffic or
+    /// side effects; `None` if there is no powered chip there.
+    pub fn peek(&mut self, address: u8, register: u8) -> Option<u16> {
+        let now = self.now_us;
+        let slot = self.chips.get_mut(&address).filter(|s| s.plugged)?;
+        slot.chip.advance_to(now);
+        Some(slot.chip.peek(register))
+    }
+
+    /// Disconnects the chip at `address` (it loses power and NACKs); false if there is none.
+    pub fn unplug(&mut self, address: u8) -> bool {
+        match self.chips.get_mut(&address) {
+            Some(slot) => {
+                slot.chip.advance_to(self.now_us);
+                slot.plugged = false;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Reconnects the chip at `address`: it powers up now with its defaults (a chip already
+    /// plugged is left alone). False if there is none.
+    pub fn plug(&mut self, address: u8) -> bool {
+        match self.chips.get_mut(&address) {
+            Some(slot) => {
+                if !slot.plugged {
+                    slot.plugged = true;
+                    slot.chip.power_on(self.now_us);
+                }
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Whether a powered chip answers at `address`.
+    pub fn is_plugged(&self, address: u8) -> bool {
+        self.chips.get(&address).is_some_and(|s| s.plugged)
+    }
+
+    /// Brown-out of the chip at `address`: its registers return to their power-on defaults now
+    /// while its analog input keeps flowing. False if there is no powered chip there.
+    pub fn brown_out(&mut self, address: u8) -> bool {
+        match self.chips.get_mut(&address).filter(|s| s.plugged) {
+            Some(slot) => {
+                slot.chip.advance_to(self.now_us);
+                slot.chip.power_on(self.now_us);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Makes the next `count` transactions to `address` fail with `kind` without reaching the
+    /// chip (e.g. `NoAcknowledge(Data)`, `Bus`, `ArbitrationLoss`); replaces any pending fault.
+    /// A count of 0 cancels. An address without a chip NACKs every transaction anyway, so
+    /// nothing is stored for it.
+    pub fn fail_next(&mut self, address: u8, count: u32, kind: ErrorKind) {
+        if let Some(slot) = self.chips.get_mut(&address) {
+            slot.fault = (count > 0).then_some((count, kind));
+        }
+    }
+
+    /// Transaction counters of `address` (zero if never addressed).
+    pub fn counts(&self, address: u8) -> TransactionCounts {
+        self.counts.get(&address).copied().unwrap_or_default()
+    }
+
+    /// Runs one transaction on the addressed slot.
+    fn run(&mut self, address: u8, operations: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
+        let now = self.now_us;
+        let Some(slot) = self.chips.get_mut(&address) else {
+            return Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address));
+        };
+        if let Some((left, kind)) = slot.fault {
+            slot.fault = (left > 1).then_some((left - 1, kind));
+            return Err(kind);
+        }
+        if !slot.plugged {
+            return Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address));
+        }
+        // Adjacent operations of the same kind form one frame (no repeated start between them).
+        let mut write: Vec<u8> = Vec::new();
+        let mut i = 0;
+        while i < operations.len() {
+            match &mut operations[i] {
+                Operation::Write(bytes) => {
+                    write.extend_from_slice(bytes);
+                    if !matches!(operations.get(i + 1), Some(Operation::Write(_))) {
+                        slot.chip.write_frame(now, &write);
+                        write.clear();
+                    }
+                    i += 1;
+                }
+                Operation::Read(_) => {
+                    // One read frame: the pointed register streamed across the adjacent buffers.
+                    let mut j = i;
+                    let mut total = 0;
+                    while let Some(Operation::Read(buf)) = operations.get(j) {
+                        total += buf.len();
+                        j += 1;
+                    }
+                    let mut frame = vec![0u8; total];
+                    slot.chip.read_frame(now, &mut frame);
+                    let mut pos = 0;
+                    for op in &mut operations[i..j] {
+                        if let Operation::Read(buf) = op {
+                            let n = buf.len();
+                            buf.copy_from_slice(&frame[pos..pos + n]);
+                            pos += n;
+                        }
+                    }
+                    i = j;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ErrorType for SimBus {
+    type Error = ErrorKind;
+}
+
+impl I2c for SimBus {
+    fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), Self::Error> {
+        let result = self.run(address, operations);
+        let counts = self.counts.entry(address).or_default();
+        counts.transactions = counts.transactions.saturating_add(1);
+        if result.is_err() {
+            counts.failed = counts.failed.saturating_add(1);
+        }
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ina226::{reg, MASK_CVRF};
+    use super::*;
+    use firmware::ina226::{Ina226, BOARD_CALIBRATION};
+    use firmware::sampler::{Sampler, SamplerConfig};
+    use model_core::ina226::{AdcConfig, Registers};
+    use model_core::wire::{ChipFault, ChipReading};
+    use model_core::Sides;
+    use proptest::prelude::*;
+
+    const LEFT: u8 = 0x40;
+    const RIGHT: u8 = 0x45;
+    const ADDRESS_NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
+    const DATA_NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data);
+
+    fn read(bus: &mut SimBus, address: u8, register: u8) -> Result<u16, ErrorKind> {
+        let mut buf = [0u8; 2];
+        bus.write_read(address, &[register], &mut buf)?;
+        Ok(u16::from_be_bytes(buf))
+    }
+
+    fn write(bus: &mut SimBus, address: u8, register: u8, value: u16) -> Result<(), ErrorKind> {
+        let [hi, lo] = value.to_be_bytes();
+        bus.write(address, &[register, hi, lo])
+    }
+
+    /// The registers of `amps` at `volts` on the board (5 mΩ, CAL 2048, 0.5 mA LSB).
+    fn board_registers(amps: f64, volts: f64) -> Registers {
+        let lsb = (amps / 0.0005).round() as i16;
+        let bus = (volts / 1.25e-3).round() as u16;
+        Registers {
+            shunt: model_core::ina226::ShuntVoltageRaw(lsb),
+            bus: model_core::ina226::BusVoltageRaw(bus),
+            current: model_core::ina226::CurrentRaw(lsb),
+            power: model_core::ina226::PowerRaw(
+                (i32::from(lsb).unsigned_abs() * u32::from(bus) / 20_000) as u16,
+            ),
+        }
+    }
+
+    #[test]
+    fn missing_chip_nacks_its_address_and_is_counted() {
+        let mut bus = SimBus::board();
+        assert_eq!(read(&mut bus, 0x41, reg::DIE_ID), Err(ADDRESS_NACK));
+        assert_eq!(read(&mut bus, LEFT, reg::DIE_ID), Ok(0x2260));
+        assert_eq!(read(&mut bus, RIGHT, reg::MANUFACTURER_ID), Ok(0x5449));
+        assert_eq!(
+            bus.counts(0x41),
+            TransactionCounts {
+                transactions: 1,
+                failed: 1
+            }
+        );
+        assert_eq!(
+            bus.counts(LEFT),
+            TransactionCounts {
+                transactions: 1,
+                failed: 0
+            }
+        );
+    }
+
+    #[test]
+    fn adjacent_operations_form_one_frame() {
+        let mut bus = SimBus::board();
+        // Pointer and data split over two write buffers: still one 3-byte write frame.
+        bus.transaction(
+            LEFT,
+            &mut [
+                Operation::Write(&[reg::CALIBRATION]),
+                Operation::Write(&[0x08, 0x00]),
+            ],
+        )
+        .expect("acked");
+        assert_eq!(bus.peek(LEFT, reg::CALIBRATION), Some(2048));
+        // A one-byte write sets the pointer for a later, separate read.
+        bus.write(LEFT, &[reg::DIE_ID]).expect("acked");
+        let (mut hi, mut lo) = ([0u8; 1], [0u8; 1]);
+        bus.transaction(
+            LEFT,
+            &mut [Operation::Read(&mut hi), Operation::Read(&mut lo)],
+        )
+        .expect("acked");
+        assert_eq!(u16::from_be_bytes([hi[0], lo[0]]), 0x2260);
+        assert_eq!(bus.counts(LEFT).transactions, 3);
+    }
+
+    #[test]
+    fn unplug_replug_and_brown_out() {
+        let mut bus = SimBus::board();
+        bus.set_input(LEFT, 0, 2.0, 24.0);
+        write(&mut bus, LEFT, reg::CALIBRATION, 2048).expect("acked");
+        write(&mut bus, LEFT, reg::CONFIG, 0x4407).expect("acked");
+        bus.set_time_us(4_480);
+        assert_eq!(read(&mut bus, LEFT, reg::CURRENT), Ok(4_000));
+
+        assert!(bus.unplug(LEFT));
+        assert!(!bus.is_plugged(LEFT));
+        bus.set_time_us(10_000);
+        assert_eq!(read(&mut bus, LEFT, reg::CURRENT), Err(ADDRESS_NACK));
+        assert_eq!(
+            write(&mut bus, LEFT, reg::CALIBRATION, 1),
+            Err(ADDRESS_NACK)
+        );
+        assert_eq!(bus.peek(LEFT, reg::CALIBRATION), None);
+        assert!(bus.plug(LEFT));
+        // Powered up with its defaults at 10 ms: CAL 0, default config, first result 2.2 ms on.
+        assert_eq!(read(&mut bus, LEFT, reg::CALIBRATION), Ok(0));
+        assert_eq!(read(&mut bus, LEFT, reg::CONFIG), Ok(0x4127));
+        assert_eq!(read(&mut bus, LEFT, reg::SHUNT), Ok(0));
+        bus.set_time_us(12_200);
+        assert_eq!(read(&mut bus, LEFT, reg::MASK_ENABLE), Ok(MASK_CVRF));
+        assert_eq!(
+            read(&mut bus, LEFT, reg::SHUNT),
+            Ok(4_000),
+            "input kept flowing"
+        );
+        assert_eq!(read(&mut bus, LEFT, reg::CURRENT), Ok(0), "no calibration");
+
+        write(&mut bus, LEFT, reg::CALIBRATION, 2048).expect("acked");
+        bus.set_time_us(20_000);
+        assert_eq!(read(&mut bus, LEFT, reg::CURRENT), Ok(4_000));
+        assert!(bus.brown_out(LEFT));
+        assert!(bus.is_plugged(LEFT), "a brown-out does not unplug");
+        assert_eq!(read(&mut bus, LEFT, reg::CALIBRATION), Ok(0));
+        assert_eq!(read(&mut bus, LEFT, reg::SHUNT), Ok(0));
+        bus.set_time_us(22_200);
+        assert_eq!(read(&mut bus, LEFT, reg::SHUNT), Ok(4_000));
+        assert!(!bus.brown_out(0x41) && !bus.unplug(0x41) && !bus.plug(0x41));
+        // The other chip never noticed.
+        assert_eq!(read(&mut bus, RIGHT, reg::DIE_ID), Ok(0x2260));
+    }
+
+    #[test]
+    fn injected_faults_fail_exactly_the_next_transactions() {
+        let mut bus = SimBus::board();
+        bus.fail_next(LEFT, 2, DATA_NACK);
+        bus.fail_next(RIGHT, 1, ErrorKind::ArbitrationLoss);
+        assert_eq!(
+            write(&mut bus, LEFT, reg::CALIBRATION, 2048),
+            Err(DATA_NACK)
+        );
+        assert_eq!(read(&mut bus, LEFT, reg::CALIBRATION), Err(DATA_NACK));
+        assert_eq!(
+            read(&mut bus, LEFT, reg::CALIBRATION),
+            Ok(0),
+            "faults do not reach the chip"
+        );
+        assert_eq!(
+            read(&mut bus, RIGHT, reg::DIE_ID),
+            Err(ErrorKind::ArbitrationLoss)
+        );
+        assert_eq!(read(&mut bus, RIGHT, reg::DIE_ID), Ok(0x2260));
+        bus.fail_next(RIGHT, 1, ErrorKind::Bus);
+        bus.fail_next(RIGHT, 0, ErrorKind::Bus); // cancels
+        assert_eq!(read(&mut bus, RIGHT, reg::DIE_ID), Ok(0x2260));
+        assert_eq!(
+            bus.counts(LEFT),
+            TransactionCounts {
+                transactions: 3,
+                failed: 2
+            }
+        );
+        assert_eq!(
+            bus.counts(RIGHT),
+            TransactionCounts {
+                transactions: 3,
+                failed: 1
+            }
+        );
+    }
+
+    #[test]
+    fn firmware_driver_runs_against_the_model() {
+        let mut bus = SimBus::board();
+        bus.set_input(LEFT, 0, -7.3, 25.2);
+        let mut driver = Ina226::new(LEFT, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        driver.init(&mut bus).expect("an INA226 answers");
+        assert_eq!(bus.peek(LEFT, reg::CONFIG), Some(0x4407));
+        assert_eq!(driver.calibration_lost(&mut bus), Ok(false));
+        bus.set_time_us(4_479);
+        assert_eq!(driver.conversion_ready(&mut bus), Ok(false));
+        bus.set_time_us(4_480);
+        assert_eq!(driver.conversion_ready(&mut bus), Ok(true));
+        assert_eq!(
+            driver.conversion_ready(&mut bus),
+            Ok(false),
+            "read clears it"
+        );
+        let regs = driver.read_registers(&mut bus).expect("acked");
+        assert_eq!(regs, board_registers(-7.3, 25.2));
+        assert_eq!(regs.signed_power_lsb(), -(14_600 * 20_160 / 20_000));
+        driver.reset(&mut bus).expect("acked");
+        assert_eq!(driver.calibration_lost(&mut bus), Ok(true));
+    }
+
+    #[test]
+    fn sampler_readings_follow_the_firmware_logic() {
+        let mut bus = SimBus::board();
+        bus.set_input(LEFT, 0, 2.0, 24.0);
+        bus.set_input(RIGHT, 0, -1.0, 24.0);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        let mut at = |bus: &mut SimBus, t_us: u64| {
+            bus.set_time_us(t_us);
+            s.sample(bus, t_us).expect("running").chips
+        };
+        let awaiting = ChipReading::Failed(ChipFault::AwaitingConversion);
+        assert_eq!(at(&mut bus, 0), Sides::new(awaiting, awaiting));
+        let fresh = Sides::new(
+            ChipReading::Fresh(board_registers(2.0, 24.0)),
+            ChipReading::Fresh(board_registers(-1.0, 24.0)),
+        );
+        assert_eq!(at(&mut bus, 5_000), fresh);
+        // Next result at 8.96 ms: a read at 7 ms sees the same registers again.
+        assert_eq!(
+            at(&mut bus, 7_000),
+            Sides::new(
+                ChipReading::Stale(board_registers(2.0, 24.0)),
+                ChipReading::Stale(board_registers(-1.0, 24.0)),
+            )
+        );
+        assert_eq!(at(&mut bus, 12_000), fresh);
+
+        bus.unplug(RIGHT);
+        let right = at(&mut bus, 17_000).right;
+        assert_eq!(right, ChipReading::Failed(ChipFault::AddressNack));
+        bus.plug(RIGHT);
+        assert_eq!(at(&mut bus, 22_000).right, awaiting, "set up again");
+        assert_eq!(at(&mut bus, 27_000), fresh);
+
+        // Brown-out under load: current reads 0 with shunt showing 2 A.
+        bus.brown_out(LEFT);
+        assert_eq!(
+            at(&mut bus, 32_000).left,
+            ChipReading::Failed(ChipFault::ResetDetected)
+        );
+        assert_eq!(at(&mut bus, 37_000).left, awaiting);
+        assert_eq!(at(&mut bus, 42_000), fresh);
+
+        // A data NACK fails one reading; the result that was ready is still there next period.
+        bus.fail_next(LEFT, 1, DATA_NACK);
+        assert_eq!(
+            at(&mut bus, 47_000).left,
+            ChipReading::Failed(ChipFault::DataNack)
+        );
+        assert_eq!(at(&mut bus, 52_000), fresh);
+        bus.fail_next(RIGHT, 1, ErrorKind::Bus);
+        assert_eq!(
+            at(&mut bus, 57_000).right,
+            ChipReading::Failed(ChipFault::Bus)
+        );
+        assert_eq!(at(&mut bus, 62_000), fresh);
+
+        assert_eq!(s.i2c_errors(), Sides::new(1, 2));
+        assert_eq!(s.reinits(), Sides::new(1, 1));
+        assert!(bus.counts(LEFT).transactions > 50);
+        assert_eq!(bus.counts(RIGHT).failed, 2);
+    }
+
+    #[test]
+    fn sampler_energy_matches_the_integral_of_v_i() {
+        let mut bus = SimBus::board();
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        // Loads that step every 100 ms, with values that do not fall on register LSBs.
+        let load = |k: u64| {
+            let step = (k / 20) as f64;
+            Sides::new(
+                (1.2345 + 0.77 * (step * 0.9).sin(), 23.456 - 0.01 * step),
+                (-0.6543 + 0.41 * step, 24.321 + 0.02 * step),
+            )
+        };
+        let ticks = 400u64;
+        let mut exact_j = 0.0;
+        for k in 0..ticks {
+            let t_us = k * 5_000;
+            let l = load(k);
+            bus.set_input(LEFT, t_us, l.left.0, l.left.1);
+            bus.set_input(RIGHT, t_us, l.right.0, l.right.1);
+            bus.set_time_us(t_us);
+            s.sample(&mut bus, t_us);
+            // The board's energy runs from its first good reading (t = 5 ms) to the last one;
+            // the input set at tick k flows until tick k + 1.
+            if (1..ticks - 1).contains(&k) {
+                exact_j += (l.left.0 * l.left.1 + l.right.0 * l.right.1) * 0.005;
+            }
+        }
+        let scale = model_core::ina226::Scale::BOARD;
+        let board_j = scale.energy_j(s.measurements().total_energy_lsb_us());
+        // Quantisation: ≤ 2 power LSB per side and reading; plus, at each load step, the one
+        // reading whose 4.48 ms window straddles it (at most |ΔP| over one period).
+        let power_w = |k: u64| {
+            let l = load(k);
+            l.left.0 * l.left.1 + l.right.0 * l.right.1
+        };
+        let steps_j: f64 = (20..ticks)
+            .step_by(20)
+            .map(|k| (power_w(k) - power_w(k - 1)).abs() * 0.005)
+            .sum();
+        let tolerance_j = ticks as f64 * 2.0 * 2.0 * scale.power_w(1) * 0.005 + steps_j;
+        assert!(
+            (board_j - exact_j).abs() < tolerance_j,
+            "{board_j} J vs ∫VI dt = {exact_j} J (± {tolerance_j} J)"
+        );
+        assert!(
+            exact_j.abs() > 10.0 * tolerance_j,
+            "the check means something"
+        );
+    }
+
+    #[derive(Debug, Clone)]
+    enum Step {
+        Time(u64),
+        Advance(u64),
+        Input(u8, u64, f64, f64),
+        Tx(u8, Vec<(bool, Vec<u8>)>),
+        Unplug(u8),
+        Plug(u8),
+        BrownOut(u8),
+        Fail(u8, u32, u8),
+        Insert(u8, f64, f64, u64),
+    }
+
+    fn address() -> impl Strategy<Value = u8> {
+        prop_oneof![Just(LEFT), Just(RIGHT), any::<u8>()]
+    }
+
+    fn step() -> impl Strategy<Value = Step> {
+        let op = (any::<bool>(), proptest::collection::vec(any::<u8>(), 0..5));
+        prop_oneof![
+            any::<u64>().prop_map(Step::Time),
+            (0u64..200_000).prop_map(Step::Advance),
+            (address(), any::<u64>(), any::<f64>(), any::<f64>())
+                .prop_map(|(a, t, i, v)| Step::Input(a, t, i, v)),
+            (address(), proptest::collection::vec(op, 0..4)).prop_map(|(a, o)| Step::Tx(a, o)),
+            address().prop_map(Step::Unplug),
+            address().prop_map(Step::Plug),
+            address().prop_map(Step::BrownOut),
+            (address(), 0u32..4, 0u8..4).prop_map(|(a, n, k)| Step::Fail(a, n, k)),
+            (address(), any::<f64>(), any::<f64>(), any::<u64>())
+                .prop_map(|(a, r, n, s)| Step::Insert(a, r, n, s)),
+        ]
+    }
+
+    proptest! {
+        #[test]
+        fn arbitrary_operations_never_panic(steps in proptest::collection::vec(step(), 0..60)) {
+            let mut bus = SimBus::board();
+            for step in steps {
+                match step {
+                    Step::Time(t) => bus.set_time_us(t),
+                    Step::Advance(dt) => bus.set_time_us(bus.now_us().saturating_add(dt)),
+                    Step::Input(a, t, i, v) => {
+                        bus.set_input(a, t, i, v);
+                    }
+                    Step::Tx(a, ops) => {
+                        let mut bufs: Vec<(bool, Vec<u8>)> = ops;
+                        let mut operations: Vec<Operation<'_>> = bufs
+                            .iter_mut()
+                            .map(|(is_read, b)| {
+                                if *is_read {
+                                    Operation::Read(b.as_mut_slice())
+                                } else {
+                                    Operation::Write(b.as_slice())
+                                }
+                            })
+                            .collect();
+                        let _ = bus.transaction(a, &mut operations);
+                    }
+                    Step::Unplug(a) => {
+                        bus.unplug(a);
+                    }
+                    Step::Plug(a) => {
+                        bus.plug(a);
+                    }
+                    Step::BrownOut(a) => {
+                        bus.brown_out(a);
+                    }
+                    Step::Fail(a, n, k) => {
+                        let kind = [DATA_NACK, ADDRESS_NACK, ErrorKind::Bus, ErrorKind::ArbitrationLoss];
+                        bus.fail_next(a, n, kind[usize::from(k)]);
+                    }
+                    Step::Insert(a, shunt_ohm, noise, seed) => {
+                        bus.insert(a, SimIna226::new(Analog {
+                            shunt_ohm,
+                            shunt_noise_lsb: noise,
+                            bus_noise_lsb: noise,
+                            seed,
+                            ..Analog::IDEAL
+                        }));
+                    }
+                }
+                for a in [LEFT, RIGHT] {
+                    if let Some(bus_reg) = bus.peek(a, reg::BUS) {
+                        prop_assert!(bus_reg <= 0x7FFF);
+                    }
+                    if let Some(cal) = bus.peek(a, reg::CALIBRATION) {
+                        prop_assert!(cal <= 0x7FFF);
+                    }
+                    if bus.is_plugged(a) {
+                        prop_assert_eq!(bus.peek(a, reg::DIE_ID), Some(0x2260));
+                    }
+                    let c = bus.counts(a);
+                    prop_assert!(c.failed <= c.transactions);
+                }
+            }
+        }
+    }
+}
