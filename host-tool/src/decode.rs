@@ -330,9 +330,12 @@ mod tests {
                 let mut f = f.clone();
                 if corrupt.contains(&i) {
                     let at = byte % (f.len() - 1);
-                    // Never create a 0x00: delimiters stay where they are.
-                    let flip = if f[at] ^ flip == 0 { flip ^ 0x01 } else { flip };
-                    f[at] ^= flip;
+                    // Always change the byte, never into a 0x00: delimiters stay where they are.
+                    let mut corrupted = f[at] ^ flip;
+                    if corrupted == 0 {
+                        corrupted = if f[at] == 0xFF { 0x01 } else { 0xFF };
+                    }
+                    f[at] = corrupted;
                 }
                 stream.extend(f);
             }
