@@ -1,3 +1,5 @@
 //! rover-power host tool, library first: the CLI in `main.rs` only parses arguments.
 
 pub mod decode;
+pub mod log;
+pub mod rover;
