@@ -477,3 +477,24 @@ fn doubled_quotes_inside_a_quoted_extra_cell() {
     let text = format!("{HEADER},note\n0,24,1,24,2,0.1,0.2,\"say \"\"hi\"\", twice\"\n");
     assert_eq!(read_all(text.as_bytes()).expect("valid").len(), 1);
 }
+
+/// The fenced block of `lang` in the README.
+fn readme_block(lang: &str) -> &'static str {
+    let readme = include_str!("../../../../README.md");
+    let start = readme
+        .find(&format!("```{lang}\n"))
+        .map(|i| i + lang.len() + 4)
+        .expect("block in README");
+    let len = readme[start..].find("```").expect("closed block");
+    &readme[start..start + len]
+}
+
+#[test]
+fn readme_examples_are_valid() {
+    let samples = read_all(readme_block("csv").as_bytes()).expect("README CSV");
+    assert_eq!(samples.len(), 3);
+    assert_eq!(samples[2].yaw_rad, None);
+    assert_eq!(samples[1].current_a, Sides::new(1.18, 5.91));
+    let rover = crate::rover::parse_rover(readme_block("toml")).expect("README TOML");
+    assert_eq!(rover, model_core::Rover::HUSKY_A200);
+}
