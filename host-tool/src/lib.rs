@@ -1,4 +1,6 @@
 //! rover-power host tool, library first: the CLI in `main.rs` only parses arguments.
 
 pub mod decode;
+pub mod log;
+pub mod rover;
 pub mod sim;

@@ -1,0 +1,178 @@
+//! Log files: the run CSV interchange format ([`run_csv`]) and crash-safe writing of whole files
+//! ([`write_atomically`]).
+
+pub mod run_csv;
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, BufWriter};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Why [`write_atomically`] did not produce its file.
+#[derive(Debug, thiserror::Error)]
+pub enum AtomicWriteError<E> {
+    /// Creating, syncing or renaming the file failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file (the target, or the temporary file beside it).
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+    /// The content callback failed; nothing was written at the target path.
+    #[error(transparent)]
+    Content(E),
+}
+
+/// Writes a whole file or nothing: `write` fills a temporary file in the target's directory,
+/// which is then flushed, fsynced and renamed over `path` (and the directory fsynced on Unix).
+/// If `write` fails (or panics), or any step fails, the temporary file is removed and `path` is
+/// left as it was — absent, or with its previous complete content.
+pub fn write_atomically<T, E>(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<T, E>,
+) -> Result<T, AtomicWriteError<E>> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let io_err = |path: &Path| {
+        let path = path.to_owned();
+        move |source| AtomicWriteError::Io { path, source }
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    let name = path.file_name().ok_or_else(|| AtomicWriteError::Io {
+        path: path.to_owned(),
+        source: io::Error::new(io::ErrorKind::InvalidInput, "not a file path"),
+    })?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(
+        ".{}-{}.tmp",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let tmp_path = dir.join(tmp_name);
+    let mut tmp = TempFile(None);
+    let file = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp_path)
+        .map_err(io_err(&tmp_path))?;
+    tmp.0 = Some(tmp_path.clone());
+    let mut out = BufWriter::new(file);
+    let value = write(&mut out).map_err(AtomicWriteError::Content)?;
+    let file = out
+        .into_inner()
+        .map_err(|e| io_err(&tmp_path)(e.into_error()))?;
+    file.sync_all().map_err(io_err(&tmp_path))?;
+    drop(file);
+    fs::rename(&tmp_path, path).map_err(io_err(path))?;
+    tmp.0 = None; // renamed: nothing left to clean up
+    #[cfg(unix)]
+    File::open(&dir)
+        .and_then(|d| d.sync_all())
+        .map_err(io_err(&dir))?;
+    Ok(value)
+}
+
+/// Removes the temporary file unless it was renamed into place.
+struct TempFile(Option<PathBuf>);
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if let Some(path) = &self.0 {
+            let _ = fs::remove_file(path);
+        }
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests_support {
+    use std::path::{Path, PathBuf};
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    /// A fresh directory under the system temp dir, removed on drop.
+    #[derive(Debug)]
+    pub(crate) struct TempDir(PathBuf);
+
+    impl TempDir {
+        pub(crate) fn new(tag: &str) -> Self {
+            static N: AtomicU64 = AtomicU64::new(0);
+            let path = std::env::temp_dir().join(format!(
+                "host-tool-{tag}-{}-{}",
+                std::process::id(),
+                N.fetch_add(1, Ordering::Relaxed)
+            ));
+            std::fs::create_dir_all(&path).expect("create temp dir");
+            Self(path)
+        }
+
+        pub(crate) fn path(&self) -> &Path {
+            &self.0
+        }
+
+        /// Names of the entries in the directory, sorted.
+        pub(crate) fn entries(&self) -> Vec<String> {
+            let mut names: Vec<String> = std::fs::read_dir(&self.0)
+                .expect("read dir")
+                .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tests_support::TempDir;
+    use super::*;
+    use std::io::Write;
+
+    #[test]
+    fn success_leaves_only_the_file() {
+        let dir = TempDir::new("atomic-ok");
+        let path = dir.path().join("out.txt");
+        write_atomically::<_, io::Error>(&path, |w| w.write_all(b"hello")).expect("written");
+        assert_eq!(fs::read(&path).expect("read"), b"hello");
+        assert_eq!(dir.entries(), ["out.txt"]);
+    }
+
+    #[test]
+    fn failure_leaves_nothing_and_keeps_the_old_file() {
+        let dir = TempDir::new("atomic-fail");
+        let path = dir.path().join("out.txt");
+        let e = write_atomically(&path, |w| {
+            w.write_all(b"half")?;
+            Err::<(), _>(io::Error::other("input broke"))
+        })
+        .expect_err("fails");
+        assert!(matches!(e, AtomicWriteError::Content(_)));
+        assert!(dir.entries().is_empty(), "{:?}", dir.entries());
+
+        fs::write(&path, b"old").expect("write");
+        let _ = write_atomically(&path, |w| {
+            w.write_all(b"new but broken")?;
+            Err::<(), _>(io::Error::other("input broke"))
+        });
+        assert_eq!(fs::read(&path).expect("read"), b"old");
+        assert_eq!(dir.entries(), ["out.txt"]);
+    }
+
+    #[test]
+    fn missing_directory_is_an_io_error_naming_it() {
+        let dir = TempDir::new("atomic-nodir");
+        let path = dir.path().join("no/such/dir/out.txt");
+        let e = write_atomically::<_, io::Error>(&path, |_| Ok(())).expect_err("no dir");
+        assert!(matches!(e, AtomicWriteError::Io { .. }));
+        assert!(e.to_string().contains("no/such/dir"), "{e}");
+    }
+}

@@ -1,0 +1,707 @@
+//! The run CSV: the interchange format for runs recorded on other rigs (MATLAB, pandas, a ROS bag
+//! export) and written by this tool.
+//!
+//! # Format
+//!
+//! - The first non-blank row is the header. Required columns, in any order:
+//!   `t_s,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps`;
+//!   optional: `yaw_rad,pitch_deg`. Other columns are ignored; a known column named twice is an
+//!   error. Names are case-sensitive.
+//! - Units and signs (the format's definition): time in s; bus voltage in V; current in A,
+//!   positive when the motor driver draws from the battery; `cmd_*_mps` the commanded linear speed
+//!   of each side in m/s, positive forward; yaw in rad, counter-clockwise (seen from above)
+//!   positive; pitch in degrees, nose-up positive.
+//! - Every row has exactly as many cells as the header. Required cells hold a finite number
+//!   (anything Rust's `f64` parser takes: `1`, `-0.5`, `1e-3`); optional cells may be empty
+//!   (→ `None`). NaN and infinities are rejected.
+//! - `t_s` strictly increases from row to row: equal timestamps are an error (the per-sample
+//!   energy integration and the segmentation need dt > 0; a repeated time is a rig's bug).
+//! - Comma-separated, RFC 4180 quoting (`"1.5"` is fine), LF or CRLF line ends, an optional UTF-8
+//!   byte-order mark, spaces and tabs around cells ignored, empty lines skipped (anywhere, so
+//!   trailing blank lines are fine). A quoted cell may span lines. There are no comment lines: a
+//!   `#` row is a row with a bad number.
+//!
+//! Errors name the 1-based line (where the row starts) and column (the cell's position in the
+//! row, with the column's name) and the reason, e.g.
+//! `line 7, column 3 (left_current_a): "abc" is not a number`.
+
+use super::{write_atomically, AtomicWriteError};
+use model_core::Sides;
+use std::fmt;
+use std::io::{self, BufRead, Write};
+use std::path::{Path, PathBuf};
+
+/// One row of a run CSV.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSample {
+    /// Time [s]; strictly increasing within a run.
+    pub t_s: f64,
+    /// Bus voltage at each motor driver [V].
+    pub bus_v: Sides<f64>,
+    /// Current into each motor driver [A], positive when drawn from the battery.
+    pub current_a: Sides<f64>,
+    /// Commanded linear speed of each side [m/s], positive forward.
+    pub cmd_mps: Sides<f64>,
+    /// Yaw [rad], counter-clockwise positive, if measured.
+    pub yaw_rad: Option<f64>,
+    /// Pitch [deg], nose-up positive, if measured.
+    pub pitch_deg: Option<f64>,
+}
+
+/// A column the run CSV defines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Column {
+    /// `t_s`
+    TimeS,
+    /// `left_bus_v`
+    LeftBusV,
+    /// `left_current_a`
+    LeftCurrentA,
+    /// `right_bus_v`
+    RightBusV,
+    /// `right_current_a`
+    RightCurrentA,
+    /// `cmd_left_mps`
+    CmdLeftMps,
+    /// `cmd_right_mps`
+    CmdRightMps,
+    /// `yaw_rad` (optional)
+    YawRad,
+    /// `pitch_deg` (optional)
+    PitchDeg,
+}
+
+impl Column {
+    /// The columns every run CSV has, in the order this tool writes them.
+    pub const REQUIRED: [Column; 7] = [
+        Column::TimeS,
+        Column::LeftBusV,
+        Column::LeftCurrentA,
+        Column::RightBusV,
+        Column::RightCurrentA,
+        Column::CmdLeftMps,
+        Column::CmdRightMps,
+    ];
+    /// The optional columns, in the order this tool writes them (after the required ones).
+    pub const OPTIONAL: [Column; 2] = [Column::YawRad, Column::PitchDeg];
+    /// All columns in the order this tool writes them.
+    pub const ALL: [Column; 9] = [
+        Column::TimeS,
+        Column::LeftBusV,
+        Column::LeftCurrentA,
+        Column::RightBusV,
+        Column::RightCurrentA,
+        Column::CmdLeftMps,
+        Column::CmdRightMps,
+        Column::YawRad,
+        Column::PitchDeg,
+    ];
+
+    /// The column's header name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Column::TimeS => "t_s",
+            Column::LeftBusV => "left_bus_v",
+            Column::LeftCurrentA => "left_current_a",
+            Column::RightBusV => "right_bus_v",
+            Column::RightCurrentA => "right_current_a",
+            Column::CmdLeftMps => "cmd_left_mps",
+            Column::CmdRightMps => "cmd_right_mps",
+            Column::YawRad => "yaw_rad",
+            Column::PitchDeg => "pitch_deg",
+        }
+    }
+
+    /// The column with this header name.
+    pub fn from_name(name: &str) -> Option<Column> {
+        Column::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    const fn index(self) -> usize {
+        self as usize
+    }
+}
+
+impl fmt::Display for Column {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Why a cell is not a valid value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellProblem {
+    /// The cell is empty in a required column.
+    Empty,
+    /// The cell does not parse as a number.
+    NotANumber,
+    /// The number is NaN or infinite.
+    NotFinite,
+    /// `t_s` is not greater than the previous row's.
+    TimeNotIncreasing,
+}
+
+/// What is wrong with a run CSV (reading), or with a sample handed to the writer (then the line
+/// is the one it would have been written at).
+#[derive(Debug, thiserror::Error)]
+pub enum RunCsvError {
+    /// Reading or writing the underlying stream failed.
+    #[error("{0}")]
+    Io(#[from] io::Error),
+    /// The input has no header row (it is empty or blank).
+    #[error("line 1: no header row (the file is empty)")]
+    NoHeader,
+    /// A required column is absent from the header.
+    #[error("line {line}: missing required column `{column}` in the header")]
+    MissingColumn {
+        /// The header's line.
+        line: u64,
+        /// The absent column.
+        column: Column,
+    },
+    /// A known column appears twice in the header.
+    #[error(
+        "line {line}: column `{column}` appears twice in the header (columns {first} and {second})"
+    )]
+    DuplicateColumn {
+        /// The header's line.
+        line: u64,
+        /// The repeated column.
+        column: Column,
+        /// 1-based position of its first occurrence.
+        first: usize,
+        /// 1-based position of its second occurrence.
+        second: usize,
+    },
+    /// A row has a different number of cells than the header.
+    #[error("line {line}: row has {found} cells, the header has {expected}")]
+    CellCount {
+        /// The row's line.
+        line: u64,
+        /// Cells in the row.
+        found: usize,
+        /// Cells in the header.
+        expected: usize,
+    },
+    /// A cell holds no valid value.
+    #[error("line {line}, column {column} ({name}): {}", describe(*.problem, .value, *.previous_t_s))]
+    Cell {
+        /// The row's line.
+        line: u64,
+        /// 1-based position of the cell in its row.
+        column: usize,
+        /// The cell's column.
+        name: Column,
+        /// The cell's text (cut after 40 characters).
+        value: String,
+        /// What is wrong.
+        problem: CellProblem,
+        /// For [`CellProblem::TimeNotIncreasing`], the previous row's time.
+        previous_t_s: Option<f64>,
+    },
+    /// The text is not well-formed CSV (quoting).
+    #[error("line {line}, column {column}: {problem}")]
+    Syntax {
+        /// The line where the problem is.
+        line: u64,
+        /// 1-based cell position in the row.
+        column: usize,
+        /// What is wrong.
+        problem: &'static str,
+    },
+}
+
+fn describe(problem: CellProblem, value: &str, previous_t_s: Option<f64>) -> String {
+    match problem {
+        CellProblem::Empty => "empty cell in a required column".into(),
+        CellProblem::NotANumber => format!("{value:?} is not a number"),
+        CellProblem::NotFinite => format!("{value:?} is not a finite number"),
+        CellProblem::TimeNotIncreasing => match previous_t_s {
+            Some(prev) => format!("time {value} is not after the previous row's {prev}"),
+            None => format!("time {value} is not increasing"),
+        },
+    }
+}
+
+fn cut(text: &str) -> String {
+    const MAX: usize = 40;
+    match text.char_indices().nth(MAX) {
+        Some((i, _)) => format!("{}…", &text[..i]),
+        None => text.to_owned(),
+    }
+}
+
+/// Streaming reader of a run CSV: an iterator of samples. Stops after the first error.
+#[derive(Debug)]
+pub struct RunCsvReader<R> {
+    records: Records<R>,
+    /// Cell position of each column (`None`: an optional column that is absent).
+    positions: [Option<usize>; 9],
+    cells: usize,
+    previous_t_s: Option<f64>,
+    done: bool,
+}
+
+impl<R: BufRead> RunCsvReader<R> {
+    /// Reads the header row from `input` (any buffered reader: a `BufReader<File>`, `&[u8]`, ...).
+    pub fn new(input: R) -> Result<Self, RunCsvError> {
+        let mut records = Records::new(input);
+        let Some(line) = records.next_record()? else {
+            return Err(RunCsvError::NoHeader);
+        };
+        let mut positions = [None; 9];
+        for i in 0..records.len() {
+            let Some(column) = std::str::from_utf8(records.cell(i))
+                .ok()
+                .and_then(Column::from_name)
+            else {
+                continue;
+            };
+            if let Some(first) = positions[column.index()] {
+                return Err(RunCsvError::DuplicateColumn {
+                    line,
+                    column,
+                    first: first + 1,
+                    second: i + 1,
+                });
+            }
+            positions[column.index()] = Some(i);
+        }
+        if let Some(&column) = Column::REQUIRED
+            .iter()
+            .find(|c| positions[c.index()].is_none())
+        {
+            return Err(RunCsvError::MissingColumn { line, column });
+        }
+        Ok(Self {
+            cells: records.len(),
+            records,
+            positions,
+            previous_t_s: None,
+            done: false,
+        })
+    }
+
+    /// Whether the file has a `yaw_rad` column.
+    pub fn has_yaw(&self) -> bool {
+        self.positions[Column::YawRad.index()].is_some()
+    }
+
+    /// Whether the file has a `pitch_deg` column.
+    pub fn has_pitch(&self) -> bool {
+        self.positions[Column::PitchDeg.index()].is_some()
+    }
+
+    fn next_sample(&mut self) -> Result<Option<RunSample>, RunCsvError> {
+        let Some(line) = self.records.next_record()? else {
+            return Ok(None);
+        };
+        if self.records.len() != self.cells {
+            return Err(RunCsvError::CellCount {
+                line,
+                found: self.records.len(),
+                expected: self.cells,
+            });
+        }
+        let record = &self.records;
+        let cell = |column: Column| -> Result<Option<f64>, RunCsvError> {
+            let Some(i) = self.positions[column.index()] else {
+                return Ok(None);
+            };
+            let bytes = record.cell(i);
+            let err = |problem| RunCsvError::Cell {
+                line,
+                column: i + 1,
+                name: column,
+                value: cut(&String::from_utf8_lossy(bytes)),
+                problem,
+                previous_t_s: None,
+            };
+            if bytes.is_empty() {
+                return if Column::OPTIONAL.contains(&column) {
+                    Ok(None)
+                } else {
+                    Err(err(CellProblem::Empty))
+                };
+            }
+            let value: f64 = std::str::from_utf8(bytes)
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .ok_or_else(|| err(CellProblem::NotANumber))?;
+            if value.is_finite() {
+                Ok(Some(value))
+            } else {
+                Err(err(CellProblem::NotFinite))
+            }
+        };
+        let required = |column| cell(column).map(|v| v.unwrap_or_default());
+        let t_s = required(Column::TimeS)?;
+        let sample = RunSample {
+            t_s,
+            bus_v: Sides::new(required(Column::LeftBusV)?, required(Column::RightBusV)?),
+            current_a: Sides::new(
+                required(Column::LeftCurrentA)?,
+                required(Column::RightCurrentA)?,
+            ),
+            cmd_mps: Sides::new(
+                required(Column::CmdLeftMps)?,
+                required(Column::CmdRightMps)?,
+            ),
+            yaw_rad: cell(Column::YawRad)?,
+            pitch_deg: cell(Column::PitchDeg)?,
+        };
+        if let Some(prev) = self.previous_t_s {
+            if t_s <= prev {
+                let i = self.positions[Column::TimeS.index()].unwrap_or_default();
+                return Err(RunCsvError::Cell {
+                    line,
+                    column: i + 1,
+                    name: Column::TimeS,
+                    value: cut(&String::from_utf8_lossy(record.cell(i))),
+                    problem: CellProblem::TimeNotIncreasing,
+                    previous_t_s: Some(prev),
+                });
+            }
+        }
+        self.previous_t_s = Some(t_s);
+        Ok(Some(sample))
+    }
+}
+
+impl<R: BufRead> Iterator for RunCsvReader<R> {
+    type Item = Result<RunSample, RunCsvError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        match self.next_sample() {
+            Ok(Some(sample)) => Some(Ok(sample)),
+            Ok(None) => {
+                self.done = true;
+                None
+            }
+            Err(e) => {
+                self.done = true;
+                Some(Err(e))
+            }
+        }
+    }
+}
+
+/// The CSV layer: splits the input into records of cells, tracking physical line numbers.
+#[derive(Debug)]
+struct Records<R> {
+    input: R,
+    /// Physical lines read so far (= the 1-based number of the line in `line`).
+    line_no: u64,
+    /// The current physical line without its LF / CRLF.
+    line: Vec<u8>,
+    /// The current record's cells, concatenated; `ends[i]` is where cell `i` ends.
+    data: Vec<u8>,
+    ends: Vec<usize>,
+}
+
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
+fn is_blank(b: u8) -> bool {
+    b == b' ' || b == b'\t'
+}
+
+impl<R: BufRead> Records<R> {
+    fn new(input: R) -> Self {
+        Self {
+            input,
+            line_no: 0,
+            line: Vec::new(),
+            data: Vec::new(),
+            ends: Vec::new(),
+        }
+    }
+
+    /// Cells in the current record.
+    fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    /// Cell `i` of the current record (empty if there is no such cell).
+    fn cell(&self, i: usize) -> &[u8] {
+        let start = if i == 0 {
+            0
+        } else {
+            self.ends.get(i - 1).copied().unwrap_or(0)
+        };
+        let end = self.ends.get(i).copied().unwrap_or(start);
+        self.data.get(start..end).unwrap_or_default()
+    }
+
+    /// Reads the next physical line into `line`; false at the end of the input.
+    fn read_line(&mut self) -> io::Result<bool> {
+        self.line.clear();
+        if self.input.read_until(b'\n', &mut self.line)? == 0 {
+            return Ok(false);
+        }
+        self.line_no += 1;
+        if self.line.last() == Some(&b'\n') {
+            self.line.pop();
+            if self.line.last() == Some(&b'\r') {
+                self.line.pop();
+            }
+        }
+        if self.line_no == 1 && self.line.starts_with(UTF8_BOM) {
+            self.line.drain(..UTF8_BOM.len());
+        }
+        Ok(true)
+    }
+
+    /// Reads the next record (skipping blank lines); returns the line it starts on.
+    fn next_record(&mut self) -> Result<Option<u64>, RunCsvError> {
+        loop {
+            if !self.read_line()? {
+                return Ok(None);
+            }
+            if !self.line.is_empty() {
+                break;
+            }
+        }
+        let start_line = self.line_no;
+        self.data.clear();
+        self.ends.clear();
+        let mut pos = 0;
+        loop {
+            while self.line.get(pos).copied().is_some_and(is_blank) {
+                pos += 1;
+            }
+            let column = self.ends.len() + 1;
+            if self.line.get(pos) == Some(&b'"') {
+                // Quoted cell: `""` is a quote; it may span lines.
+                let open_line = self.line_no;
+                pos += 1;
+                loop {
+                    let rest = self.line.get(pos..).unwrap_or_default();
+                    match rest.iter().position(|&b| b == b'"') {
+                        Some(q) => {
+                            self.data.extend_from_slice(&rest[..q]);
+                            if rest.get(q + 1) == Some(&b'"') {
+                                self.data.push(b'"');
+                                pos += q + 2;
+                            } else {
+                                pos += q + 1;
+                                break;
+                            }
+                        }
+                        None => {
+                            self.data.extend_from_slice(rest);
+                            self.data.push(b'\n');
+                            if !self.read_line()? {
+                                return Err(RunCsvError::Syntax {
+                                    line: open_line,
+                                    column,
+                                    problem: "quoted cell is never closed",
+                                });
+                            }
+                            pos = 0;
+                        }
+                    }
+                }
+                while self.line.get(pos).copied().is_some_and(is_blank) {
+                    pos += 1;
+                }
+                self.ends.push(self.data.len());
+                match self.line.get(pos) {
+                    None => return Ok(Some(start_line)),
+                    Some(b',') => pos += 1,
+                    Some(_) => {
+                        return Err(RunCsvError::Syntax {
+                            line: self.line_no,
+                            column,
+                            problem: "text after the closing quote of a cell",
+                        })
+                    }
+                }
+            } else {
+                let rest = self.line.get(pos..).unwrap_or_default();
+                let end = rest.iter().position(|&b| b == b',');
+                let mut cell = &rest[..end.unwrap_or(rest.len())];
+                while let Some((&last, init)) = cell.split_last() {
+                    if !is_blank(last) {
+                        break;
+                    }
+                    cell = init;
+                }
+                self.data.extend_from_slice(cell);
+                self.ends.push(self.data.len());
+                match end {
+                    None => return Ok(Some(start_line)),
+                    Some(e) => pos += e + 1,
+                }
+            }
+        }
+    }
+}
+
+/// Writes a run CSV: the header with all nine columns, then one row per sample; `None` is an
+/// empty cell. Numbers are written with `f64`'s shortest round-trip representation, so reading
+/// the file back gives the same values bit for bit.
+#[derive(Debug)]
+pub struct RunCsvWriter<W: Write> {
+    out: W,
+    rows: u64,
+    previous_t_s: Option<f64>,
+}
+
+impl<W: Write> RunCsvWriter<W> {
+    /// Writes the header row.
+    pub fn new(mut out: W) -> Result<Self, RunCsvError> {
+        let names: Vec<&str> = Column::ALL.iter().map(|c| c.name()).collect();
+        writeln!(out, "{}", names.join(","))?;
+        Ok(Self {
+            out,
+            rows: 0,
+            previous_t_s: None,
+        })
+    }
+
+    /// Writes one row. A sample the reader would reject (a non-finite value, a time not after the
+    /// previous row's) is refused with the error the reader would give, and nothing is written.
+    pub fn write(&mut self, sample: &RunSample) -> Result<(), RunCsvError> {
+        let line = self.rows + 2;
+        let values = [
+            Some(sample.t_s),
+            Some(sample.bus_v.left),
+            Some(sample.current_a.left),
+            Some(sample.bus_v.right),
+            Some(sample.current_a.right),
+            Some(sample.cmd_mps.left),
+            Some(sample.cmd_mps.right),
+            sample.yaw_rad,
+            sample.pitch_deg,
+        ];
+        for (i, (column, value)) in Column::ALL.iter().zip(values).enumerate() {
+            if let Some(v) = value {
+                let previous_t_s = self.previous_t_s.filter(|_| *column == Column::TimeS);
+                let problem = if !v.is_finite() {
+                    Some(CellProblem::NotFinite)
+                } else if previous_t_s.is_some_and(|prev| v <= prev) {
+                    Some(CellProblem::TimeNotIncreasing)
+                } else {
+                    None
+                };
+                if let Some(problem) = problem {
+                    return Err(RunCsvError::Cell {
+                        line,
+                        column: i + 1,
+                        name: *column,
+                        value: v.to_string(),
+                        problem,
+                        previous_t_s,
+                    });
+                }
+            }
+        }
+        for (i, value) in values.iter().enumerate() {
+            if i > 0 {
+                self.out.write_all(b",")?;
+            }
+            if let Some(v) = value {
+                write!(self.out, "{v}")?;
+            }
+        }
+        self.out.write_all(b"\n")?;
+        self.rows += 1;
+        self.previous_t_s = Some(sample.t_s);
+        Ok(())
+    }
+
+    /// Rows written so far.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// Flushes and returns the underlying writer.
+    pub fn into_inner(mut self) -> Result<W, RunCsvError> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+/// A run CSV file that could not be read or written; names the file.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {source}", path.display())]
+pub struct RunCsvFileError {
+    /// The file.
+    pub path: PathBuf,
+    /// What went wrong.
+    #[source]
+    pub source: RunCsvError,
+}
+
+impl RunCsvFileError {
+    fn new(path: &Path, source: impl Into<RunCsvError>) -> Self {
+        Self {
+            path: path.to_owned(),
+            source: source.into(),
+        }
+    }
+}
+
+/// Reads a whole run CSV file.
+pub fn read_run_csv(path: &Path) -> Result<Vec<RunSample>, RunCsvFileError> {
+    let file = std::fs::File::open(path).map_err(|e| RunCsvFileError::new(path, e))?;
+    RunCsvReader::new(io::BufReader::new(file))
+        .map_err(|e| RunCsvFileError::new(path, e))?
+        .collect::<Result<_, _>>()
+        .map_err(|e| RunCsvFileError::new(path, e))
+}
+
+/// Writes `samples` to a run CSV at `path`, all or nothing (see [`write_atomically`]): if any
+/// sample is refused or any write fails, `path` is not created (or keeps its previous content).
+/// Returns the number of rows written.
+pub fn write_run_csv_atomically<'a>(
+    path: &Path,
+    samples: impl IntoIterator<Item = &'a RunSample>,
+) -> Result<u64, RunCsvFileError> {
+    try_write_run_csv_atomically(path, samples.into_iter().map(|s| Ok(*s)))
+}
+
+/// Like [`write_run_csv_atomically`] for samples that may fail on the way (e.g. a reader): the
+/// first `Err` aborts the write, nothing is left at `path`, and the error is returned as is
+/// (so it names the input file, not the output).
+pub fn try_write_run_csv_atomically(
+    path: &Path,
+    samples: impl IntoIterator<Item = Result<RunSample, RunCsvFileError>>,
+) -> Result<u64, RunCsvFileError> {
+    let written = write_atomically(path, |out| {
+        let mut writer = RunCsvWriter::new(out).map_err(|e| RunCsvFileError::new(path, e))?;
+        for sample in samples {
+            writer
+                .write(&sample?)
+                .map_err(|e| RunCsvFileError::new(path, e))?;
+        }
+        let rows = writer.rows();
+        writer
+            .into_inner()
+            .map_err(|e| RunCsvFileError::new(path, e))?;
+        Ok(rows)
+    });
+    written.map_err(|e| match e {
+        AtomicWriteError::Io { path, source } => RunCsvFileError::new(&path, source),
+        AtomicWriteError::Content(e) => e,
+    })
+}
+
+/// Rewrites the run CSV `input` as a canonical run CSV at `output` (this tool's column order,
+/// extra columns dropped, shortest round-trip numbers). Nothing is created at `output` unless all
+/// of `input` is valid. Returns the number of rows.
+pub fn normalize_run_csv(input: &Path, output: &Path) -> Result<u64, RunCsvFileError> {
+    let file = std::fs::File::open(input).map_err(|e| RunCsvFileError::new(input, e))?;
+    let reader =
+        RunCsvReader::new(io::BufReader::new(file)).map_err(|e| RunCsvFileError::new(input, e))?;
+    try_write_run_csv_atomically(
+        output,
+        reader.map(|r| r.map_err(|e| RunCsvFileError::new(input, e))),
+    )
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,500 @@
+use super::*;
+use crate::log::tests_support::TempDir;
+use proptest::prelude::*;
+
+const HEADER: &str =
+    "t_s,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps";
+
+fn read_all(text: &[u8]) -> Result<Vec<RunSample>, RunCsvError> {
+    RunCsvReader::new(text)?.collect()
+}
+
+fn error_of(text: &str) -> String {
+    match read_all(text.as_bytes()) {
+        Ok(samples) => panic!("accepted: {samples:?}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn sample(t_s: f64) -> RunSample {
+    RunSample {
+        t_s,
+        bus_v: Sides::new(24.1, 24.0),
+        current_a: Sides::new(3.5, -0.25),
+        cmd_mps: Sides::new(0.1, 0.5),
+        yaw_rad: None,
+        pitch_deg: None,
+    }
+}
+
+fn to_csv(samples: &[RunSample]) -> Vec<u8> {
+    let mut w = RunCsvWriter::new(Vec::new()).expect("header");
+    for s in samples {
+        w.write(s).expect("valid sample");
+    }
+    w.into_inner().expect("flush")
+}
+
+#[test]
+fn writer_output_is_the_documented_layout() {
+    let mut s = sample(0.005);
+    s.yaw_rad = Some(-0.5);
+    let text = String::from_utf8(to_csv(&[sample(0.0), s])).expect("utf8");
+    assert_eq!(
+        text,
+        format!(
+            "{HEADER},yaw_rad,pitch_deg\n\
+             0,24.1,3.5,24,-0.25,0.1,0.5,,\n\
+             0.005,24.1,3.5,24,-0.25,0.1,0.5,-0.5,\n"
+        )
+    );
+}
+
+#[test]
+fn required_columns_only_gives_no_yaw_or_pitch() {
+    let text = format!("{HEADER}\n0,24,1,24.5,2,0.1,0.2\n0.01,24,1.5,24.5,2.5,0.1,0.2\n");
+    let reader = RunCsvReader::new(text.as_bytes()).expect("header");
+    assert!(!reader.has_yaw() && !reader.has_pitch());
+    let samples: Vec<_> = reader.collect::<Result<_, _>>().expect("valid");
+    assert_eq!(samples.len(), 2);
+    assert_eq!(samples[1].current_a, Sides::new(1.5, 2.5));
+    assert_eq!(samples[1].bus_v, Sides::new(24.0, 24.5));
+    assert_eq!(samples[1].cmd_mps, Sides::new(0.1, 0.2));
+    assert!(samples
+        .iter()
+        .all(|s| s.yaw_rad.is_none() && s.pitch_deg.is_none()));
+}
+
+#[test]
+fn optional_columns_may_be_empty_per_row() {
+    let text = format!(
+        "pitch_deg,{HEADER},yaw_rad\n\
+         1.5,0,24,1,24,2,0.1,0.2,0.25\n\
+         ,1,24,1,24,2,0.1,0.2,\n\
+         -2,2,24,1,24,2,0.1,0.2,\n"
+    );
+    let reader = RunCsvReader::new(text.as_bytes()).expect("header");
+    assert!(reader.has_yaw() && reader.has_pitch());
+    let samples: Vec<_> = reader.collect::<Result<_, _>>().expect("valid");
+    let got: Vec<_> = samples.iter().map(|s| (s.yaw_rad, s.pitch_deg)).collect();
+    assert_eq!(
+        got,
+        [(Some(0.25), Some(1.5)), (None, None), (None, Some(-2.0))]
+    );
+}
+
+#[test]
+fn extra_columns_are_ignored_whatever_they_hold() {
+    let text = "note,t_s,left_bus_v,x,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps,note\n\
+                hello,0,24,,1,24,2,0.1,0.2,\"a, quoted\"\n";
+    let samples = read_all(text.as_bytes()).expect("valid");
+    assert_eq!(samples.len(), 1);
+    assert_eq!(samples[0].current_a, Sides::new(1.0, 2.0));
+}
+
+#[test]
+fn bom_crlf_quotes_spaces_and_trailing_blank_lines() {
+    let text = format!(
+        "\u{feff}{HEADER},yaw_rad\r\n\
+         0, 24 ,\"1\",24,2,0.1,0.2,0.5\r\n\
+         \"0.5\",24,1,24,2,0.1,0.2,\"\"\r\n\
+         \r\n\r\n"
+    );
+    let samples = read_all(text.as_bytes()).expect("valid");
+    assert_eq!(samples.len(), 2);
+    assert_eq!(samples[0].bus_v.left, 24.0);
+    assert_eq!(samples[0].yaw_rad, Some(0.5));
+    assert_eq!(samples[1].t_s, 0.5);
+    assert_eq!(samples[1].yaw_rad, None);
+}
+
+#[test]
+fn bom_crlf_error_lines_are_right() {
+    let text = format!("\u{feff}{HEADER}\r\n0,24,1,24,2,0.1,0.2\r\n1,24,1,24,abc,0.1,0.2\r\n");
+    assert_eq!(
+        error_of(&text),
+        "line 3, column 5 (right_current_a): \"abc\" is not a number"
+    );
+}
+
+#[test]
+fn no_header() {
+    for text in ["", "\u{feff}", "\n\n", "\u{feff}\r\n\r\n"] {
+        let e = read_all(text.as_bytes()).expect_err("empty");
+        assert!(matches!(e, RunCsvError::NoHeader), "{text:?}: {e:?}");
+    }
+}
+
+#[test]
+fn missing_required_column_names_it_and_the_header_line() {
+    let header = HEADER.replace(",cmd_left_mps", "");
+    assert_eq!(
+        error_of(&format!("{header}\n")),
+        "line 1: missing required column `cmd_left_mps` in the header"
+    );
+    // A misspelt name is an extra column, so the real one is missing.
+    let header = HEADER.replace("t_s", "time_s");
+    assert_eq!(
+        error_of(&format!("\n{header}\n")),
+        "line 2: missing required column `t_s` in the header"
+    );
+}
+
+#[test]
+fn duplicate_known_column() {
+    assert_eq!(
+        error_of(&format!("{HEADER},left_bus_v\n")),
+        "line 1: column `left_bus_v` appears twice in the header (columns 2 and 8)"
+    );
+}
+
+#[test]
+fn unparsable_number() {
+    let text = format!("{HEADER}\n0,24,1,24,2,0.1,0.2\n0.1,24,abc,24,2,0.1,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 3, column 3 (left_current_a): \"abc\" is not a number"
+    );
+}
+
+#[test]
+fn empty_required_cell() {
+    let text = format!("{HEADER}\n0,24,1,24,2,,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 2, column 6 (cmd_left_mps): empty cell in a required column"
+    );
+}
+
+#[test]
+fn nan_and_infinities() {
+    for (cell, shown) in [
+        ("NaN", "\"NaN\""),
+        ("inf", "\"inf\""),
+        ("-infinity", "\"-infinity\""),
+        ("1e999", "\"1e999\""),
+    ] {
+        let text = format!("{HEADER},yaw_rad\n0,24,1,24,2,0.1,0.2,{cell}\n");
+        assert_eq!(
+            error_of(&text),
+            format!("line 2, column 8 (yaw_rad): {shown} is not a finite number")
+        );
+    }
+}
+
+#[test]
+fn time_must_strictly_increase() {
+    let text = format!("{HEADER}\n0.5,24,1,24,2,0.1,0.2\n0.25,24,1,24,2,0.1,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 3, column 1 (t_s): time 0.25 is not after the previous row's 0.5"
+    );
+    let text = format!("{HEADER}\n0.5,24,1,24,2,0.1,0.2\n0.5,24,1,24,2,0.1,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 3, column 1 (t_s): time 0.5 is not after the previous row's 0.5"
+    );
+}
+
+#[test]
+fn rows_with_too_few_or_too_many_cells() {
+    let text = format!("{HEADER}\n0,24,1,24,2,0.1\n");
+    assert_eq!(error_of(&text), "line 2: row has 6 cells, the header has 7");
+    let text = format!("{HEADER}\n0,24,1,24,2,0.1,0.2,9\n");
+    assert_eq!(error_of(&text), "line 2: row has 8 cells, the header has 7");
+}
+
+#[test]
+fn comment_lines_are_not_allowed() {
+    let text = format!("{HEADER}\n# recorded on the Husky,24,1,24,2,0.1,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 2, column 1 (t_s): \"# recorded on the Husky\" is not a number"
+    );
+}
+
+#[test]
+fn line_numbers_count_newlines_inside_quotes_and_blank_lines() {
+    let text =
+        format!("{HEADER},note\n0,24,1,24,2,0.1,0.2,\"two\nlines\"\n\n1,24,1,24,2,0.1,zz,\n");
+    assert_eq!(
+        error_of(&text),
+        "line 5, column 7 (cmd_right_mps): \"zz\" is not a number"
+    );
+}
+
+#[test]
+fn long_bad_cells_are_cut_in_the_message() {
+    let long = "x".repeat(100);
+    let text = format!("{HEADER}\n{long},24,1,24,2,0.1,0.2\n");
+    let msg = error_of(&text);
+    assert!(msg.len() < 100, "{msg}");
+    assert!(msg.contains(&format!("\"{}…\"", "x".repeat(40))), "{msg}");
+}
+
+#[test]
+fn reader_stops_after_an_error() {
+    let text = format!("{HEADER}\n0,24,1,24,2,0.1,x\n1,24,1,24,2,0.1,0.2\n");
+    let mut reader = RunCsvReader::new(text.as_bytes()).expect("header");
+    assert!(matches!(reader.next(), Some(Err(_))));
+    assert!(reader.next().is_none());
+}
+
+#[test]
+fn writer_refuses_what_the_reader_would_reject() {
+    let mut w = RunCsvWriter::new(Vec::new()).expect("header");
+    w.write(&sample(1.0)).expect("first");
+    let e = w.write(&sample(1.0)).expect_err("same time");
+    assert_eq!(
+        e.to_string(),
+        "line 3, column 1 (t_s): time 1 is not after the previous row's 1"
+    );
+    let mut bad = sample(2.0);
+    bad.pitch_deg = Some(f64::NAN);
+    let e = w.write(&bad).expect_err("NaN");
+    assert_eq!(
+        e.to_string(),
+        "line 3, column 9 (pitch_deg): \"NaN\" is not a finite number"
+    );
+    assert_eq!(w.rows(), 1);
+    let text = w.into_inner().expect("flush");
+    assert_eq!(read_all(&text).expect("still valid"), [sample(1.0)]);
+}
+
+/// `n` valid rows whose `bad_row` (1-based data row) has an unparsable current.
+fn csv_with_bad_row(n: usize, bad_row: usize) -> String {
+    let mut text = format!("{HEADER}\n");
+    for i in 1..=n {
+        let current = if i == bad_row { "abc" } else { "1.25" };
+        text.push_str(&format!("{},24,{current},24,2,0.1,0.2\n", i as f64 * 0.005));
+    }
+    text
+}
+
+#[test]
+fn malformed_last_row_creates_no_output() {
+    let dir = TempDir::new("run-csv-bad");
+    let input = dir.path().join("in.csv");
+    let output = dir.path().join("out.csv");
+    std::fs::write(&input, csv_with_bad_row(1000, 1000)).expect("write input");
+    let e = normalize_run_csv(&input, &output).expect_err("malformed");
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "{}: line 1001, column 3 (left_current_a): \"abc\" is not a number",
+            input.display()
+        )
+    );
+    assert!(!output.exists());
+    assert_eq!(dir.entries(), ["in.csv"], "no temporary file left behind");
+
+    // An existing output keeps its content.
+    std::fs::write(&output, b"previous").expect("write");
+    normalize_run_csv(&input, &output).expect_err("malformed");
+    assert_eq!(std::fs::read(&output).expect("read"), b"previous");
+    assert_eq!(dir.entries(), ["in.csv", "out.csv"]);
+}
+
+#[test]
+fn normalize_reorders_and_drops_extra_columns() {
+    let dir = TempDir::new("run-csv-norm");
+    let input = dir.path().join("in.csv");
+    let output = dir.path().join("out.csv");
+    let text = "\u{feff}cmd_right_mps,extra,right_current_a,right_bus_v,cmd_left_mps,left_current_a,left_bus_v,t_s\r\n\
+                0.2,x,2,24.5,0.1,1,24,0\r\n\
+                0.2,y,2.5,24.5,0.1,1.5,24,0.005\r\n";
+    std::fs::write(&input, text).expect("write");
+    assert_eq!(normalize_run_csv(&input, &output).expect("valid"), 2);
+    assert_eq!(
+        std::fs::read_to_string(&output).expect("read"),
+        format!(
+            "{HEADER},yaw_rad,pitch_deg\n\
+             0,24,1,24.5,2,0.1,0.2,,\n\
+             0.005,24,1.5,24.5,2.5,0.1,0.2,,\n"
+        )
+    );
+    assert_eq!(
+        read_run_csv(&output).expect("readable"),
+        read_run_csv(&input).expect("same")
+    );
+}
+
+#[test]
+fn write_atomically_then_read_back() {
+    let dir = TempDir::new("run-csv-write");
+    let path = dir.path().join("run.csv");
+    let samples: Vec<_> = (0..100).map(|i| sample(f64::from(i) * 0.005)).collect();
+    assert_eq!(
+        write_run_csv_atomically(&path, &samples).expect("written"),
+        100
+    );
+    assert_eq!(read_run_csv(&path).expect("read"), samples);
+
+    let mut bad = samples.clone();
+    bad[99].t_s = 0.0;
+    let e = write_run_csv_atomically(&path, &bad).expect_err("time goes back");
+    assert!(e.to_string().contains("line 101, column 1 (t_s)"), "{e}");
+    assert_eq!(read_run_csv(&path).expect("old file intact"), samples);
+    assert_eq!(dir.entries(), ["run.csv"]);
+}
+
+#[test]
+fn missing_input_names_the_file() {
+    let e = read_run_csv(Path::new("/nonexistent/run.csv")).expect_err("missing");
+    assert!(e.to_string().starts_with("/nonexistent/run.csv: "), "{e}");
+}
+
+fn finite() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        any::<f64>().prop_filter("finite", |x| x.is_finite()),
+        -1e3..1e3f64,
+        Just(0.0),
+        Just(-0.0),
+    ]
+}
+
+fn samples() -> impl Strategy<Value = Vec<RunSample>> {
+    let row = (
+        1e-9..10.0f64,
+        [finite(), finite(), finite(), finite(), finite(), finite()],
+        proptest::option::of(finite()),
+        proptest::option::of(finite()),
+    );
+    (-1e6..1e6f64, proptest::collection::vec(row, 0..40)).prop_map(|(t0, rows)| {
+        let mut t = t0;
+        let mut out = Vec::new();
+        for (dt, [lv, la, rv, ra, cl, cr], yaw_rad, pitch_deg) in rows {
+            let next = t + dt;
+            if next <= t {
+                continue; // dt lost to rounding at this magnitude
+            }
+            t = next;
+            out.push(RunSample {
+                t_s: t,
+                bus_v: Sides::new(lv, rv),
+                current_a: Sides::new(la, ra),
+                cmd_mps: Sides::new(cl, cr),
+                yaw_rad,
+                pitch_deg,
+            });
+        }
+        out
+    })
+}
+
+fn same_bits(a: &RunSample, b: &RunSample) -> bool {
+    let bits = |s: &RunSample| {
+        [
+            s.t_s,
+            s.bus_v.left,
+            s.bus_v.right,
+            s.current_a.left,
+            s.current_a.right,
+            s.cmd_mps.left,
+            s.cmd_mps.right,
+        ]
+        .map(f64::to_bits)
+    };
+    bits(a) == bits(b)
+        && a.yaw_rad.map(f64::to_bits) == b.yaw_rad.map(f64::to_bits)
+        && a.pitch_deg.map(f64::to_bits) == b.pitch_deg.map(f64::to_bits)
+}
+
+proptest! {
+    #[test]
+    fn round_trip_is_exact(samples in samples()) {
+        let text = to_csv(&samples);
+        let back = read_all(&text).expect("own output reads back");
+        prop_assert_eq!(back.len(), samples.len());
+        for (a, b) in samples.iter().zip(&back) {
+            prop_assert!(same_bits(a, b), "{:?} != {:?}", a, b);
+        }
+    }
+
+    #[test]
+    fn any_column_order_with_extras_reads_the_same(
+        order in Just((0..9usize).collect::<Vec<_>>()).prop_shuffle(),
+        extras in proptest::collection::vec(0..10usize, 0..3),
+        samples in samples(),
+    ) {
+        // Canonical text → cells per row → permuted columns with extra columns spliced in.
+        let canonical = String::from_utf8(to_csv(&samples)).expect("utf8");
+        let mut text = String::new();
+        for (n, line) in canonical.lines().enumerate() {
+            let cells: Vec<&str> = line.split(',').collect();
+            let mut row: Vec<String> = order.iter().map(|&i| cells[i].to_owned()).collect();
+            for (k, &at) in extras.iter().enumerate() {
+                let at = at.min(row.len());
+                row.insert(at, if n == 0 { format!("extra{k}") } else { format!("\"junk,{k}\"") });
+            }
+            text.push_str(&row.join(","));
+            text.push_str("\r\n");
+        }
+        let back = read_all(text.as_bytes()).expect("permuted reads");
+        prop_assert_eq!(back, samples);
+    }
+
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+        if let Ok(reader) = RunCsvReader::new(&bytes[..]) {
+            for _ in reader {}
+        }
+    }
+
+    #[test]
+    fn arbitrary_rows_under_a_valid_header_never_panic(
+        tail in proptest::collection::vec(
+            prop_oneof![
+                Just(b','), Just(b'\n'), Just(b'\r'), Just(b'"'), Just(b'1'), Just(b'.'),
+                Just(b'e'), Just(b'-'), Just(b' '), any::<u8>(),
+            ],
+            0..2000,
+        )
+    ) {
+        let mut bytes = format!("{HEADER},yaw_rad\n").into_bytes();
+        bytes.extend_from_slice(&tail);
+        let reader = RunCsvReader::new(&bytes[..]).expect("valid header");
+        for _ in reader {}
+    }
+}
+
+#[test]
+fn quoting_errors_have_line_and_column() {
+    let text = format!("{HEADER}\n0,24,1,24,\"2\"x,0.1,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 2, column 5: text after the closing quote of a cell"
+    );
+    let text = format!("{HEADER}\n0,24,1,24,2,0.1,0.2\n1,24,\"1\n,24,2,0.1,0.2\n");
+    assert_eq!(
+        error_of(&text),
+        "line 3, column 3: quoted cell is never closed"
+    );
+}
+
+#[test]
+fn doubled_quotes_inside_a_quoted_extra_cell() {
+    let text = format!("{HEADER},note\n0,24,1,24,2,0.1,0.2,\"say \"\"hi\"\", twice\"\n");
+    assert_eq!(read_all(text.as_bytes()).expect("valid").len(), 1);
+}
+
+/// The fenced block of `lang` in the README.
+fn readme_block(lang: &str) -> &'static str {
+    let readme = include_str!("../../../../README.md");
+    let start = readme
+        .find(&format!("```{lang}\n"))
+        .map(|i| i + lang.len() + 4)
+        .expect("block in README");
+    let len = readme[start..].find("```").expect("closed block");
+    &readme[start..start + len]
+}
+
+#[test]
+fn readme_examples_are_valid() {
+    let samples = read_all(readme_block("csv").as_bytes()).expect("README CSV");
+    assert_eq!(samples.len(), 3);
+    assert_eq!(samples[2].yaw_rad, None);
+    assert_eq!(samples[1].current_a, Sides::new(1.18, 5.91));
+    let rover = crate::rover::parse_rover(readme_block("toml")).expect("README TOML");
+    assert_eq!(rover, model_core::Rover::HUSKY_A200);
+}

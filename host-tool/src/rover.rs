@@ -1,0 +1,251 @@
+//! Rover TOML: the geometry file a user brings with their runs (`rovers/husky-a200.toml`).
+//!
+//! A flat table of exactly five numbers, all required, all finite and > 0:
+//!
+//! ```toml
+//! track_width_m = 0.545   # B [m]
+//! length_m = 0.52         # L [m]
+//! wheel_radius_m = 0.165  # r [m]
+//! mass_kg = 63.0          # m [kg]
+//! slip_track_m = 1.1      # B_s, the controller's slip track [m]
+//! ```
+//!
+//! Integers are accepted for any key (`mass_kg = 63`). Any other key is an error, so that a typo
+//! (`slip_trak_m`) cannot silently leave a value out.
+
+use model_core::Rover;
+use std::path::{Path, PathBuf};
+
+/// The keys of a rover TOML, in the order of [`Rover`]'s fields.
+pub const ROVER_KEYS: [&str; 5] = [
+    "track_width_m",
+    "length_m",
+    "wheel_radius_m",
+    "mass_kg",
+    "slip_track_m",
+];
+
+/// What is wrong with the text of a rover TOML.
+#[derive(Debug, thiserror::Error)]
+pub enum RoverTomlError {
+    /// The text is not TOML at all (the message carries the line and column).
+    #[error("not valid TOML: {0}")]
+    Syntax(#[source] Box<toml::de::Error>),
+    /// A key that a rover file does not have (usually a typo).
+    #[error("unknown key `{key}` (a rover file has exactly: {})", ROVER_KEYS.join(", "))]
+    UnknownKey {
+        /// The key as written.
+        key: String,
+    },
+    /// A required key is absent.
+    #[error("missing key `{key}`")]
+    MissingKey {
+        /// The key that should be there.
+        key: &'static str,
+    },
+    /// The key holds something other than a number (a string, table, ...).
+    #[error("`{key}` must be a number, found a {found}")]
+    NotANumber {
+        /// The key.
+        key: &'static str,
+        /// The TOML type found instead.
+        found: &'static str,
+    },
+    /// The number is not finite, not > 0, or does not fit the model's `f32`.
+    #[error("`{key}` = {value} must be finite and > 0")]
+    OutOfRange {
+        /// The key.
+        key: &'static str,
+        /// The value as written (converted to f64).
+        value: f64,
+    },
+}
+
+/// A rover TOML that could not be read or is invalid; names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum RoverFileError {
+    /// The file could not be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file's content is invalid.
+    #[error("{}: {source}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: RoverTomlError,
+    },
+}
+
+/// Parses the text of a rover TOML.
+pub fn parse_rover(text: &str) -> Result<Rover, RoverTomlError> {
+    let table: toml::Table = text
+        .parse()
+        .map_err(|e| RoverTomlError::Syntax(Box::new(e)))?;
+    if let Some(key) = table.keys().find(|k| !ROVER_KEYS.contains(&k.as_str())) {
+        return Err(RoverTomlError::UnknownKey { key: key.clone() });
+    }
+    let get = |key: &'static str| -> Result<f32, RoverTomlError> {
+        let value = match table.get(key) {
+            None => return Err(RoverTomlError::MissingKey { key }),
+            Some(toml::Value::Float(x)) => *x,
+            // i64 → f64 may round for |i| > 2^53, irrelevant at the f32 the model keeps.
+            Some(toml::Value::Integer(i)) => *i as f64,
+            Some(other) => {
+                return Err(RoverTomlError::NotANumber {
+                    key,
+                    found: other.type_str(),
+                })
+            }
+        };
+        let narrow = value as f32;
+        if value.is_finite() && value > 0.0 && narrow.is_finite() && narrow > 0.0 {
+            Ok(narrow)
+        } else {
+            Err(RoverTomlError::OutOfRange { key, value })
+        }
+    };
+    Ok(Rover {
+        track_width_m: get("track_width_m")?,
+        length_m: get("length_m")?,
+        wheel_radius_m: get("wheel_radius_m")?,
+        mass_kg: get("mass_kg")?,
+        slip_track_m: get("slip_track_m")?,
+    })
+}
+
+/// Reads and parses a rover TOML file.
+pub fn load_rover(path: &Path) -> Result<Rover, RoverFileError> {
+    let text = std::fs::read_to_string(path).map_err(|source| RoverFileError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    parse_rover(&text).map_err(|source| RoverFileError::Invalid {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HUSKY: &str = "track_width_m = 0.545\nlength_m = 0.52\nwheel_radius_m = 0.165\n\
+                         mass_kg = 63\nslip_track_m = 1.1\n";
+
+    fn husky_file() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../rovers/husky-a200.toml")
+    }
+
+    #[test]
+    fn shipped_husky_file_is_the_seed_husky() {
+        let rover = load_rover(&husky_file()).expect("shipped file loads");
+        assert_eq!(rover, Rover::HUSKY_A200);
+    }
+
+    #[test]
+    fn integers_are_accepted() {
+        assert_eq!(parse_rover(HUSKY).expect("valid"), Rover::HUSKY_A200);
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let text = HUSKY.replace("slip_track_m", "slip_trak_m");
+        let e = parse_rover(&text).expect_err("typo");
+        assert!(matches!(&e, RoverTomlError::UnknownKey { key } if key == "slip_trak_m"));
+        assert!(e.to_string().contains("unknown key `slip_trak_m`"), "{e}");
+    }
+
+    #[test]
+    fn a_table_is_an_unknown_key() {
+        let text = format!("{HUSKY}[motor]\ngear = 78.71\n");
+        let e = parse_rover(&text).expect_err("section");
+        assert!(matches!(&e, RoverTomlError::UnknownKey { key } if key == "motor"));
+    }
+
+    #[test]
+    fn missing_key_is_named() {
+        let text = HUSKY.replace("mass_kg = 63\n", "");
+        let e = parse_rover(&text).expect_err("missing");
+        assert!(matches!(e, RoverTomlError::MissingKey { key: "mass_kg" }));
+        assert_eq!(e.to_string(), "missing key `mass_kg`");
+    }
+
+    #[test]
+    fn bad_values_are_named_with_their_value() {
+        for (written, shown) in [
+            ("0", "0"),
+            ("-0.5", "-0.5"),
+            ("nan", "NaN"),
+            ("inf", "inf"),
+            ("-inf", "-inf"),
+            ("1e300", "1000000"), // beyond f32
+            ("1e-300", "0.000"),  // flushes to 0 in f32
+        ] {
+            let text = HUSKY.replace("length_m = 0.52", &format!("length_m = {written}"));
+            let e = parse_rover(&text).expect_err(written);
+            assert!(
+                matches!(
+                    e,
+                    RoverTomlError::OutOfRange {
+                        key: "length_m",
+                        ..
+                    }
+                ),
+                "{written}: {e:?}"
+            );
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with(&format!("`length_m` = {shown}")) && msg.ends_with("> 0"),
+                "{msg}"
+            );
+        }
+    }
+
+    #[test]
+    fn non_numbers_are_named_with_their_type() {
+        let text = HUSKY.replace("0.165", "\"0.165\"");
+        let e = parse_rover(&text).expect_err("string");
+        assert_eq!(
+            e.to_string(),
+            "`wheel_radius_m` must be a number, found a string"
+        );
+    }
+
+    #[test]
+    fn syntax_error_has_a_position() {
+        let e = parse_rover("track_width_m = = 0.5\n").expect_err("syntax");
+        assert!(matches!(e, RoverTomlError::Syntax(_)));
+        assert!(e.to_string().contains("line 1"), "{e}");
+    }
+
+    #[test]
+    fn file_errors_name_the_file() {
+        let missing = Path::new("/nonexistent/rover.toml");
+        let e = load_rover(missing).expect_err("no file");
+        assert!(matches!(e, RoverFileError::Io { .. }));
+        assert!(
+            e.to_string().starts_with("/nonexistent/rover.toml: "),
+            "{e}"
+        );
+
+        let dir = crate::log::tests_support::TempDir::new("rover");
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, HUSKY.replace("0.545", "-1")).expect("write");
+        let e = load_rover(&path).expect_err("invalid");
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: `track_width_m` = -1 must be finite and > 0",
+                path.display()
+            )
+        );
+    }
+}
