@@ -3,4 +3,5 @@
 pub mod decode;
 pub mod log;
 pub mod rover;
+pub mod serial;
 pub mod sim;

@@ -5,6 +5,7 @@
 //! the conversions that completed by then, each sampling its held analog input at that
 //! conversion's time. Set a chip's inputs before moving the time past them.
 
+pub mod board;
 pub mod ina226;
 
 pub use ina226::{Analog, SimIna226};

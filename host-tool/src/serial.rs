@@ -1,0 +1,321 @@
+//! The board's USB serial port (CDC ACM, `/dev/ttyACM0`) — or a pseudo-terminal carrying the
+//! simulated board's stream — read into a [`StreamDecoder`]. One code path for both.
+//!
+//! Built on `serialport` without its libudev feature: on Linux, [`list_ports`] reads the USB
+//! vendor/product IDs and strings from sysfs.
+
+use crate::decode::{Event, StreamDecoder};
+use serialport::{SerialPort, SerialPortType};
+use std::io::{self, Read};
+use std::time::Duration;
+
+/// Baud rate requested on open. CDC ACM ignores it (USB runs at its own speed); a pty accepts it.
+pub const BAUD_RATE: u32 = 115_200;
+
+/// Bytes asked for per read: several 64-byte USB packets.
+pub const READ_CHUNK: usize = 4096;
+
+/// Errors of listing and opening ports.
+#[derive(Debug, thiserror::Error)]
+pub enum SerialError {
+    /// The system's port list could not be read.
+    #[error("cannot list serial ports: {0}")]
+    List(#[source] serialport::Error),
+    /// A zero read timeout would make every read return at once (serialport's default).
+    #[error("the read timeout must be greater than zero")]
+    ZeroTimeout,
+    /// The port could not be opened (missing, busy, no permission).
+    #[error("cannot open {path}: {source}")]
+    Open {
+        /// The port's path.
+        path: String,
+        /// Why.
+        #[source]
+        source: serialport::Error,
+    },
+    /// DTR could not be asserted; the board transmits only while the host holds DTR.
+    #[error("cannot assert DTR on {path}: {source}")]
+    Dtr {
+        /// The port's path.
+        path: String,
+        /// Why.
+        #[source]
+        source: serialport::Error,
+    },
+}
+
+/// USB identity of a port.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UsbId {
+    /// Vendor ID.
+    pub vid: u16,
+    /// Product ID.
+    pub pid: u16,
+}
+
+/// One serial port of the system.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PortInfo {
+    /// Path to open (`/dev/ttyACM0`).
+    pub name: String,
+    /// USB vendor/product ID, for USB ports.
+    pub usb: Option<UsbId>,
+    /// USB product string, when known.
+    pub product: Option<String>,
+    /// USB manufacturer string, when known.
+    pub manufacturer: Option<String>,
+    /// USB serial number, when known.
+    pub serial_number: Option<String>,
+}
+
+impl PortInfo {
+    fn from_serialport(info: serialport::SerialPortInfo) -> Self {
+        let mut port = PortInfo {
+            name: info.port_name,
+            usb: None,
+            product: None,
+            manufacturer: None,
+            serial_number: None,
+        };
+        if let SerialPortType::UsbPort(usb) = info.port_type {
+            port.usb = Some(UsbId {
+                vid: usb.vid,
+                pid: usb.pid,
+            });
+            port.product = usb.product;
+            port.manufacturer = usb.manufacturer;
+            port.serial_number = usb.serial_number;
+        }
+        port
+    }
+}
+
+/// The system's serial ports, sorted by name. Empty (not an error, not a panic) on a Linux
+/// system without `/sys/class/tty` (some containers).
+pub fn list_ports() -> Result<Vec<PortInfo>, SerialError> {
+    // serialport's sysfs scan panics when the directory is missing.
+    if cfg!(target_os = "linux") && !std::path::Path::new("/sys/class/tty").is_dir() {
+        return Ok(Vec::new());
+    }
+    let mut ports: Vec<PortInfo> = serialport::available_ports()
+        .map_err(SerialError::List)?
+        .into_iter()
+        .map(PortInfo::from_serialport)
+        .collect();
+    ports.sort_by(|a, b| a.name.cmp(&b.name));
+    Ok(ports)
+}
+
+/// Whether `path` is a Unix pseudo-terminal slave, which has no modem control lines.
+fn is_pty(path: &str) -> bool {
+    path.starts_with("/dev/pts/")
+}
+
+/// Opens `path` for reading the board: raw 8N1, reads wait at most `read_timeout` (must be > 0),
+/// DTR asserted so the board starts transmitting (and greets with a hello). A pseudo-terminal
+/// has no DTR line; there the failure to set it is ignored (the simulated board's DTR is
+/// [`crate::sim::board::SimBoard::set_host_connected`]).
+pub fn open(path: &str, read_timeout: Duration) -> Result<Box<dyn SerialPort>, SerialError> {
+    if read_timeout.is_zero() {
+        return Err(SerialError::ZeroTimeout);
+    }
+    let mut port = serialport::new(path, BAUD_RATE)
+        .timeout(read_timeout)
+        .dtr_on_open(true)
+        .open()
+        .map_err(|source| SerialError::Open {
+            path: path.to_owned(),
+            source,
+        })?;
+    if let Err(source) = port.write_data_terminal_ready(true) {
+        if !is_pty(path) {
+            return Err(SerialError::Dtr {
+                path: path.to_owned(),
+                source,
+            });
+        }
+    }
+    Ok(port)
+}
+
+/// What one [`PortReader::poll`] found.
+#[derive(Debug)]
+pub enum ReadOutcome {
+    /// This many bytes were read and decoded.
+    Data(usize),
+    /// Nothing arrived within the read timeout (or the read was interrupted): try again.
+    NoData,
+    /// The device is gone (unplugged, pty closed): end of file or an I/O error. Every byte
+    /// read before it was decoded; further polls keep reporting this.
+    Vanished {
+        /// The error, or `None` for end of file.
+        error: Option<io::Error>,
+    },
+}
+
+/// Reads a port (any [`Read`]; normally `Box<dyn SerialPort>` from [`open`]) in chunks into a
+/// [`StreamDecoder`].
+#[derive(Debug)]
+pub struct PortReader<R> {
+    port: R,
+    buf: Box<[u8]>,
+    bytes_read: u64,
+    vanished: bool,
+}
+
+impl<R: Read> PortReader<R> {
+    /// A reader of `port`.
+    pub fn new(port: R) -> Self {
+        Self {
+            port,
+            buf: vec![0u8; READ_CHUNK].into_boxed_slice(),
+            bytes_read: 0,
+            vanished: false,
+        }
+    }
+
+    /// One read (waiting at most the port's read timeout); the bytes go into `decoder`, which
+    /// calls `on_event` for each event.
+    pub fn poll(
+        &mut self,
+        decoder: &mut StreamDecoder,
+        on_event: impl FnMut(Event),
+    ) -> ReadOutcome {
+        if self.vanished {
+            return ReadOutcome::Vanished { error: None };
+        }
+        match self.port.read(&mut self.buf) {
+            Ok(0) => {
+                self.vanished = true;
+                ReadOutcome::Vanished { error: None }
+            }
+            Ok(n) => {
+                let n = n.min(self.buf.len());
+                self.bytes_read = self.bytes_read.saturating_add(n as u64);
+                decoder.feed(&self.buf[..n], on_event);
+                ReadOutcome::Data(n)
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut
+                        | io::ErrorKind::WouldBlock
+                        | io::ErrorKind::Interrupted
+                ) =>
+            {
+                ReadOutcome::NoData
+            }
+            Err(e) => {
+                self.vanished = true;
+                ReadOutcome::Vanished { error: Some(e) }
+            }
+        }
+    }
+
+    /// Bytes read so far.
+    pub fn bytes_read(&self) -> u64 {
+        self.bytes_read
+    }
+
+    /// Whether the device has vanished.
+    pub fn vanished(&self) -> bool {
+        self.vanished
+    }
+
+    /// The port, e.g. to send commands to the board.
+    pub fn port_mut(&mut self) -> &mut R {
+        &mut self.port
+    }
+
+    /// Gives the port back.
+    pub fn into_inner(self) -> R {
+        self.port
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use model_core::wire::{self, BoardFrame};
+    use std::collections::VecDeque;
+
+    /// Scripted reads.
+    struct Script(VecDeque<io::Result<Vec<u8>>>);
+
+    impl Read for Script {
+        fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+            match self.0.pop_front() {
+                None => Ok(0),
+                Some(Ok(bytes)) => {
+                    buf[..bytes.len()].copy_from_slice(&bytes);
+                    Ok(bytes.len())
+                }
+                Some(Err(e)) => Err(e),
+            }
+        }
+    }
+
+    #[test]
+    fn timeouts_are_no_data_other_errors_vanish_and_bytes_read_before_are_kept() {
+        let mut frame = [0u8; wire::MAX_FRAME];
+        let n = wire::encode(&BoardFrame::Ack { id: 7 }, &mut frame).expect("fits");
+        let frame = frame[..n].to_vec();
+        let mut reader = PortReader::new(Script(VecDeque::from([
+            Ok(frame[..2].to_vec()),
+            Err(io::Error::from(io::ErrorKind::TimedOut)),
+            Err(io::Error::from(io::ErrorKind::WouldBlock)),
+            Err(io::Error::from(io::ErrorKind::Interrupted)),
+            Ok(frame[2..].to_vec()),
+            Err(io::Error::from(io::ErrorKind::BrokenPipe)),
+            Ok(frame.clone()),
+        ])));
+        let mut dec = StreamDecoder::new();
+        let mut events = Vec::new();
+        let mut outcomes = Vec::new();
+        for _ in 0..7 {
+            outcomes.push(reader.poll(&mut dec, |e| events.push(e)));
+        }
+        assert!(matches!(outcomes[0], ReadOutcome::Data(2)));
+        assert!(outcomes[1..4]
+            .iter()
+            .all(|o| matches!(o, ReadOutcome::NoData)));
+        assert!(matches!(outcomes[4], ReadOutcome::Data(m) if m == n - 2));
+        assert!(matches!(
+            &outcomes[5],
+            ReadOutcome::Vanished { error: Some(e) } if e.kind() == io::ErrorKind::BrokenPipe
+        ));
+        assert!(matches!(outcomes[6], ReadOutcome::Vanished { error: None }));
+        assert_eq!(events, vec![Event::Frame(BoardFrame::Ack { id: 7 })]);
+        assert_eq!(reader.bytes_read(), n as u64);
+        assert!(reader.vanished());
+    }
+
+    #[test]
+    fn end_of_file_is_vanished() {
+        let mut reader = PortReader::new(Script(VecDeque::new()));
+        let mut dec = StreamDecoder::new();
+        assert!(matches!(
+            reader.poll(&mut dec, |_| {}),
+            ReadOutcome::Vanished { error: None }
+        ));
+    }
+
+    #[test]
+    fn a_zero_timeout_is_refused_and_a_missing_port_is_an_error() {
+        assert!(matches!(
+            open("/dev/null-no-such-port", Duration::ZERO),
+            Err(SerialError::ZeroTimeout)
+        ));
+        assert!(matches!(
+            open("/dev/null-no-such-port", Duration::from_millis(10)),
+            Err(SerialError::Open { .. })
+        ));
+    }
+
+    #[test]
+    fn listing_ports_does_not_fail_here() {
+        // Whatever this machine has (often nothing), listing works.
+        let ports = list_ports().expect("list");
+        assert!(ports.iter().all(|p| !p.name.is_empty()));
+    }
+}

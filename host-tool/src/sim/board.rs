@@ -1,0 +1,434 @@
+//! The simulated board: the firmware's own [`Board`] and [`Link`] on a [`SimBus`] with the two
+//! INA226 models, driven by simulated time. The bytes it produces are exactly what the board
+//! would send over USB; [`PtyBoard`] writes them into a pseudo-terminal that the host reads like
+//! `/dev/ttyACM0`.
+
+use super::SimBus;
+use firmware::board::Board;
+use firmware::link::Link;
+use firmware::sampler::SamplerConfig;
+use model_core::Sides;
+use serialport::{SerialPort, TTYPort};
+use std::fmt;
+use std::io::{self, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// USB full-speed bulk packet size [bytes].
+pub const USB_PACKET: usize = 64;
+
+/// What flows through one side's motor driver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SideLoad {
+    /// Current into the driver [A], positive when it draws from the battery.
+    pub current_a: f64,
+    /// Bus voltage at the driver [V].
+    pub bus_v: f64,
+}
+
+impl SideLoad {
+    /// A driver at rest on a 24 V battery.
+    pub const IDLE: SideLoad = SideLoad {
+        current_a: 0.0,
+        bus_v: 24.0,
+    };
+}
+
+/// The load on both sides as a function of simulated time [µs].
+pub trait LoadSource: Send {
+    /// Left and right load at `t_us`; it flows until the next call.
+    fn load(&mut self, t_us: u64) -> Sides<SideLoad>;
+}
+
+impl<F: FnMut(u64) -> Sides<SideLoad> + Send> LoadSource for F {
+    fn load(&mut self, t_us: u64) -> Sides<SideLoad> {
+        self(t_us)
+    }
+}
+
+/// The firmware's `Board` + `Link` on a simulated bus, in simulated time.
+pub struct SimBoard {
+    board: Board,
+    link: Link,
+    bus: SimBus,
+    addresses: Sides<u8>,
+    load: Box<dyn LoadSource>,
+    now_us: u64,
+}
+
+impl fmt::Debug for SimBoard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("SimBoard")
+            .field("board", &self.board)
+            .field("link", &self.link)
+            .field("bus", &self.bus)
+            .field("now_us", &self.now_us)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SimBoard {
+    /// A board at t = 0 with ideal chips at `config.addresses` (0x40/0x45 for
+    /// [`SamplerConfig::BOARD`]), idle load ([`SideLoad::IDLE`]), no host connected.
+    pub fn new(config: SamplerConfig) -> Self {
+        let mut bus = SimBus::board();
+        for (board_address, address) in [
+            (0x40, config.addresses.left),
+            (0x45, config.addresses.right),
+        ] {
+            if board_address != address {
+                if let Some(chip) = bus.chip(board_address).cloned() {
+                    bus.insert(address, chip);
+                }
+            }
+        }
+        Self {
+            board: Board::new(config),
+            link: Link::new(),
+            bus,
+            addresses: config.addresses,
+            load: Box::new(|_| Sides::new(SideLoad::IDLE, SideLoad::IDLE)),
+            now_us: 0,
+        }
+    }
+
+    /// The host's DTR: the board transmits only while it is held, and greets on its rising edge.
+    pub fn set_host_connected(&mut self, connected: bool) {
+        self.link.set_connected(connected);
+    }
+
+    /// Sets the load the chips measure from now on.
+    pub fn set_load(&mut self, load: impl LoadSource + 'static) {
+        self.load = Box::new(load);
+    }
+
+    /// One sample period: the chips' inputs are set to the load at the current time, the bus
+    /// advances to it, the firmware's `Board::tick` runs, and the time moves on by the board's
+    /// (host-configurable) period. Returns the bytes now waiting to go out.
+    pub fn step(&mut self) -> usize {
+        let t = self.now_us;
+        let load = self.load.load(t);
+        self.bus
+            .set_input(self.addresses.left, t, load.left.current_a, load.left.bus_v);
+        self.bus.set_input(
+            self.addresses.right,
+            t,
+            load.right.current_a,
+            load.right.bus_v,
+        );
+        self.bus.set_time_us(t);
+        self.board.tick(&mut self.bus, &mut self.link, t);
+        self.now_us = t.saturating_add(u64::from(self.board.sample_period_us().max(1)));
+        self.link.queued()
+    }
+
+    /// Writes the pending bytes to `out` in packets of at most [`USB_PACKET`] bytes, like USB;
+    /// returns how many were written. A byte leaves the board's queue only once `out` took it,
+    /// so on an error (a timeout of a full pty) nothing is lost or repeated.
+    pub fn drain_into<W: Write + ?Sized>(&mut self, out: &mut W) -> io::Result<usize> {
+        let mut written = 0;
+        loop {
+            let pending = self.link.pending();
+            if pending.is_empty() {
+                return Ok(written);
+            }
+            let n = pending.len().min(USB_PACKET);
+            match out.write(&pending[..n]) {
+                Ok(0) => return Err(io::Error::from(io::ErrorKind::WriteZero)),
+                Ok(k) => {
+                    let k = k.min(n);
+                    self.link.consume(k);
+                    written += k;
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    /// Bytes from the host (commands), as the USB interrupt hands them to the link.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        self.link.receive(bytes);
+    }
+
+    /// The simulated time of the next step [µs].
+    pub fn now_us(&self) -> u64 {
+        self.now_us
+    }
+
+    /// The firmware's board (sampler, counters, energy).
+    pub fn board(&self) -> &Board {
+        &self.board
+    }
+
+    /// The firmware's link.
+    pub fn link(&self) -> &Link {
+        &self.link
+    }
+
+    /// The simulated bus.
+    pub fn bus(&self) -> &SimBus {
+        &self.bus
+    }
+
+    /// The simulated bus, for fault injection (unplug, NACK, brown-out).
+    pub fn bus_mut(&mut self) -> &mut SimBus {
+        &mut self.bus
+    }
+}
+
+/// How a [`PtyBoard`] paces its stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pacing {
+    /// As fast as the reader takes the bytes: the pty's buffer holds the writer back when the
+    /// reader lags (the simulated time runs ahead of the wall clock).
+    AsFastAsPossible,
+    /// Step `k` is written no earlier than its simulated time after the start, like the board.
+    RealTime,
+}
+
+/// How long the writer waits for a reader that takes nothing before giving up.
+pub const WRITER_STALL: Duration = Duration::from_secs(10);
+
+/// What a finished [`PtyBoard`] writer hands back.
+#[derive(Debug)]
+pub struct PtyRun {
+    /// The board after its last step (its own energy totals, counters).
+    pub board: SimBoard,
+    /// Steps run.
+    pub steps: u64,
+    /// Bytes written into the pty.
+    pub bytes: u64,
+}
+
+/// A simulated board writing into a pseudo-terminal from its own thread. The host opens
+/// [`PtyBoard::path`] with [`crate::serial::open`] — the same code as for `/dev/ttyACM0`.
+///
+/// The board counts as connected (DTR held) from the start: a pty has no DTR line. Its bytes
+/// wait in the pty until the host opens the path and reads. After its last step the writer waits
+/// until the host has read everything (at most [`WRITER_STALL`]) and then closes the pty: the
+/// host sees the device vanish, as on an unplug, with nothing left unread.
+#[derive(Debug)]
+pub struct PtyBoard {
+    path: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<io::Result<PtyRun>>>,
+}
+
+impl PtyBoard {
+    /// Starts `board` for `steps` sample periods into a new pty pair.
+    pub fn spawn(mut board: SimBoard, steps: u64, pacing: Pacing) -> io::Result<PtyBoard> {
+        let (mut master, slave) = TTYPort::pair().map_err(io::Error::from)?;
+        let path = slave
+            .name()
+            .ok_or_else(|| io::Error::other("the pty slave has no path"))?;
+        master
+            .set_timeout(Duration::from_millis(50))
+            .map_err(io::Error::from)?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_flag = Arc::clone(&stop);
+        board.set_host_connected(true);
+        let thread = std::thread::Builder::new()
+            .name("sim-board-pty".into())
+            .spawn(move || {
+                // The slave stays open while writing, so the path exists and bytes are kept
+                // until the host opens it; both ends close when this returns.
+                let _slave = &slave;
+                let start = Instant::now();
+                let mut bytes = 0u64;
+                let mut done = 0u64;
+                while done < steps && !stop_flag.load(Ordering::Relaxed) {
+                    if pacing == Pacing::RealTime {
+                        let due = start + Duration::from_micros(board.now_us());
+                        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                            std::thread::sleep(wait);
+                        }
+                    }
+                    board.step();
+                    bytes += drain_patiently(&mut board, &mut master, &stop_flag)?;
+                    done += 1;
+                }
+                // Let the host read what is in the pty before hanging up.
+                let deadline = Instant::now() + WRITER_STALL;
+                while slave.bytes_to_read().map_err(io::Error::from)? > 0
+                    && Instant::now() < deadline
+                    && !stop_flag.load(Ordering::Relaxed)
+                {
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+                Ok(PtyRun {
+                    board,
+                    steps: done,
+                    bytes,
+                })
+            })?;
+        Ok(PtyBoard {
+            path,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// The pty slave's path (`/dev/pts/N`), to open like a serial port.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// Asks the writer to stop after the current step (it then closes the pty).
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Waits for the writer to finish.
+    pub fn join(mut self) -> io::Result<PtyRun> {
+        match self.thread.take() {
+            Some(thread) => thread
+                .join()
+                .map_err(|_| io::Error::other("the simulated board's thread panicked"))?,
+            None => Err(io::Error::other("already joined")),
+        }
+    }
+}
+
+impl Drop for PtyBoard {
+    fn drop(&mut self) {
+        self.stop();
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Drains the board into the pty, retrying while the pty is full, for at most [`WRITER_STALL`]
+/// without progress.
+fn drain_patiently(
+    board: &mut SimBoard,
+    master: &mut TTYPort,
+    stop: &AtomicBool,
+) -> io::Result<u64> {
+    let mut total = 0u64;
+    let mut last_progress = Instant::now();
+    while board.link().queued() > 0 {
+        match board.drain_into(master) {
+            Ok(n) => {
+                total += n as u64;
+                last_progress = Instant::now();
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
+                ) =>
+            {
+                if stop.load(Ordering::Relaxed) || last_progress.elapsed() > WRITER_STALL {
+                    return Err(e);
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::decode::{Event, StreamDecoder};
+    use model_core::wire::BoardFrame;
+
+    /// A writer that takes at most 10 bytes per call and fails every third call.
+    struct Flaky {
+        out: Vec<u8>,
+        calls: u32,
+    }
+
+    impl Write for Flaky {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            self.calls += 1;
+            if self.calls % 3 == 0 {
+                return Err(io::Error::from(io::ErrorKind::TimedOut));
+            }
+            let n = buf.len().min(10);
+            self.out.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Records each write as one USB packet.
+    struct Packets(Vec<Vec<u8>>);
+
+    impl Write for Packets {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            self.0.push(buf.to_vec());
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn silent_until_the_host_connects_then_hello_and_samples() {
+        let mut sim = SimBoard::new(SamplerConfig::BOARD);
+        assert_eq!(sim.step(), 0, "no DTR, nothing queued");
+        sim.set_host_connected(true);
+        sim.set_load(|_| {
+            Sides::new(
+                SideLoad {
+                    current_a: 2.0,
+                    bus_v: 24.5,
+                },
+                SideLoad {
+                    current_a: 3.0,
+                    bus_v: 24.4,
+                },
+            )
+        });
+        let mut usb = Packets(Vec::new());
+        for _ in 0..50 {
+            sim.step();
+            sim.drain_into(&mut usb).expect("memory");
+            assert_eq!(sim.link().queued(), 0);
+        }
+        assert!(usb.0.iter().all(|p| !p.is_empty() && p.len() <= USB_PACKET));
+        let packets: Vec<u8> = usb.0.concat();
+        let mut dec = StreamDecoder::new();
+        let mut events = Vec::new();
+        dec.feed(&packets, |e| events.push(e));
+        assert!(matches!(
+            events.first(),
+            Some(Event::Frame(BoardFrame::Hello(_)))
+        ));
+        assert_eq!(dec.stats().samples, 50);
+        assert_eq!(dec.stats().bad_frames, 0);
+        assert_eq!(sim.now_us(), 51 * 5_000);
+    }
+
+    #[test]
+    fn drain_loses_nothing_when_the_writer_fails_or_takes_part() {
+        let mut a = SimBoard::new(SamplerConfig::BOARD);
+        let mut b = SimBoard::new(SamplerConfig::BOARD);
+        a.set_host_connected(true);
+        b.set_host_connected(true);
+        let mut clean = Vec::new();
+        let mut flaky = Flaky {
+            out: Vec::new(),
+            calls: 0,
+        };
+        for _ in 0..200 {
+            a.step();
+            b.step();
+            a.drain_into(&mut clean).expect("vec");
+            while b.link().queued() > 0 {
+                let _ = b.drain_into(&mut flaky);
+            }
+        }
+        assert!(clean.len() > 1_000);
+        assert_eq!(clean, flaky.out);
+    }
+}
