@@ -192,6 +192,9 @@ pub enum Pacing {
 /// How long the writer waits for a reader that takes nothing before giving up.
 pub const WRITER_STALL: Duration = Duration::from_secs(10);
 
+/// How long the pty must stay read empty before the writer hangs up.
+pub const HANG_UP_QUIET: Duration = Duration::from_millis(50);
+
 /// What a finished [`PtyBoard`] writer hands back.
 #[derive(Debug)]
 pub struct PtyRun {
@@ -208,8 +211,10 @@ pub struct PtyRun {
 ///
 /// The board counts as connected (DTR held) from the start: a pty has no DTR line. Its bytes
 /// wait in the pty until the host opens the path and reads. After its last step the writer waits
-/// until the host has read everything (at most [`WRITER_STALL`]) and then closes the pty: the
-/// host sees the device vanish, as on an unplug, with nothing left unread.
+/// until the host has read everything (the slave's queue empty for [`HANG_UP_QUIET`], at most
+/// [`WRITER_STALL`]) and then closes the pty: the host sees the device vanish, as on an unplug
+/// (Linux: `BrokenPipe` from the poll's hang-up), with nothing left unread. Linux discards bytes
+/// the host has not read when the master side closes, hence the wait.
 #[derive(Debug)]
 pub struct PtyBoard {
     path: String,
@@ -247,15 +252,21 @@ impl PtyBoard {
                         }
                     }
                     board.step();
-                    bytes += drain_patiently(&mut board, &mut master, &stop_flag)?;
+                    bytes += drain_patiently(&mut board, &mut master)?;
                     done += 1;
                 }
-                // Let the host read what is in the pty before hanging up.
+                // Let the host read what is in the pty before hanging up: Linux discards what
+                // the slave side has not read when the master closes. The kernel moves written
+                // bytes to the slave's queue asynchronously, so the queue must stay empty for
+                // a while, not just once.
                 let deadline = Instant::now() + WRITER_STALL;
-                while slave.bytes_to_read().map_err(io::Error::from)? > 0
-                    && Instant::now() < deadline
-                    && !stop_flag.load(Ordering::Relaxed)
-                {
+                let mut quiet_since = Instant::now();
+                while Instant::now() < deadline {
+                    if slave.bytes_to_read().map_err(io::Error::from)? > 0 {
+                        quiet_since = Instant::now();
+                    } else if quiet_since.elapsed() >= HANG_UP_QUIET {
+                        break;
+                    }
                     std::thread::sleep(Duration::from_millis(1));
                 }
                 Ok(PtyRun {
@@ -276,7 +287,9 @@ impl PtyBoard {
         &self.path
     }
 
-    /// Asks the writer to stop after the current step (it then closes the pty).
+    /// Asks the writer to stop after the current step: it writes that step's frames whole, waits
+    /// for the host to read them as after its last step, and closes the pty (the device vanishes
+    /// mid-stream).
     pub fn stop(&self) {
         self.stop.store(true, Ordering::Relaxed);
     }
@@ -302,12 +315,8 @@ impl Drop for PtyBoard {
 }
 
 /// Drains the board into the pty, retrying while the pty is full, for at most [`WRITER_STALL`]
-/// without progress.
-fn drain_patiently(
-    board: &mut SimBoard,
-    master: &mut TTYPort,
-    stop: &AtomicBool,
-) -> io::Result<u64> {
+/// without progress. Whole frames only: a stop takes effect between steps.
+fn drain_patiently(board: &mut SimBoard, master: &mut TTYPort) -> io::Result<u64> {
     let mut total = 0u64;
     let mut last_progress = Instant::now();
     while board.link().queued() > 0 {
@@ -322,7 +331,7 @@ fn drain_patiently(
                     io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
                 ) =>
             {
-                if stop.load(Ordering::Relaxed) || last_progress.elapsed() > WRITER_STALL {
+                if last_progress.elapsed() > WRITER_STALL {
                     return Err(e);
                 }
             }
