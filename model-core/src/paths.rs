@@ -390,6 +390,8 @@ const GRID_STEPS: usize = 12;
 /// Bound on golden-section iterations per 1-D search: enough to shrink a bracket of 10¹⁶ m to
 /// the tolerance (each iteration multiplies it by 0.618).
 const MAX_GOLDEN_ITERATIONS: usize = 120;
+/// The radius search reaches at least this many kink radii (R'), whatever the distance.
+const KINK_RANGE_FACTOR: f64 = 4.0;
 /// Bound on coordinate sweeps (the hard-ground cases need one or two).
 const MAX_SWEEPS: usize = 50;
 
@@ -415,14 +417,15 @@ pub struct ClcOptimum {
 /// following from the radii ([`ClcPath::new`]). `ClcPath::new(ends, r1_m, r2_m)` rebuilds the
 /// optimal geometry.
 ///
-/// Radii are searched in [0, d]: R = 0 (a point turn, the closure of Eq 46's R_j > 0) is
-/// admitted so the result is never worse than the PLP path, and an arc wider than the whole
-/// start-to-end distance is not considered. Infeasible radii and non-finite energies count as
+/// Radii are searched in [0, r_max] with r_max = max(d, 4 × the law's kink radius): R = 0 (a
+/// point turn, the closure of Eq 46's R_j > 0) is admitted so the result is never worse than
+/// the PLP path, and R' (with room to 2–2.5 R', the seed's sand optimum) is always reachable,
+/// even when the start-to-end distance d is shorter. Infeasible radii and non-finite energies count as
 /// +∞.
 ///
-/// Method: a 13 × 13 grid over [0, d]² (plus the law's kink radius on each axis) picks the
-/// start, then cyclic coordinate minimisation: each radius in turn is minimised over the whole
-/// range [0, d] with the other fixed, by a 13-point scan plus the kink radius and the current
+/// Method: a 13 × 13 grid over [0, r_max]², r_max = max(d, 4 × the law's kink radius) (plus
+/// the kink radius on each axis) picks the start, then cyclic coordinate minimisation: each radius in turn is minimised over the whole
+/// range [0, r_max] with the other fixed, by a 13-point scan plus the kink radius and the current
 /// value, refined by golden-section search in the cells either side of the best point (to
 /// [`RADIUS_TOLERANCE_M`]). Sweeps stop when neither radius moves by more than the tolerance, or
 /// after 50 sweeps.
@@ -440,7 +443,14 @@ pub struct ClcOptimum {
 /// At most 14² + 50 · 2 · (14 + 122) ≈ 14 000 path evaluations; the Table 3 cases take about
 /// 160 (≈ 30 µs on the host, `cargo bench -p model-core --bench clc`).
 pub fn optimise_clc(law: &impl SegmentEnergy, ends: &ClcEnds) -> Result<ClcOptimum, PathError> {
-    let r_max_m = ends.distance_m;
+    // Radii beyond d can pay off when the turns are shallow (θ 0.05 rad, d 0.5 m: R' = 0.645 m
+    // beats anything ≤ d), and on sand the seed finds optima near 2–2.5 R' (Table 6.1).
+    let r_max_m = law
+        .kink_radius_m()
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .map_or(ends.distance_m, |kink| {
+            ends.distance_m.max(KINK_RANGE_FACTOR * kink)
+        });
     let kink_m = law
         .kink_radius_m()
         .filter(|r| r.is_finite() && *r >= 0.0 && *r <= r_max_m);
