@@ -66,19 +66,18 @@ impl Board {
                     reason,
                 },
             };
-            let extra = match (outcome, frame.command) {
-                (Ok(()), Command::GetHello) => Some(BoardFrame::Hello(self.sampler.hello())),
-                (Ok(()), Command::GetStatus) => None, // sent below, with the link's counters
-                _ => None,
-            };
-            let status_now = outcome.is_ok() && frame.command == Command::GetStatus;
             link.with_link(|l| {
-                if let Some(extra) = extra {
-                    l.send(&extra);
-                }
-                if status_now {
-                    let status = self.status(l, now_us);
-                    l.send(&BoardFrame::Status(status));
+                // Requested frames go before the acknowledgement; the status carries the link's
+                // own counters, so it is built under the lock.
+                match (outcome, frame.command) {
+                    (Ok(()), Command::GetHello) => {
+                        l.send(&BoardFrame::Hello(self.sampler.hello()));
+                    }
+                    (Ok(()), Command::GetStatus) => {
+                        let status = self.status(l, now_us);
+                        l.send(&BoardFrame::Status(status));
+                    }
+                    _ => {}
                 }
                 l.send(&reply);
             });

@@ -4,75 +4,69 @@
 //! in order, the board's energy equals the host's recomputation and ∫V·I dt, and faults are
 //! reported.
 
-use firmware::board::Board;
-use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
 use host_tool::decode::{Event, StreamDecoder, Summary};
+use host_tool::sim::board::{SideLoad, SimBoard};
 use host_tool::sim::ina226::reg;
-use host_tool::sim::SimBus;
 use model_core::ina226::AdcConfig;
 use model_core::wire::{self, BoardFrame, ChipFault, ChipReading, Command, HostFrame, Rejection};
 use model_core::Sides;
 
 /// Bus voltages of the left and right motor drivers [V].
 const BUS_V: Sides<f64> = Sides::new(24.6, 24.5);
+/// The board's sampling period in these tests [µs] (none of them reconfigures it).
+const PERIOD_US: u64 = 5_000;
 
-/// A turn-like load: the left (inner) side regenerates for a while.
+/// A turn-like load at tick `k`: the left (inner) side regenerates for a while.
 fn load(k: u64) -> Sides<f64> {
     let t = k as f64 * 0.005;
     Sides::new(2.0 * (t * 0.7).sin() - 0.3, 4.0 + 0.5 * (t * 1.3).cos())
 }
 
-/// USB: drain the link in full-speed packets.
-fn drain(link: &mut Link, out: &mut Vec<u8>) {
-    while !link.pending().is_empty() {
-        let n = link.pending().len().min(64);
-        out.extend_from_slice(&link.pending()[..n]);
-        link.consume(n);
-    }
-}
-
+/// The simulated board with a host attached, and everything it sent.
 struct Rig {
-    bus: SimBus,
-    board: Board,
-    link: Link,
+    sim: SimBoard,
     wire: Vec<u8>,
-    t_us: u64,
-    k: u64,
 }
 
 impl Rig {
     fn new() -> Self {
-        let mut link = Link::new();
-        link.set_connected(true);
+        let mut sim = SimBoard::new(SamplerConfig::BOARD);
+        sim.set_host_connected(true);
+        // The load of a period flows from its tick until the next; the chips convert
+        // continuously and the board reads the results completed by then.
+        sim.set_load(|t_us: u64| {
+            let amps = load(t_us / PERIOD_US);
+            Sides::new(
+                SideLoad {
+                    current_a: amps.left,
+                    bus_v: BUS_V.left,
+                },
+                SideLoad {
+                    current_a: amps.right,
+                    bus_v: BUS_V.right,
+                },
+            )
+        });
         Self {
-            bus: SimBus::board(),
-            board: Board::new(SamplerConfig::BOARD),
-            link,
+            sim,
             wire: Vec::new(),
-            t_us: 0,
-            k: 0,
         }
     }
 
     fn command(&mut self, id: u16, command: Command) {
         let mut buf = [0u8; wire::MAX_FRAME];
         let n = wire::encode(&HostFrame { id, command }, &mut buf).expect("fits");
-        self.link.receive(&buf[..n]);
+        self.sim.receive(&buf[..n]);
     }
 
+    /// `ticks` sample periods, USB drained after each in full-speed packets.
     fn run(&mut self, ticks: u64) {
         for _ in 0..ticks {
-            // The load of this period flows from now until the next tick; the chips convert
-            // continuously and the board reads the results completed by now.
-            let l = load(self.k);
-            self.bus.set_input(0x40, self.t_us, l.left, BUS_V.left);
-            self.bus.set_input(0x45, self.t_us, l.right, BUS_V.right);
-            self.bus.set_time_us(self.t_us);
-            self.board.tick(&mut self.bus, &mut self.link, self.t_us);
-            drain(&mut self.link, &mut self.wire);
-            self.t_us += u64::from(self.board.sample_period_us());
-            self.k += 1;
+            self.sim.step();
+            self.sim
+                .drain_into(&mut self.wire)
+                .expect("a Vec takes every byte");
         }
     }
 }
@@ -139,7 +133,12 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
     );
     assert!(model.seq >= 3_980);
     // And the board's own total at the end equals the host's.
-    let board_total = rig.board.sampler().measurements().total_energy_lsb_us();
+    let board_total = rig
+        .sim
+        .board()
+        .sampler()
+        .measurements()
+        .total_energy_lsb_us();
     assert_eq!(dec.measurements().total_energy_lsb_us(), board_total);
 
     // Against physics: ∫ V·I dt of the applied load (the load set at tick k flows until tick
@@ -147,7 +146,9 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
     // within the registers' quantisation and the one-period lag of the averaging window.
     let scale = dec.scale();
     let expected_j: f64 = (1..3_999u64)
-        .map(|k| (load(k).left * BUS_V.left + load(k).right * BUS_V.right) * 0.005)
+        .map(|k| {
+            (load(k).left * BUS_V.left + load(k).right * BUS_V.right) * PERIOD_US as f64 * 1e-6
+        })
         .sum();
     let got_j = scale.energy_j(board_total);
     assert!(
@@ -183,11 +184,11 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
 fn a_chip_that_nacks_mid_run_does_not_stop_the_stream_and_is_reinitialised_after_replug() {
     let mut rig = Rig::new();
     rig.run(500);
-    assert!(rig.bus.unplug(0x45));
+    assert!(rig.sim.bus_mut().unplug(0x45));
     rig.run(300);
     // Plugged back in: it powers up with its defaults (no calibration).
-    assert!(rig.bus.plug(0x45));
-    assert_eq!(rig.bus.peek(0x45, reg::CALIBRATION), Some(0));
+    assert!(rig.sim.bus_mut().plug(0x45));
+    assert_eq!(rig.sim.bus_mut().peek(0x45, reg::CALIBRATION), Some(0));
     rig.run(300);
     let (dec, events) = decode(&rig.wire);
     let samples = samples(&events);
@@ -222,12 +223,12 @@ fn a_chip_that_nacks_mid_run_does_not_stop_the_stream_and_is_reinitialised_after
         Sides::new(None, Some(ChipFault::AddressNack))
     );
     assert!(during.i2c_errors.right > 0 && during.i2c_errors.left == 0);
-    assert_eq!(rig.board.sampler().i2c_errors(), Sides::new(0, 300));
-    assert_eq!(rig.board.sampler().reinits(), Sides::new(0, 1));
+    assert_eq!(rig.sim.board().sampler().i2c_errors(), Sides::new(0, 300));
+    assert_eq!(rig.sim.board().sampler().reinits(), Sides::new(0, 1));
     // One NACKed transaction per period while unplugged; none on the left.
-    assert_eq!(rig.bus.counts(0x45).failed, 300);
-    assert_eq!(rig.bus.counts(0x40).failed, 0);
-    assert_eq!(rig.bus.peek(0x45, reg::CALIBRATION), Some(2048));
+    assert_eq!(rig.sim.bus().counts(0x45).failed, 300);
+    assert_eq!(rig.sim.bus().counts(0x40).failed, 0);
+    assert_eq!(rig.sim.bus_mut().peek(0x45, reg::CALIBRATION), Some(2048));
     assert_eq!(dec.stats().lost_samples, 0);
 }
 
@@ -237,7 +238,7 @@ fn a_chip_that_resets_under_load_is_caught_and_set_up_again() {
     rig.run(100);
     // Brown-out: registers back to power-on defaults (CAL 0, AVG 1, 1.1 ms + 1.1 ms) while
     // current keeps flowing; the chip converts on with the default configuration.
-    assert!(rig.bus.brown_out(0x40));
+    assert!(rig.sim.bus_mut().brown_out(0x40));
     rig.run(100);
     let (_, events) = decode(&rig.wire);
     let samples = samples(&events);
@@ -252,11 +253,11 @@ fn a_chip_that_resets_under_load_is_caught_and_set_up_again() {
     assert!(samples[102..]
         .iter()
         .all(|s| s.chips.left.registers().is_some()));
-    assert_eq!(rig.board.sampler().reinits(), Sides::new(1, 0));
+    assert_eq!(rig.sim.board().sampler().reinits(), Sides::new(1, 0));
     // Calibration really was rewritten.
-    assert_eq!(rig.bus.peek(0x40, reg::CALIBRATION), Some(2048));
+    assert_eq!(rig.sim.bus_mut().peek(0x40, reg::CALIBRATION), Some(2048));
     assert_eq!(
-        rig.bus.peek(0x40, reg::CONFIG),
+        rig.sim.bus_mut().peek(0x40, reg::CONFIG),
         Some(firmware::ina226::Ina226::config_word(
             AdcConfig::BOARD_DEFAULT
         ))
@@ -310,7 +311,7 @@ fn host_commands_are_answered_and_take_effect() {
     );
     rig.command(3, Command::ResetEnergy);
     rig.command(4, Command::GetStatus);
-    rig.link.receive(&[1, 2, 3, 0]); // garbage frame
+    rig.sim.receive(&[1, 2, 3, 0]); // garbage frame
     rig.run(30);
     let (_, events) = decode(&rig.wire);
     let frames: Vec<BoardFrame> = events
@@ -352,6 +353,11 @@ fn host_commands_are_answered_and_take_effect() {
     assert_eq!(tau.left, None, "inner wheel at R' has no τ ∝ P/ω");
     assert!(tau.right.is_some_and(|t| t > 0.0));
     // Energy restarted at the reset: 30 periods of at most ~150 W.
-    let total = rig.board.sampler().measurements().total_energy_lsb_us();
+    let total = rig
+        .sim
+        .board()
+        .sampler()
+        .measurements()
+        .total_energy_lsb_us();
     assert!(model_core::ina226::Scale::BOARD.energy_j(total) < 30.0 * 0.005 * 150.0);
 }
