@@ -1,6 +1,7 @@
 //! Log files: the run CSV interchange format ([`run_csv`]) and crash-safe writing of whole files
 //! ([`write_atomically`]).
 
+pub mod commands;
 pub mod run_csv;
 
 use std::fs::{self, File, OpenOptions};
