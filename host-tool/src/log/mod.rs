@@ -1,8 +1,9 @@
-//! Log files: the run CSV interchange format ([`run_csv`]) and crash-safe writing of whole files
-//! ([`write_atomically`]).
+//! Log files: what a recording holds ([`run_log`]), the run CSV interchange format ([`run_csv`]),
+//! the commands CSV ([`commands`]) and crash-safe writing of whole files ([`write_atomically`]).
 
 pub mod commands;
 pub mod run_csv;
+pub mod run_log;
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter};

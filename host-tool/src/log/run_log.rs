@@ -1,0 +1,58 @@
+//! What a recording holds, independent of its file format: the interface between the recorder
+//! (which produces it live), the log formats (run CSV, MCAP) and the commands that read runs
+//! (`validate`, `convert`, `replay`, `plot`).
+
+use super::commands::CommandRow;
+use super::run_csv::RunSample;
+use model_core::wire::BoardFrame;
+use std::io;
+
+/// Something that happened to the stream, marked in the log at the run time it happened.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum LogEvent {
+    /// The recording started on `port`.
+    Started { port: String },
+    /// The device vanished (unplugged, port closed): nothing arrives until [`LogEvent::Reconnected`].
+    DeviceVanished { port: String },
+    /// The device is back on `port` after `offline_s` seconds of wall time.
+    Reconnected { port: String, offline_s: f64 },
+    /// `missing` samples after sequence number `after_seq` never arrived (a gap in `seq`).
+    SamplesLost { after_seq: u32, missing: u32 },
+    /// Frames that failed to decode (corrupted or truncated bytes) since the previous event.
+    BadFrames { count: u64 },
+    /// The board restarted (a hello, or `seq` back to 0): its time and energy start over; the
+    /// run's time base continues from here.
+    BoardReset,
+    /// The recording stopped (`reason`: Ctrl-C, duration, sample count, device gone).
+    Stopped { reason: String },
+}
+
+/// A whole recorded run in memory, as read back from any log format.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunLog {
+    /// Samples on the run's time base (`t_s` strictly increasing across board resets).
+    pub samples: Vec<RunSample>,
+    /// Every wire frame the board sent and the host decoded, with the run time it arrived at
+    /// (empty for a run CSV, which holds physical samples only).
+    pub frames: Vec<(f64, BoardFrame)>,
+    /// The commands forwarded during the run (empty if none).
+    pub commands: Vec<CommandRow>,
+    /// Events at their run time [s].
+    pub events: Vec<(f64, LogEvent)>,
+}
+
+/// Where a recording goes as it happens. Implementations write through (or buffer at most until
+/// [`RunLogSink::flush`]), so a killed process leaves a readable file up to the last flush.
+pub trait RunLogSink {
+    /// A decoded wire frame (hello, sample, model, status, ack, rejected) received at run time `t_s`.
+    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()>;
+    /// A physical sample on the run's time base.
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()>;
+    /// A command row, logged when it was forwarded to the board.
+    fn command(&mut self, row: &CommandRow) -> io::Result<()>;
+    /// An event at run time `t_s`.
+    fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()>;
+    /// Pushes everything written so far to the file (and the OS).
+    fn flush(&mut self) -> io::Result<()>;
+}
