@@ -5,3 +5,4 @@ pub mod log;
 pub mod rover;
 pub mod serial;
 pub mod sim;
+pub mod validate;

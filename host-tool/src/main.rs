@@ -4,8 +4,11 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use host_tool::decode::Summary;
-use std::io::Read;
-use std::path::PathBuf;
+use host_tool::log::{run_csv::read_run_csv, write_atomically};
+use host_tool::validate::{self, RunInput, ValidateOptions};
+use model_core::power::IcrHardGround;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
 #[command(version, about = "rover-power host tool")]
@@ -22,6 +25,67 @@ enum Command {
         /// Capture file (raw bytes as read from the board's serial port; `-` for stdin).
         capture: PathBuf,
     },
+    /// Validate runs against the seed's power models: cut them into manoeuvres from the
+    /// commanded speeds, print a per-turn table (R_cmd, R/R', regime, duration vs expected,
+    /// angular slip, power, energy, τ ∝ P/ω), fit the ICR model (c1, c2, c3 with pitch) with
+    /// 95 % bounds and r², flag where measured power departs from it, and cross-check the
+    /// board's model frames against the host's recomputation.
+    Validate {
+        /// Rover TOML (e.g. rovers/husky-a200.toml).
+        #[arg(long)]
+        rover: PathBuf,
+        /// Run CSV files (each is validated as an independent run).
+        #[arg(long, num_args = 1.., required = true)]
+        runs: Vec<PathBuf>,
+        /// Write the whole report as JSON to FILE (`-` for stdout, then no table is printed).
+        #[arg(long, value_name = "FILE")]
+        json: Option<PathBuf>,
+        /// Write the per-manoeuvre table as CSV to FILE.
+        #[arg(long, value_name = "FILE")]
+        csv: Option<PathBuf>,
+        /// Heading change of each turn when the runs have no yaw [deg].
+        #[arg(long, default_value_t = validate::DEFAULT_TURN_DEG)]
+        turn_deg: f64,
+        /// Settle time cut from the start of each manoeuvre for the steady statistics [s].
+        #[arg(long, default_value_t = validate::DEFAULT_SETTLE_S)]
+        settle_s: f64,
+        /// Shortest manoeuvre analysed [s].
+        #[arg(long, default_value_t = validate::segment::DEFAULT_MIN_DURATION_S)]
+        min_duration_s: f64,
+        /// Tolerance on the commanded side speeds within one manoeuvre [m/s].
+        #[arg(long, default_value_t = validate::segment::DEFAULT_SPEED_TOLERANCE_MPS)]
+        speed_tolerance_mps: f64,
+        /// Flag manoeuvres whose power departs from the fit by more than this [%] (and lies
+        /// outside the 95 % prediction interval).
+        #[arg(long, default_value_t = 100.0 * validate::DEFAULT_DEPARTURE_FRACTION)]
+        departure_pct: f64,
+        /// Hard-ground reference model as `MU,G_N,BS_M` (friction coefficient, rolling
+        /// resistance [N], the terrain's slip track [m]; geometry and mass from the rover).
+        /// Default: the seed's Husky values (paper Table 2) for the Husky, none otherwise.
+        #[arg(long, value_name = "MU,G_N,BS_M", value_parser = parse_hard_ground, conflicts_with = "no_hard_ground")]
+        hard_ground: Option<[f64; 3]>,
+        /// No hard-ground reference column.
+        #[arg(long)]
+        no_hard_ground: bool,
+    },
+}
+
+/// `MU,G_N,BS_M` → three finite positive numbers.
+fn parse_hard_ground(text: &str) -> Result<[f64; 3], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("{v:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [mu, g, bs] if values.iter().all(|v| v.is_finite() && *v > 0.0) => Ok([mu, g, bs]),
+        _ => Err("expected three positive numbers MU,G_N,BS_M (e.g. 0.74,30.85,1.29)".into()),
+    }
+}
+
+/// Writes `text` to `path` whole or not at all.
+fn write_file(path: &Path, text: &[u8]) -> Result<()> {
+    write_atomically(path, |w| w.write_all(text))
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 fn main() -> Result<()> {
@@ -37,6 +101,69 @@ fn main() -> Result<()> {
                 std::fs::read(&capture).with_context(|| format!("reading {}", capture.display()))?
             };
             print!("{}: {}", capture.display(), Summary::of(&bytes));
+        }
+        Command::Validate {
+            rover,
+            runs,
+            json,
+            csv,
+            turn_deg,
+            settle_s,
+            min_duration_s,
+            speed_tolerance_mps,
+            departure_pct,
+            hard_ground,
+            no_hard_ground,
+        } => {
+            let rover = host_tool::rover::load_rover(&rover)?;
+            let mut options = ValidateOptions::for_rover(&rover);
+            options.turn_deg = turn_deg;
+            options.settle_s = settle_s;
+            options.segment.min_duration_s = min_duration_s;
+            options.segment.speed_tolerance_mps = speed_tolerance_mps;
+            options.departure_fraction = departure_pct / 100.0;
+            if no_hard_ground {
+                options.hard_ground = None;
+            } else if let Some([mu, g, bs]) = hard_ground {
+                options.hard_ground = Some(IcrHardGround {
+                    mu,
+                    rolling_resistance_n: g,
+                    length_m: f64::from(rover.length_m),
+                    width_m: f64::from(rover.track_width_m),
+                    mass_kg: f64::from(rover.mass_kg),
+                    slip_track_m: bs,
+                });
+            }
+            let names: Vec<String> = runs.iter().map(|p| p.display().to_string()).collect();
+            let samples = runs
+                .iter()
+                .map(|p| read_run_csv(p).map_err(anyhow::Error::from))
+                .collect::<Result<Vec<_>>>()?;
+            let inputs: Vec<RunInput<'_>> = names
+                .iter()
+                .zip(&samples)
+                .map(|(name, s)| RunInput::from_samples(name, s))
+                .collect();
+            let report = validate::validate(&rover, &inputs, &options)?;
+            let json_to_stdout = json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+            if let Some(path) = &json {
+                let text = serde_json::to_vec_pretty(&report).context("serialising the report")?;
+                if json_to_stdout {
+                    let mut out = std::io::stdout().lock();
+                    out.write_all(&text)?;
+                    writeln!(out)?;
+                } else {
+                    write_file(path, &text)?;
+                }
+            }
+            if let Some(path) = &csv {
+                let mut text = Vec::new();
+                report.write_csv(&mut text)?;
+                write_file(path, &text)?;
+            }
+            if !json_to_stdout {
+                print!("{report}");
+            }
         }
     }
     Ok(())

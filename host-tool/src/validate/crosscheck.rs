@@ -1,0 +1,367 @@
+//! The board's on-device model against the host's recomputation: a run's wire frames are replayed
+//! through [`StreamDecoder`] (the same model-core code the board runs), and at every `Model`
+//! frame the board's snapshot (energy and latest power per side, τ ∝ P/ω per side) is compared
+//! with the host's state at that point of the stream.
+//!
+//! Energy and power compare exactly (integers: power LSB × µs, power LSB); any difference means
+//! samples the board integrated but the host never received (lost frames), a board restart the
+//! host missed, or a bug. τ ∝ P/ω needs the commanded wheel rates the board used: the host takes
+//! the latest of the board's own report (a `Status` frame) and the run's forwarded commands
+//! (side speed / wheel radius). A command forwarded just before a model frame may not have
+//! reached the board yet, so τ can differ right after a command change; the time of the largest
+//! difference is reported to check.
+
+use crate::decode::StreamDecoder;
+use crate::log::commands::CommandRow;
+use model_core::wire::{encode, BoardFrame, MAX_FRAME};
+use model_core::{Rover, Sides};
+use serde::Serialize;
+
+/// The largest difference of one quantity and where it happened.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct MaxDiff {
+    /// Comparisons made (both sides of the comparison defined).
+    pub compared: usize,
+    /// Largest |host − board| per side, in the quantity's unit.
+    pub max_abs: Sides<f64>,
+    /// Run time of the model frame with the largest difference (either side) [s].
+    pub at_t_s: Option<f64>,
+}
+
+impl MaxDiff {
+    fn record(&mut self, t_s: f64, diff: Sides<Option<f64>>) {
+        let mut any = false;
+        let mut worst = self.max_abs.left.max(self.max_abs.right);
+        for (slot, d) in [
+            (&mut self.max_abs.left, diff.left),
+            (&mut self.max_abs.right, diff.right),
+        ] {
+            if let Some(d) = d {
+                any = true;
+                let d = d.abs();
+                if d > *slot {
+                    *slot = d;
+                }
+                if d > worst {
+                    worst = d;
+                    self.at_t_s = Some(t_s);
+                }
+            }
+        }
+        if any {
+            self.compared += 1;
+        }
+    }
+}
+
+/// The cross-check of one run's frames.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct CrossCheck {
+    /// Frames replayed.
+    pub frames: usize,
+    /// `Model` frames found (each one comparison).
+    pub model_frames: usize,
+    /// Energy per side, host − board [power LSB × µs] (exact integers).
+    pub energy_lsb_us: MaxDiff,
+    /// The largest energy difference in joules at the run's scale, per side [J].
+    pub energy_max_abs_j: Sides<f64>,
+    /// Latest power per side, host − board [power LSB].
+    pub power_lsb: MaxDiff,
+    /// τ ∝ P/ω per side, host − board [W·s/rad].
+    pub torque_proportional: MaxDiff,
+    /// Model frames where one of board and host had a value (power or τ) the other had not.
+    pub definedness_mismatches: usize,
+    /// Samples the decoder knows were lost (sequence gaps): the board integrated them, the
+    /// host could not.
+    pub lost_samples: u64,
+    /// Board restarts (sample sequence going back): the host's recomputation starts over.
+    pub board_restarts: usize,
+}
+
+impl CrossCheck {
+    /// Whether every comparison agreed exactly in energy and power and τ within `tau_tolerance`.
+    pub fn agrees(&self, tau_tolerance: f64) -> bool {
+        let zero = |d: &MaxDiff| d.max_abs.left == 0.0 && d.max_abs.right == 0.0;
+        zero(&self.energy_lsb_us)
+            && zero(&self.power_lsb)
+            && self.torque_proportional.max_abs.left <= tau_tolerance
+            && self.torque_proportional.max_abs.right <= tau_tolerance
+            && self.definedness_mismatches == 0
+    }
+}
+
+/// Replays `frames` (run time [s], frame) and compares every `Model` frame with the host's
+/// recomputation. `commands` supply the wheel rates (side speed / the rover's wheel radius).
+/// `None` when there are no frames (a run CSV holds physical samples only).
+pub fn cross_check(
+    frames: &[(f64, BoardFrame)],
+    commands: &[CommandRow],
+    rover: &Rover,
+) -> Option<CrossCheck> {
+    if frames.is_empty() {
+        return None;
+    }
+    let mut out = CrossCheck {
+        frames: frames.len(),
+        ..CrossCheck::default()
+    };
+    let mut dec = StreamDecoder::new();
+    let mut last_hello: Option<BoardFrame> = None;
+    let mut last_seq: Option<u32> = None;
+    let mut status_rates: Option<(f64, Option<Sides<f32>>)> = None;
+    let mut max_energy_lsb = Sides::new(0i64, 0i64);
+    let mut buf = [0u8; MAX_FRAME];
+    let feed = |dec: &mut StreamDecoder, frame: &BoardFrame, buf: &mut [u8; MAX_FRAME]| {
+        // Every frame decoded from the wire re-encodes; one that does not is skipped.
+        if let Ok(n) = encode(frame, buf) {
+            dec.feed(&buf[..n], |_| {});
+        }
+    };
+    for &(t_s, ref frame) in frames {
+        match frame {
+            BoardFrame::Hello(_) => last_hello = Some(*frame),
+            BoardFrame::Sample(s) => {
+                if last_seq.is_some_and(|last| s.seq < last) {
+                    out.lost_samples += dec.stats().lost_samples;
+                    out.board_restarts += 1;
+                    dec = StreamDecoder::new();
+                    if let Some(h) = &last_hello {
+                        feed(&mut dec, h, &mut buf);
+                    }
+                }
+                last_seq = Some(s.seq);
+            }
+            BoardFrame::Status(st) => status_rates = Some((t_s, st.wheel_rates_rad_s)),
+            _ => {}
+        }
+        feed(&mut dec, frame, &mut buf);
+        let BoardFrame::Model(model) = frame else {
+            continue;
+        };
+        out.model_frames += 1;
+        let mut host = dec.measurements().clone();
+        host.set_wheel_rates(wheel_rates_at(t_s, status_rates, commands, rover));
+        let host = host.snapshot();
+        let board = model.snapshot;
+        let de = Sides::new(
+            host.energy_lsb_us
+                .left
+                .saturating_sub(board.energy_lsb_us.left),
+            host.energy_lsb_us
+                .right
+                .saturating_sub(board.energy_lsb_us.right),
+        );
+        for (m, d) in [
+            (&mut max_energy_lsb.left, de.left),
+            (&mut max_energy_lsb.right, de.right),
+        ] {
+            *m = (*m).max(d.saturating_abs());
+        }
+        out.energy_lsb_us.record(t_s, de.map(|d| Some(d as f64)));
+        let mut mismatch = false;
+        let mut diff = |h: Option<f64>, b: Option<f64>| match (h, b) {
+            (Some(h), Some(b)) => Some(h - b),
+            (None, None) => None,
+            _ => {
+                mismatch = true;
+                None
+            }
+        };
+        let dp = Sides::new(
+            diff(
+                host.power_lsb.left.map(f64::from),
+                board.power_lsb.left.map(f64::from),
+            ),
+            diff(
+                host.power_lsb.right.map(f64::from),
+                board.power_lsb.right.map(f64::from),
+            ),
+        );
+        let dt = Sides::new(
+            diff(
+                host.torque_proportional.left.map(f64::from),
+                board.torque_proportional.left.map(f64::from),
+            ),
+            diff(
+                host.torque_proportional.right.map(f64::from),
+                board.torque_proportional.right.map(f64::from),
+            ),
+        );
+        if mismatch {
+            out.definedness_mismatches += 1;
+        }
+        out.power_lsb.record(t_s, dp);
+        out.torque_proportional.record(t_s, dt);
+    }
+    out.lost_samples += dec.stats().lost_samples;
+    let scale = dec.scale();
+    out.energy_max_abs_j = max_energy_lsb.map(|e| scale.energy_j(e));
+    Some(out)
+}
+
+/// The wheel rates in force at `t_s`: the later of the board's last reported rates and the last
+/// forwarded command.
+fn wheel_rates_at(
+    t_s: f64,
+    status: Option<(f64, Option<Sides<f32>>)>,
+    commands: &[CommandRow],
+    rover: &Rover,
+) -> Option<Sides<f32>> {
+    let upto = commands.partition_point(|c| c.t_s <= t_s);
+    let command = upto.checked_sub(1).map(|i| &commands[i]);
+    let from_command = command.map(|c| {
+        (
+            c.t_s,
+            Some(
+                c.cmd_mps
+                    .map(|v| (v / f64::from(rover.wheel_radius_m)) as f32),
+            ),
+        )
+    });
+    match (status, from_command) {
+        (Some(s), Some(c)) => {
+            if s.0 >= c.0 {
+                s.1
+            } else {
+                c.1
+            }
+        }
+        (Some(s), None) => s.1,
+        (None, Some(c)) => c.1,
+        (None, None) => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::board::{SideLoad, SimBoard};
+    use firmware::sampler::SamplerConfig;
+    use model_core::wire::{Command, HostFrame};
+
+    /// A simulated board (the firmware's own code) running `steps` periods with the given load,
+    /// wheel rates set by a host command first; returns the frames with their run time.
+    fn board_frames(steps: usize, rates: Sides<f32>) -> Vec<(f64, BoardFrame)> {
+        let mut board = SimBoard::new(SamplerConfig::BOARD);
+        board.set_host_connected(true);
+        board.set_load(|t_us: u64| {
+            let wobble = ((t_us / 10_000) % 7) as f64 * 0.1;
+            Sides::new(
+                SideLoad {
+                    current_a: 2.0 + wobble,
+                    bus_v: 24.0,
+                },
+                SideLoad {
+                    current_a: 3.0 - wobble,
+                    bus_v: 24.1,
+                },
+            )
+        });
+        let mut cmd = [0u8; MAX_FRAME];
+        let n = encode(
+            &HostFrame {
+                id: 1,
+                command: Command::SetWheelRates(rates),
+            },
+            &mut cmd,
+        )
+        .expect("fits");
+        board.receive(&cmd[..n]);
+        let mut bytes = Vec::new();
+        for _ in 0..steps {
+            board.step();
+            board.drain_into(&mut bytes).expect("vec");
+        }
+        let mut dec = StreamDecoder::new();
+        let mut frames = Vec::new();
+        dec.feed(&bytes, |e| {
+            if let crate::decode::Event::Frame(f) = e {
+                let t = match &f {
+                    BoardFrame::Sample(s) => s.t_us as f64 * 1e-6,
+                    BoardFrame::Model(m) => m.t_us as f64 * 1e-6,
+                    _ => frames.last().map_or(0.0, |(t, _)| *t),
+                };
+                frames.push((t, f));
+            }
+        });
+        frames
+    }
+
+    fn command(left: f64, right: f64) -> CommandRow {
+        CommandRow {
+            t_s: 0.0,
+            cmd_mps: Sides::new(left, right),
+            yaw_rad: None,
+            pitch_deg: None,
+        }
+    }
+
+    #[test]
+    fn board_and_host_agree_exactly_on_a_clean_stream() {
+        let r = f64::from(Rover::HUSKY_A200.wheel_radius_m);
+        let cmd = command(-0.3, 0.3);
+        let rates = cmd.cmd_mps.map(|v| (v / r) as f32);
+        let frames = board_frames(3000, rates);
+        let c = cross_check(&frames, &[cmd], &Rover::HUSKY_A200).expect("frames");
+        assert!(c.model_frames > 3, "{c:?}");
+        assert_eq!(c.energy_lsb_us.compared, c.model_frames);
+        assert!(c.torque_proportional.compared > 0, "{c:?}");
+        assert!(c.agrees(0.0), "{c:?}");
+        assert_eq!(c.lost_samples, 0);
+    }
+
+    #[test]
+    fn a_lost_sample_and_a_tampered_model_frame_show_up() {
+        let r = f64::from(Rover::HUSKY_A200.wheel_radius_m);
+        let cmd = command(0.3, 0.3);
+        let mut frames = board_frames(3000, cmd.cmd_mps.map(|v| (v / r) as f32));
+        // Tamper with the last model frame's left energy by 12345 LSB·µs.
+        let last_model = frames
+            .iter()
+            .rposition(|(_, f)| matches!(f, BoardFrame::Model(_)))
+            .expect("model frames");
+        if let BoardFrame::Model(m) = &mut frames[last_model].1 {
+            m.snapshot.energy_lsb_us.left += 12_345;
+        }
+        let c = cross_check(&frames, &[cmd], &Rover::HUSKY_A200).expect("frames");
+        assert_eq!(c.energy_lsb_us.max_abs.left, 12_345.0, "{c:?}");
+        assert_eq!(c.energy_lsb_us.max_abs.right, 0.0);
+        assert_eq!(c.energy_lsb_us.at_t_s, Some(frames[last_model].0));
+        // Drop one sample early on: the host misses its energy from then on.
+        let first_sample = frames
+            .iter()
+            .position(|(_, f)| matches!(f, BoardFrame::Sample(s) if s.seq == 10))
+            .expect("sample 10");
+        frames.remove(first_sample);
+        let c = cross_check(&frames, &[cmd], &Rover::HUSKY_A200).expect("frames");
+        assert_eq!(c.lost_samples, 1);
+        assert!(c.energy_lsb_us.max_abs.right > 0.0, "{c:?}");
+        assert!(!c.agrees(0.0));
+    }
+
+    #[test]
+    fn wheel_rates_come_from_the_later_of_status_and_commands() {
+        let r = f64::from(Rover::HUSKY_A200.wheel_radius_m);
+        let frames = board_frames(3000, Sides::new((0.3 / r) as f32, (0.3 / r) as f32));
+        assert!(frames
+            .iter()
+            .any(|(_, f)| matches!(f, BoardFrame::Status(_))));
+        // The log says the host commanded twice the speed, but the board's status frames report
+        // the rates it really uses: those win, τ agrees.
+        let wrong = [command(0.6, 0.6)];
+        let c = cross_check(&frames, &wrong, &Rover::HUSKY_A200).expect("frames");
+        assert!(c.agrees(0.0), "{c:?}");
+        // Without status frames only the (wrong) command is known: τ differs by half, energy and
+        // power still agree exactly.
+        let no_status: Vec<_> = frames
+            .into_iter()
+            .filter(|(_, f)| !matches!(f, BoardFrame::Status(_)))
+            .collect();
+        let c = cross_check(&no_status, &wrong, &Rover::HUSKY_A200).expect("frames");
+        assert_eq!(c.energy_lsb_us.max_abs, Sides::new(0.0, 0.0));
+        assert_eq!(c.power_lsb.max_abs, Sides::new(0.0, 0.0));
+        assert!(c.torque_proportional.max_abs.left > 1.0, "{c:?}");
+        assert!(c.torque_proportional.at_t_s.is_some());
+        assert!(cross_check(&[], &[], &Rover::HUSKY_A200).is_none());
+    }
+}

@@ -1,0 +1,136 @@
+//! `host-tool validate` from the command line: run CSVs in, table out, JSON and CSV exports,
+//! clear errors.
+
+use host_tool::log::run_csv::{write_run_csv_atomically, RunSample};
+use model_core::kinematics::{side_speeds_for, TurnDirection};
+use model_core::power::IcrHardGround;
+use model_core::{Rover, Sides};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("validate-cli-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// Turns at R', 4R'/3 and 2R' (both directions) drawing the hard-ground model's power, each
+/// after 1.5 s of standstill; or only standstill.
+fn write_run(path: &Path, standstill_only: bool) {
+    let hg = IcrHardGround::HUSKY_HARD_GROUND;
+    let rp = Rover::HUSKY_A200.r_prime_m();
+    let mut samples = Vec::new();
+    let mut t = 0.0;
+    for direction in [TurnDirection::Left, TurnDirection::Right] {
+        for k in [3.0, 4.0, 6.0] {
+            let cmd = side_speeds_for(0.3, k * rp / 3.0, rp, direction);
+            let (vl, vr) = (f64::from(cmd.left_mps), f64::from(cmd.right_mps));
+            for (n, (vl, vr)) in [(75, (0.0, 0.0)), (200, (vl, vr))] {
+                let (vl, vr) = if standstill_only {
+                    (0.0, 0.0)
+                } else {
+                    (vl, vr)
+                };
+                let p = hg.power_w(vl, vr) / 2.0 + 1.0;
+                for i in 0..n {
+                    // Deterministic ±0.5 W ripple.
+                    let ripple = if i % 2 == 0 { 0.5 } else { -0.5 };
+                    samples.push(RunSample {
+                        t_s: t,
+                        bus_v: Sides::new(24.0, 24.0),
+                        current_a: Sides::new((p + ripple) / 24.0, (p - ripple) / 24.0),
+                        cmd_mps: Sides::new(vl, vr),
+                        yaw_rad: None,
+                        pitch_deg: None,
+                    });
+                    t += 0.02;
+                }
+            }
+        }
+    }
+    write_run_csv_atomically(path, &samples).expect("write run");
+}
+
+fn host_tool() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
+    c.env_remove("RUST_BACKTRACE")
+        .env_remove("RUST_LIB_BACKTRACE");
+    c
+}
+
+fn rover_toml() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../rovers/husky-a200.toml")
+}
+
+#[test]
+fn validate_prints_the_table_and_writes_json_and_csv() {
+    let dir = temp_dir("ok");
+    let run = dir.join("run.csv");
+    write_run(&run, false);
+    let (json, csv) = (dir.join("report.json"), dir.join("turns.csv"));
+    let out = host_tool()
+        .args(["validate", "--rover"])
+        .arg(rover_toml())
+        .arg("--runs")
+        .arg(&run)
+        .arg("--json")
+        .arg(&json)
+        .arg("--csv")
+        .arg(&csv)
+        .output()
+        .expect("runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("c1 = ") && stdout.contains("at-r-prime"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("departures from the fitted model: none"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json written")).expect("json");
+    assert_eq!(report["manoeuvres"].as_array().map(Vec::len), Some(6));
+    assert!(report["fit"]["r_squared"]
+        .as_f64()
+        .is_some_and(|r| r > 0.99));
+    let csv_text = std::fs::read_to_string(&csv).expect("csv written");
+    assert_eq!(csv_text.lines().count(), 7);
+
+    // `--json -`: JSON only, on stdout.
+    let out = host_tool()
+        .args(["validate", "--rover"])
+        .arg(rover_toml())
+        .arg("--runs")
+        .arg(&run)
+        .args(["--json", "-"])
+        .output()
+        .expect("runs");
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON");
+    assert!(v["hard_ground"]["mu"].as_f64().is_some());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn validate_fails_clearly_on_standstill_only_runs() {
+    let dir = temp_dir("still");
+    let run = dir.join("still.csv");
+    write_run(&run, true);
+    let out = host_tool()
+        .args(["validate", "--rover"])
+        .arg(rover_toml())
+        .arg("--runs")
+        .arg(&run)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no manoeuvre to validate"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
