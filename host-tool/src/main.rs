@@ -61,7 +61,9 @@ enum Command {
 fn positive_speed(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(k) if k.is_finite() && k > 0.0 => Ok(k),
-        _ => Err(format!("{text:?} is not a speed factor (a finite number > 0)")),
+        _ => Err(format!(
+            "{text:?} is not a speed factor (a finite number > 0)"
+        )),
     }
 }
 
@@ -120,9 +122,13 @@ fn main() -> Result<()> {
         } => {
             let loaded = load(&log)?;
             warn_truncated(&log, loaded.truncated);
-            let frames = frames_of(&loaded.run).map_err(|e| anyhow::anyhow!("encoding frames: {e}"))?;
+            let frames =
+                frames_of(&loaded.run).map_err(|e| anyhow::anyhow!("encoding frames: {e}"))?;
             if frames.is_empty() {
-                bail!("{}: nothing to replay (no frames, no samples)", log.display());
+                bail!(
+                    "{}: nothing to replay (no frames, no samples)",
+                    log.display()
+                );
             }
             if let Some(out) = to {
                 if same_file(&log, &out) {

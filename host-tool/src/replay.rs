@@ -16,8 +16,8 @@ use firmware::board::MODEL_PERIOD_US;
 use firmware::sampler::{BOARD_ADDRESSES, DEFAULT_SAMPLE_PERIOD_US};
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{
-    AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
-    BUS_LSB_UV, SHUNT_LSB_NV,
+    AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw, BUS_LSB_UV,
+    SHUNT_LSB_NV,
 };
 use model_core::wire::{
     self, BoardFrame, ChipReading, FirmwareVersion, Hello, Model, Sample, MAX_FRAME,
@@ -88,14 +88,14 @@ pub fn synthesise_frames(samples: &[RunSample]) -> Vec<(f64, BoardFrame)> {
         .map(|w| t_us(&w[1]).saturating_sub(t_us(&w[0])))
         .collect();
     intervals.sort_unstable();
-    let period_us = intervals.get(intervals.len() / 2).map_or(
-        DEFAULT_SAMPLE_PERIOD_US,
-        |&median| {
-            u32::try_from(median)
-                .unwrap_or(MAX_SAMPLE_PERIOD_US)
-                .clamp(MIN_SAMPLE_PERIOD_US, MAX_SAMPLE_PERIOD_US)
-        },
-    );
+    let period_us =
+        intervals
+            .get(intervals.len() / 2)
+            .map_or(DEFAULT_SAMPLE_PERIOD_US, |&median| {
+                u32::try_from(median)
+                    .unwrap_or(MAX_SAMPLE_PERIOD_US)
+                    .clamp(MIN_SAMPLE_PERIOD_US, MAX_SAMPLE_PERIOD_US)
+            });
     let mut frames = Vec::with_capacity(samples.len() * 11 / 10 + 1);
     frames.push((first.t_s, BoardFrame::Hello(synthetic_hello(period_us))));
     let mut measurements = RunningMeasurements::new(Scale::BOARD);
@@ -251,11 +251,9 @@ impl ReplayPty {
                     if let ReplayPacing::RealTime { speed } = pacing {
                         let after_s = ((t_s - t0_s) / speed).max(0.0);
                         let after = Duration::try_from_secs_f64(after_s).unwrap_or(Duration::MAX);
-                        let wait = start
-                            .checked_add(after)
-                            .map_or(Duration::MAX, |due| {
-                                due.saturating_duration_since(Instant::now())
-                            });
+                        let wait = start.checked_add(after).map_or(Duration::MAX, |due| {
+                            due.saturating_duration_since(Instant::now())
+                        });
                         sleep_unless_stopped(wait, &stop_flag);
                     }
                     send(&mut pty, frame, &mut stats)?;

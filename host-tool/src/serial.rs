@@ -5,8 +5,8 @@
 //! vendor/product IDs and strings from sysfs.
 
 use crate::decode::{Event, StreamDecoder};
-use std::fmt;
 use serialport::{SerialPort, SerialPortType, TTYPort};
+use std::fmt;
 use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
@@ -337,11 +337,7 @@ impl Write for PtyWriter {
                     if start.elapsed() > WRITER_STALL {
                         return Err(io::Error::new(
                             io::ErrorKind::TimedOut,
-                            format!(
-                                "nobody read {} for {} s",
-                                self.path,
-                                WRITER_STALL.as_secs()
-                            ),
+                            format!("nobody read {} for {} s", self.path, WRITER_STALL.as_secs()),
                         ));
                     }
                 }

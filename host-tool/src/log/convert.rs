@@ -135,3 +135,145 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log::mcap::{read_mcap_run, tests::sim_run};
+    use crate::log::run_csv::{read_run_csv, RunSample};
+    use crate::log::tests_support::TempDir;
+    use model_core::ina226::Scale;
+    use model_core::wire::BoardFrame;
+    use model_core::Sides;
+
+    fn samples() -> Vec<RunSample> {
+        (0..500)
+            .map(|i| {
+                let t = f64::from(i) * 0.005;
+                RunSample {
+                    t_s: 0.25 + t,
+                    bus_v: Sides::new(24.613 - 0.2 * t, 24.5071),
+                    current_a: Sides::new(7.0 * (t * 1.7).sin(), 3.333_333),
+                    cmd_mps: Sides::new(0.2 * t, -0.3),
+                    yaw_rad: (i % 2 == 0).then_some(0.123_456_789 * t),
+                    pitch_deg: (i % 5 != 0).then_some(-2.5),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn csv_to_mcap_to_csv_is_exact_and_the_frames_are_within_quantisation() {
+        let dir = TempDir::new("convert-csv");
+        let csv = dir.path().join("in.csv");
+        let mcap = dir.path().join("run.mcap");
+        let back = dir.path().join("back.csv");
+        write_run_csv_atomically(&csv, &samples()).expect("csv");
+        let original = read_run_csv(&csv).expect("read");
+
+        let done = convert(&csv, &mcap).expect("csv -> mcap");
+        assert_eq!((done.from, done.to), (RunFormat::Csv, RunFormat::Mcap));
+        assert!(done.synthesised_frames);
+        assert_eq!(done.samples, 500);
+        assert_eq!(
+            done.frames,
+            1 + 500 + 25,
+            "hello, samples, a model frame per 100 ms"
+        );
+
+        let run = read_mcap_run(&mcap).expect("mcap").run;
+        assert_eq!(run.samples, original, "the physical channel is exact");
+        let scale = Scale::BOARD;
+        let sample_frames: Vec<_> = run
+            .frames
+            .iter()
+            .filter_map(|(t, f)| match f {
+                BoardFrame::Sample(s) => Some((*t, *s)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(sample_frames.len(), original.len());
+        for ((t_s, frame), s) in sample_frames.iter().zip(&original) {
+            assert!((t_s - s.t_s).abs() < 1e-9);
+            let l = frame.chips.left.registers().expect("fresh");
+            assert!((scale.bus_v(l.bus) - s.bus_v.left).abs() <= 0.625e-3 + 1e-12);
+            assert!((scale.current_a(l.current) - s.current_a.left).abs() <= 0.25e-3 + 1e-12);
+        }
+
+        let done = convert(&mcap, &back).expect("mcap -> csv");
+        assert!(!done.synthesised_frames && done.frames == 0);
+        assert_eq!(read_run_csv(&back).expect("back"), original);
+        assert_eq!(
+            std::fs::read(&back).expect("bytes"),
+            std::fs::read(&csv).expect("bytes"),
+            "byte for byte the canonical CSV"
+        );
+    }
+
+    #[test]
+    fn mcap_to_mcap_finishes_a_truncated_recording() {
+        let dir = TempDir::new("convert-repair");
+        let (run, _) = sim_run(80);
+        let whole = dir.path().join("whole.mcap");
+        save_run(&whole, &run).expect("mcap");
+        let bytes = std::fs::read(&whole).expect("read");
+        let cut = dir.path().join("cut.mcap");
+        // Cut inside the summary section: the data are all there, the footer is not.
+        std::fs::write(&cut, &bytes[..bytes.len() - 40]).expect("write");
+        let repaired = dir.path().join("repaired.mcap");
+        let done = convert(&cut, &repaired).expect("repair");
+        assert!(done.truncated.is_some());
+        let got = read_mcap_run(&repaired).expect("repaired");
+        assert_eq!(got.truncated, None);
+        assert_eq!(got.run, run);
+    }
+
+    #[test]
+    fn refuses_to_overwrite_the_input_and_unknown_formats_write_nothing() {
+        let dir = TempDir::new("convert-same");
+        let csv = dir.path().join("in.csv");
+        write_run_csv_atomically(&csv, &samples()[..3]).expect("csv");
+        let before = std::fs::read(&csv).expect("read");
+        let e = convert(&csv, &csv).expect_err("same file");
+        assert!(matches!(e, ConvertError::SameFile { .. }), "{e}");
+        let dotted = dir.path().join(".").join("in.csv");
+        assert!(matches!(
+            convert(&csv, &dotted),
+            Err(ConvertError::SameFile { .. })
+        ));
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.csv");
+            std::os::unix::fs::symlink(&csv, &link).expect("symlink");
+            assert!(matches!(
+                convert(&link, &csv),
+                Err(ConvertError::SameFile { .. })
+            ));
+        }
+        assert_eq!(std::fs::read(&csv).expect("read"), before);
+
+        let e = convert(&csv, &dir.path().join("out.parquet")).expect_err("format");
+        assert!(
+            e.to_string()
+                .ends_with("unknown run log format (supported: .mcap, .csv)"),
+            "{e}"
+        );
+        let e = convert(&dir.path().join("missing.csv"), &dir.path().join("o.mcap"))
+            .expect_err("missing input");
+        assert!(e.to_string().contains("missing.csv"), "{e}");
+        assert!(!dir.path().join("o.mcap").exists());
+    }
+
+    #[test]
+    fn a_csv_with_negative_times_cannot_become_mcap_and_leaves_nothing() {
+        let dir = TempDir::new("convert-negative");
+        let csv = dir.path().join("in.csv");
+        let mut s = samples();
+        s[0].t_s = -0.5;
+        write_run_csv_atomically(&csv, &s).expect("csv");
+        let out = dir.path().join("out.mcap");
+        let e = convert(&csv, &out).expect_err("negative time");
+        assert!(e.to_string().contains("run time -0.5 s"), "{e}");
+        assert_eq!(dir.entries(), ["in.csv"]);
+    }
+}

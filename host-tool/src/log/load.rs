@@ -105,8 +105,14 @@ mod tests {
 
     #[test]
     fn format_by_extension() {
-        assert_eq!(RunFormat::of(Path::new("a/run.csv")).ok(), Some(RunFormat::Csv));
-        assert_eq!(RunFormat::of(Path::new("run.MCAP")).ok(), Some(RunFormat::Mcap));
+        assert_eq!(
+            RunFormat::of(Path::new("a/run.csv")).ok(),
+            Some(RunFormat::Csv)
+        );
+        assert_eq!(
+            RunFormat::of(Path::new("run.MCAP")).ok(),
+            Some(RunFormat::Mcap)
+        );
         for bad in ["run.txt", "run", "run.csv.gz", ".mcap"] {
             let e = RunFormat::of(Path::new(bad)).expect_err(bad);
             assert_eq!(
@@ -133,12 +139,18 @@ mod tests {
 
         std::fs::write(&path, "t_s\n").expect("write");
         let e = load_run(&path).expect_err("missing columns");
-        assert!(e.to_string().starts_with(&path.display().to_string()), "{e}");
+        assert!(
+            e.to_string().starts_with(&path.display().to_string()),
+            "{e}"
+        );
 
         let mcap = dir.path().join("run.mcap");
         std::fs::write(&mcap, "t_s,left_bus_v\n").expect("write");
         let e = load_run(&mcap).expect_err("a CSV named .mcap");
-        assert!(matches!(e, LoadError::Mcap(McapError::NotMcap { .. })), "{e}");
+        assert!(
+            matches!(e, LoadError::Mcap(McapError::NotMcap { .. })),
+            "{e}"
+        );
         assert!(e.to_string().contains("not an MCAP file"), "{e}");
     }
 }

@@ -119,6 +119,10 @@ pub enum McapError {
         /// What was found instead.
         detail: String,
     },
+    /// The writer refused a record (a non-finite value, a sample time not after the previous
+    /// one, a negative run time).
+    #[error("{0}")]
+    Refused(String),
     /// The MCAP writer failed.
     #[error("writing MCAP: {0}")]
     Write(#[from] ::mcap::McapError),
@@ -151,7 +155,10 @@ pub fn write_mcap_run<W: io::Write + io::Seek>(out: W, run: &RunLog) -> Result<W
             Item::Command(c) => sink.command(c),
             Item::Event(e) => sink.event(t_s, e),
         };
-        written.map_err(|e| McapError::Write(::mcap::McapError::Io(e)))?;
+        written.map_err(|e| match e.kind() {
+            io::ErrorKind::InvalidInput => McapError::Refused(e.to_string()),
+            _ => McapError::Write(::mcap::McapError::Io(e)),
+        })?;
     }
     sink.finish()
 }

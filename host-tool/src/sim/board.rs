@@ -4,11 +4,11 @@
 //! `/dev/ttyACM0`.
 
 use super::SimBus;
+use crate::serial::PtyWriter;
 use firmware::board::Board;
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
 use model_core::Sides;
-use crate::serial::PtyWriter;
 use std::fmt;
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};

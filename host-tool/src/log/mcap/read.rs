@@ -244,7 +244,9 @@ impl State {
             TOPIC_COMMAND => (Topic::Command, "json".to_owned()),
             TOPIC_EVENT => (Topic::Event, "json".to_owned()),
             TOPIC_FRAME => (Topic::Frame, frame_encoding()),
-            t if t.starts_with("/rover_power/") => (Topic::Skipped, channel.message_encoding.clone()),
+            t if t.starts_with("/rover_power/") => {
+                (Topic::Skipped, channel.message_encoding.clone())
+            }
             t => {
                 self.foreign_topics.insert(t.to_owned());
                 self.channels

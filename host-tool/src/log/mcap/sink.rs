@@ -1,8 +1,8 @@
 //! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
 
 use super::{
-    frame_encoding, schema, CommandMsg, EventMsg, McapError, SampleMsg, CHUNK_BYTES,
-    TOPIC_COMMAND, TOPIC_EVENT, TOPIC_FRAME, TOPIC_MODEL, TOPIC_SAMPLE, TOPIC_STATUS,
+    frame_encoding, schema, CommandMsg, EventMsg, McapError, SampleMsg, CHUNK_BYTES, TOPIC_COMMAND,
+    TOPIC_EVENT, TOPIC_FRAME, TOPIC_MODEL, TOPIC_SAMPLE, TOPIC_STATUS,
 };
 use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
@@ -76,7 +76,10 @@ impl<W: Write + Seek> McapSink<W> {
         let options = WriteOptions::new()
             .compression(None)
             .profile("")
-            .library(format!("rover-power host-tool {}", env!("CARGO_PKG_VERSION")))
+            .library(format!(
+                "rover-power host-tool {}",
+                env!("CARGO_PKG_VERSION")
+            ))
             .chunk_size(Some(CHUNK_BYTES))
             // Chunks are assembled in memory and written whole: the file never holds a
             // half-written chunk whose header still has placeholder lengths.
@@ -155,7 +158,12 @@ impl<W: Write + Seek> McapSink<W> {
         Ok(log_time)
     }
 
-    fn write_json(&mut self, channel: Ch, t_s: f64, message: &impl serde::Serialize) -> io::Result<()> {
+    fn write_json(
+        &mut self,
+        channel: Ch,
+        t_s: f64,
+        message: &impl serde::Serialize,
+    ) -> io::Result<()> {
         let data = serde_json::to_vec(message).map_err(io::Error::other)?;
         self.write(channel, t_s, &data).map(|_| ())
     }
@@ -272,7 +280,10 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 sample.pitch_deg.unwrap_or_default(),
             ),
         ];
-        if values.iter().any(|s| !s.left.is_finite() || !s.right.is_finite()) {
+        if values
+            .iter()
+            .any(|s| !s.left.is_finite() || !s.right.is_finite())
+        {
             return Err(invalid(format!(
                 "sample at t_s = {} has a value that is not a finite number",
                 sample.t_s
@@ -309,7 +320,9 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
     fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
         if let LogEvent::Reconnected { offline_s, .. } = event {
             if !offline_s.is_finite() {
-                return Err(invalid("reconnection with a non-finite offline time".into()));
+                return Err(invalid(
+                    "reconnection with a non-finite offline time".into(),
+                ));
             }
         }
         let log_time = log_time_ns(t_s)?;

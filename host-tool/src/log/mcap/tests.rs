@@ -154,8 +154,7 @@ fn recorded(run: &RunLog, every: usize, finish: bool) -> Vec<u8> {
         sink.finish().expect("finish").into_inner()
     } else {
         // What a killed recorder leaves: everything flushed, no summary, no footer.
-        let bytes = sink.writer.into_inner().into_inner();
-        bytes
+        sink.writer.into_inner().into_inner()
     }
 }
 
@@ -267,7 +266,10 @@ fn a_file_cut_anywhere_reads_up_to_its_last_complete_record() {
             }
         }
     }
-    assert!(partial > 10, "only {partial} cuts recovered part of the run");
+    assert!(
+        partial > 10,
+        "only {partial} cuts recovered part of the run"
+    );
 }
 
 #[test]
@@ -278,7 +280,9 @@ fn a_killed_recorder_leaves_everything_it_flushed() {
     let t = got.truncated.expect("no footer");
     assert_eq!(t.complete_bytes, t.file_bytes, "cut at a record boundary");
     assert_eq!(got.run, run);
-    assert!(::mcap::Summary::read(&bytes).is_err() || matches!(::mcap::Summary::read(&bytes), Ok(None)));
+    assert!(
+        ::mcap::Summary::read(&bytes).is_err() || matches!(::mcap::Summary::read(&bytes), Ok(None))
+    );
 }
 
 #[test]
@@ -339,7 +343,9 @@ fn not_mcap_foreign_and_other_versions_are_clear_errors() {
     let odom = writer
         .add_channel(0, "/odom", "json", &no_metadata)
         .expect("channel");
-    writer.add_channel(0, "/tf", "cdr", &no_metadata).expect("channel");
+    writer
+        .add_channel(0, "/tf", "cdr", &no_metadata)
+        .expect("channel");
     writer
         .write_to_known_channel(
             &::mcap::records::MessageHeader {
@@ -369,8 +375,9 @@ fn not_mcap_foreign_and_other_versions_are_clear_errors() {
     let e = read(&bytes).expect_err("v9");
     assert!(matches!(e, McapError::Foreign { .. }), "{e}");
     assert!(
-        e.to_string()
-            .contains("holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v1\""),
+        e.to_string().contains(
+            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v1\""
+        ),
         "{e}"
     );
 }
@@ -396,7 +403,8 @@ fn a_damaged_chunk_is_an_error_with_its_offset() {
 fn a_bad_frame_message_names_its_topic_and_time() {
     let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
     // Bypass the encoder: a frame message that is not a frame.
-    sink.write(sink::Ch::Frame, 1.5, b"\x05garbage\x00").expect("written");
+    sink.write(sink::Ch::Frame, 1.5, b"\x05garbage\x00")
+        .expect("written");
     let bytes = sink.finish().expect("finish").into_inner();
     let e = read(&bytes).expect_err("bad frame");
     assert_eq!(
