@@ -281,7 +281,8 @@ fn a_killed_recorder_leaves_everything_it_flushed() {
     assert_eq!(t.complete_bytes, t.file_bytes, "cut at a record boundary");
     assert_eq!(got.run, run);
     assert!(
-        ::mcap::Summary::read(&bytes).is_err() || matches!(::mcap::Summary::read(&bytes), Ok(None))
+        !matches!(::mcap::Summary::read(&bytes), Ok(Some(_))),
+        "no summary section"
     );
 }
 
@@ -441,7 +442,7 @@ fn merged_with_other_topics_reads_only_ours() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     /// Cut anywhere and flip any bytes: an error or a run, never a panic.
     #[test]
