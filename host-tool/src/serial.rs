@@ -5,9 +5,10 @@
 //! vendor/product IDs and strings from sysfs.
 
 use crate::decode::{Event, StreamDecoder};
-use serialport::{SerialPort, SerialPortType};
-use std::io::{self, Read};
-use std::time::Duration;
+use serialport::{SerialPort, SerialPortType, TTYPort};
+use std::fmt;
+use std::io::{self, Read, Write};
+use std::time::{Duration, Instant};
 
 /// Baud rate requested on open. CDC ACM ignores it (USB runs at its own speed); a pty accepts it.
 pub const BAUD_RATE: u32 = 115_200;
@@ -230,6 +231,123 @@ impl<R: Read> PortReader<R> {
     /// Gives the port back.
     pub fn into_inner(self) -> R {
         self.port
+    }
+}
+
+/// How long a [`PtyWriter`] waits for a reader that takes nothing before giving up.
+pub const WRITER_STALL: Duration = Duration::from_secs(10);
+
+/// How long the pty must stay read empty before a [`PtyWriter`] hangs up.
+pub const HANG_UP_QUIET: Duration = Duration::from_millis(50);
+
+/// The device end of a pseudo-terminal pair: whatever is written to it, a host reads from
+/// [`PtyWriter::path`] with [`open`] like the board's `/dev/ttyACM0`. Used by the simulated board
+/// and by `replay --to-pty`.
+///
+/// Writes wait while the pty is full (the reader lags) and fail with `TimedOut` only after
+/// [`WRITER_STALL`] without progress. Bytes written before the host opens the path wait in the
+/// pty (the slave end is held open). Linux discards what the host has not read when the master
+/// closes, so [`PtyWriter::hang_up`] first waits for the host to read everything; the host then
+/// sees the device vanish, as on an unplug (a hang-up: `BrokenPipe` or end of file).
+pub struct PtyWriter {
+    master: TTYPort,
+    slave: TTYPort,
+    path: String,
+}
+
+impl fmt::Debug for PtyWriter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PtyWriter")
+            .field("path", &self.path)
+            .finish_non_exhaustive()
+    }
+}
+
+impl PtyWriter {
+    /// A new pty pair.
+    pub fn open() -> io::Result<PtyWriter> {
+        let (mut master, slave) = TTYPort::pair().map_err(io::Error::from)?;
+        let path = slave
+            .name()
+            .ok_or_else(|| io::Error::other("the pty slave has no path"))?;
+        master
+            .set_timeout(Duration::from_millis(50))
+            .map_err(io::Error::from)?;
+        Ok(PtyWriter {
+            master,
+            slave,
+            path,
+        })
+    }
+
+    /// The slave's path (`/dev/pts/N`), to open like a serial port.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// Bytes written that the host has not read yet.
+    pub fn unread(&self) -> io::Result<u32> {
+        self.slave.bytes_to_read().map_err(io::Error::from)
+    }
+
+    /// Waits until the host has read everything written: the slave's queue stays empty for
+    /// [`HANG_UP_QUIET`] (the kernel moves written bytes to the slave asynchronously, so empty
+    /// once is not enough). Gives up after `limit` (`None`: waits as long as it takes). Returns
+    /// whether everything was read.
+    pub fn wait_until_read(&self, limit: Option<Duration>) -> io::Result<bool> {
+        let start = Instant::now();
+        let mut quiet_since = Instant::now();
+        loop {
+            if self.unread()? > 0 {
+                quiet_since = Instant::now();
+            } else if quiet_since.elapsed() >= HANG_UP_QUIET {
+                return Ok(true);
+            }
+            if limit.is_some_and(|limit| start.elapsed() >= limit) {
+                return Ok(false);
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// Waits (at most [`WRITER_STALL`]) for the host to read everything, then closes both ends:
+    /// the host sees the device vanish with nothing left unread.
+    pub fn hang_up(self) -> io::Result<()> {
+        self.wait_until_read(Some(WRITER_STALL))?;
+        Ok(())
+    }
+}
+
+impl Write for PtyWriter {
+    /// Writes some of `buf`, waiting while the pty is full; `TimedOut` after [`WRITER_STALL`]
+    /// without progress.
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let start = Instant::now();
+        loop {
+            match self.master.write(buf) {
+                Ok(n) => return Ok(n),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut
+                            | io::ErrorKind::WouldBlock
+                            | io::ErrorKind::Interrupted
+                    ) =>
+                {
+                    if start.elapsed() > WRITER_STALL {
+                        return Err(io::Error::new(
+                            io::ErrorKind::TimedOut,
+                            format!("nobody read {} for {} s", self.path, WRITER_STALL.as_secs()),
+                        ));
+                    }
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.master.flush()
     }
 }
 

@@ -1,7 +1,12 @@
 //! Log files: what a recording holds ([`run_log`]), the run CSV interchange format ([`run_csv`]),
-//! the commands CSV ([`commands`]) and crash-safe writing of whole files ([`write_atomically`]).
+//! MCAP run logs ([`mcap`]), reading and converting either by extension ([`load`],
+//! [`convert`]), the commands CSV ([`commands`]) and crash-safe writing of whole files
+//! ([`write_atomically`]).
 
 pub mod commands;
+pub mod convert;
+pub mod load;
+pub mod mcap;
 pub mod run_csv;
 pub mod run_log;
 

@@ -4,11 +4,11 @@
 //! `/dev/ttyACM0`.
 
 use super::SimBus;
+use crate::serial::PtyWriter;
 use firmware::board::Board;
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
 use model_core::Sides;
-use serialport::{SerialPort, TTYPort};
 use std::fmt;
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -189,11 +189,7 @@ pub enum Pacing {
     RealTime,
 }
 
-/// How long the writer waits for a reader that takes nothing before giving up.
-pub const WRITER_STALL: Duration = Duration::from_secs(10);
-
-/// How long the pty must stay read empty before the writer hangs up.
-pub const HANG_UP_QUIET: Duration = Duration::from_millis(50);
+pub use crate::serial::{HANG_UP_QUIET, WRITER_STALL};
 
 /// What a finished [`PtyBoard`] writer hands back.
 #[derive(Debug)]
@@ -225,22 +221,14 @@ pub struct PtyBoard {
 impl PtyBoard {
     /// Starts `board` for `steps` sample periods into a new pty pair.
     pub fn spawn(mut board: SimBoard, steps: u64, pacing: Pacing) -> io::Result<PtyBoard> {
-        let (mut master, slave) = TTYPort::pair().map_err(io::Error::from)?;
-        let path = slave
-            .name()
-            .ok_or_else(|| io::Error::other("the pty slave has no path"))?;
-        master
-            .set_timeout(Duration::from_millis(50))
-            .map_err(io::Error::from)?;
+        let mut pty = PtyWriter::open()?;
+        let path = pty.path().to_owned();
         let stop = Arc::new(AtomicBool::new(false));
         let stop_flag = Arc::clone(&stop);
         board.set_host_connected(true);
         let thread = std::thread::Builder::new()
             .name("sim-board-pty".into())
             .spawn(move || {
-                // The slave stays open while writing, so the path exists and bytes are kept
-                // until the host opens it; both ends close when this returns.
-                let _slave = &slave;
                 let start = Instant::now();
                 let mut bytes = 0u64;
                 let mut done = 0u64;
@@ -252,23 +240,12 @@ impl PtyBoard {
                         }
                     }
                     board.step();
-                    bytes += drain_patiently(&mut board, &mut master)?;
+                    // Whole frames only (the pty waits while full): a stop takes effect
+                    // between steps.
+                    bytes += board.drain_into(&mut pty)? as u64;
                     done += 1;
                 }
-                // Let the host read what is in the pty before hanging up: Linux discards what
-                // the slave side has not read when the master closes. The kernel moves written
-                // bytes to the slave's queue asynchronously, so the queue must stay empty for
-                // a while, not just once.
-                let deadline = Instant::now() + WRITER_STALL;
-                let mut quiet_since = Instant::now();
-                while Instant::now() < deadline {
-                    if slave.bytes_to_read().map_err(io::Error::from)? > 0 {
-                        quiet_since = Instant::now();
-                    } else if quiet_since.elapsed() >= HANG_UP_QUIET {
-                        break;
-                    }
-                    std::thread::sleep(Duration::from_millis(1));
-                }
+                pty.hang_up()?;
                 Ok(PtyRun {
                     board,
                     steps: done,
@@ -312,33 +289,6 @@ impl Drop for PtyBoard {
             let _ = thread.join();
         }
     }
-}
-
-/// Drains the board into the pty, retrying while the pty is full, for at most [`WRITER_STALL`]
-/// without progress. Whole frames only: a stop takes effect between steps.
-fn drain_patiently(board: &mut SimBoard, master: &mut TTYPort) -> io::Result<u64> {
-    let mut total = 0u64;
-    let mut last_progress = Instant::now();
-    while board.link().queued() > 0 {
-        match board.drain_into(master) {
-            Ok(n) => {
-                total += n as u64;
-                last_progress = Instant::now();
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
-                ) =>
-            {
-                if last_progress.elapsed() > WRITER_STALL {
-                    return Err(e);
-                }
-            }
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(total)
 }
 
 #[cfg(test)]

@@ -1,0 +1,279 @@
+//! `convert`: a run log from one format to another (or the same one, normalised), by the files'
+//! extensions. Outputs are written whole or not at all ([`super::write_atomically`]).
+//!
+//! - MCAP → run CSV: the physical samples (with commanded speeds and pose); frames, commands
+//!   and events have no place in a run CSV and are dropped.
+//! - run CSV → MCAP: the samples exactly on `/rover_power/sample`, plus the wire frames the
+//!   board would have sent for them ([`crate::replay::synthesise_frames`]: a hello, sample
+//!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
+//!   frames), so the file replays like a recording.
+//! - MCAP → MCAP: a clean, finished copy (also the way to repair a file cut short by a killed
+//!   recorder: everything before the cut is kept, with a summary and footer).
+//! - run CSV → run CSV: this tool's canonical column order and number format.
+
+use super::load::{load, LoadError, RunFormat};
+use super::mcap::{write_mcap_run, McapError, Truncation};
+use super::run_csv::{write_run_csv_atomically, RunCsvFileError};
+use super::run_log::RunLog;
+use super::{write_atomically, AtomicWriteError};
+use std::path::{Path, PathBuf};
+
+/// Why a conversion produced no output.
+#[derive(Debug, thiserror::Error)]
+pub enum ConvertError {
+    /// The output is the input file.
+    #[error("{}: the output is the input file; choose another output", path.display())]
+    SameFile {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The input could not be loaded, or a file's extension names no known format.
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// Writing the run CSV failed.
+    #[error(transparent)]
+    Csv(#[from] RunCsvFileError),
+    /// Writing the MCAP file failed.
+    #[error("{}: {source}", path.display())]
+    Mcap {
+        /// The output file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: McapError,
+    },
+}
+
+/// What a conversion did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Converted {
+    /// The input's format.
+    pub from: RunFormat,
+    /// The output's format.
+    pub to: RunFormat,
+    /// Samples written.
+    pub samples: usize,
+    /// Wire frames written (0 for a run CSV).
+    pub frames: usize,
+    /// Whether the frames were synthesised from the samples (CSV input).
+    pub synthesised_frames: bool,
+    /// The input MCAP file was cut short here; the output holds what came before.
+    pub truncated: Option<Truncation>,
+}
+
+/// Writes `run` to `path` in the format its extension names, all or nothing. A run CSV keeps
+/// the samples only.
+pub fn save_run(path: &Path, run: &RunLog) -> Result<RunFormat, ConvertError> {
+    let format = RunFormat::of(path)?;
+    match format {
+        RunFormat::Csv => {
+            write_run_csv_atomically(path, &run.samples)?;
+        }
+        RunFormat::Mcap => {
+            write_atomically(path, |out| write_mcap_run(out, run).map(|_| ())).map_err(|e| {
+                let source = match e {
+                    AtomicWriteError::Io { source, path } => McapError::Io { path, source },
+                    AtomicWriteError::Content(e) => e,
+                };
+                ConvertError::Mcap {
+                    path: path.to_owned(),
+                    source,
+                }
+            })?;
+        }
+    }
+    Ok(format)
+}
+
+/// Converts the run log `input` into `output` (formats by extension, see the module docs).
+/// Refuses to write over the input; leaves `output` untouched on any error.
+pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
+    let to = RunFormat::of(output)?;
+    if same_file(input, output) {
+        return Err(ConvertError::SameFile {
+            path: output.to_owned(),
+        });
+    }
+    let loaded = load(input)?;
+    let mut run = loaded.run;
+    let synthesised_frames =
+        to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
+    if synthesised_frames {
+        run.frames = crate::replay::synthesise_frames(&run.samples);
+    }
+    save_run(output, &run)?;
+    Ok(Converted {
+        from: loaded.format,
+        to,
+        samples: run.samples.len(),
+        frames: if to == RunFormat::Mcap {
+            run.frames.len()
+        } else {
+            0
+        },
+        synthesised_frames,
+        truncated: loaded.truncated,
+    })
+}
+
+/// Whether `a` and `b` name the same existing file (same path, symlink or hard link).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!(
+            (a.canonicalize(), b.canonicalize()),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log::mcap::{read_mcap_run, tests::sim_run};
+    use crate::log::run_csv::{read_run_csv, RunSample};
+    use crate::log::tests_support::TempDir;
+    use model_core::ina226::Scale;
+    use model_core::wire::BoardFrame;
+    use model_core::Sides;
+
+    fn samples() -> Vec<RunSample> {
+        (0..500)
+            .map(|i| {
+                let t = f64::from(i) * 0.005;
+                RunSample {
+                    t_s: 0.25 + t,
+                    bus_v: Sides::new(24.613 - 0.2 * t, 24.5071),
+                    current_a: Sides::new(7.0 * (t * 1.7).sin(), 3.333_333),
+                    cmd_mps: Sides::new(0.2 * t, -0.3),
+                    yaw_rad: (i % 2 == 0).then_some(0.123_456_789 * t),
+                    pitch_deg: (i % 5 != 0).then_some(-2.5),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn csv_to_mcap_to_csv_is_exact_and_the_frames_are_within_quantisation() {
+        let dir = TempDir::new("convert-csv");
+        let csv = dir.path().join("in.csv");
+        let mcap = dir.path().join("run.mcap");
+        let back = dir.path().join("back.csv");
+        write_run_csv_atomically(&csv, &samples()).expect("csv");
+        let original = read_run_csv(&csv).expect("read");
+
+        let done = convert(&csv, &mcap).expect("csv -> mcap");
+        assert_eq!((done.from, done.to), (RunFormat::Csv, RunFormat::Mcap));
+        assert!(done.synthesised_frames);
+        assert_eq!(done.samples, 500);
+        assert_eq!(
+            done.frames,
+            1 + 500 + 25,
+            "hello, samples, a model frame per 100 ms"
+        );
+
+        let run = read_mcap_run(&mcap).expect("mcap").run;
+        assert_eq!(run.samples, original, "the physical channel is exact");
+        let scale = Scale::BOARD;
+        let sample_frames: Vec<_> = run
+            .frames
+            .iter()
+            .filter_map(|(t, f)| match f {
+                BoardFrame::Sample(s) => Some((*t, *s)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(sample_frames.len(), original.len());
+        for ((t_s, frame), s) in sample_frames.iter().zip(&original) {
+            assert!((t_s - s.t_s).abs() < 1e-9);
+            let l = frame.chips.left.registers().expect("fresh");
+            assert!((scale.bus_v(l.bus) - s.bus_v.left).abs() <= 0.625e-3 + 1e-12);
+            assert!((scale.current_a(l.current) - s.current_a.left).abs() <= 0.25e-3 + 1e-12);
+        }
+
+        let done = convert(&mcap, &back).expect("mcap -> csv");
+        assert!(!done.synthesised_frames && done.frames == 0);
+        assert_eq!(read_run_csv(&back).expect("back"), original);
+        assert_eq!(
+            std::fs::read(&back).expect("bytes"),
+            std::fs::read(&csv).expect("bytes"),
+            "byte for byte the canonical CSV"
+        );
+    }
+
+    #[test]
+    fn mcap_to_mcap_finishes_a_truncated_recording() {
+        let dir = TempDir::new("convert-repair");
+        let (run, _) = sim_run(80);
+        let whole = dir.path().join("whole.mcap");
+        save_run(&whole, &run).expect("mcap");
+        let bytes = std::fs::read(&whole).expect("read");
+        let cut = dir.path().join("cut.mcap");
+        // Cut inside the summary section: the data are all there, the footer is not.
+        std::fs::write(&cut, &bytes[..bytes.len() - 40]).expect("write");
+        let repaired = dir.path().join("repaired.mcap");
+        let done = convert(&cut, &repaired).expect("repair");
+        assert!(done.truncated.is_some());
+        let got = read_mcap_run(&repaired).expect("repaired");
+        assert_eq!(got.truncated, None);
+        assert_eq!(got.run, run);
+    }
+
+    #[test]
+    fn refuses_to_overwrite_the_input_and_unknown_formats_write_nothing() {
+        let dir = TempDir::new("convert-same");
+        let csv = dir.path().join("in.csv");
+        write_run_csv_atomically(&csv, &samples()[..3]).expect("csv");
+        let before = std::fs::read(&csv).expect("read");
+        let e = convert(&csv, &csv).expect_err("same file");
+        assert!(matches!(e, ConvertError::SameFile { .. }), "{e}");
+        let dotted = dir.path().join(".").join("in.csv");
+        assert!(matches!(
+            convert(&csv, &dotted),
+            Err(ConvertError::SameFile { .. })
+        ));
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.csv");
+            std::os::unix::fs::symlink(&csv, &link).expect("symlink");
+            assert!(matches!(
+                convert(&link, &csv),
+                Err(ConvertError::SameFile { .. })
+            ));
+        }
+        assert_eq!(std::fs::read(&csv).expect("read"), before);
+
+        let e = convert(&csv, &dir.path().join("out.parquet")).expect_err("format");
+        assert!(
+            e.to_string()
+                .ends_with("unknown run log format (supported: .mcap, .csv)"),
+            "{e}"
+        );
+        let e = convert(&dir.path().join("missing.csv"), &dir.path().join("o.mcap"))
+            .expect_err("missing input");
+        assert!(e.to_string().contains("missing.csv"), "{e}");
+        assert!(!dir.path().join("o.mcap").exists());
+    }
+
+    #[test]
+    fn a_csv_with_negative_times_cannot_become_mcap_and_leaves_nothing() {
+        let dir = TempDir::new("convert-negative");
+        let csv = dir.path().join("in.csv");
+        let mut s = samples();
+        s[0].t_s = -0.5;
+        write_run_csv_atomically(&csv, &s).expect("csv");
+        let out = dir.path().join("out.mcap");
+        let e = convert(&csv, &out).expect_err("negative time");
+        assert!(e.to_string().contains("run time -0.5 s"), "{e}");
+        assert_eq!(dir.entries(), ["in.csv"]);
+    }
+}

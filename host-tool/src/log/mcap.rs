@@ -1,0 +1,448 @@
+//! MCAP run logs (<https://mcap.dev>): one file per run, readable by Foxglove and the ROS 2
+//! `mcap` tooling, written as the run happens by [`McapSink`] and read back by
+//! [`read_mcap_run`].
+//!
+//! # Layout
+//!
+//! Channels (message encoding `json`, schema encoding `jsonschema`, as Foxglove expects):
+//!
+//! | topic | schema | what |
+//! |---|---|---|
+//! | `/rover_power/sample` | `rover_power.Sample` | the physical sample: `t_s`, per side (`left`, `right`) `bus_v`, `current_a`, `power_w` (= bus × current), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured |
+//! | `/rover_power/model` | `rover_power.Model` | the board's on-device model frame: per side `power_w`, `energy_j`, `tau_w_per_rad_s` (τ ∝ P/ω, Eq 5.14), in SI units at the board's scale |
+//! | `/rover_power/status` | `rover_power.Status` | the board's status frame (health counters) |
+//! | `/rover_power/command` | `rover_power.Command` | commanded side speeds and tracked pose |
+//! | `/rover_power/event` | `foxglove.Log` | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
+//! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v1`: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
+//!
+//! `log_time` and `publish_time` are the run time in ns (the host has no other clock in the
+//! log). Frames are stored as bytes, so their run time is kept to the nanosecond; samples,
+//! commands and events carry their exact `t_s` in the JSON as well. Metadata records:
+//! `rover_power` (protocol version, frame encoding, writer) at the start, and
+//! `rover_power.board` at each hello frame (firmware, scale, LSBs, chip addresses, period).
+//!
+//! The model and status channels are views of the frames for plotting; the reader rebuilds a
+//! [`RunLog`] from the frame, sample, command and event channels. Other topics in the file
+//! (a recording merged with a ROS bag) are ignored.
+//!
+//! # Crash safety
+//!
+//! Records are grouped in uncompressed chunks of at most [`CHUNK_BYTES`]; each
+//! [`RunLogSink::flush`] closes the current chunk and writes it whole, so a killed process
+//! leaves a file that holds every chunk flushed before it died. The summary section (indexes,
+//! statistics) and the footer are written by [`McapSink::finish`] or on drop. The reader does
+//! not need them: it reads the records in order and reports a file cut short (no footer, or a
+//! torn last record) as [`McapRun::truncated`] with everything before the cut.
+
+mod read;
+mod sink;
+#[cfg(test)]
+pub(crate) mod tests;
+
+pub use read::{read_mcap_bytes, read_mcap_run, McapRun, Truncation};
+pub use sink::McapSink;
+
+use super::commands::CommandRow;
+use super::run_csv::RunSample;
+use super::run_log::{LogEvent, RunLog};
+use model_core::wire::PROTOCOL_VERSION;
+use model_core::Sides;
+use std::io;
+use std::path::PathBuf;
+
+/// Topic of the physical samples.
+pub const TOPIC_SAMPLE: &str = "/rover_power/sample";
+/// Topic of the board's model frames in SI units.
+pub const TOPIC_MODEL: &str = "/rover_power/model";
+/// Topic of the board's status frames.
+pub const TOPIC_STATUS: &str = "/rover_power/status";
+/// Topic of the commanded speeds and tracked pose.
+pub const TOPIC_COMMAND: &str = "/rover_power/command";
+/// Topic of the stream events.
+pub const TOPIC_EVENT: &str = "/rover_power/event";
+/// Topic of the raw wire frames.
+pub const TOPIC_FRAME: &str = "/rover_power/frame";
+
+/// Target size of a chunk before it is written even without a flush [bytes].
+pub const CHUNK_BYTES: u64 = 256 * 1024;
+
+/// Message encoding of the frame channel: the wire format of this protocol version.
+pub fn frame_encoding() -> String {
+    format!("rover-power-wire-v{PROTOCOL_VERSION}")
+}
+
+/// Why an MCAP run log could not be written or read.
+#[derive(Debug, thiserror::Error)]
+pub enum McapError {
+    /// Opening, reading or writing the file failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+    /// The file does not start with the MCAP magic bytes.
+    #[error("{}: not an MCAP file (it does not start with the MCAP magic bytes)", path.display())]
+    NotMcap {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The MCAP structure is damaged (bad record, CRC mismatch, unsupported compression).
+    #[error("{}: byte {offset}: {detail}", path.display())]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// Where the damaged record starts.
+        offset: u64,
+        /// What is wrong.
+        detail: String,
+    },
+    /// A rover-power message does not hold what its channel promises.
+    #[error("{}: {topic} message at log time {log_time_ns} ns: {detail}", path.display())]
+    BadMessage {
+        /// The file.
+        path: PathBuf,
+        /// The message's topic.
+        topic: String,
+        /// The message's log time.
+        log_time_ns: u64,
+        /// What is wrong.
+        detail: String,
+    },
+    /// A valid MCAP file that is not a rover-power run, or of another protocol version.
+    #[error("{}: {detail}", path.display())]
+    Foreign {
+        /// The file.
+        path: PathBuf,
+        /// What was found instead.
+        detail: String,
+    },
+    /// The writer refused a record (a non-finite value, a sample time not after the previous
+    /// one, a negative run time).
+    #[error("{0}")]
+    Refused(String),
+    /// The MCAP writer failed.
+    #[error("writing MCAP: {0}")]
+    Write(#[from] ::mcap::McapError),
+}
+
+/// Writes a whole [`RunLog`] as MCAP into `out`, records in time order (frames before samples
+/// at equal times); returns the finished writer.
+pub fn write_mcap_run<W: io::Write + io::Seek>(out: W, run: &RunLog) -> Result<W, McapError> {
+    use super::run_log::RunLogSink;
+    enum Item<'a> {
+        Frame(&'a model_core::wire::BoardFrame),
+        Sample(&'a RunSample),
+        Command(&'a CommandRow),
+        Event(&'a LogEvent),
+    }
+    let mut items: Vec<(f64, Item<'_>)> = Vec::with_capacity(
+        run.frames.len() + run.samples.len() + run.commands.len() + run.events.len(),
+    );
+    items.extend(run.frames.iter().map(|(t, f)| (*t, Item::Frame(f))));
+    items.extend(run.samples.iter().map(|s| (s.t_s, Item::Sample(s))));
+    items.extend(run.commands.iter().map(|c| (c.t_s, Item::Command(c))));
+    items.extend(run.events.iter().map(|(t, e)| (*t, Item::Event(e))));
+    // Stable: within one kind the order is the log's.
+    items.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut sink = McapSink::new(out)?;
+    for (t_s, item) in items {
+        let written = match item {
+            Item::Frame(f) => sink.frame(t_s, f),
+            Item::Sample(s) => sink.sample(s),
+            Item::Command(c) => sink.command(c),
+            Item::Event(e) => sink.event(t_s, e),
+        };
+        written.map_err(|e| match e.kind() {
+            io::ErrorKind::InvalidInput => McapError::Refused(e.to_string()),
+            _ => McapError::Write(::mcap::McapError::Io(e)),
+        })?;
+    }
+    sink.finish()
+}
+
+/// One side of a [`SampleMsg`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+struct SampleSide {
+    bus_v: f64,
+    current_a: f64,
+    power_w: f64,
+    cmd_mps: f64,
+}
+
+/// A `/rover_power/sample` message.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+struct SampleMsg {
+    t_s: f64,
+    left: SampleSide,
+    right: SampleSide,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    yaw_rad: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pitch_deg: Option<f64>,
+}
+
+impl SampleMsg {
+    fn of(s: &RunSample) -> Self {
+        let side = |bus_v: f64, current_a: f64, cmd_mps: f64| SampleSide {
+            bus_v,
+            current_a,
+            power_w: bus_v * current_a,
+            cmd_mps,
+        };
+        SampleMsg {
+            t_s: s.t_s,
+            left: side(s.bus_v.left, s.current_a.left, s.cmd_mps.left),
+            right: side(s.bus_v.right, s.current_a.right, s.cmd_mps.right),
+            yaw_rad: s.yaw_rad,
+            pitch_deg: s.pitch_deg,
+        }
+    }
+
+    fn sample(&self) -> RunSample {
+        RunSample {
+            t_s: self.t_s,
+            bus_v: Sides::new(self.left.bus_v, self.right.bus_v),
+            current_a: Sides::new(self.left.current_a, self.right.current_a),
+            cmd_mps: Sides::new(self.left.cmd_mps, self.right.cmd_mps),
+            yaw_rad: self.yaw_rad,
+            pitch_deg: self.pitch_deg,
+        }
+    }
+}
+
+/// A `/rover_power/command` message.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+struct CommandMsg {
+    t_s: f64,
+    cmd_mps: Sides<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    yaw_rad: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pitch_deg: Option<f64>,
+}
+
+impl CommandMsg {
+    fn of(c: &CommandRow) -> Self {
+        CommandMsg {
+            t_s: c.t_s,
+            cmd_mps: c.cmd_mps,
+            yaw_rad: c.yaw_rad,
+            pitch_deg: c.pitch_deg,
+        }
+    }
+
+    fn row(&self) -> CommandRow {
+        CommandRow {
+            t_s: self.t_s,
+            cmd_mps: self.cmd_mps,
+            yaw_rad: self.yaw_rad,
+            pitch_deg: self.pitch_deg,
+        }
+    }
+}
+
+/// Foxglove's `foxglove.Log` time stamp.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+struct FoxgloveTime {
+    sec: u64,
+    nsec: u32,
+}
+
+/// A `/rover_power/event` message: a `foxglove.Log` line (Foxglove's Log panel shows it) plus
+/// the structured event and its exact run time.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct EventMsg {
+    t_s: f64,
+    event: LogEvent,
+    #[serde(default)]
+    timestamp: Option<FoxgloveTime>,
+    /// foxglove.Log level: 2 info, 3 warning.
+    #[serde(default)]
+    level: u8,
+    #[serde(default)]
+    message: String,
+    #[serde(default)]
+    name: String,
+    #[serde(default)]
+    file: String,
+    #[serde(default)]
+    line: u32,
+}
+
+impl EventMsg {
+    fn of(t_s: f64, log_time_ns: u64, event: &LogEvent) -> Self {
+        let (level, message) = describe_event(event);
+        EventMsg {
+            t_s,
+            event: event.clone(),
+            timestamp: Some(FoxgloveTime {
+                sec: log_time_ns / 1_000_000_000,
+                nsec: (log_time_ns % 1_000_000_000) as u32,
+            }),
+            level,
+            message,
+            name: "rover-power".into(),
+            file: String::new(),
+            line: 0,
+        }
+    }
+}
+
+/// foxglove.Log level and text of an event.
+fn describe_event(event: &LogEvent) -> (u8, String) {
+    const INFO: u8 = 2;
+    const WARNING: u8 = 3;
+    match event {
+        LogEvent::Started { port } => (INFO, format!("recording started on {port}")),
+        LogEvent::DeviceVanished { port } => (WARNING, format!("device on {port} vanished")),
+        LogEvent::Reconnected { port, offline_s } => (
+            INFO,
+            format!("device back on {port} after {offline_s:.3} s offline"),
+        ),
+        LogEvent::SamplesLost { after_seq, missing } => (
+            WARNING,
+            format!("{missing} samples lost after sample {after_seq}"),
+        ),
+        LogEvent::BadFrames { count } => (WARNING, format!("{count} frames failed to decode")),
+        LogEvent::BoardReset => (
+            WARNING,
+            "the board restarted (time and energy start over)".into(),
+        ),
+        LogEvent::Stopped { reason } => (INFO, format!("recording stopped: {reason}")),
+    }
+}
+
+/// JSON schemas of the channels (draft 2020-12 subset Foxglove understands).
+mod schema {
+    pub(super) const SAMPLE: &str = r##"{
+  "title": "rover_power.Sample",
+  "description": "Physical sample of the two motor drivers (run CSV row)",
+  "type": "object",
+  "properties": {
+    "t_s": {"type": "number", "description": "run time [s]"},
+    "left": {"$ref": "#/$defs/side"},
+    "right": {"$ref": "#/$defs/side"},
+    "yaw_rad": {"type": "number", "description": "yaw [rad], counter-clockwise positive"},
+    "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive"}
+  },
+  "required": ["t_s", "left", "right"],
+  "$defs": {
+    "side": {
+      "type": "object",
+      "properties": {
+        "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
+        "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
+        "power_w": {"type": "number", "description": "bus_v x current_a [W]"},
+        "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
+      },
+      "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
+    }
+  }
+}"##;
+
+    pub(super) const MODEL: &str = r##"{
+  "title": "rover_power.Model",
+  "description": "The board's running measurements (model frame) in SI units at the board's scale",
+  "type": "object",
+  "properties": {
+    "t_s": {"type": "number", "description": "run time the frame arrived [s]"},
+    "board_t_us": {"type": "integer", "description": "board time of the sample [us since boot]"},
+    "seq": {"type": "integer", "description": "sample number"},
+    "left": {"$ref": "#/$defs/side"},
+    "right": {"$ref": "#/$defs/side"},
+    "total_energy_j": {"type": "number", "description": "energy of both sides [J]"}
+  },
+  "required": ["t_s", "board_t_us", "seq", "left", "right", "total_energy_j"],
+  "$defs": {
+    "side": {
+      "type": "object",
+      "properties": {
+        "power_w": {"type": ["number", "null"], "description": "latest power [W]"},
+        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
+        "tau_w_per_rad_s": {"type": ["number", "null"], "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]"}
+      },
+      "required": ["power_w", "energy_j", "tau_w_per_rad_s"]
+    }
+  }
+}"##;
+
+    pub(super) const STATUS: &str = r##"{
+  "title": "rover_power.Status",
+  "description": "The board's health counters (status frame)",
+  "type": "object",
+  "properties": {
+    "t_s": {"type": "number", "description": "run time the frame arrived [s]"},
+    "uptime_us": {"type": "integer"},
+    "samples": {"type": "integer", "description": "samples taken since boot"},
+    "running": {"type": "boolean"},
+    "i2c_errors": {"$ref": "#/$defs/counts"},
+    "reinits": {"$ref": "#/$defs/counts"},
+    "last_fault": {
+      "type": "object",
+      "properties": {"left": {"type": ["string", "null"]}, "right": {"type": ["string", "null"]}}
+    },
+    "queue_drops": {"type": "integer"},
+    "rx_errors": {"type": "integer"},
+    "adc": {
+      "type": "object",
+      "properties": {
+        "averaging": {"type": "string"},
+        "bus_conversion": {"type": "string"},
+        "shunt_conversion": {"type": "string"}
+      }
+    },
+    "sample_period_us": {"type": "integer"},
+    "wheel_rates_rad_s": {
+      "type": ["object", "null"],
+      "properties": {"left": {"type": "number"}, "right": {"type": "number"}}
+    }
+  },
+  "required": ["t_s", "uptime_us", "samples", "running"],
+  "$defs": {
+    "counts": {
+      "type": "object",
+      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
+    }
+  }
+}"##;
+
+    pub(super) const COMMAND: &str = r##"{
+  "title": "rover_power.Command",
+  "description": "Commanded side speeds and the tracked pose",
+  "type": "object",
+  "properties": {
+    "t_s": {"type": "number", "description": "run time [s]"},
+    "cmd_mps": {
+      "type": "object",
+      "properties": {"left": {"type": "number"}, "right": {"type": "number"}},
+      "description": "commanded side speeds [m/s], positive forward"
+    },
+    "yaw_rad": {"type": "number"},
+    "pitch_deg": {"type": "number"}
+  },
+  "required": ["t_s", "cmd_mps"]
+}"##;
+
+    pub(super) const EVENT: &str = r##"{
+  "title": "foxglove.Log",
+  "description": "A stream event as a log line; the structured event is in `event`",
+  "type": "object",
+  "properties": {
+    "timestamp": {
+      "type": "object",
+      "properties": {"sec": {"type": "integer", "minimum": 0}, "nsec": {"type": "integer", "minimum": 0}}
+    },
+    "level": {"type": "integer", "description": "1 debug, 2 info, 3 warning, 4 error, 5 fatal"},
+    "message": {"type": "string"},
+    "name": {"type": "string"},
+    "file": {"type": "string"},
+    "line": {"type": "integer", "minimum": 0},
+    "t_s": {"type": "number", "description": "run time [s]"},
+    "event": {"type": "object", "properties": {"kind": {"type": "string"}}, "required": ["kind"]}
+  },
+  "required": ["timestamp", "level", "message", "name", "file", "line", "t_s", "event"]
+}"##;
+}

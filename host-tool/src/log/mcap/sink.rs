@@ -1,0 +1,359 @@
+//! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
+
+use super::{
+    frame_encoding, schema, CommandMsg, EventMsg, McapError, SampleMsg, CHUNK_BYTES, TOPIC_COMMAND,
+    TOPIC_EVENT, TOPIC_FRAME, TOPIC_MODEL, TOPIC_SAMPLE, TOPIC_STATUS,
+};
+use crate::log::commands::CommandRow;
+use crate::log::run_csv::RunSample;
+use crate::log::run_log::{LogEvent, RunLogSink};
+use ::mcap::records::{MessageHeader, Metadata};
+use ::mcap::{WriteOptions, Writer};
+use model_core::ina226::Scale;
+use model_core::wire::{self, BoardFrame, Hello, Model, Status, MAX_FRAME, PROTOCOL_VERSION};
+use model_core::Sides;
+use std::collections::BTreeMap;
+use std::fmt;
+use std::fs::File;
+use std::io::{self, BufWriter, Seek, Write};
+use std::path::Path;
+
+/// The channels of a run log (an index into [`McapSink::ids`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Ch {
+    Sample,
+    Model,
+    Status,
+    Command,
+    Event,
+    Frame,
+}
+
+/// Writes a run as MCAP while it happens (see the [module docs](super) for the layout and the
+/// crash-safety guarantees). Samples must come in strictly increasing time; all times are run
+/// times ≥ 0 [s].
+pub struct McapSink<W: Write + Seek> {
+    pub(super) writer: Writer<W>,
+    /// MCAP channel id of each [`Ch`].
+    ids: [u16; 6],
+    /// Next sequence number of each [`Ch`].
+    sequence: [u32; 6],
+    /// The latest hello's scale (the board's until one arrives), for the model channel.
+    scale: Scale,
+    last_sample_t_s: Option<f64>,
+}
+
+impl<W: Write + Seek> fmt::Debug for McapSink<W> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("McapSink")
+            .field("ids", &self.ids)
+            .field("sequence", &self.sequence)
+            .field("scale", &self.scale)
+            .field("last_sample_t_s", &self.last_sample_t_s)
+            .finish_non_exhaustive()
+    }
+}
+
+impl McapSink<BufWriter<File>> {
+    /// Creates (or truncates) `path` and writes the file header, schemas, channels and the
+    /// `rover_power` metadata record.
+    pub fn create(path: &Path) -> Result<Self, McapError> {
+        let file = File::create(path).map_err(|source| McapError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let mut sink = Self::new(BufWriter::new(file))?;
+        // The header and channels reach the file at once: even a run killed before its first
+        // flush leaves a file the reader recognises.
+        sink.flush_records()?;
+        Ok(sink)
+    }
+}
+
+impl<W: Write + Seek> McapSink<W> {
+    /// Starts an MCAP file in `out` (header, schemas, channels, `rover_power` metadata).
+    pub fn new(out: W) -> Result<Self, McapError> {
+        let options = WriteOptions::new()
+            .compression(None)
+            .profile("")
+            .library(format!(
+                "rover-power host-tool {}",
+                env!("CARGO_PKG_VERSION")
+            ))
+            .chunk_size(Some(CHUNK_BYTES))
+            // Chunks are assembled in memory and written whole: the file never holds a
+            // half-written chunk whose header still has placeholder lengths.
+            .disable_seeking(true);
+        let mut writer = Writer::with_options(out, options)?;
+        let no_metadata = BTreeMap::new();
+        let mut json_channel = |name: &str, schema: &str, topic: &str| -> Result<u16, McapError> {
+            let schema_id = writer.add_schema(name, "jsonschema", schema.as_bytes())?;
+            Ok(writer.add_channel(schema_id, topic, "json", &no_metadata)?)
+        };
+        let sample = json_channel("rover_power.Sample", schema::SAMPLE, TOPIC_SAMPLE)?;
+        let model = json_channel("rover_power.Model", schema::MODEL, TOPIC_MODEL)?;
+        let status = json_channel("rover_power.Status", schema::STATUS, TOPIC_STATUS)?;
+        let command = json_channel("rover_power.Command", schema::COMMAND, TOPIC_COMMAND)?;
+        let event = json_channel("foxglove.Log", schema::EVENT, TOPIC_EVENT)?;
+        let frame_metadata = BTreeMap::from([
+            (
+                "format".to_owned(),
+                "COBS(version byte | postcard(BoardFrame) | CRC-32/ISO-HDLC little-endian) \
+                 followed by a 0x00 delimiter; one frame per message, exactly as the board sent \
+                 it (model_core::wire)"
+                    .to_owned(),
+            ),
+            ("protocol_version".to_owned(), PROTOCOL_VERSION.to_string()),
+        ]);
+        let frame = writer.add_channel(0, TOPIC_FRAME, &frame_encoding(), &frame_metadata)?;
+        writer.write_metadata(&Metadata {
+            name: "rover_power".into(),
+            metadata: BTreeMap::from([
+                ("protocol_version".to_owned(), PROTOCOL_VERSION.to_string()),
+                ("frame_encoding".to_owned(), frame_encoding()),
+                (
+                    "writer".to_owned(),
+                    format!("host-tool {}", env!("CARGO_PKG_VERSION")),
+                ),
+                ("time".to_owned(), "log_time = run time [ns]".to_owned()),
+            ]),
+        })?;
+        Ok(McapSink {
+            writer,
+            ids: [sample, model, status, command, event, frame],
+            sequence: [0; 6],
+            scale: Scale::BOARD,
+            last_sample_t_s: None,
+        })
+    }
+
+    /// Writes the summary section and footer and hands back the output, flushed. (Dropping the
+    /// sink does the same, ignoring errors.)
+    pub fn finish(mut self) -> Result<W, McapError> {
+        self.writer.finish()?;
+        let mut out = self.writer.into_inner();
+        out.flush().map_err(::mcap::McapError::Io)?;
+        Ok(out)
+    }
+
+    fn flush_records(&mut self) -> Result<(), McapError> {
+        Ok(self.writer.flush()?)
+    }
+
+    pub(super) fn write(&mut self, channel: Ch, t_s: f64, data: &[u8]) -> io::Result<u64> {
+        let log_time = log_time_ns(t_s)?;
+        let sequence = self.sequence[channel as usize];
+        self.sequence[channel as usize] = sequence.wrapping_add(1);
+        self.writer
+            .write_to_known_channel(
+                &MessageHeader {
+                    channel_id: self.ids[channel as usize],
+                    sequence,
+                    log_time,
+                    publish_time: log_time,
+                },
+                data,
+            )
+            .map_err(into_io)?;
+        Ok(log_time)
+    }
+
+    fn write_json(
+        &mut self,
+        channel: Ch,
+        t_s: f64,
+        message: &impl serde::Serialize,
+    ) -> io::Result<()> {
+        let data = serde_json::to_vec(message).map_err(io::Error::other)?;
+        self.write(channel, t_s, &data).map(|_| ())
+    }
+
+    fn hello(&mut self, t_s: f64, hello: &Hello) -> io::Result<()> {
+        self.scale = hello.scale;
+        let f = hello.firmware;
+        let entries = [
+            ("t_s", t_s.to_string()),
+            ("protocol_version", hello.protocol.to_string()),
+            ("firmware", format!("{}.{}.{}", f.major, f.minor, f.patch)),
+            ("current_lsb_na", hello.scale.current_lsb_na.to_string()),
+            ("shunt_micro_ohm", hello.scale.shunt_micro_ohm.to_string()),
+            ("power_lsb_uw", hello.power_lsb_uw.to_string()),
+            ("shunt_lsb_nv", hello.shunt_lsb_nv.to_string()),
+            ("bus_lsb_uv", hello.bus_lsb_uv.to_string()),
+            ("address_left", format!("{:#04x}", hello.addresses.left)),
+            ("address_right", format!("{:#04x}", hello.addresses.right)),
+            ("adc", format!("{:?}", hello.adc)),
+            ("sample_period_us", hello.sample_period_us.to_string()),
+        ];
+        self.writer
+            .write_metadata(&Metadata {
+                name: "rover_power.board".into(),
+                metadata: entries
+                    .into_iter()
+                    .map(|(k, v)| (k.to_owned(), v))
+                    .collect(),
+            })
+            .map_err(into_io)
+    }
+}
+
+/// A `/rover_power/model` message.
+#[derive(serde::Serialize)]
+struct ModelMsg {
+    t_s: f64,
+    board_t_us: u64,
+    seq: u32,
+    left: ModelSide,
+    right: ModelSide,
+    total_energy_j: f64,
+}
+
+#[derive(serde::Serialize)]
+struct ModelSide {
+    power_w: Option<f64>,
+    energy_j: f64,
+    tau_w_per_rad_s: Option<f32>,
+}
+
+impl ModelMsg {
+    fn of(t_s: f64, model: &Model, scale: Scale) -> Self {
+        let s = &model.snapshot;
+        let side = |power: Option<i32>, energy: i64, tau: Option<f32>| ModelSide {
+            power_w: power.map(|p| scale.power_w(p)),
+            energy_j: scale.energy_j(energy),
+            tau_w_per_rad_s: tau.filter(|t| t.is_finite()),
+        };
+        ModelMsg {
+            t_s,
+            board_t_us: model.t_us,
+            seq: model.seq,
+            left: side(
+                s.power_lsb.left,
+                s.energy_lsb_us.left,
+                s.torque_proportional.left,
+            ),
+            right: side(
+                s.power_lsb.right,
+                s.energy_lsb_us.right,
+                s.torque_proportional.right,
+            ),
+            total_energy_j: scale.energy_j(s.total_energy_lsb_us()),
+        }
+    }
+}
+
+/// A `/rover_power/status` message.
+#[derive(serde::Serialize)]
+struct StatusMsg<'a> {
+    t_s: f64,
+    #[serde(flatten)]
+    status: &'a Status,
+}
+
+impl<W: Write + Seek> RunLogSink for McapSink<W> {
+    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = wire::encode(frame, &mut buf)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        self.write(Ch::Frame, t_s, &buf[..n])?;
+        match frame {
+            BoardFrame::Hello(hello) => self.hello(t_s, hello)?,
+            BoardFrame::Model(model) => {
+                let msg = ModelMsg::of(t_s, model, self.scale);
+                self.write_json(Ch::Model, t_s, &msg)?;
+            }
+            BoardFrame::Status(status) => {
+                self.write_json(Ch::Status, t_s, &StatusMsg { t_s, status })?;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+        let values = [
+            sample.bus_v,
+            sample.current_a,
+            sample.cmd_mps,
+            Sides::new(
+                sample.yaw_rad.unwrap_or_default(),
+                sample.pitch_deg.unwrap_or_default(),
+            ),
+        ];
+        if values
+            .iter()
+            .any(|s| !s.left.is_finite() || !s.right.is_finite())
+        {
+            return Err(invalid(format!(
+                "sample at t_s = {} has a value that is not a finite number",
+                sample.t_s
+            )));
+        }
+        if let Some(previous) = self.last_sample_t_s {
+            if sample.t_s <= previous {
+                return Err(invalid(format!(
+                    "sample time {} is not after the previous sample's {previous}",
+                    sample.t_s
+                )));
+            }
+        }
+        self.write_json(Ch::Sample, sample.t_s, &SampleMsg::of(sample))?;
+        self.last_sample_t_s = Some(sample.t_s);
+        Ok(())
+    }
+
+    fn command(&mut self, row: &CommandRow) -> io::Result<()> {
+        let finite = [row.cmd_mps.left, row.cmd_mps.right]
+            .into_iter()
+            .chain(row.yaw_rad)
+            .chain(row.pitch_deg)
+            .all(f64::is_finite);
+        if !finite {
+            return Err(invalid(format!(
+                "command at t_s = {} has a value that is not a finite number",
+                row.t_s
+            )));
+        }
+        self.write_json(Ch::Command, row.t_s, &CommandMsg::of(row))
+    }
+
+    fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
+        if let LogEvent::Reconnected { offline_s, .. } = event {
+            if !offline_s.is_finite() {
+                return Err(invalid(
+                    "reconnection with a non-finite offline time".into(),
+                ));
+            }
+        }
+        let log_time = log_time_ns(t_s)?;
+        let msg = EventMsg::of(t_s, log_time, event);
+        self.write_json(Ch::Event, t_s, &msg)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer.flush().map_err(into_io)
+    }
+}
+
+/// MCAP log time [ns] of a run time [s]: finite, ≥ 0 and below 2^64 ns (584 years).
+pub(super) fn log_time_ns(t_s: f64) -> io::Result<u64> {
+    let ns = (t_s * 1e9).round();
+    if t_s.is_finite() && t_s >= 0.0 && ns < u64::MAX as f64 {
+        Ok(ns as u64)
+    } else {
+        Err(invalid(format!(
+            "run time {t_s} s cannot be an MCAP log time (finite, ≥ 0)"
+        )))
+    }
+}
+
+fn invalid(message: String) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidInput, message)
+}
+
+fn into_io(e: ::mcap::McapError) -> io::Error {
+    match e {
+        ::mcap::McapError::Io(e) => e,
+        other => io::Error::other(other),
+    }
+}

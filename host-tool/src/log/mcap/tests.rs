@@ -1,0 +1,486 @@
+use super::*;
+use crate::decode::{Event, StreamDecoder};
+use crate::log::run_log::RunLogSink;
+use crate::log::tests_support::TempDir;
+use crate::sim::board::{SideLoad, SimBoard};
+use firmware::sampler::SamplerConfig;
+use model_core::ina226::Scale;
+use model_core::wire::BoardFrame;
+use proptest::prelude::*;
+use std::io::Cursor;
+use std::path::Path;
+
+/// A run time of whole nanoseconds (what an MCAP log time holds exactly).
+fn ns(ns: u64) -> f64 {
+    ns as f64 / 1e9
+}
+
+/// The bytes a simulated board sends over `steps` periods (a hello, samples, model and status
+/// frames), and the run a recorder would log from them: every frame at the run time it
+/// arrived (its sample period), the physical samples, two commands and some events.
+pub(crate) fn sim_run(steps: u64) -> (RunLog, Vec<u8>) {
+    let mut sim = SimBoard::new(SamplerConfig::BOARD);
+    sim.set_host_connected(true);
+    sim.set_load(|t_us: u64| {
+        let t = t_us as f64 * 1e-6;
+        Sides::new(
+            SideLoad {
+                current_a: 2.0 * (t * 3.0).sin() - 0.4,
+                bus_v: 24.6,
+            },
+            SideLoad {
+                current_a: 4.0 + 0.5 * (t * 5.0).cos(),
+                bus_v: 24.5,
+            },
+        )
+    });
+    let mut bytes = Vec::new();
+    let mut run = RunLog::default();
+    let mut decoder = StreamDecoder::new();
+    for step in 0..steps {
+        let t_s = ns(step * 5_000_000 + 1_234);
+        sim.step();
+        let start = bytes.len();
+        sim.drain_into(&mut bytes).expect("memory");
+        let scale = Scale::BOARD;
+        decoder.feed(&bytes[start..], |event| {
+            if let Event::Frame(frame) = event {
+                if let BoardFrame::Sample(s) = &frame {
+                    let side = |c: &model_core::wire::ChipReading| {
+                        c.registers().map_or((0.0, 0.0), |r| {
+                            (scale.bus_v(r.bus), scale.current_a(r.current))
+                        })
+                    };
+                    let (lv, la) = side(&s.chips.left);
+                    let (rv, ra) = side(&s.chips.right);
+                    run.samples.push(RunSample {
+                        t_s,
+                        bus_v: Sides::new(lv, rv),
+                        current_a: Sides::new(la, ra),
+                        cmd_mps: Sides::new(0.3, 0.5),
+                        yaw_rad: (step % 3 != 0).then_some(0.01 * step as f64),
+                        pitch_deg: None,
+                    });
+                }
+                run.frames.push((t_s, frame));
+            }
+        });
+    }
+    run.commands = vec![
+        CommandRow {
+            t_s: 0.0,
+            cmd_mps: Sides::new(0.3, 0.5),
+            yaw_rad: Some(0.0),
+            pitch_deg: Some(-1.5),
+        },
+        CommandRow {
+            t_s: 0.1,
+            cmd_mps: Sides::new(-0.2, 0.2),
+            yaw_rad: None,
+            pitch_deg: None,
+        },
+    ];
+    run.events = vec![
+        (
+            0.0,
+            LogEvent::Started {
+                port: "/dev/ttyACM0".into(),
+            },
+        ),
+        (
+            0.05,
+            LogEvent::SamplesLost {
+                after_seq: 9,
+                missing: 2,
+            },
+        ),
+        (
+            0.07,
+            LogEvent::Reconnected {
+                port: "/dev/ttyACM0".into(),
+                offline_s: 1.25,
+            },
+        ),
+        (0.08, LogEvent::BadFrames { count: 3 }),
+        (0.09, LogEvent::BoardReset),
+        (
+            0.2,
+            LogEvent::Stopped {
+                reason: "Ctrl-C".into(),
+            },
+        ),
+    ];
+    (run, bytes)
+}
+
+fn to_bytes(run: &RunLog) -> Vec<u8> {
+    write_mcap_run(Cursor::new(Vec::new()), run)
+        .expect("written")
+        .into_inner()
+}
+
+fn read(bytes: &[u8]) -> Result<McapRun, McapError> {
+    read_mcap_bytes(bytes, Path::new("test.mcap"))
+}
+
+/// Writes `run` through a sink that flushes every `every` records, like a recorder; returns
+/// the bytes without finishing the file when `finish` is false (a killed process).
+fn recorded(run: &RunLog, every: usize, finish: bool) -> Vec<u8> {
+    let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
+    let mut n = 0;
+    let mut tick = |sink: &mut McapSink<Cursor<Vec<u8>>>| {
+        n += 1;
+        if n % every == 0 {
+            sink.flush().expect("flush");
+        }
+    };
+    let mut samples = run.samples.iter().peekable();
+    for (t_s, frame) in &run.frames {
+        sink.frame(*t_s, frame).expect("frame");
+        tick(&mut sink);
+        while let Some(s) = samples.next_if(|s| s.t_s <= *t_s) {
+            sink.sample(s).expect("sample");
+            tick(&mut sink);
+        }
+    }
+    for c in &run.commands {
+        sink.command(c).expect("command");
+    }
+    for (t, e) in &run.events {
+        sink.event(*t, e).expect("event");
+    }
+    sink.flush().expect("flush");
+    if finish {
+        sink.finish().expect("finish").into_inner()
+    } else {
+        // What a killed recorder leaves: everything flushed, no summary, no footer.
+        sink.writer.into_inner().into_inner()
+    }
+}
+
+#[test]
+fn round_trip_keeps_everything() {
+    let (run, _) = sim_run(250);
+    assert!(run.frames.len() > 250 && run.samples.len() == 250);
+    assert!(run
+        .frames
+        .iter()
+        .any(|(_, f)| matches!(f, BoardFrame::Status(_))));
+    let bytes = to_bytes(&run);
+    let back = read(&bytes).expect("readable");
+    assert_eq!(back.truncated, None);
+    assert_eq!(back.run, run);
+}
+
+#[test]
+fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
+    let (run, _) = sim_run(100);
+    let bytes = to_bytes(&run);
+    let summary = ::mcap::Summary::read(&bytes)
+        .expect("valid")
+        .expect("summary present");
+    let stats = summary.stats.as_ref().expect("statistics");
+    let topics: std::collections::BTreeMap<&str, (&str, Option<&str>)> = summary
+        .channels
+        .values()
+        .map(|c| {
+            (
+                c.topic.as_str(),
+                (
+                    c.message_encoding.as_str(),
+                    c.schema.as_ref().map(|s| s.encoding.as_str()),
+                ),
+            )
+        })
+        .collect();
+    assert_eq!(topics[TOPIC_SAMPLE], ("json", Some("jsonschema")));
+    assert_eq!(topics[TOPIC_MODEL], ("json", Some("jsonschema")));
+    assert_eq!(topics[TOPIC_STATUS], ("json", Some("jsonschema")));
+    assert_eq!(topics[TOPIC_COMMAND], ("json", Some("jsonschema")));
+    assert_eq!(topics[TOPIC_EVENT], ("json", Some("jsonschema")));
+    assert_eq!(topics[TOPIC_FRAME], ("rover-power-wire-v1", None));
+    assert!(!summary.chunk_indexes.is_empty());
+    assert_eq!(summary.metadata_indexes.len(), 2, "rover_power + one hello");
+
+    // Every message, through the crate's own reader; JSON channels hold valid JSON objects.
+    let mut count = 0u64;
+    let mut models = 0;
+    for message in ::mcap::MessageStream::new(&bytes).expect("stream") {
+        let message = message.expect("message");
+        count += 1;
+        if message.channel.message_encoding == "json" {
+            let value: serde_json::Value =
+                serde_json::from_slice(&message.data).expect("JSON message");
+            assert!(value.is_object());
+            let t_s = value["t_s"].as_f64().expect("t_s");
+            assert_eq!(sink::log_time_ns(t_s).expect("time"), message.log_time);
+            if message.channel.topic == TOPIC_MODEL {
+                models += 1;
+                assert!(value["left"]["energy_j"].is_number());
+            }
+        }
+    }
+    assert_eq!(count, stats.message_count);
+    let frame_models = run
+        .frames
+        .iter()
+        .filter(|(_, f)| matches!(f, BoardFrame::Model(_)))
+        .count();
+    assert_eq!(models, frame_models);
+    // Schemas are valid JSON.
+    for schema in summary.schemas.values() {
+        serde_json::from_slice::<serde_json::Value>(&schema.data).expect("JSON schema");
+    }
+}
+
+/// `a`'s items are the first items of `b`.
+fn is_prefix<T: PartialEq + std::fmt::Debug>(a: &[T], b: &[T]) -> bool {
+    a.len() <= b.len() && a == &b[..a.len()]
+}
+
+#[test]
+fn a_file_cut_anywhere_reads_up_to_its_last_complete_record() {
+    let (run, _) = sim_run(200);
+    let bytes = recorded(&run, 25, true);
+    let full = read(&bytes).expect("full");
+    assert_eq!(full.truncated, None);
+    let mut previous = 0;
+    let mut partial = 0;
+    for cut in (0..bytes.len()).step_by(97) {
+        match read(&bytes[..cut]) {
+            Err(McapError::NotMcap { .. }) => assert!(cut < 8, "cut {cut}"),
+            Err(e) => panic!("cut at {cut}: {e}"),
+            Ok(got) => {
+                let t = got.truncated.expect("cut short");
+                assert_eq!(t.file_bytes, cut as u64);
+                assert!(t.complete_bytes <= cut as u64);
+                assert!(is_prefix(&got.run.samples, &full.run.samples), "cut {cut}");
+                assert!(is_prefix(&got.run.frames, &full.run.frames), "cut {cut}");
+                assert!(is_prefix(&got.run.commands, &full.run.commands));
+                assert!(is_prefix(&got.run.events, &full.run.events));
+                assert!(got.run.frames.len() >= previous, "cut {cut}");
+                previous = got.run.frames.len();
+                if !got.run.frames.is_empty() && got.run.frames.len() < full.run.frames.len() {
+                    partial += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        partial > 10,
+        "only {partial} cuts recovered part of the run"
+    );
+}
+
+#[test]
+fn a_killed_recorder_leaves_everything_it_flushed() {
+    let (run, _) = sim_run(120);
+    let bytes = recorded(&run, 10, false);
+    let got = read(&bytes).expect("readable");
+    let t = got.truncated.expect("no footer");
+    assert_eq!(t.complete_bytes, t.file_bytes, "cut at a record boundary");
+    assert_eq!(got.run, run);
+    assert!(
+        !matches!(::mcap::Summary::read(&bytes), Ok(Some(_))),
+        "no summary section"
+    );
+}
+
+#[test]
+fn sink_on_a_file_is_readable_before_finish_and_finished_on_drop() {
+    let dir = TempDir::new("mcap-sink");
+    let path = dir.path().join("run.mcap");
+    let (run, _) = sim_run(40);
+    let mut sink = McapSink::create(&path).expect("create");
+    let got = read_mcap_run(&path).expect("header and channels on disk at once");
+    assert!(got.truncated.is_some() && got.run == RunLog::default());
+    for s in &run.samples {
+        sink.sample(s).expect("sample");
+    }
+    sink.flush().expect("flush");
+    let got = read_mcap_run(&path).expect("flushed samples on disk");
+    assert_eq!(got.run.samples, run.samples);
+    drop(sink);
+    let got = read_mcap_run(&path).expect("finished");
+    assert_eq!(got.truncated, None);
+    assert_eq!(got.run.samples, run.samples);
+}
+
+#[test]
+fn sink_refuses_what_the_reader_would_reject() {
+    let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
+    let (run, _) = sim_run(3);
+    sink.sample(&run.samples[1]).expect("first");
+    let e = sink.sample(&run.samples[0]).expect_err("time goes back");
+    assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
+    assert!(e.to_string().contains("not after the previous"), "{e}");
+    let mut nan = run.samples[2];
+    nan.current_a.left = f64::NAN;
+    assert!(sink.sample(&nan).is_err());
+    let e = sink
+        .event(-1.0, &LogEvent::BoardReset)
+        .expect_err("negative time");
+    assert!(e.to_string().contains("run time -1 s"), "{e}");
+    assert!(sink.frame(f64::INFINITY, &run.frames[0].1).is_err());
+    // The sink still works after refusing.
+    sink.sample(&run.samples[2]).expect("valid");
+    let bytes = sink.finish().expect("finish").into_inner();
+    let got = read(&bytes).expect("readable");
+    assert_eq!(got.run.samples, [run.samples[1], run.samples[2]]);
+}
+
+#[test]
+fn not_mcap_foreign_and_other_versions_are_clear_errors() {
+    let e = read(b"t_s,left_bus_v\n0,24\n").expect_err("CSV");
+    assert_eq!(
+        e.to_string(),
+        "test.mcap: not an MCAP file (it does not start with the MCAP magic bytes)"
+    );
+    assert!(matches!(read(b""), Err(McapError::NotMcap { .. })));
+
+    // A finished MCAP file of someone else's topics.
+    let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
+    let no_metadata = std::collections::BTreeMap::new();
+    let odom = writer
+        .add_channel(0, "/odom", "json", &no_metadata)
+        .expect("channel");
+    writer
+        .add_channel(0, "/tf", "cdr", &no_metadata)
+        .expect("channel");
+    writer
+        .write_to_known_channel(
+            &::mcap::records::MessageHeader {
+                channel_id: odom,
+                sequence: 0,
+                log_time: 0,
+                publish_time: 0,
+            },
+            b"{}",
+        )
+        .expect("message");
+    writer.finish().expect("finish");
+    let bytes = writer.into_inner().into_inner();
+    let e = read(&bytes).expect_err("foreign");
+    assert_eq!(
+        e.to_string(),
+        "test.mcap: an MCAP file without rover-power channels (its topics: /odom, /tf)"
+    );
+
+    // Frames of another protocol version.
+    let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
+    writer
+        .add_channel(0, TOPIC_FRAME, "rover-power-wire-v9", &no_metadata)
+        .expect("channel");
+    writer.finish().expect("finish");
+    let bytes = writer.into_inner().into_inner();
+    let e = read(&bytes).expect_err("v9");
+    assert!(matches!(e, McapError::Foreign { .. }), "{e}");
+    assert!(
+        e.to_string().contains(
+            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v1\""
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_damaged_chunk_is_an_error_with_its_offset() {
+    let (run, _) = sim_run(30);
+    let mut bytes = to_bytes(&run);
+    // Find a sample message's JSON inside the (only data) chunk and change a digit.
+    let at = bytes
+        .windows(6)
+        .position(|w| w == b"\"t_s\":")
+        .expect("a JSON message")
+        + 6;
+    bytes[at] ^= 0x01;
+    let e = read(&bytes).expect_err("CRC");
+    assert!(matches!(e, McapError::Corrupt { .. }), "{e}");
+    assert!(e.to_string().contains("chunk CRC mismatch"), "{e}");
+    assert!(e.to_string().starts_with("test.mcap: byte "), "{e}");
+}
+
+#[test]
+fn a_bad_frame_message_names_its_topic_and_time() {
+    let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
+    // Bypass the encoder: a frame message that is not a frame.
+    sink.write(sink::Ch::Frame, 1.5, b"\x05garbage\x00")
+        .expect("written");
+    let bytes = sink.finish().expect("finish").into_inner();
+    let e = read(&bytes).expect_err("bad frame");
+    assert_eq!(
+        e.to_string(),
+        "test.mcap: /rover_power/frame message at log time 1500000000 ns: frame does not decode: invalid COBS encoding"
+    );
+}
+
+#[test]
+fn merged_with_other_topics_reads_only_ours() {
+    let (run, _) = sim_run(10);
+    let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
+    let no_metadata = std::collections::BTreeMap::new();
+    let tf = sink
+        .writer
+        .add_channel(0, "/tf", "cdr", &no_metadata)
+        .expect("channel");
+    for s in &run.samples {
+        sink.sample(s).expect("sample");
+        sink.writer
+            .write_to_known_channel(
+                &::mcap::records::MessageHeader {
+                    channel_id: tf,
+                    sequence: 0,
+                    log_time: 1,
+                    publish_time: 1,
+                },
+                b"\x00\x01",
+            )
+            .expect("foreign message");
+    }
+    let bytes = sink.finish().expect("finish").into_inner();
+    assert_eq!(read(&bytes).expect("ours").run.samples, run.samples);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Cut anywhere and flip any bytes: an error or a run, never a panic.
+    #[test]
+    fn damaged_files_never_panic(
+        cut in any::<prop::sample::Index>(),
+        flips in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 0..6),
+    ) {
+        thread_local! {
+            static BYTES: Vec<u8> = {
+                let (run, _) = sim_run(60);
+                recorded(&run, 7, true)
+            };
+        }
+        let mut bytes = BYTES.with(Clone::clone);
+        for (at, flip) in &flips {
+            let i = at.index(bytes.len());
+            bytes[i] ^= flip;
+        }
+        let cut = cut.index(bytes.len() + 1);
+        let _ = read(&bytes[..cut]);
+    }
+
+    /// Arbitrary records after the magic: never a panic.
+    #[test]
+    fn arbitrary_records_never_panic(
+        records in proptest::collection::vec(
+            (prop_oneof![Just(0x01u8), Just(0x03), Just(0x04), Just(0x05), Just(0x06), Just(0x0c), Just(0x0f), any::<u8>()],
+             proptest::collection::vec(any::<u8>(), 0..64),
+             any::<bool>()),
+            0..8),
+    ) {
+        let mut bytes = ::mcap::MAGIC.to_vec();
+        for (opcode, body, honest) in &records {
+            bytes.push(*opcode);
+            let len = if *honest { body.len() as u64 } else { u64::from(body.first().copied().unwrap_or(0)) << 40 };
+            bytes.extend_from_slice(&len.to_le_bytes());
+            bytes.extend_from_slice(body);
+        }
+        let _ = read(&bytes);
+    }
+}

@@ -1,0 +1,257 @@
+use super::*;
+use crate::decode::{Event, Summary};
+use crate::log::mcap::tests::sim_run;
+use crate::log::mcap::{read_mcap_bytes, write_mcap_run};
+use crate::serial::{self, PortReader, ReadOutcome};
+use proptest::prelude::*;
+use std::io::Cursor;
+use std::path::Path;
+
+/// Half an LSB of the bus (1.25 mV) and current (0.5 mA) registers, plus rounding slack.
+const HALF_BUS_LSB_V: f64 = 0.625e-3 + 1e-12;
+const HALF_CURRENT_LSB_A: f64 = 0.25e-3 + 1e-12;
+
+/// Everything read from `path` until the device vanished: the frames and the raw bytes.
+fn read_pty(path: &str) -> (Vec<BoardFrame>, Vec<u8>) {
+    let port = serial::open(path, Duration::from_millis(20)).expect("open the pty");
+    let mut reader = PortReader::new(Recording {
+        port,
+        bytes: Vec::new(),
+    });
+    let mut decoder = crate::decode::StreamDecoder::new();
+    let mut frames = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        assert!(Instant::now() < deadline, "the replay never hung up");
+        match reader.poll(&mut decoder, |e| match e {
+            Event::Frame(f) => frames.push(f),
+            Event::BadFrame(e) => panic!("bad frame {e:?}"),
+            Event::SampleGap { .. } => {}
+        }) {
+            ReadOutcome::Vanished { .. } => break,
+            ReadOutcome::Data(_) | ReadOutcome::NoData => {}
+        }
+    }
+    (frames, reader.into_inner().bytes)
+}
+
+/// A port that keeps a copy of what it read.
+struct Recording<R> {
+    port: R,
+    bytes: Vec<u8>,
+}
+
+impl<R: io::Read> io::Read for Recording<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.port.read(buf)?;
+        self.bytes.extend_from_slice(&buf[..n]);
+        Ok(n)
+    }
+}
+
+#[test]
+fn mcap_of_a_sim_board_replays_its_exact_byte_stream_through_a_pty() {
+    let (run, board_bytes) = sim_run(400);
+    let file = write_mcap_run(Cursor::new(Vec::new()), &run)
+        .expect("written")
+        .into_inner();
+    let loaded = read_mcap_bytes(&file, Path::new("sim.mcap")).expect("read");
+    let frames = frames_of(&loaded.run).expect("encode");
+    let replay = ReplayPty::spawn(
+        frames,
+        ReplayPacing::AsFastAsPossible,
+        Some(Duration::from_secs(10)),
+    )
+    .expect("pty");
+    let (received, bytes) = read_pty(replay.path());
+    let stats = replay.join().expect("replayed");
+    let logged: Vec<BoardFrame> = run.frames.iter().map(|(_, f)| *f).collect();
+    assert_eq!(received, logged);
+    assert_eq!(bytes, board_bytes, "byte for byte what the board sent");
+    assert_eq!(stats.bytes, board_bytes.len() as u64);
+    assert_eq!(stats.frames, logged.len() as u64);
+}
+
+#[test]
+fn csv_samples_replay_as_frames_within_quantisation() {
+    let samples: Vec<RunSample> = (0..300)
+        .map(|i| {
+            let t = f64::from(i) * 0.01;
+            RunSample {
+                t_s: 2.0 + t,
+                bus_v: Sides::new(24.6 - 0.1 * t, 24.5),
+                current_a: Sides::new(3.0 * (t * 2.0).sin(), 5.123_456),
+                cmd_mps: Sides::new(0.4, 0.6),
+                yaw_rad: None,
+                pitch_deg: None,
+            }
+        })
+        .collect();
+    let run = RunLog {
+        samples: samples.clone(),
+        ..RunLog::default()
+    };
+    let frames = frames_of(&run).expect("encode");
+    let replay = ReplayPty::spawn(
+        frames,
+        ReplayPacing::AsFastAsPossible,
+        Some(Duration::from_secs(10)),
+    )
+    .expect("pty");
+    let (received, _) = read_pty(replay.path());
+    replay.join().expect("replayed");
+    let Some(BoardFrame::Hello(hello)) = received.first() else {
+        panic!("no hello first: {:?}", received.first());
+    };
+    assert_eq!(hello.sample_period_us, 10_000);
+    assert_eq!(hello.firmware.major, 0);
+    let scale = hello.scale;
+    let got: Vec<Sample> = received
+        .iter()
+        .filter_map(|f| match f {
+            BoardFrame::Sample(s) => Some(*s),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(got.len(), samples.len());
+    for (s, frame) in samples.iter().zip(&got) {
+        assert_eq!(frame.t_us, ((s.t_s - 2.0) * 1e6).round() as u64);
+        for (chip, bus_v, current_a) in [
+            (frame.chips.left, s.bus_v.left, s.current_a.left),
+            (frame.chips.right, s.bus_v.right, s.current_a.right),
+        ] {
+            let regs = chip.registers().expect("fresh");
+            assert!((scale.bus_v(regs.bus) - bus_v).abs() <= HALF_BUS_LSB_V);
+            assert!((scale.current_a(regs.current) - current_a).abs() <= HALF_CURRENT_LSB_A);
+        }
+    }
+    // Model frames every 100 ms, as the firmware sends them: 300 samples over 3 s → 30.
+    let models = received
+        .iter()
+        .filter(|f| matches!(f, BoardFrame::Model(_)))
+        .count();
+    assert_eq!(models, 30);
+}
+
+#[test]
+fn synthesised_model_frames_match_the_hosts_recomputation() {
+    let samples: Vec<RunSample> = (0..1000)
+        .map(|i| RunSample {
+            t_s: f64::from(i) * 0.005,
+            bus_v: Sides::new(24.0, 23.9),
+            current_a: Sides::new(2.5, -1.25),
+            cmd_mps: Sides::new(0.0, 0.0),
+            yaw_rad: None,
+            pitch_deg: None,
+        })
+        .collect();
+    let frames = frames_of(&RunLog {
+        samples,
+        ..RunLog::default()
+    })
+    .expect("encode");
+    let mut stream = Vec::new();
+    write_stream(&frames, &mut stream).expect("memory");
+    let summary = Summary::of(&stream);
+    assert_eq!(summary.stats.bad_frames, 0);
+    assert_eq!(summary.stats.samples, 1000);
+    let (model, host) = summary.board_vs_host.expect("model frames");
+    assert_eq!(
+        [
+            model.snapshot.energy_lsb_us.left,
+            model.snapshot.energy_lsb_us.right
+        ],
+        host
+    );
+    // 2.5 A × 24 V = 60 W and −1.25 A × 23.9 V = −29.875 W over 4.995 s (the first sample
+    // starts the integration), within the power register's 12.5 mW truncation.
+    let j = |lsb_us: i64| summary.scale.energy_j(lsb_us);
+    let [left, right] = summary.host_energy_lsb_us;
+    assert!((j(left) - 60.0 * 4.995).abs() < 0.0125 * 5.0, "{}", j(left));
+    assert!(
+        (j(right) + 29.875 * 4.995).abs() < 0.0125 * 5.0,
+        "{}",
+        j(right)
+    );
+}
+
+#[test]
+fn real_time_pacing_takes_the_logged_time_over_the_speed() {
+    // 0.6 s of log at speed 4: at least 0.15 s from the first frame's read to the hang-up.
+    let frames: Vec<(f64, Vec<u8>)> = (0..7)
+        .map(|i| {
+            let frame = BoardFrame::Ack { id: i };
+            (f64::from(i) * 0.1, encode_frame(&frame).expect("encode"))
+        })
+        .collect();
+    let replay = ReplayPty::spawn(
+        frames,
+        ReplayPacing::RealTime { speed: 4.0 },
+        Some(Duration::from_secs(10)),
+    )
+    .expect("pty");
+    let start = Instant::now();
+    let (received, _) = read_pty(replay.path());
+    assert!(
+        start.elapsed() >= Duration::from_millis(150),
+        "{:?}",
+        start.elapsed()
+    );
+    assert_eq!(received.len(), 7);
+    replay.join().expect("replayed");
+}
+
+#[test]
+fn bad_speed_and_no_reader_are_errors() {
+    for speed in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let e = ReplayPty::spawn(Vec::new(), ReplayPacing::RealTime { speed }, None)
+            .expect_err("bad speed");
+        assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
+    }
+    let frames = vec![(
+        0.0,
+        encode_frame(&BoardFrame::Ack { id: 1 }).expect("encode"),
+    )];
+    let replay = ReplayPty::spawn(
+        frames,
+        ReplayPacing::AsFastAsPossible,
+        Some(Duration::from_millis(100)),
+    )
+    .expect("pty");
+    let e = replay.join().expect_err("nobody reads");
+    assert_eq!(e.kind(), io::ErrorKind::TimedOut);
+}
+
+#[test]
+fn an_empty_log_replays_nothing() {
+    assert!(frames_of(&RunLog::default()).expect("empty").is_empty());
+    assert!(synthesise_frames(&[]).is_empty());
+}
+
+proptest! {
+    /// Within the registers' range every value comes back within half an LSB; outside it, the
+    /// registers saturate; power is the chip's |current| × bus / 20000.
+    #[test]
+    fn registers_quantise_to_the_nearest_lsb(bus_v in -5.0..50.0f64, current_a in -20.0..20.0f64) {
+        let scale = Scale::BOARD;
+        let regs = registers_of(bus_v, current_a);
+        let bus_back = scale.bus_v(regs.bus);
+        // The largest bus reading is 0x7FFF × 1.25 mV = 40.95875 V.
+        if (0.0..=40.958_75).contains(&bus_v) {
+            prop_assert!((bus_back - bus_v).abs() <= HALF_BUS_LSB_V);
+        } else if bus_v < 0.0 {
+            prop_assert_eq!(regs.bus.0, 0);
+        } else {
+            prop_assert_eq!(regs.bus.0, 0x7FFF);
+        }
+        if current_a.abs() <= 16.38 {
+            prop_assert!((scale.current_a(regs.current) - current_a).abs() <= HALF_CURRENT_LSB_A);
+            // 5 mΩ / 2.5 µV = 0.5 mA: on our board the shunt and current registers agree.
+            prop_assert_eq!(regs.shunt.0, regs.current.0);
+        } else {
+            prop_assert!(regs.current.0 == i16::MIN || regs.current.0 == i16::MAX);
+        }
+        let power = u32::from(regs.current.0.unsigned_abs()) * u32::from(regs.bus.0) / 20_000;
+        prop_assert_eq!(u32::from(regs.power.0), power);
+    }
+}
