@@ -7,6 +7,7 @@
 
 pub mod board;
 pub mod ina226;
+pub mod world;
 
 pub use ina226::{Analog, SimIna226};
 

@@ -1,0 +1,767 @@
+//! The simulated rover world: a Clearpath Husky A200 (Table 3.2, controller slip track 1.1 m)
+//! executing a [`Scenario`] on hard ground or loose sand, producing the currents and bus
+//! voltages the two INA226 see ([`Timeline::load_at`], [`Timeline::load_source`] for
+//! [`SimBoard`](crate::sim::board::SimBoard)), the commands and tracker pose
+//! ([`Timeline::commands`]), and the ground truth of every manoeuvre
+//! ([`Timeline::manoeuvres`]).
+//!
+//! # Kinematics
+//!
+//! A turn of radius R at v_c is commanded with the constant side speeds of Appendix A
+//! (Eq A.13–A.14, `model_core::kinematics::side_speeds_for`, with the rover's controller slip
+//! track) until the **true** yaw has turned the requested angle, as the seed's tests did with
+//! the IMU (paper Section 4.3). The true motion: v_y = (V_l + V_r)/2 (Eq 2.1) and
+//! ω_z = (V_r − V_l)/B_s,terrain · (1 − s_ω) (Eq 2.2 with the `slip-track` effect's terrain slip
+//! track, else the controller's, and the `angular-slip` effect's s_ω of Eq 6.3), so turns last
+//! longer than expected when either is on. Straight lines run until the true distance is
+//! reached; pauses are standstill. The world integrates every 10 ms ([`STEP_S`]); the last step
+//! of a manoeuvre is shortened so it ends exactly on its angle or distance.
+//!
+//! # Power chain
+//!
+//! Baseline (both grounds): the ICR model of paper Eq 20–22,
+//! P = F|ω_z| + G(|V_r| + |V_l|), F = 2μp√(L² + (W − B_s)²), on the commanded side speeds,
+//! with paper Table 2's Husky parameters on hard ground (μ 0.74, G 30.85 N, B_s 1.29 m,
+//! `IcrHardGround::HUSKY_HARD_GROUND`). It is the *electrical* power at the drivers (μ and G
+//! were fitted to measured power). Per side, the skid term is carried by equal and opposite
+//! tread forces ±F/B_s (their couple over B_s is the skid moment F, so the outer side delivers
+//! F V_o/B_s and the inner −F V_i/B_s, summing to F|ω_z| exactly), and each side rolls against
+//! G|V|. For R > R' the inner side therefore regenerates (negative power), as the paper
+//! measured with its INA226 (paper Fig. 11), and, with the traction fading as
+//! 1/(1 + (R/R_f)²) for wide arcs (the fade's share of F|ω_z| goes to the sides in proportion
+//! to |V|, so the total is still exactly Eq 21), turns positive again near R_T = 18 m (paper
+//! Section 4.4), with continuity into a straight line (P = G|V| per side, Lemma 1). At R' the
+//! inner side is not commanded and draws only its driver's quiescent current.
+//!
+//! Effects (each its own TOML table, [`effects`]): torque-type terms (`inner-drag`,
+//! `sinkage-bulldozing`, `braked-inner`) add wheel torque Δτ on a side and go through
+//! `model_core::power::DcMotor` (Eq 1.18–1.19): ΔP = Δτω/η + (2τΔτ + Δτ²)R_m/(K_T g η)², with τ
+//! the baseline torque that the motor model maps onto the baseline power; `motor-heating`
+//! raises R_m with a first-order winding temperature; `slope` adds Φ m g v_y sin θ (Eq 1.16);
+//! `current-offset` shifts what the sensors see. The driver current is
+//! I = I_q + P/V_bus at the battery's bus voltage V_bus = V_0 − R_int I_total (solved exactly).
+//! Per-side currents may be negative (regeneration, paper Fig. 11); the battery itself cannot
+//! be charged (Section 1.1.3), so a net regeneration is dissipated in the drivers (the
+//! generating side's current is clamped so the total is ≥ 0).
+//!
+//! # Defaults and the seed figures they reproduce
+//!
+//! Hard ground (`worlds/husky-hard-ground.toml`): paper Table 2; the turn power equals paper
+//! Eq 21 (tests: within 0.1 % at every radius of the seed's set); the inner side regenerates
+//! for R' < R < 18 m (paper Fig. 11); straight lines draw 2G v (paper Lemma 1).
+//!
+//! Sand (`worlds/husky-sand.toml`, the laboratory sandbox with GRC-1): ICR μ 1.3, G 46 N,
+//! B_s 1.21 m (Table D.1, sandbox), plus the sand effects on by default, calibrated to:
+//! - Section 4.4.1 / Fig 4.8: point-turn power about twice hard ground (μ, `sinkage-bulldozing`);
+//! - Section 4.4.2 / Fig 4.9 and Chapter 7: average power 15–20 % above P(0), peaking in
+//!   B/2 < R < R' (`inner-drag`, `sinkage-bulldozing`'s counter-rotation gain);
+//! - Section 5.2 / Fig 5.6: the inner wheels' τ ∝ P/ω (Eq 5.14) about 70 % higher at 2R'/3
+//!   than at R'/3 (`inner-drag` torque);
+//! - Section 4.4.1 / Fig 4.8, 4.11: power rising through turns with R ≤ R'
+//!   (`sinkage-bulldozing` growth, `inner-drag` ramp);
+//! - Section 6.2 / Fig 6.7–6.8, Chapter 7: turns slower than commanded, the angular slip at R'
+//!   40 % above R = 0's, the time offset at least double the hard ground's (`angular-slip`,
+//!   `slip-track` 1.21 m vs hard ground 1.29 m);
+//! - Section 6.2 / Fig 4.8: P(R') close to P(0) (`braked-inner` kept small).
+//!
+//! The numbers the tests measure are in this module's tests (`calibration_*`).
+
+pub mod effects;
+mod engine;
+pub mod scenario;
+mod timeline;
+
+pub use effects::EffectId;
+pub use scenario::{load_scenario, parse_scenario, Manoeuvre, ManoeuvreKind, Scenario, Side};
+pub use timeline::{ManoeuvreTruth, Timeline, TimelineLoad};
+
+use model_core::power::{DcMotor, IcrHardGround};
+use model_core::Rover;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Integration step of the world's mechanics [s].
+pub const STEP_S: f64 = 0.01;
+
+/// Why a world or scenario could not be read or simulated.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldError {
+    /// The file could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not valid TOML, an unknown key or a value of the wrong type (the message names the key
+    /// and, where TOML knows it, the line).
+    #[error("{origin}: {source}")]
+    Toml {
+        /// The file (or "world"/"scenario" for text).
+        origin: String,
+        /// The parser's error.
+        #[source]
+        source: Box<toml::de::Error>,
+    },
+    /// A value outside its domain.
+    #[error("{origin}: `{key}` {reason}")]
+    Invalid {
+        /// The file (or "world"/"scenario" for text).
+        origin: String,
+        /// The key, dotted (`inner-drag.torque_nm`, `manoeuvres[2].angle_deg`).
+        key: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The world's `rover` file.
+    #[error("{origin}: `rover`: {source}")]
+    Rover {
+        /// The world file.
+        origin: String,
+        /// The rover file's error.
+        #[source]
+        source: crate::rover::RoverFileError,
+    },
+    /// A manoeuvre that does not finish (e.g. the rover cannot turn).
+    #[error("manoeuvre `{label}` did not finish within {limit_s:.0} s")]
+    Stalled {
+        /// The manoeuvre.
+        label: String,
+        /// The time limit [s].
+        limit_s: f64,
+    },
+}
+
+/// The terrain of a world: it picks the ICR parameters and which terrain effects are on by
+/// default.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Ground {
+    /// Concrete (paper Table 2).
+    #[default]
+    Hard,
+    /// The laboratory sandbox, GRC-1 (Chapters 4–6).
+    Sand,
+}
+
+/// `[icr]`: the ICR power model's parameters (paper Eq 20–22) and the traction fade of the
+/// per-side split.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IcrParams {
+    /// μ.
+    pub mu: f64,
+    /// G [N].
+    pub rolling_resistance_n: f64,
+    /// B_s of the power model [m].
+    pub slip_track_m: f64,
+    /// R_f: radius (from Eq 2.4 with this B_s) where the tread forces have faded to half [m].
+    pub traction_fade_radius_m: f64,
+}
+
+/// R_f placing the inner side's zero crossing at R_T ≈ 18 m on hard ground (paper Section 4.4).
+pub const TRACTION_FADE_RADIUS_M: f64 = 11.1;
+
+impl IcrParams {
+    /// Paper Table 2 (hard ground).
+    pub const HARD_GROUND: IcrParams = IcrParams {
+        mu: IcrHardGround::HUSKY_HARD_GROUND.mu,
+        rolling_resistance_n: IcrHardGround::HUSKY_HARD_GROUND.rolling_resistance_n,
+        slip_track_m: IcrHardGround::HUSKY_HARD_GROUND.slip_track_m,
+        traction_fade_radius_m: TRACTION_FADE_RADIUS_M,
+    };
+
+    /// The sandbox baseline: B_s from Table D.1; μ calibrated so that a point turn draws about
+    /// twice the hard-ground power with the sand effects on (Section 4.4.1); G 1.5 × hard
+    /// ground (the seed has no straight-line sandbox measurement; the gap to hard ground
+    /// shrinks for wide arcs, Section 4.4.1).
+    pub const SAND: IcrParams = IcrParams {
+        mu: 1.1,
+        rolling_resistance_n: 46.0,
+        slip_track_m: effects::SANDBOX_SLIP_TRACK_M,
+        traction_fade_radius_m: TRACTION_FADE_RADIUS_M,
+    };
+
+    /// The paper's model with these parameters for `rover` (its L, W = B, m).
+    pub fn model(&self, rover: &Rover) -> IcrHardGround {
+        IcrHardGround {
+            mu: self.mu,
+            rolling_resistance_n: self.rolling_resistance_n,
+            length_m: f64::from(rover.length_m),
+            width_m: if rover == &Rover::HUSKY_A200 {
+                // Paper Table 2 uses W = 0.55 m for the Husky (Table 3.2: B = 0.545 m).
+                IcrHardGround::HUSKY_HARD_GROUND.width_m
+            } else {
+                f64::from(rover.track_width_m)
+            },
+            mass_kg: f64::from(rover.mass_kg),
+            slip_track_m: self.slip_track_m,
+        }
+    }
+}
+
+/// `[battery]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Battery {
+    /// Open-circuit voltage [V].
+    pub nominal_v: f64,
+    /// Internal resistance [Ω].
+    pub internal_resistance_ohm: f64,
+}
+
+impl Default for Battery {
+    /// The Husky's 24 V pack; 50 mΩ (not in the seed).
+    fn default() -> Self {
+        Self {
+            nominal_v: 24.0,
+            internal_resistance_ohm: 0.05,
+        }
+    }
+}
+
+/// `[driver]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Driver {
+    /// Each motor driver's own draw, also at standstill [A].
+    pub quiescent_current_a: f64,
+}
+
+impl Default for Driver {
+    /// 50 mA (not in the seed).
+    fn default() -> Self {
+        Self {
+            quiescent_current_a: 0.05,
+        }
+    }
+}
+
+/// `[motor]`: one side's brushed DC motor and gearbox (Eq 1.17–1.19).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Motor {
+    /// K_T [N·m/A].
+    pub torque_constant_nm_per_a: f64,
+    /// Gear ratio.
+    pub gear_ratio: f64,
+    /// η.
+    pub efficiency: f64,
+    /// R_m at ambient temperature [Ω].
+    pub winding_resistance_ohm: f64,
+}
+
+impl Default for Motor {
+    /// Not in the seed: a 24 V gearmotor of the Husky's class (K_T 0.044 N·m/A, 78.71:1,
+    /// η 0.8, 0.15 Ω).
+    fn default() -> Self {
+        Self {
+            torque_constant_nm_per_a: 0.044,
+            gear_ratio: 78.71,
+            efficiency: 0.8,
+            winding_resistance_ohm: 0.15,
+        }
+    }
+}
+
+impl Motor {
+    /// As a `model_core` motor.
+    pub fn dc_motor(&self) -> DcMotor {
+        DcMotor {
+            torque_constant_nm_per_a: self.torque_constant_nm_per_a,
+            gear_ratio: self.gear_ratio,
+            efficiency: self.efficiency,
+            winding_resistance_ohm: self.winding_resistance_ohm,
+        }
+    }
+}
+
+/// `[noise]`: measurement noise (Gaussian, from a counter-based hash of the seed and the time,
+/// so a timeline is reproducible and cheap to query).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Noise {
+    /// Current noise of the left sensor's input [A, std].
+    pub left_current_std_a: f64,
+    /// Current noise of the right sensor's input [A, std].
+    pub right_current_std_a: f64,
+    /// Bus voltage noise [V, std].
+    pub bus_std_v: f64,
+    /// Tracker yaw noise [rad, std].
+    pub yaw_std_rad: f64,
+    /// Tracker pitch noise [deg, std].
+    pub pitch_std_deg: f64,
+}
+
+impl Default for Noise {
+    /// 30 mA, 5 mV, 0.1°, 0.05° (not in the seed).
+    fn default() -> Self {
+        Self {
+            left_current_std_a: 0.03,
+            right_current_std_a: 0.03,
+            bus_std_v: 0.005,
+            yaw_std_rad: 0.1f64.to_radians(),
+            pitch_std_deg: 0.05,
+        }
+    }
+}
+
+/// The effects' parameters and switches (see [`effects`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Effects {
+    /// Which are on, in [`EffectId::ALL`] order.
+    pub enabled: [bool; 8],
+    /// `[inner-drag]`.
+    pub inner_drag: effects::InnerDrag,
+    /// `[sinkage-bulldozing]`.
+    pub sinkage_bulldozing: effects::SinkageBulldozing,
+    /// `[angular-slip]`.
+    pub angular_slip: effects::AngularSlip,
+    /// `[slip-track]`.
+    pub slip_track: effects::SlipTrack,
+    /// `[braked-inner]`.
+    pub braked_inner: effects::BrakedInner,
+    /// `[current-offset]`.
+    pub current_offset: effects::CurrentOffset,
+    /// `[motor-heating]`.
+    pub motor_heating: effects::MotorHeating,
+    /// `[slope]`.
+    pub slope: effects::Slope,
+}
+
+impl Effects {
+    /// Whether `id` is on.
+    pub fn is_enabled(&self, id: EffectId) -> bool {
+        self.enabled[id as usize]
+    }
+
+    /// Switches `id`.
+    pub fn set_enabled(&mut self, id: EffectId, on: bool) {
+        self.enabled[id as usize] = on;
+    }
+}
+
+/// A rover world: terrain, rover, power chain, sensors and effects. Read it from TOML with
+/// [`load_world`]/[`parse_world`] (every key optional, unknown keys are errors):
+///
+/// ```toml
+/// ground = "sand"                  # "hard" (default) or "sand"
+/// rover = "../rovers/husky-a200.toml"  # optional; relative to the world file; default Husky
+/// [icr]                            # defaults: paper Table 2 (hard) or the sand calibration
+/// mu = 0.74
+/// [battery]                        # nominal_v 24, internal_resistance_ohm 0.05
+/// [driver]                         # quiescent_current_a 0.05
+/// [motor]                          # torque_constant_nm_per_a, gear_ratio, efficiency, winding_resistance_ohm
+/// [noise]                          # left/right_current_std_a, bus_std_v, yaw_std_rad, pitch_std_deg
+/// [inner-drag]                     # every effect: enabled (ground default) + its parameters
+/// enabled = true
+/// torque_nm = 16.0
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WorldConfig {
+    /// The terrain.
+    pub ground: Ground,
+    /// The rover (Table 3.2 Husky by default).
+    pub rover: Rover,
+    /// The baseline ICR power model.
+    pub icr: IcrParams,
+    /// The battery.
+    pub battery: Battery,
+    /// The motor drivers.
+    pub driver: Driver,
+    /// Each side's motor.
+    pub motor: Motor,
+    /// Measurement noise.
+    pub noise: Noise,
+    /// The effects.
+    pub effects: Effects,
+}
+
+impl WorldConfig {
+    /// Hard ground, Husky, paper Table 2, no effects.
+    pub fn hard_ground() -> Self {
+        Self::for_ground(Ground::Hard)
+    }
+
+    /// The sandbox, Husky, with the sand effects on.
+    pub fn sand() -> Self {
+        Self::for_ground(Ground::Sand)
+    }
+
+    /// The defaults of a ground.
+    pub fn for_ground(ground: Ground) -> Self {
+        let mut effects = Effects::default();
+        for id in EffectId::ALL {
+            effects.set_enabled(id, ground == Ground::Sand && id.on_by_default_on_sand());
+        }
+        Self {
+            ground,
+            rover: Rover::HUSKY_A200,
+            icr: match ground {
+                Ground::Hard => IcrParams::HARD_GROUND,
+                Ground::Sand => IcrParams::SAND,
+            },
+            battery: Battery::default(),
+            driver: Driver::default(),
+            motor: Motor::default(),
+            noise: Noise::default(),
+            effects,
+        }
+    }
+
+    /// The same world with only `id` switched (`on`).
+    pub fn with_effect(mut self, id: EffectId, on: bool) -> Self {
+        self.effects.set_enabled(id, on);
+        self
+    }
+
+    /// The same world without measurement noise.
+    pub fn without_noise(mut self) -> Self {
+        self.noise = Noise {
+            left_current_std_a: 0.0,
+            right_current_std_a: 0.0,
+            bus_std_v: 0.0,
+            yaw_std_rad: 0.0,
+            pitch_std_deg: 0.0,
+        };
+        self
+    }
+
+    /// The terrain's slip track: the `slip-track` effect's (Table D.1 default per ground) when
+    /// on, else the controller's [m].
+    pub fn terrain_slip_track_m(&self) -> f64 {
+        if self.effects.is_enabled(EffectId::SlipTrack) {
+            self.effects
+                .slip_track
+                .slip_track_m
+                .unwrap_or(match self.ground {
+                    Ground::Hard => effects::HARD_GROUND_SLIP_TRACK_M,
+                    Ground::Sand => effects::SANDBOX_SLIP_TRACK_M,
+                })
+        } else {
+            f64::from(self.rover.slip_track_m)
+        }
+    }
+
+    /// Simulates `scenario`; the same seed gives the same timeline.
+    pub fn simulate(&self, scenario: &Scenario, seed: u64) -> Result<Timeline, WorldError> {
+        self.validate("world")?;
+        let segments = scenario.segments(&self.rover, "scenario")?;
+        engine::run(self, &segments, seed)
+    }
+
+    /// Checks every parameter's domain.
+    pub fn validate(&self, origin: &str) -> Result<(), WorldError> {
+        let bad = |key: &str, v: f64, what: &str| -> Result<(), WorldError> {
+            Err(WorldError::Invalid {
+                origin: origin.to_string(),
+                key: key.to_string(),
+                reason: format!("= {v} must be {what}"),
+            })
+        };
+        let pos = |key: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                bad(key, v, "finite and > 0")
+            }
+        };
+        let nonneg = |key: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                bad(key, v, "finite and ≥ 0")
+            }
+        };
+        let fin = |key: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                bad(key, v, "finite")
+            }
+        };
+        nonneg("icr.mu", self.icr.mu)?;
+        nonneg("icr.rolling_resistance_n", self.icr.rolling_resistance_n)?;
+        pos("icr.slip_track_m", self.icr.slip_track_m)?;
+        pos(
+            "icr.traction_fade_radius_m",
+            self.icr.traction_fade_radius_m,
+        )?;
+        pos("battery.nominal_v", self.battery.nominal_v)?;
+        nonneg(
+            "battery.internal_resistance_ohm",
+            self.battery.internal_resistance_ohm,
+        )?;
+        nonneg(
+            "driver.quiescent_current_a",
+            self.driver.quiescent_current_a,
+        )?;
+        pos(
+            "motor.torque_constant_nm_per_a",
+            self.motor.torque_constant_nm_per_a,
+        )?;
+        pos("motor.gear_ratio", self.motor.gear_ratio)?;
+        if !(self.motor.efficiency > 0.0 && self.motor.efficiency <= 1.0) {
+            bad("motor.efficiency", self.motor.efficiency, "in (0, 1]")?;
+        }
+        nonneg(
+            "motor.winding_resistance_ohm",
+            self.motor.winding_resistance_ohm,
+        )?;
+        let n = &self.noise;
+        nonneg("noise.left_current_std_a", n.left_current_std_a)?;
+        nonneg("noise.right_current_std_a", n.right_current_std_a)?;
+        nonneg("noise.bus_std_v", n.bus_std_v)?;
+        nonneg("noise.yaw_std_rad", n.yaw_std_rad)?;
+        nonneg("noise.pitch_std_deg", n.pitch_std_deg)?;
+        let e = &self.effects;
+        nonneg("inner-drag.torque_nm", e.inner_drag.torque_nm)?;
+        pos("inner-drag.ramp_s", e.inner_drag.ramp_s)?;
+        let sb = &e.sinkage_bulldozing;
+        nonneg(
+            "sinkage-bulldozing.resistance_n_per_mm",
+            sb.resistance_n_per_mm,
+        )?;
+        nonneg(
+            "sinkage-bulldozing.counter_rotation_gain",
+            sb.counter_rotation_gain,
+        )?;
+        if let Err(err) = model_core::soil::SlipSinkage2d::new(sb.sinkage_params()) {
+            return Err(WorldError::Invalid {
+                origin: origin.to_string(),
+                key: "sinkage-bulldozing".into(),
+                reason: format!("sinkage parameters: {err}"),
+            });
+        }
+        if let Err(err) = model_core::soil::SandBulldozing::new(sb.soil()) {
+            return Err(WorldError::Invalid {
+                origin: origin.to_string(),
+                key: "sinkage-bulldozing".into(),
+                reason: format!("soil parameters: {err}"),
+            });
+        }
+        for (key, v) in [
+            ("angular-slip.at_zero", e.angular_slip.at_zero),
+            ("angular-slip.at_r_prime", e.angular_slip.at_r_prime),
+        ] {
+            if !(0.0..=0.95).contains(&v) {
+                bad(key, v, "in [0, 0.95]")?;
+            }
+        }
+        if let Some(b) = e.slip_track.slip_track_m {
+            pos("slip-track.slip_track_m", b)?;
+        }
+        nonneg("braked-inner.resistance_n", e.braked_inner.resistance_n)?;
+        fin("current-offset.left_a", e.current_offset.left_a)?;
+        fin("current-offset.right_a", e.current_offset.right_a)?;
+        let mh = &e.motor_heating;
+        pos(
+            "motor-heating.thermal_resistance_k_per_w",
+            mh.thermal_resistance_k_per_w,
+        )?;
+        pos("motor-heating.time_constant_s", mh.time_constant_s)?;
+        nonneg(
+            "motor-heating.resistance_coefficient_per_k",
+            mh.resistance_coefficient_per_k,
+        )?;
+        nonneg("slope.phi", e.slope.phi)?;
+        fin("slope.pitch_deg", e.slope.pitch_deg)?;
+        fin("slope.amplitude_deg", e.slope.amplitude_deg)?;
+        if e.slope.pitch_deg.abs() + e.slope.amplitude_deg.abs() > 45.0 {
+            bad(
+                "slope.pitch_deg",
+                e.slope.pitch_deg,
+                "within ±45° together with amplitude_deg",
+            )?;
+        }
+        pos("slope.wavelength_m", e.slope.wavelength_m)?;
+        Ok(())
+    }
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        Self::hard_ground()
+    }
+}
+
+/// The world TOML as written: every key optional; effect tables read by hand so their
+/// `enabled` default can depend on `ground`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WorldToml {
+    #[serde(default)]
+    ground: Ground,
+    rover: Option<PathBuf>,
+    icr: Option<IcrToml>,
+    #[serde(default)]
+    battery: Battery,
+    #[serde(default)]
+    driver: Driver,
+    #[serde(default)]
+    motor: Motor,
+    #[serde(default)]
+    noise: Noise,
+    #[serde(rename = "inner-drag")]
+    inner_drag: Option<toml::Table>,
+    #[serde(rename = "sinkage-bulldozing")]
+    sinkage_bulldozing: Option<toml::Table>,
+    #[serde(rename = "angular-slip")]
+    angular_slip: Option<toml::Table>,
+    #[serde(rename = "slip-track")]
+    slip_track: Option<toml::Table>,
+    #[serde(rename = "braked-inner")]
+    braked_inner: Option<toml::Table>,
+    #[serde(rename = "current-offset")]
+    current_offset: Option<toml::Table>,
+    #[serde(rename = "motor-heating")]
+    motor_heating: Option<toml::Table>,
+    slope: Option<toml::Table>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct IcrToml {
+    mu: Option<f64>,
+    rolling_resistance_n: Option<f64>,
+    slip_track_m: Option<f64>,
+    traction_fade_radius_m: Option<f64>,
+}
+
+/// Reads one effect table: `enabled` (None if absent) and the parameters.
+fn effect_table<T: serde::de::DeserializeOwned + Default>(
+    origin: &str,
+    id: EffectId,
+    table: Option<toml::Table>,
+) -> Result<(Option<bool>, T), WorldError> {
+    let Some(mut table) = table else {
+        return Ok((None, T::default()));
+    };
+    let enabled = match table.remove("enabled") {
+        None => None,
+        Some(toml::Value::Boolean(b)) => Some(b),
+        Some(other) => {
+            return Err(WorldError::Invalid {
+                origin: origin.to_string(),
+                key: format!("{id}.enabled"),
+                reason: format!("must be true or false, found a {}", other.type_str()),
+            })
+        }
+    };
+    let params = T::deserialize(toml::Value::Table(table)).map_err(|e| WorldError::Invalid {
+        origin: origin.to_string(),
+        key: id.id().to_string(),
+        reason: e.message().to_string(),
+    })?;
+    Ok((enabled, params))
+}
+
+fn parse_world_at(
+    text: &str,
+    origin: &str,
+    base: Option<&Path>,
+) -> Result<WorldConfig, WorldError> {
+    let raw: WorldToml = toml::from_str(text).map_err(|e| WorldError::Toml {
+        origin: origin.to_string(),
+        source: Box::new(e),
+    })?;
+    resolve(raw, origin, base)
+}
+
+/// Applies what a world file says over the defaults of its ground.
+fn resolve(raw: WorldToml, origin: &str, base: Option<&Path>) -> Result<WorldConfig, WorldError> {
+    let mut world = WorldConfig::for_ground(raw.ground);
+    if let Some(path) = raw.rover {
+        let path = match base {
+            Some(dir) if path.is_relative() => dir.join(path),
+            _ => path,
+        };
+        world.rover = crate::rover::load_rover(&path).map_err(|source| WorldError::Rover {
+            origin: origin.to_string(),
+            source,
+        })?;
+    }
+    if let Some(icr) = raw.icr {
+        let d = world.icr;
+        world.icr = IcrParams {
+            mu: icr.mu.unwrap_or(d.mu),
+            rolling_resistance_n: icr.rolling_resistance_n.unwrap_or(d.rolling_resistance_n),
+            slip_track_m: icr.slip_track_m.unwrap_or(d.slip_track_m),
+            traction_fade_radius_m: icr
+                .traction_fade_radius_m
+                .unwrap_or(d.traction_fade_radius_m),
+        };
+    }
+    world.battery = raw.battery;
+    world.driver = raw.driver;
+    world.motor = raw.motor;
+    world.noise = raw.noise;
+    let e = &mut world.effects;
+    let mut set = |id: EffectId, on: Option<bool>| {
+        if let Some(on) = on {
+            e.enabled[id as usize] = on;
+        }
+    };
+    let (on, p) = effect_table(origin, EffectId::InnerDrag, raw.inner_drag)?;
+    set(EffectId::InnerDrag, on);
+    let inner_drag = p;
+    let (on, p) = effect_table(origin, EffectId::SinkageBulldozing, raw.sinkage_bulldozing)?;
+    set(EffectId::SinkageBulldozing, on);
+    let sinkage_bulldozing = p;
+    let (on, p) = effect_table(origin, EffectId::AngularSlip, raw.angular_slip)?;
+    set(EffectId::AngularSlip, on);
+    let angular_slip = p;
+    let (on, p) = effect_table(origin, EffectId::SlipTrack, raw.slip_track)?;
+    set(EffectId::SlipTrack, on);
+    let slip_track = p;
+    let (on, p) = effect_table(origin, EffectId::BrakedInner, raw.braked_inner)?;
+    set(EffectId::BrakedInner, on);
+    let braked_inner = p;
+    let (on, p) = effect_table(origin, EffectId::CurrentOffset, raw.current_offset)?;
+    set(EffectId::CurrentOffset, on);
+    let current_offset = p;
+    let (on, p) = effect_table(origin, EffectId::MotorHeating, raw.motor_heating)?;
+    set(EffectId::MotorHeating, on);
+    let motor_heating = p;
+    let (on, p) = effect_table(origin, EffectId::Slope, raw.slope)?;
+    set(EffectId::Slope, on);
+    let slope = p;
+    e.inner_drag = inner_drag;
+    e.sinkage_bulldozing = sinkage_bulldozing;
+    e.angular_slip = angular_slip;
+    e.slip_track = slip_track;
+    e.braked_inner = braked_inner;
+    e.current_offset = current_offset;
+    e.motor_heating = motor_heating;
+    e.slope = slope;
+    world.validate(origin)?;
+    Ok(world)
+}
+
+/// World from TOML text (a `rover` path is taken relative to the working directory).
+pub fn parse_world(text: &str) -> Result<WorldConfig, WorldError> {
+    parse_world_at(text, "world", None)
+}
+
+/// World from a TOML file (a `rover` path is taken relative to the file's directory).
+pub fn load_world(path: &Path) -> Result<WorldConfig, WorldError> {
+    let text = std::fs::read_to_string(path).map_err(|source| WorldError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_world_at(&text, &path.display().to_string(), path.parent())
+}
+
+impl<'de> Deserialize<'de> for WorldConfig {
+    /// The world TOML (see [`WorldConfig`]); a `rover` path is relative to the working
+    /// directory.
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let raw = WorldToml::deserialize(deserializer)?;
+        resolve(raw, "world", None).map_err(serde::de::Error::custom)
+    }
+}
+
+#[cfg(test)]
+mod tests;
