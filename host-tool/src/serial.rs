@@ -106,9 +106,11 @@ pub fn list_ports() -> Result<Vec<PortInfo>, SerialError> {
     Ok(ports)
 }
 
-/// Whether `path` is a Unix pseudo-terminal slave, which has no modem control lines.
+/// Whether `path` is (or is a symlink to, like a `/dev/serial/by-id` name) a Unix
+/// pseudo-terminal slave, which has no modem control lines.
 fn is_pty(path: &str) -> bool {
-    path.starts_with("/dev/pts/")
+    let pts = |p: &std::path::Path| p.starts_with("/dev/pts");
+    pts(std::path::Path::new(path)) || std::fs::canonicalize(path).is_ok_and(|p| pts(&p))
 }
 
 /// Opens `path` for reading the board: raw 8N1, reads wait at most `read_timeout` (must be > 0),

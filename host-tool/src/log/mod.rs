@@ -1,7 +1,8 @@
 //! Log files: what a recording holds ([`run_log`]), the run CSV interchange format ([`run_csv`]),
-//! the commands CSV ([`commands`]) and crash-safe writing of whole files ([`write_atomically`]).
+//! the commands CSV ([`commands`]), a run CSV written live ([`csv_sink`]) and crash-safe writing of whole files ([`write_atomically`]).
 
 pub mod commands;
+pub mod csv_sink;
 pub mod run_csv;
 pub mod run_log;
 

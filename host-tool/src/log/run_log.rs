@@ -55,4 +55,9 @@ pub trait RunLogSink {
     fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()>;
     /// Pushes everything written so far to the file (and the OS).
     fn flush(&mut self) -> io::Result<()>;
+    /// Ends the recording: flushes, writes any closing structure (an index, a footer) and syncs
+    /// the file to disk. Nothing is written after it.
+    fn finish(&mut self) -> io::Result<()> {
+        self.flush()
+    }
 }
