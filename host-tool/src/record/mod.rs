@@ -397,6 +397,20 @@ pub fn record(
 ) -> Result<RecordSummary, RecordError> {
     options.validate()?;
     let port = open(&options.port)?;
+    record_on(options, port, open, sink, stop, on_status)
+}
+
+/// Like [`record`] on a port already opened (so a caller can check the port before it creates
+/// the log file); `open` is used for reconnections.
+pub fn record_on(
+    options: &RecordOptions,
+    port: Box<dyn BoardPort>,
+    open: &mut PortOpener<'_>,
+    sink: &mut dyn RunLogSink,
+    stop: &AtomicBool,
+    on_status: &mut dyn FnMut(&RecordStatus),
+) -> Result<RecordSummary, RecordError> {
+    options.validate()?;
     let mut rec = Recorder::new(options, open, sink, port);
     let outcome = rec.run(stop, on_status);
     let finished = rec.sink.finish().map_err(RecordError::Sink);
