@@ -637,14 +637,12 @@ impl<'a, 'o> Recorder<'a, 'o> {
                     }
                     BoardFrame::Status(status) => self.board_status = Some(*status),
                     BoardFrame::Ack { id } => {
-                        if self.answered(*id) {
-                            self.commands_acked += 1;
-                        }
+                        let ours = self.answered(*id);
+                        self.commands_acked += u64::from(ours);
                     }
                     BoardFrame::Rejected { id: Some(id), .. } => {
-                        if self.answered(*id) {
-                            self.commands_rejected += 1;
-                        }
+                        let ours = self.answered(*id);
+                        self.commands_rejected += u64::from(ours);
                     }
                     _ => {}
                 }
