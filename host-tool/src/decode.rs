@@ -384,6 +384,13 @@ impl fmt::Display for Summary {
             "frames {}, samples {}, bad frames {} ({} CRC), lost samples {} in {} gaps",
             s.frames, s.samples, s.bad_frames, s.crc_errors, s.lost_samples, s.gaps
         )?;
+        if s.board_resets > 0 {
+            writeln!(
+                f,
+                "board resets: {} (energy below is the last segment's)",
+                s.board_resets
+            )?;
+        }
         if let Some((first, last)) = self.span_us {
             writeln!(
                 f,

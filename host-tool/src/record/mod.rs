@@ -586,6 +586,9 @@ impl<'a, 'o> Recorder<'a, 'o> {
         on_status: &mut dyn FnMut(&RecordStatus),
     ) -> Result<Option<StopReason>, RecordError> {
         let port = self.options.port.clone();
+        // Close the dead port now: while a file descriptor of an unplugged CDC ACM device stays
+        // open, the kernel gives the replugged device another name (ttyACM1, not ttyACM0).
+        self.reader = PortReader::new(Box::new(io::empty()));
         self.vanished += 1;
         self.connected = false;
         self.event(LogEvent::DeviceVanished { port: port.clone() })?;
