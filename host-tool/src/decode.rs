@@ -1,35 +1,105 @@
 //! The host end of the wire: bytes from the board (a serial port, a capture file, a pty) become
 //! frames, with every loss accounted for — corrupted frames, sequence gaps — and the running
 //! measurements recomputed from the raw samples with the same model-core code the board runs.
+//!
+//! A stream is cut into segments at board resets: a sample whose `seq` goes back (to 0, or to
+//! anything earlier than the previous sample's) starts a new segment, and the host's running
+//! measurements start over like the rebooted board's. A hello frame alone is not a reset: the
+//! firmware greets again whenever the host re-opens the port (DTR), with `seq`, time and energy
+//! running on.
 
-use model_core::energy::RunningMeasurements;
+use model_core::energy::{RunningMeasurements, Snapshot};
 use model_core::ina226::Scale;
-use model_core::wire::{BoardFrame, FrameDecoder, FrameError, Hello, Model, Sample, Status};
+use model_core::wire::{
+    BoardFrame, Command, FrameDecoder, FrameError, Hello, HostFrame, Model, Sample, Status,
+};
 use std::fmt;
 
 /// One decoded event of the stream.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
+    /// A frame that decoded.
     Frame(BoardFrame),
     /// A frame was discarded (corrupted, truncated, foreign protocol version).
     BadFrame(FrameError),
     /// `missing` samples were never received between the previous sample and this one.
     SampleGap {
+        /// The last sample received before the gap.
         after_seq: u32,
+        /// Samples lost.
         missing: u32,
+    },
+    /// The board restarted (the next sample's `seq` went back): `previous` is the segment that
+    /// ended. Comes before that sample's [`Event::Frame`].
+    BoardReset {
+        /// What the ended segment held.
+        previous: Segment,
     },
 }
 
 /// Counters of what arrived and what was lost.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StreamStats {
+    /// Frames that decoded.
     pub frames: u64,
+    /// Sample frames among them.
     pub samples: u64,
+    /// Frames discarded (any [`FrameError`]).
     pub bad_frames: u64,
+    /// Of those, CRC mismatches.
     pub crc_errors: u64,
     /// Samples known lost from sequence-number gaps.
     pub lost_samples: u64,
+    /// Sequence-number gaps.
     pub gaps: u64,
+    /// Board resets (segments after the first).
+    pub board_resets: u64,
+    /// Model frames received.
+    pub models: u64,
+    /// Model frames that differ from the host's recomputation at the same sample (power, τ, or
+    /// the energy gained since the segment's first model frame): 0 unless samples were lost or
+    /// a command's effect was not mirrored ([`StreamDecoder::expect_ack`]).
+    pub model_mismatches: u64,
+}
+
+/// The board's model frame and the host's recomputation at the same sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelCheck {
+    /// What the board sent.
+    pub board: Model,
+    /// The host's running measurements after the same sample.
+    pub host: Snapshot,
+}
+
+/// One segment of the stream (one boot of the board).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Segment {
+    /// Samples received in the segment.
+    pub samples: u64,
+    /// Host energy per side from every raw sample of the segment [power LSB × µs].
+    pub host_energy_lsb_us: [i64; 2],
+    /// The segment's first model frame and the host's state at it.
+    pub first_model: Option<ModelCheck>,
+    /// The segment's latest model frame and the host's state at it.
+    pub last_model: Option<ModelCheck>,
+}
+
+impl Segment {
+    /// Board energy per side gained between the segment's first and latest model frames [power
+    /// LSB × µs] (a board that ran before the host connected has more on its counters).
+    pub fn board_gain_lsb_us(&self) -> Option<[i64; 2]> {
+        let (first, last) = (self.first_model?, self.last_model?);
+        let [a, b] = [first, last].map(|m| m.board.snapshot.energy_lsb_us);
+        Some([b.left.wrapping_sub(a.left), b.right.wrapping_sub(a.right)])
+    }
+
+    /// The host's energy per side gained over the same samples [power LSB × µs]: equal to
+    /// [`Segment::board_gain_lsb_us`] when no sample was lost.
+    pub fn host_gain_lsb_us(&self) -> Option<[i64; 2]> {
+        let (first, last) = (self.first_model?, self.last_model?);
+        let [a, b] = [first, last].map(|m| m.host.energy_lsb_us);
+        Some([b.left.wrapping_sub(a.left), b.right.wrapping_sub(a.right)])
+    }
 }
 
 /// Decodes a byte stream and keeps the host's own running measurements.
@@ -40,9 +110,9 @@ pub struct StreamDecoder {
     hello: Option<Hello>,
     last_seq: Option<u32>,
     measurements: RunningMeasurements,
-    last_model: Option<Model>,
-    /// Host recomputation at the moment of the board's latest model frame.
-    host_at_last_model: Option<[i64; 2]>,
+    segment: Segment,
+    /// Commands sent to the board whose effect the host applies when their ack arrives.
+    awaiting_ack: Vec<HostFrame>,
 }
 
 impl Default for StreamDecoder {
@@ -50,6 +120,9 @@ impl Default for StreamDecoder {
         Self::new()
     }
 }
+
+/// At most this many commands wait for their ack; older ones are forgotten (never acked).
+const MAX_AWAITING_ACK: usize = 64;
 
 impl StreamDecoder {
     /// A decoder that assumes our board's scale until a hello frame says otherwise.
@@ -60,12 +133,13 @@ impl StreamDecoder {
             hello: None,
             last_seq: None,
             measurements: RunningMeasurements::new(Scale::BOARD),
-            last_model: None,
-            host_at_last_model: None,
+            segment: Segment::default(),
+            awaiting_ack: Vec::new(),
         }
     }
 
-    /// Feeds bytes; calls `on_event` for every frame, bad frame and sample gap, in stream order.
+    /// Feeds bytes; calls `on_event` for every frame, bad frame, sample gap and board reset, in
+    /// stream order.
     pub fn feed(&mut self, bytes: &[u8], mut on_event: impl FnMut(Event)) {
         for &b in bytes {
             match self.frames.push::<BoardFrame>(b) {
@@ -86,6 +160,27 @@ impl StreamDecoder {
         }
     }
 
+    /// Drops the bytes of an unfinished frame (after re-opening a port: they cannot be completed
+    /// by what the new connection sends).
+    pub fn resync(&mut self) {
+        self.frames = FrameDecoder::new();
+    }
+
+    /// Registers a command just sent to the board: when the board acks `frame.id`, the host
+    /// applies the command's effect on the running measurements (wheel rates, energy reset) at
+    /// that point of the stream, as the board did, so power, energy and τ stay equal.
+    pub fn expect_ack(&mut self, frame: HostFrame) {
+        if self.awaiting_ack.len() >= MAX_AWAITING_ACK {
+            self.awaiting_ack.remove(0);
+        }
+        self.awaiting_ack.push(frame);
+    }
+
+    fn answered(&mut self, id: u16) -> Option<HostFrame> {
+        let at = self.awaiting_ack.iter().position(|f| f.id == id)?;
+        Some(self.awaiting_ack.remove(at))
+    }
+
     fn account(&mut self, frame: &BoardFrame, on_event: &mut impl FnMut(Event)) {
         match frame {
             BoardFrame::Hello(hello) => {
@@ -98,21 +193,70 @@ impl StreamDecoder {
                 self.hello = Some(*hello);
             }
             BoardFrame::Sample(sample) => self.on_sample(sample, on_event),
-            BoardFrame::Model(model) => {
-                self.last_model = Some(*model);
-                let e = self.measurements.snapshot().energy_lsb_us;
-                self.host_at_last_model = Some([e.left, e.right]);
+            BoardFrame::Model(model) => self.on_model(model),
+            BoardFrame::Ack { id } => {
+                if let Some(sent) = self.answered(*id) {
+                    match sent.command {
+                        Command::SetWheelRates(rates) => {
+                            self.measurements.set_wheel_rates(Some(rates));
+                        }
+                        Command::ClearWheelRates => self.measurements.set_wheel_rates(None),
+                        Command::ResetEnergy => self.measurements.reset_energy(),
+                        _ => {}
+                    }
+                }
+            }
+            BoardFrame::Rejected { id: Some(id), .. } => {
+                self.answered(*id);
             }
             _ => {}
         }
     }
 
+    fn on_model(&mut self, model: &Model) {
+        self.stats.models += 1;
+        let check = ModelCheck {
+            board: *model,
+            host: self.measurements.snapshot(),
+        };
+        let first = *self.segment.first_model.get_or_insert(check);
+        let gain = |m: &ModelCheck, f: &ModelCheck| {
+            let (b, fb) = (
+                m.board.snapshot.energy_lsb_us,
+                f.board.snapshot.energy_lsb_us,
+            );
+            let (h, fh) = (m.host.energy_lsb_us, f.host.energy_lsb_us);
+            (
+                [b.left.wrapping_sub(fb.left), b.right.wrapping_sub(fb.right)],
+                [h.left.wrapping_sub(fh.left), h.right.wrapping_sub(fh.right)],
+            )
+        };
+        let (board_gain, host_gain) = gain(&check, &first);
+        if board_gain != host_gain
+            || check.board.snapshot.power_lsb != check.host.power_lsb
+            || check.board.snapshot.torque_proportional != check.host.torque_proportional
+        {
+            self.stats.model_mismatches += 1;
+        }
+        self.segment.last_model = Some(check);
+    }
+
     fn on_sample(&mut self, sample: &Sample, on_event: &mut impl FnMut(Event)) {
         self.stats.samples += 1;
         if let Some(last) = self.last_seq {
-            let missing = sample.seq.wrapping_sub(last).wrapping_sub(1);
-            // A board reset restarts at 0: that is a new run, not 4 billion lost samples.
-            if missing != 0 && sample.seq != 0 {
+            let step = sample.seq.wrapping_sub(last);
+            if step == 1 {
+                // The next one (u32::MAX → 0 included).
+            } else if sample.seq == 0 || step >= 1 << 31 {
+                // Back to 0, or backwards: the board restarted (not 4 billion lost samples).
+                self.stats.board_resets += 1;
+                let previous = self.current_segment();
+                self.segment = Segment::default();
+                self.measurements = RunningMeasurements::new(self.measurements.scale());
+                self.awaiting_ack.clear();
+                on_event(Event::BoardReset { previous });
+            } else {
+                let missing = step - 1;
                 self.stats.gaps += 1;
                 self.stats.lost_samples += u64::from(missing);
                 on_event(Event::SampleGap {
@@ -122,31 +266,52 @@ impl StreamDecoder {
             }
         }
         self.last_seq = Some(sample.seq);
+        self.segment.samples += 1;
         self.measurements
             .update(sample.t_us, sample.chips.map(|c| c.registers()));
     }
 
+    /// Counters so far.
     pub fn stats(&self) -> StreamStats {
         self.stats
     }
 
+    /// The board's latest hello.
     pub fn hello(&self) -> Option<&Hello> {
         self.hello.as_ref()
     }
 
-    /// The host's running measurements, recomputed from every sample received.
+    /// The host's running measurements, recomputed from every sample of the current segment.
     pub fn measurements(&self) -> &RunningMeasurements {
         &self.measurements
     }
 
+    /// The scale the raw registers are read with (the latest hello's, or our board's).
     pub fn scale(&self) -> Scale {
         self.measurements.scale()
+    }
+
+    /// The current segment so far.
+    pub fn current_segment(&self) -> Segment {
+        let e = self.measurements.snapshot().energy_lsb_us;
+        Segment {
+            host_energy_lsb_us: [e.left, e.right],
+            ..self.segment
+        }
+    }
+
+    /// The board's latest model frame of the current segment and the host's recomputation at
+    /// the same sample.
+    pub fn board_vs_host_model(&self) -> Option<ModelCheck> {
+        self.segment.last_model
     }
 
     /// The board's latest model frame and the host's energy per side (power LSB × µs) at the
     /// moment it arrived: equal when no sample was lost, since both run the same model-core code.
     pub fn board_vs_host_energy(&self) -> Option<(Model, [i64; 2])> {
-        Some((self.last_model?, self.host_at_last_model?))
+        let check = self.segment.last_model?;
+        let e = check.host.energy_lsb_us;
+        Some((check.board, [e.left, e.right]))
     }
 }
 
@@ -219,6 +384,13 @@ impl fmt::Display for Summary {
             "frames {}, samples {}, bad frames {} ({} CRC), lost samples {} in {} gaps",
             s.frames, s.samples, s.bad_frames, s.crc_errors, s.lost_samples, s.gaps
         )?;
+        if s.board_resets > 0 {
+            writeln!(
+                f,
+                "board resets: {} (energy below is the last segment's)",
+                s.board_resets
+            )?;
+        }
         if let Some((first, last)) = self.span_us {
             writeln!(
                 f,
@@ -265,6 +437,7 @@ impl fmt::Display for Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use model_core::energy::RunningMeasurements;
     use model_core::ina226::{BusVoltageRaw, CurrentRaw, PowerRaw, Registers, ShuntVoltageRaw};
     use model_core::wire::{encode, ChipReading, MAX_FRAME};
     use model_core::Sides;
@@ -317,6 +490,133 @@ mod tests {
         assert_eq!(gaps, vec![(2, 1), (5, 2)]);
         assert_eq!(dec.stats().lost_samples, 3);
         assert_eq!(dec.stats().samples, 7);
+    }
+
+    fn sample_at(seq: u32, t_us: u64, power: u16) -> BoardFrame {
+        let regs = Registers {
+            shunt: ShuntVoltageRaw(1000),
+            bus: BusVoltageRaw(19_200),
+            current: CurrentRaw(1000),
+            power: PowerRaw(power),
+        };
+        BoardFrame::Sample(Sample {
+            t_us,
+            seq,
+            chips: Sides::new(ChipReading::Fresh(regs), ChipReading::Stale(regs)),
+        })
+    }
+
+    fn decode_all(frames: impl IntoIterator<Item = BoardFrame>) -> (StreamDecoder, Vec<Event>) {
+        let mut dec = StreamDecoder::new();
+        let mut events = Vec::new();
+        dec.feed(&bytes_of(frames).concat(), |e| events.push(e));
+        (dec, events)
+    }
+
+    #[test]
+    fn seq_going_back_is_a_board_reset_and_host_energy_starts_over() {
+        let first = (0..10).map(|k| sample_at(k, u64::from(k) * 5_000, 100));
+        let second = (0..4).map(|k| sample_at(k, 1_000 + u64::from(k) * 5_000, 200));
+        let (dec, events) = decode_all(first.chain(second));
+        let resets: Vec<&Segment> = events
+            .iter()
+            .filter_map(|e| match e {
+                Event::BoardReset { previous } => Some(previous),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(resets.len(), 1);
+        assert_eq!(resets[0].samples, 10);
+        assert_eq!(resets[0].host_energy_lsb_us, [100 * 45_000, 100 * 45_000]);
+        // The reset comes right before the new segment's first sample.
+        let at = events
+            .iter()
+            .position(|e| matches!(e, Event::BoardReset { .. }))
+            .expect("reset");
+        assert!(matches!(
+            events[at + 1],
+            Event::Frame(BoardFrame::Sample(Sample { seq: 0, .. }))
+        ));
+        let stats = dec.stats();
+        assert_eq!(
+            (stats.board_resets, stats.gaps, stats.lost_samples),
+            (1, 0, 0)
+        );
+        let seg = dec.current_segment();
+        assert_eq!(seg.samples, 4);
+        assert_eq!(seg.host_energy_lsb_us, [200 * 15_000, 200 * 15_000]);
+        // Backwards but not to 0 (the host connected late to a rebooted board) is a reset too.
+        let (dec, _) = decode_all([sample_at(50, 0, 1), sample_at(7, 10, 1)]);
+        assert_eq!((dec.stats().board_resets, dec.stats().gaps), (1, 0));
+    }
+
+    #[test]
+    fn seq_wrapping_past_u32_max_is_neither_a_gap_nor_a_reset() {
+        let (dec, _) = decode_all([
+            sample_at(u32::MAX - 1, 0, 1),
+            sample_at(u32::MAX, 5_000, 1),
+            sample_at(0, 10_000, 1),
+            sample_at(2, 20_000, 1),
+        ]);
+        let stats = dec.stats();
+        assert_eq!(
+            (stats.board_resets, stats.gaps, stats.lost_samples),
+            (0, 1, 1)
+        );
+    }
+
+    #[test]
+    fn energy_integrates_across_the_u64_microsecond_wrap() {
+        let t0 = u64::MAX - 12_000;
+        let (dec, _) =
+            decode_all((0..6).map(|k| sample_at(k, t0.wrapping_add(u64::from(k) * 5_000), 40)));
+        assert_eq!(dec.current_segment().host_energy_lsb_us, [40 * 25_000; 2]);
+    }
+
+    #[test]
+    fn an_acked_command_is_mirrored_so_the_model_matches() {
+        let mut board = RunningMeasurements::new(Scale::BOARD);
+        let rates = Sides::new(2.0f32, -3.0);
+        let mut frames = Vec::new();
+        for k in 0..20u32 {
+            if k == 5 {
+                board.set_wheel_rates(Some(rates));
+                frames.push(BoardFrame::Ack { id: 9 });
+            }
+            if k == 12 {
+                board.reset_energy();
+                frames.push(BoardFrame::Ack { id: 10 });
+            }
+            let s = sample_at(k, u64::from(k) * 5_000, 100 + k as u16);
+            if let BoardFrame::Sample(s) = &s {
+                board.update(s.t_us, s.chips.map(|c| c.registers()));
+            }
+            frames.push(s);
+            frames.push(BoardFrame::Model(Model {
+                t_us: u64::from(k) * 5_000,
+                seq: k,
+                snapshot: board.snapshot(),
+            }));
+        }
+        let mut dec = StreamDecoder::new();
+        dec.expect_ack(HostFrame {
+            id: 9,
+            command: Command::SetWheelRates(rates),
+        });
+        dec.expect_ack(HostFrame {
+            id: 10,
+            command: Command::ResetEnergy,
+        });
+        dec.feed(&bytes_of(frames.clone()).concat(), |_| {});
+        assert_eq!(dec.stats().models, 20);
+        assert_eq!(dec.stats().model_mismatches, 0);
+        let check = dec.board_vs_host_model().expect("model");
+        assert_eq!(check.board.snapshot, check.host);
+        assert!(check.host.torque_proportional.left.is_some());
+        // Without mirroring, τ differs from the ack on.
+        let mut blind = StreamDecoder::new();
+        blind.feed(&bytes_of(frames).concat(), |_| {});
+        assert_eq!(blind.stats().model_mismatches, 15);
     }
 
     proptest! {

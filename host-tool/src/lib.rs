@@ -2,6 +2,7 @@
 
 pub mod decode;
 pub mod log;
+pub mod record;
 pub mod replay;
 pub mod rover;
 pub mod serial;

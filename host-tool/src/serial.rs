@@ -107,9 +107,11 @@ pub fn list_ports() -> Result<Vec<PortInfo>, SerialError> {
     Ok(ports)
 }
 
-/// Whether `path` is a Unix pseudo-terminal slave, which has no modem control lines.
+/// Whether `path` is (or is a symlink to, like a `/dev/serial/by-id` name) a Unix
+/// pseudo-terminal slave, which has no modem control lines.
 fn is_pty(path: &str) -> bool {
-    path.starts_with("/dev/pts/")
+    let pts = |p: &std::path::Path| p.starts_with("/dev/pts");
+    pts(std::path::Path::new(path)) || std::fs::canonicalize(path).is_ok_and(|p| pts(&p))
 }
 
 /// Opens `path` for reading the board: raw 8N1, reads wait at most `read_timeout` (must be > 0),
@@ -307,6 +309,30 @@ impl PtyWriter {
                 return Ok(false);
             }
             std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// What the host wrote into the pty (commands to the board), without waiting: reads only
+    /// the bytes already there, at most `buf.len()`; 0 when there are none.
+    pub fn read_from_host(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let waiting = self.master.bytes_to_read().map_err(io::Error::from)? as usize;
+        if waiting == 0 || buf.is_empty() {
+            return Ok(0);
+        }
+        let n = waiting.min(buf.len());
+        match self.master.read(&mut buf[..n]) {
+            Ok(k) => Ok(k.min(n)),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut
+                        | io::ErrorKind::WouldBlock
+                        | io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(0)
+            }
+            Err(e) => Err(e),
         }
     }
 

@@ -1,10 +1,11 @@
 //! Log files: what a recording holds ([`run_log`]), the run CSV interchange format ([`run_csv`]),
 //! MCAP run logs ([`mcap`]), reading and converting either by extension ([`load`],
-//! [`convert`]), the commands CSV ([`commands`]) and crash-safe writing of whole files
-//! ([`write_atomically`]).
+//! [`convert`]), the commands CSV ([`commands`]), a run CSV written live ([`csv_sink`]) and
+//! crash-safe writing of whole files ([`write_atomically`]).
 
 pub mod commands;
 pub mod convert;
+pub mod csv_sink;
 pub mod load;
 pub mod mcap;
 pub mod run_csv;

@@ -141,8 +141,8 @@ pub enum CellProblem {
     TimeNotIncreasing,
 }
 
-/// What is wrong with a run CSV (reading), or with a sample handed to the writer (then the line
-/// is the one it would have been written at).
+/// What is wrong with a run CSV or a commands CSV (reading), or with a row handed to a writer
+/// (then the line is the one it would have been written at).
 #[derive(Debug, thiserror::Error)]
 pub enum RunCsvError {
     /// Reading or writing the underlying stream failed.
@@ -231,20 +231,21 @@ fn cut(text: &str) -> String {
     }
 }
 
-/// Streaming reader of a run CSV: an iterator of samples. Stops after the first error.
+/// The table layer shared by the run CSV and the commands CSV (same cell rules, same column
+/// names): locates the known columns in the header, checks cell counts, parses numbers and
+/// keeps `t_s` strictly increasing.
 #[derive(Debug)]
-pub struct RunCsvReader<R> {
+pub(crate) struct Table<R> {
     records: Records<R>,
     /// Cell position of each column (`None`: an optional column that is absent).
     positions: [Option<usize>; 9],
     cells: usize,
     previous_t_s: Option<f64>,
-    done: bool,
 }
 
-impl<R: BufRead> RunCsvReader<R> {
-    /// Reads the header row from `input` (any buffered reader: a `BufReader<File>`, `&[u8]`, ...).
-    pub fn new(input: R) -> Result<Self, RunCsvError> {
+impl<R: BufRead> Table<R> {
+    /// Reads the header row; every column of `required` must be present.
+    pub(crate) fn new(input: R, required: &[Column]) -> Result<Self, RunCsvError> {
         let mut records = Records::new(input);
         let Some(line) = records.next_record()? else {
             return Err(RunCsvError::NoHeader);
@@ -267,10 +268,7 @@ impl<R: BufRead> RunCsvReader<R> {
             }
             positions[column.index()] = Some(i);
         }
-        if let Some(&column) = Column::REQUIRED
-            .iter()
-            .find(|c| positions[c.index()].is_none())
-        {
+        if let Some(&column) = required.iter().find(|c| positions[c.index()].is_none()) {
             return Err(RunCsvError::MissingColumn { line, column });
         }
         Ok(Self {
@@ -278,21 +276,16 @@ impl<R: BufRead> RunCsvReader<R> {
             records,
             positions,
             previous_t_s: None,
-            done: false,
         })
     }
 
-    /// Whether the file has a `yaw_rad` column.
-    pub fn has_yaw(&self) -> bool {
-        self.positions[Column::YawRad.index()].is_some()
+    /// Whether the header has `column`.
+    pub(crate) fn has(&self, column: Column) -> bool {
+        self.positions[column.index()].is_some()
     }
 
-    /// Whether the file has a `pitch_deg` column.
-    pub fn has_pitch(&self) -> bool {
-        self.positions[Column::PitchDeg.index()].is_some()
-    }
-
-    fn next_sample(&mut self) -> Result<Option<RunSample>, RunCsvError> {
+    /// Reads the next row and checks its cell count; returns its line (`None` at the end).
+    pub(crate) fn next_row(&mut self) -> Result<Option<u64>, RunCsvError> {
         let Some(line) = self.records.next_record()? else {
             return Ok(None);
         };
@@ -303,38 +296,99 @@ impl<R: BufRead> RunCsvReader<R> {
                 expected: self.cells,
             });
         }
-        let record = &self.records;
-        let cell = |column: Column| -> Result<Option<f64>, RunCsvError> {
-            let Some(i) = self.positions[column.index()] else {
-                return Ok(None);
-            };
-            let bytes = record.cell(i);
-            let err = |problem| RunCsvError::Cell {
-                line,
-                column: i + 1,
-                name: column,
-                value: cut(&String::from_utf8_lossy(bytes)),
-                problem,
-                previous_t_s: None,
-            };
-            if bytes.is_empty() {
-                return if Column::OPTIONAL.contains(&column) {
-                    Ok(None)
-                } else {
-                    Err(err(CellProblem::Empty))
-                };
-            }
-            let value: f64 = std::str::from_utf8(bytes)
-                .ok()
-                .and_then(|s| s.parse().ok())
-                .ok_or_else(|| err(CellProblem::NotANumber))?;
-            if value.is_finite() {
-                Ok(Some(value))
-            } else {
-                Err(err(CellProblem::NotFinite))
-            }
+        Ok(Some(line))
+    }
+
+    /// The current row's value of `column`: `None` if the column is absent or (for an optional
+    /// column) the cell is empty.
+    pub(crate) fn value(&self, line: u64, column: Column) -> Result<Option<f64>, RunCsvError> {
+        let Some(i) = self.positions[column.index()] else {
+            return Ok(None);
         };
-        let required = |column| cell(column).map(|v| v.unwrap_or_default());
+        let bytes = self.records.cell(i);
+        let err = |problem| RunCsvError::Cell {
+            line,
+            column: i + 1,
+            name: column,
+            value: cut(&String::from_utf8_lossy(bytes)),
+            problem,
+            previous_t_s: None,
+        };
+        if bytes.is_empty() {
+            return if Column::OPTIONAL.contains(&column) {
+                Ok(None)
+            } else {
+                Err(err(CellProblem::Empty))
+            };
+        }
+        let value: f64 = std::str::from_utf8(bytes)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| err(CellProblem::NotANumber))?;
+        if value.is_finite() {
+            Ok(Some(value))
+        } else {
+            Err(err(CellProblem::NotFinite))
+        }
+    }
+
+    /// The current row's value of a required column.
+    pub(crate) fn required(&self, line: u64, column: Column) -> Result<f64, RunCsvError> {
+        self.value(line, column).map(|v| v.unwrap_or_default())
+    }
+
+    /// Checks that `t_s` (the current row's time) is after the previous row's, and remembers it.
+    pub(crate) fn accept_time(&mut self, line: u64, t_s: f64) -> Result<(), RunCsvError> {
+        if let Some(prev) = self.previous_t_s {
+            if t_s <= prev {
+                let i = self.positions[Column::TimeS.index()].unwrap_or_default();
+                return Err(RunCsvError::Cell {
+                    line,
+                    column: i + 1,
+                    name: Column::TimeS,
+                    value: cut(&String::from_utf8_lossy(self.records.cell(i))),
+                    problem: CellProblem::TimeNotIncreasing,
+                    previous_t_s: Some(prev),
+                });
+            }
+        }
+        self.previous_t_s = Some(t_s);
+        Ok(())
+    }
+}
+
+/// Streaming reader of a run CSV: an iterator of samples. Stops after the first error.
+#[derive(Debug)]
+pub struct RunCsvReader<R> {
+    table: Table<R>,
+    done: bool,
+}
+
+impl<R: BufRead> RunCsvReader<R> {
+    /// Reads the header row from `input` (any buffered reader: a `BufReader<File>`, `&[u8]`, ...).
+    pub fn new(input: R) -> Result<Self, RunCsvError> {
+        Ok(Self {
+            table: Table::new(input, &Column::REQUIRED)?,
+            done: false,
+        })
+    }
+
+    /// Whether the file has a `yaw_rad` column.
+    pub fn has_yaw(&self) -> bool {
+        self.table.has(Column::YawRad)
+    }
+
+    /// Whether the file has a `pitch_deg` column.
+    pub fn has_pitch(&self) -> bool {
+        self.table.has(Column::PitchDeg)
+    }
+
+    fn next_sample(&mut self) -> Result<Option<RunSample>, RunCsvError> {
+        let Some(line) = self.table.next_row()? else {
+            return Ok(None);
+        };
+        let t = &self.table;
+        let required = |column| t.required(line, column);
         let t_s = required(Column::TimeS)?;
         let sample = RunSample {
             t_s,
@@ -347,23 +401,10 @@ impl<R: BufRead> RunCsvReader<R> {
                 required(Column::CmdLeftMps)?,
                 required(Column::CmdRightMps)?,
             ),
-            yaw_rad: cell(Column::YawRad)?,
-            pitch_deg: cell(Column::PitchDeg)?,
+            yaw_rad: t.value(line, Column::YawRad)?,
+            pitch_deg: t.value(line, Column::PitchDeg)?,
         };
-        if let Some(prev) = self.previous_t_s {
-            if t_s <= prev {
-                let i = self.positions[Column::TimeS.index()].unwrap_or_default();
-                return Err(RunCsvError::Cell {
-                    line,
-                    column: i + 1,
-                    name: Column::TimeS,
-                    value: cut(&String::from_utf8_lossy(record.cell(i))),
-                    problem: CellProblem::TimeNotIncreasing,
-                    previous_t_s: Some(prev),
-                });
-            }
-        }
-        self.previous_t_s = Some(t_s);
+        self.table.accept_time(line, t_s)?;
         Ok(Some(sample))
     }
 }
@@ -553,8 +594,7 @@ pub struct RunCsvWriter<W: Write> {
 impl<W: Write> RunCsvWriter<W> {
     /// Writes the header row.
     pub fn new(mut out: W) -> Result<Self, RunCsvError> {
-        let names: Vec<&str> = Column::ALL.iter().map(|c| c.name()).collect();
-        writeln!(out, "{}", names.join(","))?;
+        write_header(&mut out, &Column::ALL)?;
         Ok(Self {
             out,
             rows: 0,
@@ -565,7 +605,6 @@ impl<W: Write> RunCsvWriter<W> {
     /// Writes one row. A sample the reader would reject (a non-finite value, a time not after the
     /// previous row's) is refused with the error the reader would give, and nothing is written.
     pub fn write(&mut self, sample: &RunSample) -> Result<(), RunCsvError> {
-        let line = self.rows + 2;
         let values = [
             Some(sample.t_s),
             Some(sample.bus_v.left),
@@ -577,40 +616,20 @@ impl<W: Write> RunCsvWriter<W> {
             sample.yaw_rad,
             sample.pitch_deg,
         ];
-        for (i, (column, value)) in Column::ALL.iter().zip(values).enumerate() {
-            if let Some(v) = value {
-                let previous_t_s = self.previous_t_s.filter(|_| *column == Column::TimeS);
-                let problem = if !v.is_finite() {
-                    Some(CellProblem::NotFinite)
-                } else if previous_t_s.is_some_and(|prev| v <= prev) {
-                    Some(CellProblem::TimeNotIncreasing)
-                } else {
-                    None
-                };
-                if let Some(problem) = problem {
-                    return Err(RunCsvError::Cell {
-                        line,
-                        column: i + 1,
-                        name: *column,
-                        value: v.to_string(),
-                        problem,
-                        previous_t_s,
-                    });
-                }
-            }
-        }
-        for (i, value) in values.iter().enumerate() {
-            if i > 0 {
-                self.out.write_all(b",")?;
-            }
-            if let Some(v) = value {
-                write!(self.out, "{v}")?;
-            }
-        }
-        self.out.write_all(b"\n")?;
+        write_row(
+            &mut self.out,
+            self.rows + 2,
+            &mut self.previous_t_s,
+            &Column::ALL,
+            &values,
+        )?;
         self.rows += 1;
-        self.previous_t_s = Some(sample.t_s);
         Ok(())
+    }
+
+    /// The underlying writer (e.g. to take a `Vec<u8>`'s rows out between flushes).
+    pub fn get_mut(&mut self) -> &mut W {
+        &mut self.out
     }
 
     /// Rows written so far.
@@ -623,6 +642,63 @@ impl<W: Write> RunCsvWriter<W> {
         self.out.flush()?;
         Ok(self.out)
     }
+}
+
+/// Writes one row of `columns` (`t_s` among them) at `line`, refusing what the reader would
+/// reject: a non-finite value, a time not after `previous_t_s` (updated on success). `None` is
+/// an empty cell. Shared by the run CSV and the commands CSV writers.
+pub(crate) fn write_row<W: Write>(
+    out: &mut W,
+    line: u64,
+    previous_t_s: &mut Option<f64>,
+    columns: &[Column],
+    values: &[Option<f64>],
+) -> Result<(), RunCsvError> {
+    let mut t_s = None;
+    for (i, (column, value)) in columns.iter().zip(values).enumerate() {
+        if let Some(v) = *value {
+            let previous = previous_t_s.filter(|_| *column == Column::TimeS);
+            let problem = if !v.is_finite() {
+                Some(CellProblem::NotFinite)
+            } else if previous.is_some_and(|prev| v <= prev) {
+                Some(CellProblem::TimeNotIncreasing)
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(RunCsvError::Cell {
+                    line,
+                    column: i + 1,
+                    name: *column,
+                    value: v.to_string(),
+                    problem,
+                    previous_t_s: previous,
+                });
+            }
+            if *column == Column::TimeS {
+                t_s = Some(v);
+            }
+        }
+    }
+    for (i, value) in values.iter().enumerate() {
+        if i > 0 {
+            out.write_all(b",")?;
+        }
+        if let Some(v) = value {
+            write!(out, "{v}")?;
+        }
+    }
+    out.write_all(b"\n")?;
+    if t_s.is_some() {
+        *previous_t_s = t_s;
+    }
+    Ok(())
+}
+
+/// Writes the header row naming `columns`.
+pub(crate) fn write_header<W: Write>(out: &mut W, columns: &[Column]) -> io::Result<()> {
+    let names: Vec<&str> = columns.iter().map(|c| c.name()).collect();
+    writeln!(out, "{}", names.join(","))
 }
 
 /// A run CSV file that could not be read or written; names the file.

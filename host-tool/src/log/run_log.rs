@@ -55,4 +55,36 @@ pub trait RunLogSink {
     fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()>;
     /// Pushes everything written so far to the file (and the OS).
     fn flush(&mut self) -> io::Result<()>;
+    /// Ends the recording: flushes, writes any closing structure (an index, a footer) and syncs
+    /// the file to disk. Nothing is written after it.
+    fn finish(&mut self) -> io::Result<()> {
+        self.flush()
+    }
+}
+
+/// A recording kept in memory (tests, and tools that record then process).
+impl RunLogSink for RunLog {
+    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        self.frames.push((t_s, *frame));
+        Ok(())
+    }
+
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+        self.samples.push(*sample);
+        Ok(())
+    }
+
+    fn command(&mut self, row: &CommandRow) -> io::Result<()> {
+        self.commands.push(*row);
+        Ok(())
+    }
+
+    fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
+        self.events.push((t_s, event.clone()));
+        Ok(())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
 }

@@ -26,7 +26,7 @@ fn read_pty(path: &str) -> (Vec<BoardFrame>, Vec<u8>) {
         match reader.poll(&mut decoder, |e| match e {
             Event::Frame(f) => frames.push(f),
             Event::BadFrame(e) => panic!("bad frame {e:?}"),
-            Event::SampleGap { .. } => {}
+            Event::SampleGap { .. } | Event::BoardReset { .. } => {}
         }) {
             ReadOutcome::Vanished { .. } => break,
             ReadOutcome::Data(_) | ReadOutcome::NoData => {}

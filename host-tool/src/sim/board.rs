@@ -180,13 +180,54 @@ impl SimBoard {
 }
 
 /// How a [`PtyBoard`] paces its stream.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Pacing {
     /// As fast as the reader takes the bytes: the pty's buffer holds the writer back when the
     /// reader lags (the simulated time runs ahead of the wall clock).
     AsFastAsPossible,
     /// Step `k` is written no earlier than its simulated time after the start, like the board.
     RealTime,
+    /// Simulated time runs at most `k` times as fast as the wall clock (`k` finite and > 0):
+    /// a demo at 20× still answers commands within a few simulated periods.
+    Scaled(f64),
+}
+
+impl Pacing {
+    /// The wall time after the start before which a step at simulated `t_us` must not run.
+    fn due(self, t_us: u64) -> Option<Duration> {
+        match self {
+            Pacing::AsFastAsPossible => None,
+            Pacing::RealTime => Some(Duration::from_micros(t_us)),
+            Pacing::Scaled(k) => Duration::try_from_secs_f64(t_us as f64 * 1e-6 / k).ok(),
+        }
+    }
+}
+
+/// Called before each step of a [`PtyBoard`] with the step's index and the board: fault
+/// injection at a given time (unplug a chip, make it NACK, brown it out).
+pub type BeforeStep = Box<dyn FnMut(u64, &mut SimBoard) + Send>;
+
+/// Called with each step's bytes (whole frames) before they enter the pty: the line between
+/// board and host, to corrupt, drop or insert bytes.
+pub type Line = Box<dyn FnMut(u64, &mut Vec<u8>) + Send>;
+
+/// Optional hooks of a [`PtyBoard`] (see [`PtyBoard::spawn_with`]).
+#[derive(Default)]
+pub struct PtyHooks {
+    /// Runs before each step.
+    pub before_step: Option<BeforeStep>,
+    /// Transforms each step's bytes; with it, a step's bytes leave the board's queue at once
+    /// (they are the line's), then go into the pty whole.
+    pub line: Option<Line>,
+}
+
+impl fmt::Debug for PtyHooks {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PtyHooks")
+            .field("before_step", &self.before_step.is_some())
+            .field("line", &self.line.is_some())
+            .finish()
+    }
 }
 
 pub use crate::serial::{HANG_UP_QUIET, WRITER_STALL};
@@ -211,6 +252,9 @@ pub struct PtyRun {
 /// [`WRITER_STALL`]) and then closes the pty: the host sees the device vanish, as on an unplug
 /// (Linux: `BrokenPipe` from the poll's hang-up), with nothing left unread. Linux discards bytes
 /// the host has not read when the master side closes, hence the wait.
+///
+/// Bytes the host writes into the pty (commands) reach the board's link between steps, as the
+/// USB interrupt would hand them over: the board applies them at its next step and acks.
 #[derive(Debug)]
 pub struct PtyBoard {
     path: String,
@@ -220,7 +264,25 @@ pub struct PtyBoard {
 
 impl PtyBoard {
     /// Starts `board` for `steps` sample periods into a new pty pair.
-    pub fn spawn(mut board: SimBoard, steps: u64, pacing: Pacing) -> io::Result<PtyBoard> {
+    pub fn spawn(board: SimBoard, steps: u64, pacing: Pacing) -> io::Result<PtyBoard> {
+        Self::spawn_with(board, steps, pacing, PtyHooks::default())
+    }
+
+    /// Like [`PtyBoard::spawn`], with fault-injection hooks.
+    pub fn spawn_with(
+        mut board: SimBoard,
+        steps: u64,
+        pacing: Pacing,
+        mut hooks: PtyHooks,
+    ) -> io::Result<PtyBoard> {
+        if let Pacing::Scaled(k) = pacing {
+            if !(k.is_finite() && k > 0.0) {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    format!("pacing factor {k} must be finite and > 0"),
+                ));
+            }
+        }
         let mut pty = PtyWriter::open()?;
         let path = pty.path().to_owned();
         let stop = Arc::new(AtomicBool::new(false));
@@ -232,17 +294,39 @@ impl PtyBoard {
                 let start = Instant::now();
                 let mut bytes = 0u64;
                 let mut done = 0u64;
+                let mut from_host = vec![0u8; 256];
+                let mut line_bytes = Vec::new();
                 while done < steps && !stop_flag.load(Ordering::Relaxed) {
-                    if pacing == Pacing::RealTime {
-                        let due = start + Duration::from_micros(board.now_us());
-                        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                    if let Some(due) = pacing.due(board.now_us()) {
+                        if let Some(wait) = (start + due).checked_duration_since(Instant::now()) {
                             std::thread::sleep(wait);
                         }
+                    }
+                    // Commands the host wrote reach the board's link before this step, as the
+                    // USB interrupt would hand them over.
+                    loop {
+                        let n = pty.read_from_host(&mut from_host)?;
+                        if n == 0 {
+                            break;
+                        }
+                        board.receive(&from_host[..n]);
+                    }
+                    if let Some(before_step) = hooks.before_step.as_mut() {
+                        before_step(done, &mut board);
                     }
                     board.step();
                     // Whole frames only (the pty waits while full): a stop takes effect
                     // between steps.
-                    bytes += board.drain_into(&mut pty)? as u64;
+                    bytes += match hooks.line.as_mut() {
+                        None => board.drain_into(&mut pty)? as u64,
+                        Some(line) => {
+                            line_bytes.clear();
+                            board.drain_into(&mut line_bytes)?;
+                            line(done, &mut line_bytes);
+                            pty.write_all(&line_bytes)?;
+                            line_bytes.len() as u64
+                        }
+                    };
                     done += 1;
                 }
                 pty.hang_up()?;
@@ -389,5 +473,112 @@ mod tests {
         }
         assert!(clean.len() > 1_000);
         assert_eq!(clean, flaky.out);
+    }
+
+    #[test]
+    fn a_command_written_into_the_pty_is_acked_and_changes_the_wheel_rates() {
+        use crate::serial::{self, PortReader, ReadOutcome};
+        use model_core::wire::{self, Command, HostFrame};
+        let pty = PtyBoard::spawn(
+            SimBoard::new(SamplerConfig::BOARD),
+            1_000_000,
+            Pacing::Scaled(20.0),
+        )
+        .expect("pty");
+        let port = serial::open(pty.path(), Duration::from_millis(20)).expect("open");
+        let mut reader = PortReader::new(port);
+        let mut dec = StreamDecoder::new();
+        let rates = Sides::new(4.5f32, -1.25);
+        let mut frame = [0u8; wire::MAX_FRAME];
+        let n = wire::encode(
+            &HostFrame {
+                id: 77,
+                command: Command::SetWheelRates(rates),
+            },
+            &mut frame,
+        )
+        .expect("fits");
+        reader.port_mut().write_all(&frame[..n]).expect("write");
+        let start = Instant::now();
+        let mut acked = false;
+        while !acked {
+            assert!(start.elapsed() < Duration::from_secs(20), "no ack");
+            let outcome = reader.poll(&mut dec, |e| {
+                acked |= e == Event::Frame(BoardFrame::Ack { id: 77 });
+            });
+            assert!(!matches!(outcome, ReadOutcome::Vanished { .. }));
+        }
+        pty.stop();
+        while !matches!(reader.poll(&mut dec, |_| {}), ReadOutcome::Vanished { .. }) {
+            assert!(start.elapsed() < Duration::from_secs(20), "never hung up");
+        }
+        let run = pty.join().expect("writer");
+        assert_eq!(
+            run.board.board().sampler().measurements().wheel_rates(),
+            Some(rates)
+        );
+        // 20× real time at most: the run took at least its simulated time / 20.
+        assert!(
+            start.elapsed()
+                >= Duration::from_micros((run.board.now_us() / 20).saturating_sub(5_000))
+        );
+    }
+
+    #[test]
+    fn a_bad_pacing_factor_is_refused() {
+        for k in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = PtyBoard::spawn(SimBoard::new(SamplerConfig::BOARD), 1, Pacing::Scaled(k))
+                .expect_err("refused");
+            assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
+        }
+    }
+
+    #[test]
+    fn the_line_hook_sees_every_step_and_before_step_reaches_the_board() {
+        use std::sync::Mutex;
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let seen_in_line = Arc::clone(&seen);
+        let hooks = PtyHooks {
+            before_step: Some(Box::new(|k, board: &mut SimBoard| {
+                if k == 3 {
+                    board.bus_mut().unplug(0x45);
+                }
+            })),
+            line: Some(Box::new(move |k, bytes: &mut Vec<u8>| {
+                if let Ok(mut seen) = seen_in_line.lock() {
+                    seen.push((k, bytes.len()));
+                }
+            })),
+        };
+        let pty = PtyBoard::spawn_with(
+            SimBoard::new(SamplerConfig::BOARD),
+            10,
+            Pacing::AsFastAsPossible,
+            hooks,
+        )
+        .expect("pty");
+        let port = crate::serial::open(pty.path(), Duration::from_millis(20)).expect("open");
+        let mut reader = crate::serial::PortReader::new(port);
+        let mut dec = StreamDecoder::new();
+        let mut right = Vec::new();
+        let start = Instant::now();
+        while !reader.vanished() {
+            assert!(start.elapsed() < Duration::from_secs(20));
+            reader.poll(&mut dec, |e| {
+                if let Event::Frame(BoardFrame::Sample(s)) = e {
+                    right.push(s.chips.right);
+                }
+            });
+        }
+        let run = pty.join().expect("writer");
+        let seen = seen.lock().expect("lock").clone();
+        assert_eq!(
+            seen.iter().map(|(k, _)| *k).collect::<Vec<_>>(),
+            (0..10).collect::<Vec<_>>()
+        );
+        assert_eq!(seen.iter().map(|(_, n)| *n as u64).sum::<u64>(), run.bytes);
+        assert_eq!(right.len(), 10);
+        assert!(right[3..].iter().all(|c| *c
+            == model_core::wire::ChipReading::Failed(model_core::wire::ChipFault::AddressNack)));
     }
 }

@@ -14,7 +14,7 @@ use model_core::wire::{self, BoardFrame, Hello, Model, Status, MAX_FRAME, PROTOC
 use model_core::Sides;
 use std::collections::BTreeMap;
 use std::fmt;
-use std::fs::File;
+use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Seek, Write};
 use std::path::Path;
 
@@ -57,8 +57,15 @@ impl<W: Write + Seek> fmt::Debug for McapSink<W> {
 impl McapSink<BufWriter<File>> {
     /// Creates (or truncates) `path` and writes the file header, schemas, channels and the
     /// `rover_power` metadata record.
-    pub fn create(path: &Path) -> Result<Self, McapError> {
-        let file = File::create(path).map_err(|source| McapError::Io {
+    pub fn create(path: &Path, overwrite: bool) -> Result<Self, McapError> {
+        let mut options = OpenOptions::new();
+        options.read(true).write(true);
+        if overwrite {
+            options.create(true).truncate(true);
+        } else {
+            options.create_new(true);
+        }
+        let file = options.open(path).map_err(|source| McapError::Io {
             path: path.to_owned(),
             source,
         })?;
@@ -332,6 +339,11 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
 
     fn flush(&mut self) -> io::Result<()> {
         self.writer.flush().map_err(into_io)
+    }
+
+    /// Writes the summary section and footer (the sink takes no more records afterwards).
+    fn finish(&mut self) -> io::Result<()> {
+        self.writer.finish().map(drop).map_err(into_io)
     }
 }
 

@@ -291,7 +291,7 @@ fn sink_on_a_file_is_readable_before_finish_and_finished_on_drop() {
     let dir = TempDir::new("mcap-sink");
     let path = dir.path().join("run.mcap");
     let (run, _) = sim_run(40);
-    let mut sink = McapSink::create(&path).expect("create");
+    let mut sink = McapSink::create(&path, false).expect("create");
     let got = read_mcap_run(&path).expect("header and channels on disk at once");
     assert!(got.truncated.is_some() && got.run == RunLog::default());
     for s in &run.samples {

@@ -1,0 +1,383 @@
+use super::*;
+use crate::log::run_log::RunLog;
+use firmware::sampler::{Sampler, SamplerConfig};
+use model_core::energy::RunningMeasurements;
+use model_core::ina226::{BusVoltageRaw, CurrentRaw, PowerRaw, Registers, ShuntVoltageRaw};
+use model_core::wire::{ChipReading, Model};
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+
+/// A port that hands out scripted chunks, then reports end of file (the device vanished), and
+/// keeps what the host wrote.
+struct Script {
+    chunks: VecDeque<Vec<u8>>,
+    written: Arc<Mutex<Vec<u8>>>,
+}
+
+impl Read for Script {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self.chunks.pop_front() {
+            None => Ok(0),
+            Some(chunk) => {
+                let n = chunk.len().min(buf.len());
+                buf[..n].copy_from_slice(&chunk[..n]);
+                if n < chunk.len() {
+                    self.chunks.push_front(chunk[n..].to_vec());
+                }
+                Ok(n)
+            }
+        }
+    }
+}
+
+impl Write for Script {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.written
+            .lock()
+            .map_err(|_| io::Error::other("poisoned"))?
+            .extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+fn encode_all(frames: &[BoardFrame]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for f in frames {
+        let mut buf = [0u8; wire::MAX_FRAME];
+        let n = wire::encode(f, &mut buf).expect("fits");
+        out.extend_from_slice(&buf[..n]);
+    }
+    out
+}
+
+fn regs(current: i16, power: u16) -> Registers {
+    Registers {
+        shunt: ShuntVoltageRaw(current / 10),
+        bus: BusVoltageRaw(19_600), // 24.5 V
+        current: CurrentRaw(current),
+        power: PowerRaw(power),
+    }
+}
+
+/// A board's stream: hello, then `n` samples from `t0_us` every 5 ms with model frames every
+/// 20 samples, as the firmware's measurements see them. Returns the bytes and the board's
+/// measurements after the last sample.
+fn board_stream(t0_us: u64, n: u32, failed_right: &[u32]) -> (Vec<u8>, RunningMeasurements) {
+    let mut frames = vec![BoardFrame::Hello(
+        Sampler::new(SamplerConfig::BOARD).hello(),
+    )];
+    let mut board = RunningMeasurements::new(Scale::BOARD);
+    for seq in 0..n {
+        let t_us = t0_us.wrapping_add(u64::from(seq) * 5_000);
+        let right = if failed_right.contains(&seq) {
+            ChipReading::Failed(ChipFault::AddressNack)
+        } else {
+            ChipReading::Fresh(regs(-2_000 + seq as i16, 400))
+        };
+        let chips = Sides::new(ChipReading::Fresh(regs(4_000, 3_920 + seq as u16)), right);
+        board.update(t_us, chips.map(|c| c.registers()));
+        frames.push(BoardFrame::Sample(Sample { t_us, seq, chips }));
+        if seq % 20 == 19 {
+            frames.push(BoardFrame::Model(Model {
+                t_us,
+                seq,
+                snapshot: board.snapshot(),
+            }));
+        }
+    }
+    (encode_all(&frames), board)
+}
+
+fn script(chunks: Vec<Vec<u8>>) -> (Box<dyn BoardPort>, Arc<Mutex<Vec<u8>>>) {
+    let written = Arc::new(Mutex::new(Vec::new()));
+    let port = Script {
+        chunks: chunks.into(),
+        written: Arc::clone(&written),
+    };
+    (Box::new(port), written)
+}
+
+fn fast_options() -> RecordOptions {
+    RecordOptions {
+        reconnect_timeout: Duration::from_millis(100),
+        retry_every: Duration::from_millis(10),
+        ..RecordOptions::new("/dev/test")
+    }
+}
+
+/// Records the scripted ports in order (the first at the start, the rest on reconnection).
+fn record_ports(
+    options: &RecordOptions,
+    ports: Vec<Box<dyn BoardPort>>,
+) -> (
+    Result<RecordSummary, RecordError>,
+    RunLog,
+    Vec<RecordStatus>,
+) {
+    let mut ports: VecDeque<_> = ports.into();
+    let mut open = |_: &str| {
+        ports.pop_front().ok_or_else(|| SerialError::Open {
+            path: "/dev/test".into(),
+            source: serialport::Error::new(serialport::ErrorKind::NoDevice, "gone"),
+        })
+    };
+    let mut log = RunLog::default();
+    let mut statuses = Vec::new();
+    let stop = AtomicBool::new(false);
+    let result = record(options, &mut open, &mut log, &stop, &mut |s| {
+        statuses.push(s.clone())
+    });
+    (result, log, statuses)
+}
+
+fn kinds(log: &RunLog) -> Vec<&'static str> {
+    log.events
+        .iter()
+        .map(|(_, e)| match e {
+            LogEvent::Started { .. } => "started",
+            LogEvent::DeviceVanished { .. } => "vanished",
+            LogEvent::Reconnected { .. } => "reconnected",
+            LogEvent::SamplesLost { .. } => "lost",
+            LogEvent::BadFrames { .. } => "bad",
+            LogEvent::BoardReset => "reset",
+            LogEvent::Stopped { .. } => "stopped",
+        })
+        .collect()
+}
+
+#[test]
+fn timestamps_wrapping_past_u64_max_give_a_continuous_run_and_exact_energy() {
+    let t0 = u64::MAX - 250_000; // wraps after 50 samples
+    let (bytes, board) = board_stream(t0, 200, &[]);
+    let (port, _) = script(bytes.chunks(97).map(<[u8]>::to_vec).collect());
+    let (result, log, _) = record_ports(&fast_options(), vec![port]);
+    let summary = result.expect("recorded");
+    assert_eq!(summary.stop, StopReason::DeviceGone);
+    assert_eq!((summary.samples, summary.rows), (200, 200));
+    for (k, s) in log.samples.iter().enumerate() {
+        assert_eq!(s.t_s, (k as u64 * 5_000) as f64 / 1e6);
+        assert_eq!(s.bus_v, Sides::new(24.5, 24.5));
+        assert_eq!(s.current_a.left, 2.0);
+        assert_eq!(s.cmd_mps, Sides::new(0.0, 0.0));
+    }
+    let host = summary.segments[0].host_energy_lsb_us;
+    let e = board.snapshot().energy_lsb_us;
+    assert_eq!(host, [e.left, e.right]);
+    assert_ne!(e.left, 0);
+    assert_eq!(summary.stream.model_mismatches, 0);
+    assert_eq!(summary.stream.models, 10);
+    assert_eq!(kinds(&log), ["started", "vanished", "stopped"]);
+}
+
+#[test]
+fn a_failed_chip_skips_the_row_and_the_status_names_it() {
+    let (bytes, _) = board_stream(0, 50, &[10, 11, 12, 49]);
+    let (port, _) = script(vec![bytes]);
+    let (result, log, statuses) = record_ports(&fast_options(), vec![port]);
+    let summary = result.expect("recorded");
+    assert_eq!(
+        (summary.samples, summary.rows, summary.incomplete_samples),
+        (50, 46, 4)
+    );
+    assert_eq!(log.samples.len(), 46);
+    assert_eq!(
+        log.frames
+            .iter()
+            .filter(|(_, f)| matches!(f, BoardFrame::Sample(_)))
+            .count(),
+        50
+    );
+    let last = statuses.last().expect("final status");
+    assert_eq!(
+        last.chip_faults,
+        Sides::new(None, Some(ChipFault::AddressNack))
+    );
+    assert_eq!(last.chip_failed_samples, Sides::new(0, 4));
+    let line = last.to_string();
+    assert!(line.contains("right chip 0x45: AddressNack"), "{line}");
+}
+
+#[test]
+fn stops_after_the_sample_count_mid_chunk() {
+    let (bytes, _) = board_stream(0, 100, &[]);
+    let (port, _) = script(vec![bytes]);
+    let options = RecordOptions {
+        max_samples: Some(37),
+        ..fast_options()
+    };
+    let (result, log, _) = record_ports(&options, vec![port]);
+    let summary = result.expect("recorded");
+    assert_eq!(summary.stop, StopReason::Samples);
+    assert_eq!(summary.samples, 37);
+    assert_eq!(log.samples.len(), 37);
+    assert_eq!(kinds(&log), ["started", "stopped"]);
+}
+
+#[test]
+fn a_reconnection_to_a_rebooted_board_is_marked_and_time_continues() {
+    let (first, _) = board_stream(1_000_000, 30, &[]);
+    let (second, _) = board_stream(0, 30, &[]);
+    let (a, _) = script(vec![first]);
+    let (b, _) = script(vec![second]);
+    let (result, log, _) = record_ports(&fast_options(), vec![a, b]);
+    let summary = result.expect("recorded");
+    assert_eq!(
+        (summary.samples, summary.vanished, summary.reconnects),
+        (60, 2, 1)
+    );
+    assert_eq!(
+        kinds(&log),
+        [
+            "started",
+            "vanished",
+            "reconnected",
+            "reset",
+            "vanished",
+            "stopped"
+        ]
+    );
+    assert!(log.samples.windows(2).all(|w| w[0].t_s < w[1].t_s));
+    // The second board's first sample comes after the offline time, and its own steps follow.
+    let offline_s = log
+        .events
+        .iter()
+        .find_map(|(_, e)| match e {
+            LogEvent::Reconnected { offline_s, .. } => Some(*offline_s),
+            _ => None,
+        })
+        .expect("reconnected");
+    assert!(log.samples[30].t_s - log.samples[29].t_s >= offline_s * 0.5);
+    assert!((log.samples[31].t_s - log.samples[30].t_s - 0.005).abs() < 1e-9);
+    assert_eq!(summary.segments.len(), 2);
+    assert_eq!(summary.segments[0].samples, 30);
+    assert_eq!(summary.stream.lost_samples, 0);
+}
+
+#[test]
+fn commands_are_forwarded_once_per_change_and_copied_into_the_samples() {
+    let rows = vec![
+        CommandRow {
+            t_s: 0.0,
+            cmd_mps: Sides::new(0.33, 0.66),
+            yaw_rad: Some(0.0),
+            pitch_deg: None,
+        },
+        CommandRow {
+            t_s: 0.05,
+            cmd_mps: Sides::new(0.33, 0.66),
+            yaw_rad: Some(0.1),
+            pitch_deg: None,
+        },
+        CommandRow {
+            t_s: 0.1,
+            cmd_mps: Sides::new(-0.165, 0.165),
+            yaw_rad: None,
+            pitch_deg: None,
+        },
+    ];
+    let options = RecordOptions {
+        commands: rows,
+        ..fast_options()
+    };
+    let (bytes, _) = board_stream(0, 40, &[]);
+    let (port, written) = script(vec![bytes]);
+    let (result, log, _) = record_ports(&options, vec![port]);
+    let summary = result.expect("recorded");
+    assert_eq!(summary.commands_sent, 2);
+    assert_eq!(log.commands.len(), 2);
+    let mut sent = Vec::new();
+    wire::FrameDecoder::new().feed::<HostFrame>(&written.lock().expect("lock"), |f| {
+        sent.push(f.expect("valid"));
+    });
+    assert_eq!(sent.len(), 2);
+    let rates = |c: Command| match c {
+        Command::SetWheelRates(r) => [r.left, r.right],
+        other => panic!("{other:?}"),
+    };
+    // ω = v / r with r = 0.165 m (stored as f32).
+    for (got, want) in [
+        (rates(sent[0].command), [2.0, 4.0]),
+        (rates(sent[1].command), [-1.0, 1.0]),
+    ] {
+        assert!(
+            got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-6),
+            "{got:?}"
+        );
+    }
+    assert_ne!(sent[0].id, sent[1].id);
+    // The cmd and pose columns come from the file at each sample's time.
+    let at = |t: f64| {
+        log.samples
+            .iter()
+            .find(|s| (s.t_s - t).abs() < 1e-9)
+            .expect("sample")
+    };
+    assert_eq!(at(0.025).cmd_mps, Sides::new(0.33, 0.66));
+    assert!((at(0.025).yaw_rad.expect("yaw") - 0.05).abs() < 1e-12);
+    assert_eq!(at(0.15).cmd_mps, Sides::new(-0.165, 0.165));
+    assert_eq!(at(0.15).yaw_rad, Some(0.1));
+}
+
+#[test]
+fn bad_commands_and_unknown_formats_are_refused_up_front() {
+    let options = RecordOptions {
+        commands: vec![CommandRow {
+            t_s: 0.0,
+            cmd_mps: Sides::new(0.0, 200.0),
+            yaw_rad: None,
+            pitch_deg: None,
+        }],
+        ..fast_options()
+    };
+    let (port, _) = script(Vec::new());
+    let (result, _, _) = record_ports(&options, vec![port]);
+    let e = result.expect_err("too fast");
+    assert!(
+        e.to_string().starts_with("commands row 1 (t_s = 0 s)"),
+        "{e}"
+    );
+    let Err(e) = create_sink(Path::new("/tmp/run.parquet"), false) else {
+        panic!("accepted an unknown format");
+    };
+    assert!(e.to_string().contains("unknown log format"), "{e}");
+}
+
+#[test]
+fn a_port_that_cannot_be_opened_at_the_start_is_an_error() {
+    let (result, log, _) = record_ports(&fast_options(), Vec::new());
+    assert!(matches!(result, Err(RecordError::Open(_))));
+    assert!(log.events.is_empty());
+}
+
+#[test]
+fn the_stop_flag_ends_a_recording_waiting_for_its_device() {
+    let (port, _) = script(Vec::new());
+    let mut ports = VecDeque::from([port]);
+    let mut open = |_: &str| {
+        ports.pop_front().ok_or_else(|| SerialError::Open {
+            path: "/dev/test".into(),
+            source: serialport::Error::new(serialport::ErrorKind::NoDevice, "gone"),
+        })
+    };
+    let options = RecordOptions {
+        reconnect_timeout: Duration::from_secs(3600),
+        ..fast_options()
+    };
+    let stop = AtomicBool::new(false);
+    let mut log = RunLog::default();
+    let started = Instant::now();
+    let summary = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            std::thread::sleep(Duration::from_millis(100));
+            stop.store(true, Ordering::Relaxed);
+        });
+        record(&options, &mut open, &mut log, &stop, &mut |_| {})
+    })
+    .expect("stopped");
+    assert_eq!(summary.stop, StopReason::Interrupted);
+    assert!(started.elapsed() < Duration::from_secs(10));
+    assert_eq!(kinds(&log), ["started", "vanished", "stopped"]);
+}

@@ -1,0 +1,147 @@
+//! The commands file as a function of run time: the commanded side speeds in force at each
+//! sample, and the tracker's pose interpolated between its rows.
+
+use crate::log::commands::CommandRow;
+use core::f64::consts::PI;
+use model_core::Sides;
+
+/// Commands over run time. Rows as read from a commands CSV (`t_s` strictly increasing).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CommandTimeline {
+    rows: Vec<CommandRow>,
+    yaw: Vec<(f64, f64)>,
+    pitch: Vec<(f64, f64)>,
+}
+
+/// `angle` wrapped into [−π, π).
+fn wrap_pi(angle: f64) -> f64 {
+    angle - 2.0 * PI * ((angle + PI) / (2.0 * PI)).floor()
+}
+
+/// Linear interpolation in `points` (time, value) at `t_s`: `None` before the first point, the
+/// last value after the last. `angle`: values are angles, interpolated the short way round.
+fn interpolate(points: &[(f64, f64)], t_s: f64, angle: bool) -> Option<f64> {
+    let i = points.partition_point(|&(t, _)| t <= t_s);
+    let &(t0, v0) = points.get(i.checked_sub(1)?)?;
+    let Some(&(t1, v1)) = points.get(i) else {
+        return Some(v0);
+    };
+    let frac = (t_s - t0) / (t1 - t0);
+    if !angle {
+        return Some(v0 + frac * (v1 - v0));
+    }
+    let v = v0 + frac * wrap_pi(v1 - v0);
+    // A tracker that reports wrapped yaw keeps getting wrapped yaw; an unwrapped one, unwrapped.
+    let wrapped = |a: f64| (-PI..=PI).contains(&a);
+    Some(if wrapped(v0) && wrapped(v1) && !wrapped(v) {
+        wrap_pi(v)
+    } else {
+        v
+    })
+}
+
+impl CommandTimeline {
+    /// The timeline of `rows` (strictly increasing `t_s`, as the commands CSV reader ensures).
+    pub fn new(rows: Vec<CommandRow>) -> Self {
+        let track = |f: fn(&CommandRow) -> Option<f64>| {
+            rows.iter()
+                .filter_map(|r| Some((r.t_s, f(r)?)))
+                .collect::<Vec<_>>()
+        };
+        Self {
+            yaw: track(|r| r.yaw_rad),
+            pitch: track(|r| r.pitch_deg),
+            rows,
+        }
+    }
+
+    /// The rows.
+    pub fn rows(&self) -> &[CommandRow] {
+        &self.rows
+    }
+
+    /// The row in force at `t_s` (the last one at or before it) and its index.
+    pub fn active(&self, t_s: f64) -> Option<(usize, &CommandRow)> {
+        let i = self.rows.partition_point(|r| r.t_s <= t_s).checked_sub(1)?;
+        Some((i, self.rows.get(i)?))
+    }
+
+    /// Commanded side speeds at `t_s` [m/s]: the row in force, 0 before the first row.
+    pub fn cmd_mps(&self, t_s: f64) -> Sides<f64> {
+        self.active(t_s)
+            .map_or(Sides::new(0.0, 0.0), |(_, row)| row.cmd_mps)
+    }
+
+    /// Yaw at `t_s` [rad], interpolated linearly between the rows that have one (the short way
+    /// round), held after the last; `None` before the first.
+    pub fn yaw_rad(&self, t_s: f64) -> Option<f64> {
+        interpolate(&self.yaw, t_s, true)
+    }
+
+    /// Pitch at `t_s` [deg], interpolated like [`CommandTimeline::yaw_rad`].
+    pub fn pitch_deg(&self, t_s: f64) -> Option<f64> {
+        interpolate(&self.pitch, t_s, false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t_s: f64, left: f64, yaw: Option<f64>, pitch: Option<f64>) -> CommandRow {
+        CommandRow {
+            t_s,
+            cmd_mps: Sides::new(left, -left),
+            yaw_rad: yaw,
+            pitch_deg: pitch,
+        }
+    }
+
+    #[test]
+    fn speeds_hold_the_row_in_force_and_are_zero_before_the_first() {
+        let tl = CommandTimeline::new(vec![row(1.0, 0.5, None, None), row(2.0, 0.7, None, None)]);
+        assert_eq!(tl.cmd_mps(0.5), Sides::new(0.0, 0.0));
+        assert_eq!(tl.cmd_mps(1.0), Sides::new(0.5, -0.5));
+        assert_eq!(tl.cmd_mps(1.99), Sides::new(0.5, -0.5));
+        assert_eq!(tl.cmd_mps(9.0), Sides::new(0.7, -0.7));
+        assert_eq!(tl.active(1.5).map(|(i, _)| i), Some(0));
+        assert_eq!(tl.active(0.0), None);
+    }
+
+    #[test]
+    fn pose_is_interpolated_between_tracker_rows_only() {
+        let tl = CommandTimeline::new(vec![
+            row(0.0, 0.1, Some(0.0), Some(2.0)),
+            row(1.0, 0.1, None, None),
+            row(2.0, 0.1, Some(1.0), Some(4.0)),
+        ]);
+        assert_eq!(tl.yaw_rad(-1.0), None);
+        assert_eq!(tl.yaw_rad(0.0), Some(0.0));
+        assert!((tl.yaw_rad(1.0).expect("yaw") - 0.5).abs() < 1e-12);
+        assert!((tl.pitch_deg(1.5).expect("pitch") - 3.5).abs() < 1e-12);
+        assert_eq!(tl.yaw_rad(5.0), Some(1.0), "held after the last");
+    }
+
+    #[test]
+    fn yaw_goes_the_short_way_across_pi() {
+        let tl = CommandTimeline::new(vec![
+            row(0.0, 0.0, Some(3.0), None),
+            row(1.0, 0.0, Some(-3.0), None),
+        ]);
+        // 3 → −3 is +0.283 rad through π, not −6 rad.
+        let mid = tl.yaw_rad(0.5).expect("yaw");
+        assert!((mid.abs() - PI).abs() < 1e-9, "{mid}");
+        let late = tl.yaw_rad(0.9).expect("yaw");
+        assert!(
+            (late - (-3.0 - 0.1 * (2.0 * PI - 6.0))).abs() < 1e-9,
+            "{late}"
+        );
+        assert_eq!(tl.yaw_rad(1.0), Some(-3.0));
+        // An unwrapped track stays unwrapped.
+        let tl = CommandTimeline::new(vec![
+            row(0.0, 0.0, Some(6.0), None),
+            row(1.0, 0.0, Some(7.0), None),
+        ]);
+        assert!((tl.yaw_rad(0.5).expect("yaw") - 6.5).abs() < 1e-12);
+    }
+}
