@@ -2,6 +2,8 @@
 
 pub mod decode;
 pub mod log;
+pub mod plot;
+pub mod progress;
 pub mod rover;
 pub mod serial;
 pub mod sim;
