@@ -2,6 +2,8 @@
 
 pub mod decode;
 pub mod log;
+pub mod plot;
+pub mod progress;
 pub mod record;
 pub mod replay;
 pub mod rover;

@@ -4,15 +4,74 @@
 //! The bus holds the simulation time ([`SimBus::set_time_us`]); every chip with power processes
 //! the conversions that completed by then, each sampling its held analog input at that
 //! conversion's time. Set a chip's inputs before moving the time past them.
+//!
+//! The bus also accounts the time its transactions would hold a real bus ([`I2cTiming`],
+//! [`SimBus::bus_time_ns`]); that time is counted, not added to the simulation clock.
 
 pub mod board;
 pub mod ina226;
 pub mod world;
+pub mod throughput;
 
 pub use ina226::{Analog, SimIna226};
 
 use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
 use std::collections::BTreeMap;
+
+/// How long transactions hold the bus, for [`SimBus::bus_time_ns`].
+///
+/// Model: every byte takes 9 SCL periods (8 bits and the ACK/NACK bit); the START, each
+/// repeated START and the STOP take one SCL period each (in fast mode their setup and hold
+/// times are 0.6 µs each and the bus-free time after a STOP is 1.3 µs, all within one 2.5 µs
+/// period); no clock stretching (the INA226 does not stretch SCL). Adjacent operations of the
+/// same direction form one frame (one address byte). A failed transaction costs its address
+/// phase: START, address byte, STOP.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct I2cTiming {
+    /// SCL clock [Hz].
+    pub scl_hz: u32,
+}
+
+impl I2cTiming {
+    /// Fast mode, 400 kHz: the fastest the STM32F411's I²C peripheral runs.
+    pub const FAST_MODE: I2cTiming = I2cTiming { scl_hz: 400_000 };
+
+    /// SCL periods a failed transaction holds the bus: START, address byte, STOP.
+    pub const FAILED_TRANSACTION_BITS: u64 = 1 + 9 + 1;
+
+    /// SCL periods a successful transaction of `operations` holds the bus (0 for none).
+    pub fn transaction_bits(operations: &[Operation<'_>]) -> u64 {
+        if operations.is_empty() {
+            return 0;
+        }
+        let mut bits = 1; // STOP
+        let mut previous_read = None;
+        for op in operations {
+            let (read, len) = match op {
+                Operation::Read(buf) => (true, buf.len()),
+                Operation::Write(bytes) => (false, bytes.len()),
+            };
+            if previous_read != Some(read) {
+                bits += 1 + 9; // (repeated) START and the address byte
+            }
+            bits += 9 * len as u64;
+            previous_read = Some(read);
+        }
+        bits
+    }
+
+    /// The duration of `bits` SCL periods [ns].
+    pub fn bits_to_ns(&self, bits: u64) -> u64 {
+        let ns = u128::from(bits) * 1_000_000_000 / u128::from(self.scl_hz.max(1));
+        u64::try_from(ns).unwrap_or(u64::MAX)
+    }
+}
+
+impl Default for I2cTiming {
+    fn default() -> Self {
+        Self::FAST_MODE
+    }
+}
 
 /// Transaction counters of one address.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -38,6 +97,9 @@ pub struct SimBus {
     now_us: u64,
     chips: BTreeMap<u8, Slot>,
     counts: BTreeMap<u8, TransactionCounts>,
+    timing: I2cTiming,
+    /// SCL periods all transactions so far held the bus.
+    bus_bits: u64,
 }
 
 impl SimBus {
@@ -174,6 +236,26 @@ impl SimBus {
         }
     }
 
+    /// The bus timing model (400 kHz fast mode unless set).
+    pub fn timing(&self) -> I2cTiming {
+        self.timing
+    }
+
+    /// Sets the SCL clock the bus time is accounted at (kept for the transactions so far).
+    pub fn set_timing(&mut self, timing: I2cTiming) {
+        self.timing = timing;
+    }
+
+    /// SCL periods that all transactions so far held the bus ([`I2cTiming`]'s model).
+    pub fn bus_bits(&self) -> u64 {
+        self.bus_bits
+    }
+
+    /// Time all transactions so far held the bus at the current SCL clock [ns].
+    pub fn bus_time_ns(&self) -> u64 {
+        self.timing.bits_to_ns(self.bus_bits)
+    }
+
     /// Transaction counters of `address` (zero if never addressed).
     pub fn counts(&self, address: u8) -> TransactionCounts {
         self.counts.get(&address).copied().unwrap_or_default()
@@ -242,6 +324,11 @@ impl I2c for SimBus {
         operations: &mut [Operation<'_>],
     ) -> Result<(), Self::Error> {
         let result = self.run(address, operations);
+        let bits = match result {
+            Ok(()) => I2cTiming::transaction_bits(operations),
+            Err(_) => I2cTiming::FAILED_TRANSACTION_BITS,
+        };
+        self.bus_bits = self.bus_bits.saturating_add(bits);
         let counts = self.counts.entry(address).or_default();
         counts.transactions = counts.transactions.saturating_add(1);
         if result.is_err() {
@@ -312,6 +399,65 @@ mod tests {
                 failed: 0
             }
         );
+    }
+
+    #[test]
+    fn bus_time_follows_the_timing_model() {
+        let mut bus = SimBus::board();
+        assert_eq!(bus.timing(), I2cTiming::FAST_MODE);
+        // Register read: START, addr+W, pointer, Sr, addr+R, 2 data bytes, STOP = 48 periods.
+        read(&mut bus, LEFT, reg::DIE_ID).expect("acked");
+        assert_eq!(bus.bus_bits(), 48);
+        assert_eq!(bus.bus_time_ns(), 120_000, "48 × 2.5 µs");
+        // Register write: START, addr+W, pointer, 2 data bytes, STOP = 38 periods.
+        write(&mut bus, LEFT, reg::CALIBRATION, 2048).expect("acked");
+        assert_eq!(bus.bus_bits(), 48 + 38);
+        // Split write buffers are still one frame.
+        bus.transaction(
+            LEFT,
+            &mut [
+                Operation::Write(&[reg::CALIBRATION]),
+                Operation::Write(&[0x08, 0x00]),
+            ],
+        )
+        .expect("acked");
+        assert_eq!(bus.bus_bits(), 48 + 2 * 38);
+        // A NACKed address costs START, address byte, STOP; so does an injected fault.
+        assert!(read(&mut bus, 0x41, reg::DIE_ID).is_err());
+        bus.fail_next(RIGHT, 1, DATA_NACK);
+        assert!(read(&mut bus, RIGHT, reg::DIE_ID).is_err());
+        assert_eq!(bus.bus_bits(), 48 + 2 * 38 + 2 * 11);
+        // An empty transaction puts nothing on the bus.
+        bus.transaction(LEFT, &mut []).expect("acked");
+        assert_eq!(bus.bus_bits(), 48 + 2 * 38 + 2 * 11);
+        // Standard mode: four times as long for the same traffic.
+        let bits = bus.bus_bits();
+        bus.set_timing(I2cTiming { scl_hz: 100_000 });
+        assert_eq!(bus.bus_time_ns(), bits * 10_000);
+        assert_eq!(I2cTiming { scl_hz: 0 }.bits_to_ns(1), 1_000_000_000);
+    }
+
+    #[test]
+    fn firmware_sample_bus_time() {
+        // A steady-state sample reads CVRF and four registers per chip: 10 register reads,
+        // 480 periods = 1.2 ms at 400 kHz; the periodic calibration check adds one read per chip.
+        let mut bus = SimBus::board();
+        let mut sampler = Sampler::new(SamplerConfig::BOARD);
+        let mut t = 0;
+        let mut per_sample = Vec::new();
+        for _ in 0..600 {
+            bus.set_time_us(t);
+            let before = bus.bus_bits();
+            sampler.sample(&mut bus, t).expect("running");
+            per_sample.push(bus.bus_bits() - before);
+            t += 5_000;
+        }
+        // Sample 0 initialises (IDs, config, calibration) and finds no conversion yet.
+        assert_eq!(per_sample[0], 2 * (2 * 48 + 2 * 38 + 48));
+        assert!(per_sample[2..].iter().all(|&b| b == 480 || b == 576));
+        assert_eq!(per_sample[256], 576);
+        assert_eq!(per_sample[512], 576);
+        assert_eq!(per_sample[2..].iter().filter(|&&b| b == 576).count(), 2);
     }
 
     #[test]
