@@ -1,6 +1,8 @@
 //! rover-power host tool, library first: the CLI in `main.rs` only parses arguments.
 
 pub mod decode;
+pub mod demo;
+pub mod figures;
 pub mod log;
 pub mod plot;
 pub mod progress;

@@ -4,15 +4,20 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use host_tool::decode::Summary;
+use host_tool::demo::{self, DemoOptions};
+use host_tool::figures::{write_figures, RunSamples};
 use host_tool::log::commands::read_commands_csv;
 use host_tool::log::convert::{convert, same_file};
 use host_tool::log::load::load;
 use host_tool::log::mcap::Truncation;
 use host_tool::log::write_atomically;
+use host_tool::plot::Format;
+use host_tool::progress;
 use host_tool::record::{self, RecordOptions, RecordStatus};
 use host_tool::replay::{frames_of, write_stream, ReplayPacing, ReplayPty};
 use host_tool::rover::load_rover;
 use host_tool::serial::list_ports;
+use host_tool::sim::world::{load_scenario, load_world};
 use host_tool::validate::{self, RunInput, ValidateOptions};
 use model_core::power::IcrHardGround;
 use std::io::{IsTerminal, Read, Write};
@@ -108,6 +113,46 @@ enum Command {
         #[arg(long)]
         as_fast_as_possible: bool,
     },
+    /// The main job, no hardware needed: a simulated Husky A200 drives the seed's turn set in
+    /// loose sand; the firmware's own code samples it through simulated INA226 chips into a
+    /// pseudo-terminal; the recorder reads it like /dev/ttyACM0; the runs are validated against
+    /// the seed's power models. Tables on the terminal; logs, reports and figures in --out.
+    Demo {
+        /// Output directory.
+        #[arg(long, default_value = "demo-out")]
+        out: PathBuf,
+        /// World TOML (default: the built-in sand world, as in worlds/husky-sand.toml).
+        #[arg(long)]
+        world: Option<PathBuf>,
+        /// Scenario TOML (default: the seed's turn set once per run).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Number of runs.
+        #[arg(long, default_value_t = 3)]
+        runs: u32,
+        /// Noise seed of the first run (run k uses seed + k).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Simulated seconds per wall-clock second.
+        #[arg(long, default_value_t = 25.0, value_parser = positive_speed)]
+        speed: f64,
+    },
+    /// Draw the validation figures of runs: power vs time per turn, average and maximum power
+    /// vs R/R' with the model curves, τ ∝ P/ω per side, residuals.
+    Plot {
+        /// Rover TOML (e.g. rovers/husky-a200.toml).
+        #[arg(long)]
+        rover: PathBuf,
+        /// Run logs, .csv or .mcap.
+        #[arg(long, num_args = 1.., required = true)]
+        runs: Vec<PathBuf>,
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "plots")]
+        out: PathBuf,
+        /// Figure format(s).
+        #[arg(long, value_enum, default_value = "both")]
+        format: FigureFormat,
+    },
     /// List the serial ports: name, USB VID:PID, product, manufacturer, serial number.
     Ports {
         /// Print JSON instead of a table.
@@ -154,6 +199,24 @@ fn warn_truncated(path: &Path, truncated: Option<Truncation>) {
             t.complete_bytes,
             t.file_bytes
         );
+    }
+}
+
+/// Which figure files to write.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum FigureFormat {
+    Png,
+    Svg,
+    Both,
+}
+
+impl FigureFormat {
+    fn formats(self) -> &'static [Format] {
+        match self {
+            FigureFormat::Png => &[Format::Png],
+            FigureFormat::Svg => &[Format::Svg],
+            FigureFormat::Both => &[Format::Png, Format::Svg],
+        }
     }
 }
 
@@ -321,6 +384,104 @@ fn record_cmd(args: RecordArgs) -> Result<()> {
     Ok(())
 }
 
+fn demo_cmd(
+    out: PathBuf,
+    world: Option<PathBuf>,
+    scenario: Option<PathBuf>,
+    runs: u32,
+    seed: u64,
+    speed: f64,
+) -> Result<()> {
+    let mut options = DemoOptions::new(out);
+    if let Some(path) = &world {
+        options.world = load_world(path)?;
+    }
+    if let Some(path) = &scenario {
+        options.scenario = load_scenario(path)?;
+    }
+    options.runs = runs;
+    options.seed = seed;
+    options.speed = speed;
+    let started = std::time::Instant::now();
+    println!(
+        "demo: a simulated rover (B = {} m, m = {} kg) {}: {runs} runs through a pty, {speed}x real time",
+        options.world.rover.track_width_m,
+        options.world.rover.mass_kg,
+        demo::describe_world(&options.world),
+    );
+    let bar = progress::bar(1000, "recording");
+    let outcome = demo::run(&options, &mut |k, duration_s, status| {
+        let done = (f64::from(k) + (status.run_s / duration_s).clamp(0.0, 1.0)) / f64::from(runs);
+        bar.set_position((1000.0 * done) as u64);
+    })?;
+    bar.finish_and_clear();
+    for run in &outcome.runs {
+        let s = &run.summary;
+        let j = |e: i64| s.scale.energy_j(e);
+        let energy = s
+            .segments
+            .last()
+            .map(|g| g.host_energy_lsb_us)
+            .unwrap_or_default();
+        println!(
+            "{}: {} samples through the pty, {} lost, {} bad frames, {} commands acked; \
+             energy {:.1} J left / {:.1} J right = the board's own total, bit for bit",
+            run.name,
+            s.samples,
+            s.stream.lost_samples,
+            s.stream.bad_frames,
+            s.commands_acked,
+            j(energy[0]),
+            j(energy[1]),
+        );
+    }
+    println!();
+    print!("{}", outcome.report);
+    println!();
+    println!(
+        "{} files in {} ({:.1} s):",
+        outcome.files.len(),
+        options.out_dir.display(),
+        started.elapsed().as_secs_f64()
+    );
+    for file in &outcome.files {
+        println!("  {}", file.display());
+    }
+    Ok(())
+}
+
+fn plot_cmd(rover: &Path, runs: &[PathBuf], out: &Path, format: FigureFormat) -> Result<()> {
+    let rover = load_rover(rover)?;
+    let names: Vec<String> = runs.iter().map(|p| p.display().to_string()).collect();
+    let logs = runs
+        .iter()
+        .map(|p| {
+            let loaded = load(p)?;
+            warn_truncated(p, loaded.truncated);
+            Ok(loaded.run)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let inputs: Vec<RunInput<'_>> = names
+        .iter()
+        .zip(&logs)
+        .map(|(name, log)| RunInput::from_log(name, log))
+        .collect();
+    let report = validate::validate(&rover, &inputs, &ValidateOptions::for_rover(&rover))?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let samples: Vec<RunSamples<'_>> = names
+        .iter()
+        .zip(&logs)
+        .map(|(name, log)| RunSamples {
+            name,
+            samples: &log.samples,
+        })
+        .collect();
+    for file in write_figures(&report, &samples, out, format.formats())? {
+        println!("{}", file.display());
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Decode { capture } => {
@@ -459,6 +620,20 @@ fn main() -> Result<()> {
             }
         }
         Command::Ports { json } => ports(json)?,
+        Command::Demo {
+            out,
+            world,
+            scenario,
+            runs,
+            seed,
+            speed,
+        } => demo_cmd(out, world, scenario, runs, seed, speed)?,
+        Command::Plot {
+            rover,
+            runs,
+            out,
+            format,
+        } => plot_cmd(&rover, &runs, &out, format)?,
         Command::Record(args) => record_cmd(args)?,
     }
     Ok(())

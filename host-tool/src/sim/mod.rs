@@ -10,8 +10,8 @@
 
 pub mod board;
 pub mod ina226;
-pub mod world;
 pub mod throughput;
+pub mod world;
 
 pub use ina226::{Analog, SimIna226};
 

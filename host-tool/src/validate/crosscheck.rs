@@ -5,11 +5,14 @@
 //!
 //! Energy and power compare exactly (integers: power LSB × µs, power LSB); any difference means
 //! samples the board integrated but the host never received (lost frames), a board restart the
-//! host missed, or a bug. τ ∝ P/ω needs the commanded wheel rates the board used: the host takes
-//! the latest of the board's own report (a `Status` frame) and the run's forwarded commands
-//! (side speed / wheel radius). A command forwarded just before a model frame may not have
-//! reached the board yet, so τ can differ right after a command change; the time of the largest
-//! difference is reported to check.
+//! host missed, or a bug. τ ∝ P/ω needs the commanded wheel rates the board used (side speed /
+//! wheel radius). In a recording by our recorder the forwarded commands are logged in order and
+//! the board acks (or rejects) each in the stream, so the host applies each command's rates at
+//! its ack, exactly where the board did (a later `Status` frame, the board's own report of its
+//! rates, overrides them until the next ack). Without acks (another recorder) the host takes the
+//! latest of the board's own report (a `Status` frame) and the forwarded commands; a command
+//! forwarded just before a model frame may not have reached the board yet, so τ can differ right
+//! after a command change; the time of the largest difference is reported to check.
 
 use crate::decode::StreamDecoder;
 use crate::log::commands::CommandRow;
@@ -109,6 +112,20 @@ pub fn cross_check(
     let mut last_hello: Option<BoardFrame> = None;
     let mut last_seq: Option<u32> = None;
     let mut status_rates: Option<(f64, Option<Sides<f32>>)> = None;
+    // A recording made by our recorder logs each forwarded command and the board acks (or
+    // rejects) them in order: the rates then change exactly where the board applied them.
+    let acked_mode = frames.iter().any(|(_, f)| {
+        matches!(
+            f,
+            BoardFrame::Ack { .. } | BoardFrame::Rejected { id: Some(_), .. }
+        )
+    });
+    let mut pending = commands.iter();
+    let mut acked_rates: Option<Sides<f32>> = None;
+    let rates_of = |c: &CommandRow| {
+        c.cmd_mps
+            .map(|v| (v / f64::from(rover.wheel_radius_m)) as f32)
+    };
     let mut max_energy_lsb = Sides::new(0i64, 0i64);
     let mut buf = [0u8; MAX_FRAME];
     let feed = |dec: &mut StreamDecoder, frame: &BoardFrame, buf: &mut [u8; MAX_FRAME]| {
@@ -125,13 +142,26 @@ pub fn cross_check(
                     out.lost_samples += dec.stats().lost_samples;
                     out.board_restarts += 1;
                     dec = StreamDecoder::new();
+                    acked_rates = None; // the rebooted board forgot them
                     if let Some(h) = &last_hello {
                         feed(&mut dec, h, &mut buf);
                     }
                 }
                 last_seq = Some(s.seq);
             }
-            BoardFrame::Status(st) => status_rates = Some((t_s, st.wheel_rates_rad_s)),
+            BoardFrame::Status(st) => {
+                status_rates = Some((t_s, st.wheel_rates_rad_s));
+                // The board's own report of the rates it uses wins until the next ack.
+                acked_rates = st.wheel_rates_rad_s;
+            }
+            BoardFrame::Ack { .. } => {
+                if let Some(c) = pending.next() {
+                    acked_rates = Some(rates_of(c));
+                }
+            }
+            BoardFrame::Rejected { id: Some(_), .. } => {
+                pending.next();
+            }
             _ => {}
         }
         feed(&mut dec, frame, &mut buf);
@@ -140,7 +170,11 @@ pub fn cross_check(
         };
         out.model_frames += 1;
         let mut host = dec.measurements().clone();
-        host.set_wheel_rates(wheel_rates_at(t_s, status_rates, commands, rover));
+        host.set_wheel_rates(if acked_mode {
+            acked_rates
+        } else {
+            wheel_rates_at(t_s, status_rates, commands, rover)
+        });
         let host = host.snapshot();
         let board = model.snapshot;
         let de = Sides::new(

@@ -16,10 +16,7 @@
 //! c₃ is fitted only when every fitted turn has a pitch and their mean pitches span at least
 //! [`MIN_PITCH_SPREAD_DEG`]; otherwise c₃ is not identifiable and c₁, c₂ are fitted alone.
 
-use model_core::fit::{
-    student_t_quantile, Estimate, LinearFit, TurnPitchFit, TurnPitchModel, MAX_FIT_RADIUS_M,
-    SEED_CONFIDENCE,
-};
+use model_core::fit::{Estimate, LinearFit, TurnPitchModel, MAX_FIT_RADIUS_M};
 use model_core::power::SimplifiedIcr;
 use serde::Serialize;
 
@@ -36,7 +33,8 @@ pub const DEFAULT_DEPARTURE_FRACTION: f64 = 0.10;
 /// One turn entering the fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FitPoint {
-    /// Commanded radius [m] (R' ≤ R ≤ 20 m up to the R' tolerance).
+    /// Commanded radius [m] (R' ≤ R ≤ 20 m up to the R' tolerance, or `INFINITY` for a straight
+    /// line).
     pub radius_m: f64,
     /// Mean pitch [deg], if measured.
     pub pitch_deg: Option<f64>,
@@ -124,10 +122,10 @@ pub struct Prediction {
 /// Why no fit was made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IcrFitError {
-    /// Fewer turns at or above R' than needed (3: two coefficients and a residual).
-    #[error("{found} turns with R' ≤ R ≤ 20 m; at least 3 are needed to fit c1 and c2 with confidence intervals")]
+    /// Fewer manoeuvres at or above R' than needed (3: two coefficients and a residual).
+    #[error("{found} manoeuvres with R' ≤ R ≤ 20 m or straight; at least 3 are needed to fit c1 and c2 with confidence intervals")]
     TooFewTurns {
-        /// Turns available.
+        /// Turns and straight lines available.
         found: usize,
     },
     /// All fitted turns share one radius: c₁ and c₂ cannot be told apart.
@@ -148,7 +146,9 @@ impl IcrFit {
         let r_prime = slip_track_m / 2.0;
         let points: Vec<FitPoint> = points
             .iter()
-            .filter(|p| p.radius_m <= MAX_FIT_RADIUS_M)
+            // Straight lines (R = ∞) are Eq 2.12's limit P = c2 (+ c3 θ); the 20 m clip is the
+            // seed's guard against huge instantaneous radii of free drives (Section 4.2).
+            .filter(|p| p.radius_m <= MAX_FIT_RADIUS_M || p.radius_m == f64::INFINITY)
             .copied()
             .collect();
         if points.len() < 3 {
@@ -182,27 +182,24 @@ impl IcrFit {
         };
         let ls = |e: model_core::fit::FitError| IcrFitError::LeastSquares(e.to_string());
         if c3_note.is_none() && points.len() >= 4 {
-            let mut fit = TurnPitchFit::new();
+            let mut fit = LinearFit::<3>::new();
             let mut rows = Vec::with_capacity(points.len());
             for p in &points {
-                let pitch = p.pitch_deg.unwrap_or(0.0);
-                fit.add(p.radius_m.max(r_prime), pitch, p.power_w)
-                    .map_err(ls)?;
-                rows.push(vec![inv_r(p), 1.0, pitch]);
+                let row = [inv_r(p), 1.0, p.pitch_deg.unwrap_or(0.0)];
+                fit.add(row, p.power_w).map_err(ls)?;
+                rows.push(row.to_vec());
             }
-            let m = fit.solve().map_err(ls)?;
-            let dof = m.n - 3;
-            let t = student_t_quantile(0.5 + SEED_CONFIDENCE / 2.0, dof).map_err(ls)?;
+            let r = fit.solve().map_err(ls)?;
             return Ok(IcrFit {
-                c1_w_m: m.c1_w_m.into(),
-                c2_w: m.c2_w.into(),
-                c3_w_per_deg: Some(m.c3_w_per_deg.into()),
+                c1_w_m: r.estimates[0].into(),
+                c2_w: r.estimates[1].into(),
+                c3_w_per_deg: Some(r.estimates[2].into()),
                 c3_note: None,
-                r_squared: m.r_squared,
-                residual_standard_error_w: m.residual_standard_error_w,
-                n: m.n,
-                dof,
-                t_quantile: t,
+                r_squared: r.r_squared,
+                residual_standard_error_w: r.residual_standard_error,
+                n: r.n,
+                dof: r.dof,
+                t_quantile: r.t_quantile,
                 slip_track_m,
                 xtx_inv: inverse_gram(&rows)
                     .ok_or_else(|| IcrFitError::LeastSquares("singular design".into()))?,

@@ -252,12 +252,17 @@ pub fn validate(
         });
     }
 
-    // The fit: turns at or above R' (Eq 2.12's R ≥ R' case, Section 4.2).
+    // The fit: turns at or above R' (Eq 2.12's R ≥ R' case, Section 4.2) and straight lines
+    // (its R → ∞ limit, which pins c2).
     let mut points = Vec::new();
     for row in rows.iter_mut() {
-        let above = matches!(row.regime, Some(Regime::AtRPrime | Regime::AboveRPrime));
-        if let (true, Some(radius_m)) = (above, row.radius_cmd_m) {
-            if radius_m <= model_core::fit::MAX_FIT_RADIUS_M {
+        let radius = match row.regime {
+            Some(Regime::AtRPrime | Regime::AboveRPrime) => row.radius_cmd_m,
+            Some(Regime::Straight) => Some(f64::INFINITY),
+            _ => None,
+        };
+        if let Some(radius_m) = radius {
+            if radius_m <= model_core::fit::MAX_FIT_RADIUS_M || radius_m == f64::INFINITY {
                 row.in_fit = true;
                 points.push(fit::FitPoint {
                     radius_m,

@@ -184,8 +184,8 @@ fn hard_ground_runs_recover_c1_c2_without_departures() {
     assert!(fit.r_squared.expect("varies") > 0.99, "{fit:?}");
     assert!(fit.c3_w_per_deg.is_none());
     assert!(fit.c3_note.as_deref().is_some_and(|n| n.contains("pitch")));
-    // R', 4R'/3, 2R' in both directions in both runs.
-    assert_eq!(fit.n, 12);
+    // R', 4R'/3, 2R' in both directions in both runs, and the four straight lines.
+    assert_eq!(fit.n, 16);
     assert_eq!(report.flagged().count(), 0, "{report}");
     // The fitted plateau and straight line predict the turns outside the fit too, and the
     // hard-ground reference matches every manoeuvre.
@@ -389,7 +389,7 @@ fn no_fit_without_turns_at_or_above_r_prime_but_still_a_report() {
         report
             .fit_error
             .as_deref()
-            .is_some_and(|e| e.contains("0 turns")),
+            .is_some_and(|e| e.contains("1 manoeuvres")),
         "{:?}",
         report.fit_error
     );

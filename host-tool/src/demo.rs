@@ -1,0 +1,340 @@
+//! `demo`: the whole pipeline with no hardware. A simulated Husky A200 drives the seed's turn set
+//! in loose sand ([`crate::sim::world`]); the firmware's own `Board` and `Link` sample it through
+//! two simulated INA226 chips and write the board's byte stream into a pseudo-terminal
+//! ([`crate::sim::board::PtyBoard`]); the recorder reads that pty exactly as it reads
+//! `/dev/ttyACM0`, forwarding the commanded wheel speeds to the board ([`crate::record`]); the
+//! runs are validated against the seed's power models ([`crate::validate`]) and plotted
+//! ([`crate::figures`]). Every run is checked end to end: the energy the host recomputed from the
+//! received samples must equal the board's own total, bit for bit.
+
+use crate::figures::{write_figures, RunSamples};
+use crate::log::commands::write_commands_csv_atomically;
+use crate::log::convert::{convert, ConvertError};
+use crate::log::load::{load_run, LoadError};
+use crate::log::run_csv::RunCsvFileError;
+use crate::log::run_log::RunLog;
+use crate::log::{write_atomically, AtomicWriteError};
+use crate::plot::{Format, PlotError};
+use crate::record::{self, RecordError, RecordOptions, RecordStatus, RecordSummary, SinkError};
+use crate::sim::board::{Pacing, PtyBoard, SimBoard};
+use crate::sim::world::effects::EffectId;
+use crate::sim::world::{Ground, ManoeuvreTruth, Scenario, WorldConfig, WorldError};
+use crate::validate::{self, RunInput, ValidateError, ValidateOptions, ValidationReport};
+use firmware::sampler::SamplerConfig;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Tracker rate of the simulated pose in the commands file [Hz].
+pub const TRACKER_HZ: f64 = 20.0;
+
+/// What the demo runs.
+#[derive(Debug, Clone)]
+pub struct DemoOptions {
+    /// Where logs, reports and figures go (created if missing).
+    pub out_dir: PathBuf,
+    /// The simulated world (terrain, effects, rover).
+    pub world: WorldConfig,
+    /// What the rover drives in each run.
+    pub scenario: Scenario,
+    /// Number of runs (each a separate recording, with its own noise seed).
+    pub runs: u32,
+    /// Seed of the first run; run k uses `seed + k`.
+    pub seed: u64,
+    /// Simulated seconds per wall-clock second: the board's stream is paced like the real
+    /// board, only faster, so forwarded commands stay close to live.
+    pub speed: f64,
+}
+
+impl DemoOptions {
+    /// The seed's sand experiment: the Husky on loose sand with the default effects
+    /// ([`WorldConfig::sand`]), the turn set of Section 4.4 at v_c = 0.3 m/s once per run, three
+    /// runs, 25× real time.
+    pub fn new(out_dir: impl Into<PathBuf>) -> Self {
+        Self {
+            out_dir: out_dir.into(),
+            world: WorldConfig::sand(),
+            scenario: Scenario::seed_turns(0.3, 1),
+            runs: 3,
+            seed: 1,
+            speed: 25.0,
+        }
+    }
+}
+
+/// Why the demo stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    /// Bad options.
+    #[error("{0}")]
+    Options(String),
+    /// The world could not be simulated.
+    #[error(transparent)]
+    World(#[from] WorldError),
+    /// A file or the pty could not be made.
+    #[error("{what}: {source}")]
+    Io {
+        /// What was being done.
+        what: String,
+        /// Why it failed.
+        #[source]
+        source: io::Error,
+    },
+    /// The commands file could not be written.
+    #[error(transparent)]
+    Commands(#[from] RunCsvFileError),
+    /// The log could not be created.
+    #[error(transparent)]
+    Sink(#[from] SinkError),
+    /// Recording failed.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// The end-to-end check failed: the recording is not what the board sent.
+    #[error("{run}: {what}")]
+    Check {
+        /// The run.
+        run: String,
+        /// What differs.
+        what: String,
+    },
+    /// Converting the log to a run CSV failed.
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    /// Reading a log back failed.
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// Validation failed.
+    #[error(transparent)]
+    Validate(#[from] ValidateError),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// A report file could not be written.
+    #[error(transparent)]
+    Report(#[from] AtomicWriteError<io::Error>),
+}
+
+/// One recorded run.
+#[derive(Debug, Clone)]
+pub struct DemoRun {
+    /// Its name (the MCAP file's path).
+    pub name: String,
+    /// The MCAP recording (frames, samples, commands, events).
+    pub mcap: PathBuf,
+    /// The same run as a run CSV.
+    pub csv: PathBuf,
+    /// The commands (and tracker pose) forwarded during the run.
+    pub commands: PathBuf,
+    /// What the recorder got.
+    pub summary: RecordSummary,
+    /// The simulated world's ground truth per manoeuvre.
+    pub truth: Vec<ManoeuvreTruth>,
+}
+
+/// Everything the demo made.
+#[derive(Debug, Clone)]
+pub struct DemoOutcome {
+    /// The runs, in order.
+    pub runs: Vec<DemoRun>,
+    /// The validation of all runs.
+    pub report: ValidationReport,
+    /// Every file written (logs, reports, figures).
+    pub files: Vec<PathBuf>,
+}
+
+/// The world in a few words: terrain and the effects switched on.
+pub fn describe_world(world: &WorldConfig) -> String {
+    let ground = match world.ground {
+        Ground::Hard => "hard ground",
+        Ground::Sand => "loose sand",
+    };
+    let effects: Vec<&str> = EffectId::ALL
+        .iter()
+        .filter(|&&id| world.effects.is_enabled(id))
+        .map(|id| id.id())
+        .collect();
+    if effects.is_empty() {
+        format!("on {ground}, no extra effects")
+    } else {
+        format!("on {ground} with {}", effects.join(", "))
+    }
+}
+
+/// Runs the demo; `on_status` gets the recorder's live status of the run being recorded
+/// (run index from 0, the run's simulated duration [s], status).
+pub fn run(
+    options: &DemoOptions,
+    on_status: &mut dyn FnMut(u32, f64, &RecordStatus),
+) -> Result<DemoOutcome, DemoError> {
+    if options.runs == 0 {
+        return Err(DemoError::Options("at least one run is needed".into()));
+    }
+    if !(options.speed.is_finite() && options.speed > 0.0) {
+        return Err(DemoError::Options(format!(
+            "speed {} must be a finite number > 0",
+            options.speed
+        )));
+    }
+    std::fs::create_dir_all(&options.out_dir).map_err(|source| DemoError::Io {
+        what: format!("creating {}", options.out_dir.display()),
+        source,
+    })?;
+    let mut runs = Vec::new();
+    let mut files = Vec::new();
+    for k in 0..options.runs {
+        let run = record_run(options, k, &mut |duration_s, status| {
+            on_status(k, duration_s, status)
+        })?;
+        files.extend([run.mcap.clone(), run.csv.clone(), run.commands.clone()]);
+        runs.push(run);
+    }
+
+    let logs = runs
+        .iter()
+        .map(|r| load_run(&r.mcap))
+        .collect::<Result<Vec<RunLog>, _>>()?;
+    let inputs: Vec<RunInput<'_>> = runs
+        .iter()
+        .zip(&logs)
+        .map(|(r, log)| RunInput::from_log(&r.name, log))
+        .collect();
+    let rover = options.world.rover;
+    let report = validate::validate(&rover, &inputs, &ValidateOptions::for_rover(&rover))?;
+
+    let out = &options.out_dir;
+    let text = report.to_string();
+    files.push(write_file(&out.join("report.txt"), text.as_bytes())?);
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| DemoError::Io {
+        what: "serialising the report".into(),
+        source: e.into(),
+    })?;
+    files.push(write_file(&out.join("report.json"), &json)?);
+    let turns = out.join("turns.csv");
+    write_atomically(&turns, |w| report.write_csv(w))?;
+    files.push(turns);
+    let samples: Vec<RunSamples<'_>> = runs
+        .iter()
+        .zip(&logs)
+        .map(|(r, log)| RunSamples {
+            name: &r.name,
+            samples: &log.samples,
+        })
+        .collect();
+    files.extend(write_figures(
+        &report,
+        &samples,
+        out,
+        &[Format::Png, Format::Svg],
+    )?);
+    Ok(DemoOutcome {
+        runs,
+        report,
+        files,
+    })
+}
+
+/// Simulates run `k`, streams it through a pty into the recorder, checks the recording against
+/// the board's own totals, and writes its MCAP, run CSV and commands files.
+fn record_run(
+    options: &DemoOptions,
+    k: u32,
+    on_status: &mut dyn FnMut(f64, &RecordStatus),
+) -> Result<DemoRun, DemoError> {
+    let out = &options.out_dir;
+    let stem = format!("run-{}", k + 1);
+    let mcap = out.join(format!("{stem}.mcap"));
+    let csv = out.join(format!("{stem}.csv"));
+    let commands_path = out.join(format!("{stem}.commands.csv"));
+    let name = mcap.display().to_string();
+
+    let timeline = Arc::new(
+        options
+            .world
+            .simulate(&options.scenario, options.seed.wrapping_add(u64::from(k)))?,
+    );
+    let commands = timeline.commands(TRACKER_HZ);
+    write_commands_csv_atomically(&commands_path, &commands)?;
+
+    let config = SamplerConfig::BOARD;
+    let steps = timeline.duration_us() / u64::from(config.sample_period_us) + 1;
+    let mut board = SimBoard::new(config);
+    board.set_load(timeline.load_source());
+    let pty = PtyBoard::spawn(board, steps, Pacing::Scaled(options.speed)).map_err(|source| {
+        DemoError::Io {
+            what: "starting the simulated board's pty".into(),
+            source,
+        }
+    })?;
+
+    let mut record_options = RecordOptions::new(pty.path());
+    record_options.commands = commands;
+    record_options.rover = options.world.rover;
+    record_options.max_samples = Some(steps);
+    // The board hangs up after its last step; anything longer than a few periods is a fault.
+    record_options.reconnect_timeout = Duration::from_secs(2);
+    let mut open = record::serial_opener(record_options.read_timeout);
+    let mut sink = record::create_sink(&mcap, true)?;
+    let stop = AtomicBool::new(false);
+    let duration_s = timeline.duration_s();
+    let summary = record::record(
+        &record_options,
+        &mut open,
+        sink.as_mut(),
+        &stop,
+        &mut |status| on_status(duration_s, status),
+    )?;
+    drop(sink);
+    let board_run = pty.join().map_err(|source| DemoError::Io {
+        what: "running the simulated board".into(),
+        source,
+    })?;
+
+    // End to end: every sample arrived, in order, and the host's energy is the board's.
+    let check = |what: String| DemoError::Check {
+        run: name.clone(),
+        what,
+    };
+    if summary.samples != steps
+        || summary.stream.lost_samples != 0
+        || summary.stream.bad_frames != 0
+    {
+        return Err(check(format!(
+            "{} of {steps} samples arrived ({} lost, {} bad frames)",
+            summary.samples, summary.stream.lost_samples, summary.stream.bad_frames
+        )));
+    }
+    let board_energy = board_run
+        .board
+        .board()
+        .sampler()
+        .measurements()
+        .snapshot()
+        .energy_lsb_us;
+    let host_energy = summary
+        .segments
+        .last()
+        .map(|s| s.host_energy_lsb_us)
+        .unwrap_or_default();
+    if host_energy != [board_energy.left, board_energy.right] {
+        return Err(check(format!(
+            "host energy {host_energy:?} LSB·µs differs from the board's {:?}",
+            [board_energy.left, board_energy.right]
+        )));
+    }
+    convert(&mcap, &csv)?;
+    Ok(DemoRun {
+        name,
+        mcap,
+        csv,
+        commands: commands_path,
+        summary,
+        truth: timeline.manoeuvres().to_vec(),
+    })
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<PathBuf, DemoError> {
+    write_atomically(path, |w| w.write_all(bytes))?;
+    Ok(path.to_owned())
+}

@@ -1,0 +1,242 @@
+//! The standard figures of a validation (`plot`, `demo`): power vs time through each turn (seed
+//! Fig 4.8), average and maximum power vs R/R′ with the fitted and hard-ground model curves
+//! (Fig 4.9), τ ∝ P/ω of the inner and outer side vs R/R′ (Fig 5.6, Eq 5.14), and the residuals
+//! against both models. Data comes from a [`ValidationReport`] and the runs it was made from.
+
+use crate::log::run_csv::RunSample;
+use crate::plot::{
+    render_figure, Chart, Figure, Format, Legend, Marker, PlotError, Series, SeriesStyle,
+};
+use crate::validate::turns::sample_power_w;
+use crate::validate::{ManoeuvreKind, ValidationReport};
+use model_core::kinematics::TurnDirection;
+use std::path::{Path, PathBuf};
+
+/// One run's samples, by the name the report knows it under.
+#[derive(Debug, Clone, Copy)]
+pub struct RunSamples<'a> {
+    /// The run's name in the report ([`crate::validate::RunInput::name`]).
+    pub name: &'a str,
+    /// Its samples.
+    pub samples: &'a [RunSample],
+}
+
+/// Total power against time since the start of each turn of one run, one series per turn
+/// (seed Fig 4.8: on sand, power rises through turns with R ≤ R′).
+pub fn power_vs_time(report: &ValidationReport, run: RunSamples<'_>) -> Chart {
+    let mut chart = Chart::new(
+        format!("Power through each turn ({})", short_name(run.name)),
+        "time since the turn started [s]",
+        "left + right power [W]",
+    );
+    let turns = report
+        .manoeuvres
+        .iter()
+        .filter(|m| m.run == run.name && m.kind == ManoeuvreKind::Turn);
+    for (i, turn) in turns.enumerate() {
+        let Some(samples) = run.samples.get(turn.first_sample..turn.end_sample) else {
+            continue;
+        };
+        let points = samples
+            .iter()
+            .map(|s| {
+                let p = sample_power_w(s);
+                (s.t_s - turn.t_start_s, p.left + p.right)
+            })
+            .collect();
+        let label = match turn.r_over_r_prime {
+            Some(k) => format!("R = {k:.2} R′"),
+            None => format!("turn {}", i + 1),
+        };
+        chart
+            .series
+            .push(Series::new(label, points, SeriesStyle::Line, i));
+    }
+    chart.legend = Legend::UpperRight;
+    chart
+}
+
+/// Steady average and maximum total power of every turn against R/R′, with the fitted Eq 2.12
+/// (and its 95 % prediction band) and the hard-ground model (paper Eq 21) as curves.
+pub fn power_vs_radius(report: &ValidationReport) -> Chart {
+    let plot = &report.plot;
+    let mut chart = Chart::new(
+        format!("Turn power vs radius (v_c = {:.2} m/s)", plot.v_c_mps),
+        "R / R′",
+        "power [W]",
+    );
+    let avg = plot
+        .points
+        .iter()
+        .map(|p| (p.r_over_r_prime, p.avg_power_w.total))
+        .collect();
+    let max = plot
+        .points
+        .iter()
+        .map(|p| (p.r_over_r_prime, p.max_power_w))
+        .collect();
+    let curve = |f: &dyn Fn(&crate::validate::report::CurvePoint) -> Option<f64>| {
+        plot.model_curve
+            .iter()
+            .filter_map(|c| f(c).map(|y| (c.r_over_r_prime, y)))
+            .collect::<Vec<_>>()
+    };
+    chart
+        .series
+        .push(Series::new("measured average", avg, SeriesStyle::Points, 0));
+    chart
+        .series
+        .push(Series::new("measured maximum", max, SeriesStyle::Points, 1));
+    chart.series.push(Series::new(
+        "fitted Eq 2.12",
+        curve(&|c| c.fit_w),
+        SeriesStyle::Line,
+        2,
+    ));
+    let band = |sign: f64| curve(&|c| Some(c.fit_w? + sign * c.fit_half_width_w?));
+    chart.series.push(Series::new(
+        "95 % prediction",
+        band(1.0),
+        SeriesStyle::Line,
+        6,
+    ));
+    chart
+        .series
+        .push(Series::new("", band(-1.0), SeriesStyle::Line, 6));
+    chart.series.push(Series::new(
+        "hard-ground model",
+        curve(&|c| c.hard_ground_w),
+        SeriesStyle::Line,
+        3,
+    ));
+    add_regime_markers(&mut chart, report);
+    chart
+}
+
+/// τ ∝ P/ω (Eq 5.14) of the inner and the outer side of every turn against R/R′ (seed Fig 5.6:
+/// on sand the inner wheels need ~70 % more torque at 2R′/3 than at R′/3).
+pub fn torque_per_side(report: &ValidationReport) -> Chart {
+    let mut chart = Chart::new(
+        "Torque-proportional P/ω per side",
+        "R / R′",
+        "τ ∝ P/ω [W·s/rad]",
+    );
+    let mut inner = Vec::new();
+    let mut outer = Vec::new();
+    for p in &report.plot.points {
+        let Some(row) = report.manoeuvres.get(p.manoeuvre) else {
+            continue;
+        };
+        let (i, o) = match row.direction {
+            Some(TurnDirection::Left) => (p.torque_proportional.left, p.torque_proportional.right),
+            Some(TurnDirection::Right) => (p.torque_proportional.right, p.torque_proportional.left),
+            None => continue,
+        };
+        inner.extend(i.map(|t| (p.r_over_r_prime, t)));
+        outer.extend(o.map(|t| (p.r_over_r_prime, t)));
+    }
+    chart
+        .series
+        .push(Series::new("inner side", inner, SeriesStyle::Points, 0));
+    chart
+        .series
+        .push(Series::new("outer side", outer, SeriesStyle::Points, 1));
+    add_regime_markers(&mut chart, report);
+    chart
+}
+
+/// Measured − predicted average power of every turn against R/R′, in % of the prediction, for
+/// the fitted model and the hard-ground model.
+pub fn residuals(report: &ValidationReport) -> Chart {
+    let mut chart = Chart::new(
+        "Where measured power departs from the models",
+        "R / R′",
+        "measured − model [% of model]",
+    );
+    let mut fit = Vec::new();
+    let mut hard = Vec::new();
+    for p in &report.plot.points {
+        if let (Some(r), Some(pred)) = (p.residual_w, p.predicted_w) {
+            if pred.abs() > f64::EPSILON {
+                fit.push((p.r_over_r_prime, 100.0 * r / pred));
+            }
+        }
+        if let Some(f) = report
+            .manoeuvres
+            .get(p.manoeuvre)
+            .and_then(|m| m.hard_ground_residual_fraction)
+        {
+            hard.push((p.r_over_r_prime, 100.0 * f));
+        }
+    }
+    chart.series.push(Series::new(
+        "vs fitted Eq 2.12",
+        fit,
+        SeriesStyle::Points,
+        2,
+    ));
+    chart.series.push(Series::new(
+        "vs hard-ground model",
+        hard,
+        SeriesStyle::Points,
+        3,
+    ));
+    add_regime_markers(&mut chart, report);
+    chart
+}
+
+/// Writes the figures of `report` into `dir` as `NAME.png` and `NAME.svg` for each format in
+/// `formats`; the power-vs-time figure is drawn for the first run in `runs` (if any). Returns
+/// the files written.
+pub fn write_figures(
+    report: &ValidationReport,
+    runs: &[RunSamples<'_>],
+    dir: &Path,
+    formats: &[Format],
+) -> Result<Vec<PathBuf>, PlotError> {
+    let mut figures = vec![
+        ("power-vs-radius", Figure::single(power_vs_radius(report))),
+        ("torque-per-side", Figure::single(torque_per_side(report))),
+        ("residuals", Figure::single(residuals(report))),
+    ];
+    if let Some(run) = runs.first() {
+        figures.insert(
+            0,
+            ("power-vs-time", Figure::single(power_vs_time(report, *run))),
+        );
+    }
+    let mut written = Vec::new();
+    for (name, figure) in &figures {
+        for format in formats {
+            let path = dir.join(format!("{name}.{}", extension(*format)));
+            render_figure(figure, &path)?;
+            written.push(path);
+        }
+    }
+    Ok(written)
+}
+
+fn extension(format: Format) -> &'static str {
+    match format {
+        Format::Png => "png",
+        Format::Svg => "svg",
+    }
+}
+
+/// Markers at R = B/2 and R = R′, where the regimes change.
+fn add_regime_markers(chart: &mut Chart, report: &ValidationReport) {
+    let r_prime = report.plot.r_prime_m;
+    if r_prime > 0.0 {
+        let half_track = f64::from(report.rover.track_width_m) / 2.0;
+        chart.markers.push(Marker::new(half_track / r_prime, "B/2"));
+    }
+    chart.markers.push(Marker::new(1.0, "R′"));
+}
+
+/// The file name of a run path, for titles.
+fn short_name(name: &str) -> &str {
+    Path::new(name)
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or(name)
+}
