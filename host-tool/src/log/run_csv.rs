@@ -252,10 +252,7 @@ impl<R: BufRead> Table<R> {
         };
         let mut positions = [None; 9];
         for i in 0..records.len() {
-            let Some(column) = std::str::from_utf8(records.cell(i))
-                .ok()
-                .and_then(Column::from_name)
-            else {
+            let Some(column) = records.cell_str(i).and_then(Column::from_name) else {
                 continue;
             };
             if let Some(first) = positions[column.index()] {
@@ -321,8 +318,9 @@ impl<R: BufRead> Table<R> {
                 Err(err(CellProblem::Empty))
             };
         }
-        let value: f64 = std::str::from_utf8(bytes)
-            .ok()
+        let value: f64 = self
+            .records
+            .cell_str(i)
             .and_then(|s| s.parse().ok())
             .ok_or_else(|| err(CellProblem::NotANumber))?;
         if value.is_finite() {
@@ -431,6 +429,10 @@ impl<R: BufRead> Iterator for RunCsvReader<R> {
 }
 
 /// The CSV layer: splits the input into records of cells, tracking physical line numbers.
+///
+/// A line without a quote (every row this tool writes) is split where it lies: its cells are
+/// spans of the line, checked for UTF-8 once per line. Lines with quotes take the general path
+/// (unquoting into `data`, possibly over several lines). Both give the same cells.
 #[derive(Debug)]
 struct Records<R> {
     input: R,
@@ -438,15 +440,42 @@ struct Records<R> {
     line_no: u64,
     /// The current physical line without its LF / CRLF.
     line: Vec<u8>,
-    /// The current record's cells, concatenated; `ends[i]` is where cell `i` ends.
+    /// The unquoted cells of a record with quotes, concatenated.
     data: Vec<u8>,
-    ends: Vec<usize>,
+    /// The current record's text when it is UTF-8 (the line, or `data`, moved here).
+    text: String,
+    /// Which buffer the current record's cells are spans of.
+    cells_in: CellsIn,
+    /// Where each cell of the current record starts and ends.
+    spans: Vec<(usize, usize)>,
+}
+
+/// Where the current record's cells are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CellsIn {
+    /// `text` (UTF-8, checked once for the whole record).
+    Text,
+    /// `line` (no quotes, not UTF-8).
+    Line,
+    /// `data` (quoted, not UTF-8).
+    Data,
 }
 
 const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 
 fn is_blank(b: u8) -> bool {
     b == b' ' || b == b'\t'
+}
+
+/// `start..end` of `bytes` without leading and trailing blanks.
+fn trim_blanks(bytes: &[u8], mut start: usize, mut end: usize) -> (usize, usize) {
+    while start < end && is_blank(bytes[start]) {
+        start += 1;
+    }
+    while end > start && is_blank(bytes[end - 1]) {
+        end -= 1;
+    }
+    (start, end)
 }
 
 impl<R: BufRead> Records<R> {
@@ -456,24 +485,64 @@ impl<R: BufRead> Records<R> {
             line_no: 0,
             line: Vec::new(),
             data: Vec::new(),
-            ends: Vec::new(),
+            text: String::new(),
+            cells_in: CellsIn::Text,
+            spans: Vec::new(),
         }
     }
 
     /// Cells in the current record.
     fn len(&self) -> usize {
-        self.ends.len()
+        self.spans.len()
+    }
+
+    fn text(&self) -> &[u8] {
+        match self.cells_in {
+            CellsIn::Text => self.text.as_bytes(),
+            CellsIn::Line => &self.line,
+            CellsIn::Data => &self.data,
+        }
     }
 
     /// Cell `i` of the current record (empty if there is no such cell).
     fn cell(&self, i: usize) -> &[u8] {
-        let start = if i == 0 {
-            0
+        self.spans
+            .get(i)
+            .and_then(|&(start, end)| self.text().get(start..end))
+            .unwrap_or_default()
+    }
+
+    /// Cell `i` as text; `None` if it is not UTF-8.
+    fn cell_str(&self, i: usize) -> Option<&str> {
+        match self.cells_in {
+            // Cells start and end at ASCII delimiters or blanks: always char boundaries.
+            CellsIn::Text => {
+                let &(start, end) = self.spans.get(i)?;
+                self.text.get(start..end)
+            }
+            CellsIn::Line | CellsIn::Data => std::str::from_utf8(self.cell(i)).ok(),
+        }
+    }
+
+    /// Moves the current record's bytes (`line` or `data`) into `text` if they are UTF-8.
+    fn settle(&mut self, quoted: bool) {
+        let buffer = if quoted {
+            &mut self.data
         } else {
-            self.ends.get(i - 1).copied().unwrap_or(0)
+            &mut self.line
         };
-        let end = self.ends.get(i).copied().unwrap_or(start);
-        self.data.get(start..end).unwrap_or_default()
+        let bytes = std::mem::take(buffer);
+        match String::from_utf8(bytes) {
+            Ok(text) => {
+                // The old text's allocation becomes the emptied buffer.
+                *buffer = std::mem::replace(&mut self.text, text).into_bytes();
+                self.cells_in = CellsIn::Text;
+            }
+            Err(e) => {
+                *buffer = e.into_bytes();
+                self.cells_in = if quoted { CellsIn::Data } else { CellsIn::Line };
+            }
+        }
     }
 
     /// Reads the next physical line into `line`; false at the end of the input.
@@ -506,14 +575,26 @@ impl<R: BufRead> Records<R> {
             }
         }
         let start_line = self.line_no;
+        self.spans.clear();
+        if memchr::memchr(b'"', &self.line).is_none() {
+            let mut start = 0;
+            for i in memchr::memchr_iter(b',', &self.line) {
+                self.spans.push(trim_blanks(&self.line, start, i));
+                start = i + 1;
+            }
+            self.spans
+                .push(trim_blanks(&self.line, start, self.line.len()));
+            self.settle(false);
+            return Ok(Some(start_line));
+        }
         self.data.clear();
-        self.ends.clear();
         let mut pos = 0;
         loop {
             while self.line.get(pos).copied().is_some_and(is_blank) {
                 pos += 1;
             }
-            let column = self.ends.len() + 1;
+            let column = self.spans.len() + 1;
+            let cell_start = self.data.len();
             if self.line.get(pos) == Some(&b'"') {
                 // Quoted cell: `""` is a quote; it may span lines.
                 let open_line = self.line_no;
@@ -548,9 +629,9 @@ impl<R: BufRead> Records<R> {
                 while self.line.get(pos).copied().is_some_and(is_blank) {
                     pos += 1;
                 }
-                self.ends.push(self.data.len());
+                self.spans.push((cell_start, self.data.len()));
                 match self.line.get(pos) {
-                    None => return Ok(Some(start_line)),
+                    None => break,
                     Some(b',') => pos += 1,
                     Some(_) => {
                         return Err(RunCsvError::Syntax {
@@ -563,21 +644,17 @@ impl<R: BufRead> Records<R> {
             } else {
                 let rest = self.line.get(pos..).unwrap_or_default();
                 let end = rest.iter().position(|&b| b == b',');
-                let mut cell = &rest[..end.unwrap_or(rest.len())];
-                while let Some((&last, init)) = cell.split_last() {
-                    if !is_blank(last) {
-                        break;
-                    }
-                    cell = init;
-                }
-                self.data.extend_from_slice(cell);
-                self.ends.push(self.data.len());
+                let (_, cell_end) = trim_blanks(rest, 0, end.unwrap_or(rest.len()));
+                self.data.extend_from_slice(&rest[..cell_end]);
+                self.spans.push((cell_start, self.data.len()));
                 match end {
-                    None => return Ok(Some(start_line)),
+                    None => break,
                     Some(e) => pos += e + 1,
                 }
             }
         }
+        self.settle(true);
+        Ok(Some(start_line))
     }
 }
 

@@ -445,6 +445,8 @@ struct Recorder<'a, 'o> {
     chip_faults: Sides<Option<ChipFault>>,
     chip_failed_samples: Sides<u64>,
     last_sample_at: Option<Instant>,
+    /// When the bytes being decoded were read (the arrival time of their samples).
+    read_at: Instant,
     bad_frames_unlogged: u64,
     board_status: Option<Status>,
     closed_segments: Vec<Segment>,
@@ -487,6 +489,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             chip_faults: Sides::new(None, None),
             chip_failed_samples: Sides::default(),
             last_sample_at: None,
+            read_at: now,
             bad_frames_unlogged: 0,
             board_status: None,
             closed_segments: Vec::new(),
@@ -564,6 +567,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             }
             events.clear();
             let outcome = self.reader.poll(&mut self.decoder, |e| events.push(e));
+            self.read_at = Instant::now();
             for event in events.drain(..) {
                 self.on_event(event)?;
                 if self.options.max_samples.is_some_and(|n| self.samples >= n) {
@@ -694,7 +698,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
     fn on_sample(&mut self, sample: &Sample, frame: &BoardFrame) -> Result<(), RecordError> {
         let t_s = RunClock::seconds(self.clock.at(sample.t_us));
         self.samples += 1;
-        self.last_sample_at = Some(Instant::now());
+        self.last_sample_at = Some(self.read_at);
         self.sink.frame(t_s, frame).map_err(RecordError::Sink)?;
         self.chip_faults = sample.chips.map(|c| match c {
             wire::ChipReading::Failed(fault) => Some(fault),

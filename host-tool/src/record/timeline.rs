@@ -4,13 +4,52 @@
 use crate::log::commands::CommandRow;
 use core::f64::consts::PI;
 use model_core::Sides;
+use std::cell::Cell;
 
 /// Commands over run time. Rows as read from a commands CSV (`t_s` strictly increasing).
-#[derive(Debug, Clone, Default, PartialEq)]
+///
+/// Look-ups at non-decreasing times (a recording's samples) cost O(1): each table remembers
+/// where the previous look-up landed and binary-searches only when the time moved past its
+/// neighbour rows.
+#[derive(Debug, Clone, Default)]
 pub struct CommandTimeline {
     rows: Vec<CommandRow>,
     yaw: Vec<(f64, f64)>,
     pitch: Vec<(f64, f64)>,
+    /// The previous look-up's `partition_point` in `rows`, `yaw` and `pitch`.
+    hints: [Cell<usize>; 3],
+}
+
+impl PartialEq for CommandTimeline {
+    fn eq(&self, other: &Self) -> bool {
+        // The pose tracks and hints follow from the rows.
+        self.rows == other.rows
+    }
+}
+
+/// `times.partition_point(|t| t <= t_s)` for increasing `times` (given as `len` and `time(i)`),
+/// starting from `hint` (the previous answer), which it updates.
+fn partition_after(hint: &Cell<usize>, len: usize, time: impl Fn(usize) -> f64, t_s: f64) -> usize {
+    let fits = |n: usize| (n == 0 || time(n - 1) <= t_s) && (n == len || time(n) > t_s);
+    let h = hint.get().min(len);
+    let n = if fits(h) {
+        h
+    } else if h < len && fits(h + 1) {
+        h + 1
+    } else {
+        let (mut lo, mut hi) = (0, len);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if time(mid) <= t_s {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    };
+    hint.set(n);
+    n
 }
 
 /// `angle` wrapped into [−π, π).
@@ -20,8 +59,8 @@ fn wrap_pi(angle: f64) -> f64 {
 
 /// Linear interpolation in `points` (time, value) at `t_s`: `None` before the first point, the
 /// last value after the last. `angle`: values are angles, interpolated the short way round.
-fn interpolate(points: &[(f64, f64)], t_s: f64, angle: bool) -> Option<f64> {
-    let i = points.partition_point(|&(t, _)| t <= t_s);
+fn interpolate(points: &[(f64, f64)], hint: &Cell<usize>, t_s: f64, angle: bool) -> Option<f64> {
+    let i = partition_after(hint, points.len(), |k| points[k].0, t_s);
     let &(t0, v0) = points.get(i.checked_sub(1)?)?;
     let Some(&(t1, v1)) = points.get(i) else {
         return Some(v0);
@@ -52,6 +91,7 @@ impl CommandTimeline {
             yaw: track(|r| r.yaw_rad),
             pitch: track(|r| r.pitch_deg),
             rows,
+            hints: Default::default(),
         }
     }
 
@@ -62,7 +102,8 @@ impl CommandTimeline {
 
     /// The row in force at `t_s` (the last one at or before it) and its index.
     pub fn active(&self, t_s: f64) -> Option<(usize, &CommandRow)> {
-        let i = self.rows.partition_point(|r| r.t_s <= t_s).checked_sub(1)?;
+        let rows = &self.rows;
+        let i = partition_after(&self.hints[0], rows.len(), |k| rows[k].t_s, t_s).checked_sub(1)?;
         Some((i, self.rows.get(i)?))
     }
 
@@ -75,12 +116,12 @@ impl CommandTimeline {
     /// Yaw at `t_s` [rad], interpolated linearly between the rows that have one (the short way
     /// round), held after the last; `None` before the first.
     pub fn yaw_rad(&self, t_s: f64) -> Option<f64> {
-        interpolate(&self.yaw, t_s, true)
+        interpolate(&self.yaw, &self.hints[1], t_s, true)
     }
 
     /// Pitch at `t_s` [deg], interpolated like [`CommandTimeline::yaw_rad`].
     pub fn pitch_deg(&self, t_s: f64) -> Option<f64> {
-        interpolate(&self.pitch, t_s, false)
+        interpolate(&self.pitch, &self.hints[2], t_s, false)
     }
 }
 
@@ -106,6 +147,41 @@ mod tests {
         assert_eq!(tl.cmd_mps(9.0), Sides::new(0.7, -0.7));
         assert_eq!(tl.active(1.5).map(|(i, _)| i), Some(0));
         assert_eq!(tl.active(0.0), None);
+    }
+
+    #[test]
+    fn look_ups_in_any_order_match_a_fresh_binary_search() {
+        // The remembered position must never change an answer: forwards, backwards, repeated,
+        // jumping, exactly on rows, before the first and after the last.
+        let rows: Vec<CommandRow> = (0..50)
+            .map(|k| {
+                let t = f64::from(k) * 0.05;
+                row(t, t, (k % 3 != 0).then_some(t), (k % 4 != 0).then_some(-t))
+            })
+            .collect();
+        let tl = CommandTimeline::new(rows.clone());
+        let fresh = |t: f64| {
+            let tl = CommandTimeline::new(rows.clone());
+            (
+                tl.cmd_mps(t),
+                tl.yaw_rad(t),
+                tl.pitch_deg(t),
+                tl.active(t).map(|(i, _)| i),
+            )
+        };
+        let mut times: Vec<f64> = (0..600).map(|k| f64::from(k) * 0.005 - 0.1).collect();
+        times.extend([2.45, 2.45, 0.0, 1.0, -5.0, 9.0, 0.05, 0.1, 0.049, f64::NAN]);
+        times.extend((0..300).rev().map(|k| f64::from(k) * 0.01));
+        for &t in &times {
+            let got = (
+                tl.cmd_mps(t),
+                tl.yaw_rad(t),
+                tl.pitch_deg(t),
+                tl.active(t).map(|(i, _)| i),
+            );
+            let want = fresh(t);
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "at t = {t}");
+        }
     }
 
     #[test]

@@ -498,3 +498,32 @@ fn readme_examples_are_valid() {
     let rover = crate::rover::parse_rover(readme_block("toml")).expect("README TOML");
     assert_eq!(rover, model_core::Rover::HUSKY_A200);
 }
+
+#[test]
+fn unquoted_and_quoted_rows_read_the_same_also_with_non_utf8_extra_cells() {
+    // Unquoted rows take the reader's line fast path, quoted ones the general path; a byte that
+    // is not UTF-8 in an ignored column must not spoil the other cells on either.
+    let header = b"t_s,note,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps,yaw_rad\n";
+    let plain = [
+        &header[..],
+        b"0.5,caf\xe9, 24.5 ,1.5,24.25,-2,0.3,0.3,\n1,ok,24,1,24,1,0,0,0.25\n",
+    ]
+    .concat();
+    let quoted = [
+        &header[..],
+        b"\"0.5\",\"caf\xe9\", 24.5 ,\"1.5\",24.25,-2,0.3,0.3,\n1,\"ok\",24,1,24,1,0,0,\"0.25\"\n",
+    ]
+    .concat();
+    let a = read_all(&plain).expect("plain");
+    let b = read_all(&quoted).expect("quoted");
+    assert_eq!(a, b);
+    assert_eq!(a.len(), 2);
+    assert_eq!(a[0].bus_v.left, 24.5);
+    assert_eq!(a[0].current_a.right, -2.0);
+    assert_eq!(a[0].yaw_rad, None);
+    assert_eq!(a[1].yaw_rad, Some(0.25));
+    // A non-UTF-8 byte in a required cell is "not a number", with its line and column.
+    let bad = [&header[..], b"0.5,x,24\xe9,1,24,1,0,0,\n"].concat();
+    let e = read_all(&bad).expect_err("bad cell").to_string();
+    assert!(e.starts_with("line 2, column 3 (left_bus_v):"), "{e}");
+}

@@ -1,0 +1,584 @@
+//! Throughput of decode → samples → per-manoeuvre statistics on a large recorded log, side by
+//! side with a plain numpy reader of the same file: `bench/throughput.sh` (or
+//! `cargo bench -p host-tool --bench turn_stats`).
+//!
+//! The log is an hour of the simulated Husky on sand (the seed's turn set at 0.3 m/s, repeated)
+//! measured by the simulated board — the firmware's own code on the simulated I²C bus — and
+//! recorded by this tool's recorder (`record::record_on`) over a port that *is* that board: the
+//! bytes it sends are the raw capture (`large-run.bin`), the commands the recorder forwards reach
+//! it, and the recorder's samples become the run CSV (`large-run.csv`, with the commands file
+//! `large-run.commands.csv`). Generated once into `target/bench-data/` (again when a file is
+//! missing or was made by another version of this generator).
+//!
+//! Timed, best of [`REPEATS`] in one process, each from the file on disk to the statistics:
+//! 1. Rust, run CSV: `read_run_csv` → `segment` → `analyse` per manoeuvre.
+//! 2. Rust, raw capture: the recorder over the capture bytes (decode, scale, commands from the
+//!    commands file) → `segment` → `analyse`.
+//! 3. `bench/numpy_turn_stats.py` on the run CSV (a subprocess; its own best-of timing).
+//!
+//! Both Rust paths and numpy must agree (same spans, same per-span energies within 1e-6
+//! relative, the raw path's samples equal to the CSV's) or the bench fails. Without python3 or
+//! numpy the Rust figures are still printed, with the install line. Under `cargo test --benches`
+//! (no `--bench` argument) the log is two simulated minutes and each path runs once.
+
+use anyhow::{bail, ensure, Context, Result};
+use firmware::sampler::SamplerConfig;
+use host_tool::log::commands::{read_commands_csv, write_commands_csv_atomically, CommandRow};
+use host_tool::log::run_csv::{read_run_csv, write_run_csv_atomically, RunSample};
+use host_tool::log::run_log::{LogEvent, RunLogSink};
+use host_tool::log::write_atomically;
+use host_tool::record::{record_on, BoardPort, RecordOptions, RecordSummary, StopReason};
+use host_tool::serial::SerialError;
+use host_tool::sim::board::SimBoard;
+use host_tool::sim::world::{Scenario, WorldConfig};
+use host_tool::validate::segment::{gap_threshold_s, segment, SegmentOptions};
+use host_tool::validate::turns::{analyse, ManoeuvreStats, TurnOptions, DEFAULT_SETTLE_S};
+use model_core::wire::BoardFrame;
+use model_core::Rover;
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Timed repetitions of each path (the best is reported).
+const REPEATS: usize = 5;
+/// Seed of the world's noise.
+const SEED: u64 = 4;
+/// Side speed of the seed's turn set [m/s].
+const V_C_MPS: f64 = 0.3;
+/// Rate of the tracker rows in the commands file [Hz].
+const TRACKER_HZ: f64 = 20.0;
+/// Board periods run per read of the simulated port (40 ms at 200 Hz, as a host reading a
+/// USB CDC port gets several frames at a time).
+const STEPS_PER_READ: u64 = 8;
+/// Bump when the generated files change (cached files of another version are regenerated).
+const GENERATOR_VERSION: u32 = 2;
+/// The goal of the issue: the Rust path at least this many times as fast as numpy.
+const GOAL_RATIO: f64 = 10.0;
+/// Largest relative difference of a per-span energy between Rust and numpy.
+const ENERGY_TOLERANCE: f64 = 1e-6;
+
+fn main() -> Result<()> {
+    // Like divan: without cargo bench's `--bench` (i.e. under `cargo test`), or with `--test`,
+    // run briefly.
+    let args: Vec<String> = std::env::args().collect();
+    let test_mode = args.iter().any(|a| a == "--test") || !args.iter().any(|a| a == "--bench");
+    let (name, seconds, repeats) = if test_mode {
+        ("small-run", 120.0, 1)
+    } else {
+        ("large-run", 3_600.0, REPEATS)
+    };
+    let files = Files::new(&bench_data_dir()?, name);
+    ensure_log(&files, seconds)?;
+    let csv_bytes = std::fs::metadata(&files.csv)?.len();
+    let bin_bytes = std::fs::metadata(&files.bin)?.len();
+
+    let rover = Rover::HUSKY_A200;
+    let numpy_missing = numpy_probe();
+    // Round by round, so the three see the same load on a shared machine.
+    let (mut csv_best, mut raw_best, mut numpy_best) = (None, None, None);
+    for _ in 0..repeats {
+        keep_best(&mut csv_best, rust_from_csv(&files, &rover)?);
+        keep_best(&mut raw_best, rust_from_raw(&files, &rover)?);
+        if numpy_missing.is_none() {
+            let (seconds, spans) = numpy(&files)?;
+            if numpy_best.as_ref().is_none_or(|(best, _)| seconds < *best) {
+                numpy_best = Some((seconds, spans));
+            }
+        }
+    }
+    let (csv_time, csv_result) = csv_best.context("no run")?;
+    let (raw_time, raw_result) = raw_best.context("no run")?;
+    ensure!(
+        raw_result.samples == csv_result.samples,
+        "the raw capture's samples differ from the run CSV's"
+    );
+    let rows = csv_result.samples.len();
+    let spans = csv_result.stats.len();
+    println!(
+        "Log: {} ({rows} rows, {:.1} MB run CSV; {:.1} MB raw capture), {spans} spans of ≥ 2 samples",
+        files.csv.display(),
+        csv_bytes as f64 / 1e6,
+        bin_bytes as f64 / 1e6,
+    );
+    let line = |what: &str, t: Duration, bytes: u64| {
+        let s = t.as_secs_f64();
+        println!(
+            "  {what:<34} {:>9.1} ms  {:>7.2} M rows/s  {:>7.1} MB/s",
+            s * 1e3,
+            rows as f64 / s / 1e6,
+            bytes as f64 / s / 1e6
+        );
+    };
+    println!("Best of {repeats}, from the file on disk to per-manoeuvre statistics (one thread):");
+    line("Rust, run CSV", csv_time, csv_bytes);
+    println!("    ({})", csv_result.stages);
+    line("Rust, raw capture", raw_time, bin_bytes);
+    println!("    ({})", raw_result.stages);
+
+    match numpy_best {
+        None => {
+            println!(
+                "numpy baseline skipped: {}",
+                numpy_missing.unwrap_or_default()
+            );
+            println!(
+                "  install it with: python3 -m pip install numpy   (or run bench/throughput.sh)"
+            );
+        }
+        Some((seconds, spans)) => {
+            let t = Duration::from_secs_f64(seconds);
+            line("numpy (bench/numpy_turn_stats.py)", t, csv_bytes);
+            let diff = cross_check(&csv_result, &spans)?;
+            println!(
+                "  agreement: {} spans in both; span starts equal; largest relative energy difference {diff:.1e}",
+                spans.len()
+            );
+            let (r_csv, r_raw) = (
+                seconds / csv_time.as_secs_f64(),
+                seconds / raw_time.as_secs_f64(),
+            );
+            let mark = |r: f64| {
+                if r >= GOAL_RATIO {
+                    "goal ≥ 10× met"
+                } else {
+                    "BELOW the 10× goal"
+                }
+            };
+            println!(
+                "  Rust (run CSV) / numpy:     {r_csv:>6.1}×  ({})",
+                mark(r_csv)
+            );
+            println!(
+                "  Rust (raw capture) / numpy: {r_raw:>6.1}×  ({})",
+                mark(r_raw)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The generated files of one log.
+struct Files {
+    bin: PathBuf,
+    csv: PathBuf,
+    commands: PathBuf,
+    stamp: PathBuf,
+}
+
+impl Files {
+    fn new(dir: &Path, name: &str) -> Self {
+        Self {
+            bin: dir.join(format!("{name}.bin")),
+            csv: dir.join(format!("{name}.csv")),
+            commands: dir.join(format!("{name}.commands.csv")),
+            stamp: dir.join(format!("{name}.version")),
+        }
+    }
+}
+
+/// `target/bench-data` of the target directory this bench was built in.
+fn bench_data_dir() -> Result<PathBuf> {
+    // The bench runs as target/<profile>/deps/turn_stats-<hash>.
+    let exe = std::env::current_exe().context("locating the bench executable")?;
+    let target = exe
+        .ancestors()
+        .nth(3)
+        .map(Path::to_owned)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"));
+    let dir = target.join("bench-data");
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    Ok(dir)
+}
+
+/// What the generated files are: a change of any of these regenerates them.
+fn stamp(seconds: f64) -> String {
+    format!("generator {GENERATOR_VERSION}, seed {SEED}, sand, seed turns at {V_C_MPS} m/s, ≥ {seconds} s, tracker {TRACKER_HZ} Hz\n")
+}
+
+/// Generates the log unless all its files exist and were made for `seconds` by this generator.
+fn ensure_log(files: &Files, seconds: f64) -> Result<()> {
+    let want = stamp(seconds);
+    let have = std::fs::read_to_string(&files.stamp).unwrap_or_default();
+    if have == want && files.bin.exists() && files.csv.exists() && files.commands.exists() {
+        return Ok(());
+    }
+    let _ = std::fs::remove_file(&files.stamp);
+    let started = Instant::now();
+    println!(
+        "Generating {} (once; ≈ {:.0} simulated minutes)...",
+        files.csv.display(),
+        seconds / 60.0
+    );
+    let world = WorldConfig::sand();
+    // Duration = fixed (lead-in, lead-out) + repeats × one pass of the turn set.
+    let one = world.simulate(&Scenario::seed_turns(V_C_MPS, 1), SEED)?;
+    let two = world.simulate(&Scenario::seed_turns(V_C_MPS, 2), SEED)?;
+    let per_repeat_s = two.duration_s() - one.duration_s();
+    let fixed_s = one.duration_s() - per_repeat_s;
+    let repeats = ((seconds - fixed_s) / per_repeat_s).ceil().max(1.0) as u32;
+    let timeline = Arc::new(world.simulate(&Scenario::seed_turns(V_C_MPS, repeats), SEED)?);
+    let commands = timeline.commands(TRACKER_HZ);
+
+    let mut board = SimBoard::new(SamplerConfig::BOARD);
+    board.set_load(timeline.load_source());
+    board.set_host_connected(true);
+    let period_us = u64::from(board.board().sample_period_us().max(1));
+    let steps = timeline.duration_us() / period_us + 1;
+    let capture = Arc::new(Mutex::new(Vec::new()));
+    let port = SimPort {
+        board,
+        steps_left: steps,
+        pending: Vec::new(),
+        at: 0,
+        capture: Arc::clone(&capture),
+    };
+    let mut sink = SampleSink::default();
+    let summary = record(Box::new(port), commands.clone(), &mut sink)?;
+    ensure!(
+        summary.stream.lost_samples == 0
+            && summary.stream.bad_frames == 0
+            && summary.incomplete_samples <= 1,
+        "the simulated recording lost data: {summary}"
+    );
+    let capture = std::mem::take(&mut *capture.lock().map_err(|_| anyhow::anyhow!("poisoned"))?);
+
+    write_atomically(&files.bin, |out| out.write_all(&capture))?;
+    write_commands_csv_atomically(&files.commands, &commands)?;
+    write_run_csv_atomically(&files.csv, &sink.samples)?;
+    std::fs::write(&files.stamp, want)?;
+    println!(
+        "  {} repeats of the turn set, {:.1} min, {} samples, {} commands forwarded ({} acked), {:.1} s",
+        repeats,
+        timeline.duration_s() / 60.0,
+        sink.samples.len(),
+        summary.commands_sent,
+        summary.commands_acked,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Records `port` with `commands` into `sink` until the port hangs up (the end of the capture).
+fn record(
+    port: Box<dyn BoardPort>,
+    commands: Vec<CommandRow>,
+    sink: &mut dyn RunLogSink,
+) -> Result<RecordSummary> {
+    let options = RecordOptions {
+        commands,
+        // The port hanging up is the end of the log: stop at once.
+        reconnect_timeout: Duration::ZERO,
+        ..RecordOptions::new("capture")
+    };
+    let mut no_reopen = |path: &str| -> Result<Box<dyn BoardPort>, SerialError> {
+        Err(SerialError::Open {
+            path: path.to_owned(),
+            source: serialport::Error::new(serialport::ErrorKind::NoDevice, "end of capture"),
+        })
+    };
+    let stop = AtomicBool::new(false);
+    let summary = record_on(&options, port, &mut no_reopen, sink, &stop, &mut |_| {})?;
+    ensure!(
+        summary.stop == StopReason::DeviceGone,
+        "recording stopped early: {}",
+        summary.stop
+    );
+    Ok(summary)
+}
+
+/// The simulated board as a serial port: each read runs a few board periods and hands out their
+/// bytes (keeping a copy: the raw capture); what the host writes reaches the board's link, as
+/// the USB interrupt would hand it over. After the last period it hangs up (end of file).
+struct SimPort {
+    board: SimBoard,
+    steps_left: u64,
+    pending: Vec<u8>,
+    at: usize,
+    capture: Arc<Mutex<Vec<u8>>>,
+}
+
+impl Read for SimPort {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.at == self.pending.len() {
+            self.pending.clear();
+            self.at = 0;
+            for _ in 0..STEPS_PER_READ.min(self.steps_left) {
+                self.board.step();
+                self.board.drain_into(&mut self.pending)?;
+                self.steps_left -= 1;
+            }
+            if self.pending.is_empty() {
+                return Ok(0);
+            }
+            self.capture
+                .lock()
+                .map_err(|_| io::Error::other("poisoned"))?
+                .extend_from_slice(&self.pending);
+        }
+        let n = buf.len().min(self.pending.len() - self.at);
+        buf[..n].copy_from_slice(&self.pending[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
+}
+
+impl Write for SimPort {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.board.receive(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A recorded capture played back as a serial port (reads of up to the reader's chunk size),
+/// then a hang-up; what the host writes goes nowhere (this board is a recording).
+struct ReplayPort {
+    bytes: Arc<Vec<u8>>,
+    at: usize,
+}
+
+impl Read for ReplayPort {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let rest = self.bytes.get(self.at..).unwrap_or_default();
+        let n = buf.len().min(rest.len());
+        buf[..n].copy_from_slice(&rest[..n]);
+        self.at += n;
+        Ok(n)
+    }
+}
+
+impl Write for ReplayPort {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A run log that keeps only the physical samples (what the statistics need).
+#[derive(Default)]
+struct SampleSink {
+    samples: Vec<RunSample>,
+}
+
+impl RunLogSink for SampleSink {
+    fn frame(&mut self, _t_s: f64, _frame: &BoardFrame) -> io::Result<()> {
+        Ok(())
+    }
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+        self.samples.push(*sample);
+        Ok(())
+    }
+    fn command(&mut self, _row: &CommandRow) -> io::Result<()> {
+        Ok(())
+    }
+    fn event(&mut self, _t_s: f64, _event: &LogEvent) -> io::Result<()> {
+        Ok(())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// What one Rust path produced.
+struct RustResult {
+    samples: Vec<RunSample>,
+    /// (first sample, statistics) of every span of ≥ 2 samples.
+    stats: Vec<(usize, ManoeuvreStats)>,
+    /// Where the time went.
+    stages: Stages,
+}
+
+/// Wall time per stage of one run.
+struct Stages {
+    last: Instant,
+    times: Vec<(&'static str, Duration)>,
+}
+
+impl Stages {
+    fn start() -> Self {
+        Self {
+            last: Instant::now(),
+            times: Vec::new(),
+        }
+    }
+
+    /// Ends the stage `name`.
+    fn mark(&mut self, name: &'static str) {
+        let now = Instant::now();
+        self.times.push((name, now - self.last));
+        self.last = now;
+    }
+
+    fn total(&self) -> Duration {
+        self.times.iter().map(|&(_, t)| t).sum()
+    }
+}
+
+impl std::fmt::Display for Stages {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, (name, t)) in self.times.iter().enumerate() {
+            let sep = if i == 0 { "" } else { ", " };
+            write!(f, "{sep}{name} {:.1} ms", t.as_secs_f64() * 1e3)?;
+        }
+        Ok(())
+    }
+}
+
+/// The statistics of every span of ≥ 2 samples (the spans the numpy script reports).
+fn statistics(samples: Vec<RunSample>, rover: &Rover, mut stages: Stages) -> Result<RustResult> {
+    let options = SegmentOptions::default();
+    let segments = segment(&samples, rover, &options)?;
+    let turn_options = turn_options(&samples, &options);
+    stages.mark("segment");
+    let stats = segments
+        .iter()
+        .filter(|s| s.len() >= 2)
+        .map(|s| (s.start, analyse(&samples, s, rover, &turn_options)))
+        .collect();
+    stages.mark("statistics");
+    Ok(RustResult {
+        samples,
+        stats,
+        stages,
+    })
+}
+
+fn turn_options(samples: &[RunSample], options: &SegmentOptions) -> TurnOptions {
+    TurnOptions {
+        settle_s: DEFAULT_SETTLE_S,
+        turn_deg: 90.0,
+        gap_threshold_s: gap_threshold_s(samples, options.gap_factor),
+    }
+}
+
+fn rust_from_csv(files: &Files, rover: &Rover) -> Result<RustResult> {
+    let mut stages = Stages::start();
+    let samples = read_run_csv(&files.csv)?;
+    stages.mark("read run CSV");
+    statistics(samples, rover, stages)
+}
+
+fn rust_from_raw(files: &Files, rover: &Rover) -> Result<RustResult> {
+    let mut stages = Stages::start();
+    let bytes = Arc::new(std::fs::read(&files.bin)?);
+    let commands = read_commands_csv(&files.commands)?;
+    stages.mark("read capture + commands");
+    let mut sink = SampleSink::default();
+    record(Box::new(ReplayPort { bytes, at: 0 }), commands, &mut sink)?;
+    stages.mark("recorder: decode, scale, commands");
+    statistics(sink.samples, rover, stages)
+}
+
+/// Keeps the faster of `best` and `result`.
+fn keep_best(best: &mut Option<(Duration, RustResult)>, result: RustResult) {
+    let time = result.stages.total();
+    if best.as_ref().is_none_or(|(t, _)| time < *t) {
+        *best = Some((time, std::hint::black_box(result)));
+    }
+}
+
+/// One span as the numpy script reports it.
+#[derive(serde::Deserialize)]
+struct NumpySpan {
+    start_s: f64,
+    energy_j: [f64; 2],
+}
+
+#[derive(serde::Deserialize)]
+struct NumpyOutput {
+    seconds: f64,
+    spans: Vec<NumpySpan>,
+}
+
+/// Why the numpy baseline cannot run (python3 or numpy missing), or `None` if it can.
+fn numpy_probe() -> Option<String> {
+    match Command::new("python3")
+        .args(["-c", "import numpy"])
+        .output()
+    {
+        Err(e) => Some(format!("python3 not found ({e})")),
+        Ok(out) if !out.status.success() => Some(format!(
+            "python3 cannot import numpy ({})",
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+                .trim()
+        )),
+        Ok(_) => None,
+    }
+}
+
+/// One run of the numpy script on the run CSV: its time [s] (read + statistics, measured by the
+/// script, so the interpreter's start-up is not counted) and its spans.
+fn numpy(files: &Files) -> Result<(f64, Vec<NumpySpan>)> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/numpy_turn_stats.py");
+    let json = files.csv.with_extension("numpy.json");
+    let out = Command::new("python3")
+        .arg(&script)
+        .arg(&files.csv)
+        .arg("--json")
+        .arg(&json)
+        .arg("--repeat")
+        .arg("1")
+        .output()
+        .with_context(|| format!("running {}", script.display()))?;
+    if !out.status.success() {
+        bail!(
+            "{} failed: {}",
+            script.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let text = std::fs::read_to_string(&json).with_context(|| json.display().to_string())?;
+    let parsed: NumpyOutput = serde_json::from_str(&text)?;
+    Ok((parsed.seconds, parsed.spans))
+}
+
+/// Checks that Rust and numpy found the same spans with the same energies; returns the largest
+/// relative energy difference.
+fn cross_check(rust: &RustResult, numpy: &[NumpySpan]) -> Result<f64> {
+    ensure!(
+        rust.stats.len() == numpy.len(),
+        "Rust found {} spans of ≥ 2 samples, numpy {}",
+        rust.stats.len(),
+        numpy.len()
+    );
+    let mut largest: f64 = 0.0;
+    for ((start, stats), np) in rust.stats.iter().zip(numpy) {
+        let t = rust.samples[*start].t_s;
+        ensure!(
+            t == np.start_s,
+            "span starting at {t} s in Rust starts at {} s in numpy",
+            np.start_s
+        );
+        ensure!(
+            stats.gaps == 0,
+            "span at {t} s has gaps (numpy integrates across them)"
+        );
+        for (r, n) in [
+            (stats.energy_j.left, np.energy_j[0]),
+            (stats.energy_j.right, np.energy_j[1]),
+        ] {
+            let scale = r.abs().max(n.abs());
+            let rel = if scale > 0.0 {
+                (r - n).abs() / scale
+            } else {
+                0.0
+            };
+            largest = largest.max(rel);
+        }
+    }
+    ensure!(
+        largest <= ENERGY_TOLERANCE,
+        "per-span energies differ by up to {largest:e} (relative) between Rust and numpy"
+    );
+    Ok(largest)
+}
