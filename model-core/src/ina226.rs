@@ -57,6 +57,9 @@ pub struct Scale {
     pub shunt_micro_ohm: u32,
 }
 
+// The conversions divide the exact integer (count × LSB in n/µ units) by a power of ten rather
+// than multiply by its inverse: the result is then the double nearest the reading's exact decimal
+// value, which prints short (0.0075 A, not 0.007500000000000001) and parses fast in logs.
 impl Scale {
     /// Our board: 5 mΩ shunts, 0.5 mA current LSB → CAL 2048, 12.5 mW power LSB.
     pub const BOARD: Scale = Scale {
@@ -71,25 +74,25 @@ impl Scale {
     }
 
     pub fn shunt_v(&self, raw: ShuntVoltageRaw) -> f64 {
-        f64::from(raw.0) * f64::from(SHUNT_LSB_NV) * 1e-9
+        f64::from(raw.0) * f64::from(SHUNT_LSB_NV) / 1e9
     }
 
     pub fn bus_v(&self, raw: BusVoltageRaw) -> f64 {
-        f64::from(raw.0) * f64::from(BUS_LSB_UV) * 1e-6
+        f64::from(raw.0) * f64::from(BUS_LSB_UV) / 1e6
     }
 
     pub fn current_a(&self, raw: CurrentRaw) -> f64 {
-        f64::from(raw.0) * f64::from(self.current_lsb_na) * 1e-9
+        f64::from(raw.0) * f64::from(self.current_lsb_na) / 1e9
     }
 
     /// Power [W] from a signed power-LSB count.
     pub fn power_w(&self, signed_power_lsb: i32) -> f64 {
-        f64::from(signed_power_lsb) * f64::from(self.power_lsb_uw()) * 1e-6
+        f64::from(signed_power_lsb) * f64::from(self.power_lsb_uw()) / 1e6
     }
 
     /// Energy [J] from an accumulated count of power LSB × µs.
     pub fn energy_j(&self, energy_lsb_us: i64) -> f64 {
-        energy_lsb_us as f64 * f64::from(self.power_lsb_uw()) * 1e-12
+        energy_lsb_us as f64 * f64::from(self.power_lsb_uw()) / 1e12
     }
 }
 
@@ -214,6 +217,18 @@ impl AdcConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn readings_are_the_doubles_nearest_their_exact_decimal_values() {
+        let s = Scale::BOARD;
+        // 15 × 0.5 mA = 0.0075 A exactly; multiplying by 1e-9 would give 0.007500000000000001.
+        assert_eq!(s.current_a(CurrentRaw(15)), 0.0075);
+        assert_eq!(s.current_a(CurrentRaw(-5)), -0.0025);
+        // 19204 × 1.25 mV = 24.005 V (not 24.004999999999999).
+        assert_eq!(s.bus_v(BusVoltageRaw(19_204)), 24.005);
+        assert_eq!(s.shunt_v(ShuntVoltageRaw(3)), 7.5e-6);
+        assert_eq!(s.power_w(7), 0.0875);
+    }
 
     #[test]
     fn board_scale() {
