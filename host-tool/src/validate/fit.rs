@@ -129,7 +129,7 @@ pub enum IcrFitError {
         found: usize,
     },
     /// All fitted turns share one radius: c₁ and c₂ cannot be told apart.
-    #[error("all turns with R' ≤ R ≤ 20 m have the same radius ({radius_m:.3} m); at least two radii are needed")]
+    #[error("all turns with R' ≤ R ≤ 20 m and straight lines have the same radius ({radius_m:.3} m); at least two radii are needed")]
     OneRadius {
         /// The radius.
         radius_m: f64,

@@ -463,7 +463,7 @@ impl fmt::Display for ValidationReport {
                 };
                 writeln!(
                     f,
-                    "ICR fit (Eq 2.12 / Table 4.3 form P = c1/max(R, R') + c2 + c3 θ; {} turns with R' ≤ R ≤ 20 m, 95 % bounds):",
+                    "ICR fit (Eq 2.12 / Table 4.3 form P = c1/max(R, R') + c2 + c3 θ; {} manoeuvres: turns with R' ≤ R ≤ 20 m and straight lines, 95 % bounds):",
                     fit.n
                 )?;
                 writeln!(f, "  c1 = {} W·m", c(&fit.c1_w_m))?;
