@@ -7,23 +7,32 @@
 //! recorded by this tool's recorder (`record::record_on`) over a port that *is* that board: the
 //! bytes it sends are the raw capture (`large-run.bin`), the commands the recorder forwards reach
 //! it, and the recorder's samples become the run CSV (`large-run.csv`, with the commands file
-//! `large-run.commands.csv`). Generated once into `target/bench-data/` (again when a file is
-//! missing or was made by another version of this generator).
+//! `large-run.commands.csv`) while the same recording goes, as `host-tool record --out run.mcap`
+//! writes it, through [`McapSink`] into the MCAP log (`large-run.mcap`: frames, samples,
+//! commands, events). Generated once into `target/bench-data/` (again when a file is missing or
+//! was made by another version of this generator).
 //!
 //! Timed, best of [`REPEATS`] in one process, each from the file on disk to the statistics:
 //! 1. Rust, run CSV: `read_run_csv` → `segment` → `analyse` per manoeuvre.
 //! 2. Rust, raw capture: the recorder over the capture bytes (decode, scale, commands from the
 //!    commands file) → `segment` → `analyse`.
-//! 3. `bench/numpy_turn_stats.py` on the run CSV (a subprocess; its own best-of timing).
+//! 3. Rust, MCAP: `load_run` (every channel: frames decoded, samples, commands, events) →
+//!    `segment` → `analyse`.
+//! 4. `bench/numpy_turn_stats.py` on the run CSV (a subprocess; its own best-of timing).
+//! 5. `bench/mcap_turn_stats.py` on the MCAP log: the `mcap` package's reader, `json.loads` per
+//!    sample message, numpy arrays, the same statistics as 4.
 //!
-//! Both Rust paths and numpy must agree (same spans, same per-span energies within 1e-6
-//! relative, the raw path's samples equal to the CSV's) or the bench fails. Without python3 or
-//! numpy the Rust figures are still printed, with the install line. Under `cargo test --benches`
-//! (no `--bench` argument) the log is two simulated minutes and each path runs once.
+//! The Rust paths and the Python scripts must agree (same spans, same per-span energies within
+//! 1e-6 relative, the raw and MCAP paths' samples equal to the CSV's) or the bench fails.
+//! Without python3 or its packages the Rust figures are still printed, with the install line.
+//! Under `cargo test --benches` (no `--bench` argument) the log is two simulated minutes and each
+//! path runs once.
 
 use anyhow::{bail, ensure, Context, Result};
 use firmware::sampler::SamplerConfig;
 use host_tool::log::commands::{read_commands_csv, write_commands_csv_atomically, CommandRow};
+use host_tool::log::load::load_run;
+use host_tool::log::mcap::McapSink;
 use host_tool::log::run_csv::{read_run_csv, write_run_csv_atomically, RunSample};
 use host_tool::log::run_log::{LogEvent, RunLogSink};
 use host_tool::log::write_atomically;
@@ -54,7 +63,7 @@ const TRACKER_HZ: f64 = 20.0;
 /// USB CDC port gets several frames at a time).
 const STEPS_PER_READ: u64 = 8;
 /// Bump when the generated files change (cached files of another version are regenerated).
-const GENERATOR_VERSION: u32 = 2;
+const GENERATOR_VERSION: u32 = 3;
 /// The goal of the issue: the Rust path at least this many times as fast as numpy.
 const GOAL_RATIO: f64 = 10.0;
 /// Largest relative difference of a per-span energy between Rust and numpy.
@@ -74,39 +83,47 @@ fn main() -> Result<()> {
     ensure_log(&files, seconds)?;
     let csv_bytes = std::fs::metadata(&files.csv)?.len();
     let bin_bytes = std::fs::metadata(&files.bin)?.len();
+    let mcap_bytes = std::fs::metadata(&files.mcap)?.len();
 
     let rover = Rover::HUSKY_A200;
-    let numpy_missing = numpy_probe();
-    // Round by round, so the three see the same load on a shared machine.
-    let (mut csv_best, mut raw_best, mut numpy_best) = (None, None, None);
+    let mut baselines = [
+        Baseline::new("numpy_turn_stats.py", &files.csv, &["numpy"]),
+        Baseline::new("mcap_turn_stats.py", &files.mcap, &["numpy", "mcap"]),
+    ];
+    // Round by round, so all paths see the same load on a shared machine.
+    let (mut csv_best, mut raw_best, mut mcap_best) = (None, None, None);
     for _ in 0..repeats {
         keep_best(&mut csv_best, rust_from_csv(&files, &rover)?);
         keep_best(&mut raw_best, rust_from_raw(&files, &rover)?);
-        if numpy_missing.is_none() {
-            let (seconds, spans) = numpy(&files)?;
-            if numpy_best.as_ref().is_none_or(|(best, _)| seconds < *best) {
-                numpy_best = Some((seconds, spans));
-            }
+        keep_best(&mut mcap_best, rust_from_mcap(&files, &rover)?);
+        for baseline in &mut baselines {
+            baseline.run()?;
         }
     }
     let (csv_time, csv_result) = csv_best.context("no run")?;
     let (raw_time, raw_result) = raw_best.context("no run")?;
+    let (mcap_time, mcap_result) = mcap_best.context("no run")?;
     ensure!(
         raw_result.samples == csv_result.samples,
         "the raw capture's samples differ from the run CSV's"
     );
+    ensure!(
+        mcap_result.samples == csv_result.samples,
+        "the MCAP log's samples differ from the run CSV's"
+    );
     let rows = csv_result.samples.len();
     let spans = csv_result.stats.len();
     println!(
-        "Log: {} ({rows} rows, {:.1} MB run CSV; {:.1} MB raw capture), {spans} spans of ≥ 2 samples",
+        "Log: {} ({rows} rows, {:.1} MB run CSV; {:.1} MB raw capture; {:.1} MB MCAP), {spans} spans of ≥ 2 samples",
         files.csv.display(),
         csv_bytes as f64 / 1e6,
         bin_bytes as f64 / 1e6,
+        mcap_bytes as f64 / 1e6,
     );
     let line = |what: &str, t: Duration, bytes: u64| {
         let s = t.as_secs_f64();
         println!(
-            "  {what:<34} {:>9.1} ms  {:>7.2} M rows/s  {:>7.1} MB/s",
+            "  {what:<44} {:>9.1} ms  {:>7.2} M rows/s  {:>7.1} MB/s",
             s * 1e3,
             rows as f64 / s / 1e6,
             bytes as f64 / s / 1e6
@@ -117,45 +134,57 @@ fn main() -> Result<()> {
     println!("    ({})", csv_result.stages);
     line("Rust, raw capture", raw_time, bin_bytes);
     println!("    ({})", raw_result.stages);
+    line("Rust, MCAP (load_run: all channels)", mcap_time, mcap_bytes);
+    println!("    ({})", mcap_result.stages);
 
-    match numpy_best {
-        None => {
-            println!(
-                "numpy baseline skipped: {}",
-                numpy_missing.unwrap_or_default()
-            );
-            println!(
-                "  install it with: python3 -m pip install numpy   (or run bench/throughput.sh)"
-            );
-        }
-        Some((seconds, spans)) => {
-            let t = Duration::from_secs_f64(seconds);
-            line("numpy (bench/numpy_turn_stats.py)", t, csv_bytes);
-            let diff = cross_check(&csv_result, &spans)?;
-            println!(
-                "  agreement: {} spans in both; span starts equal; largest relative energy difference {diff:.1e}",
-                spans.len()
-            );
-            let (r_csv, r_raw) = (
-                seconds / csv_time.as_secs_f64(),
-                seconds / raw_time.as_secs_f64(),
-            );
-            let mark = |r: f64| {
-                if r >= GOAL_RATIO {
-                    "goal ≥ 10× met"
+    let mut ratios = Vec::new();
+    for (baseline, rust, rust_name, bytes) in [
+        (&baselines[0], &csv_result, "run CSV", csv_bytes),
+        (&baselines[1], &mcap_result, "MCAP", mcap_bytes),
+    ] {
+        let label = format!("Python, {rust_name} (bench/{})", baseline.script);
+        match &baseline.best {
+            None => {
+                println!(
+                    "  {label}: skipped: {}",
+                    baseline.missing.as_deref().unwrap_or("not run")
+                );
+                println!(
+                    "    install with: python3 -m pip install {}   (or run bench/throughput.sh)",
+                    baseline.packages.join(" ")
+                );
+            }
+            Some((seconds, spans)) => {
+                line(&label, Duration::from_secs_f64(*seconds), bytes);
+                let diff = cross_check(rust, spans)?;
+                println!(
+                    "    agreement with Rust ({rust_name}): {} spans in both; span starts equal; largest relative energy difference {diff:.1e}",
+                    spans.len()
+                );
+                if rust_name == "run CSV" {
+                    ratios.push(("run CSV", baseline.script, seconds / csv_time.as_secs_f64()));
+                    ratios.push((
+                        "raw capture",
+                        baseline.script,
+                        seconds / raw_time.as_secs_f64(),
+                    ));
                 } else {
-                    "BELOW the 10× goal"
+                    ratios.push(("MCAP", baseline.script, seconds / mcap_time.as_secs_f64()));
                 }
-            };
-            println!(
-                "  Rust (run CSV) / numpy:     {r_csv:>6.1}×  ({})",
-                mark(r_csv)
-            );
-            println!(
-                "  Rust (raw capture) / numpy: {r_raw:>6.1}×  ({})",
-                mark(r_raw)
-            );
+            }
         }
+    }
+    for (rust_name, script, r) in ratios {
+        let mark = if r >= GOAL_RATIO {
+            "goal ≥ 10× met"
+        } else {
+            "BELOW the 10× goal"
+        };
+        println!(
+            "  Rust ({rust_name}) / {script}:{:>w$}{r:>6.1}×  ({mark})",
+            "",
+            w = 34usize.saturating_sub(rust_name.len() + script.len())
+        );
     }
     Ok(())
 }
@@ -165,6 +194,7 @@ struct Files {
     bin: PathBuf,
     csv: PathBuf,
     commands: PathBuf,
+    mcap: PathBuf,
     stamp: PathBuf,
 }
 
@@ -174,6 +204,7 @@ impl Files {
             bin: dir.join(format!("{name}.bin")),
             csv: dir.join(format!("{name}.csv")),
             commands: dir.join(format!("{name}.commands.csv")),
+            mcap: dir.join(format!("{name}.mcap")),
             stamp: dir.join(format!("{name}.version")),
         }
     }
@@ -202,7 +233,10 @@ fn stamp(seconds: f64) -> String {
 fn ensure_log(files: &Files, seconds: f64) -> Result<()> {
     let want = stamp(seconds);
     let have = std::fs::read_to_string(&files.stamp).unwrap_or_default();
-    if have == want && files.bin.exists() && files.csv.exists() && files.commands.exists() {
+    let all_there = [&files.bin, &files.csv, &files.commands, &files.mcap]
+        .iter()
+        .all(|f| f.exists());
+    if have == want && all_there {
         return Ok(());
     }
     let _ = std::fs::remove_file(&files.stamp);
@@ -235,8 +269,17 @@ fn ensure_log(files: &Files, seconds: f64) -> Result<()> {
         at: 0,
         capture: Arc::clone(&capture),
     };
-    let mut sink = SampleSink::default();
+    // The MCAP log is written live by the recorder, as `host-tool record --out run.mcap` does;
+    // renamed into place once finished.
+    let mcap_partial = files.mcap.with_extension("mcap.partial");
+    let mut sink = Tee {
+        samples: SampleSink::default(),
+        mcap: McapSink::create(&mcap_partial, true)?,
+    };
     let summary = record(Box::new(port), commands.clone(), &mut sink)?;
+    let sink = sink.samples;
+    std::fs::rename(&mcap_partial, &files.mcap)
+        .with_context(|| format!("renaming {} into place", mcap_partial.display()))?;
     ensure!(
         summary.stream.lost_samples == 0
             && summary.stream.bad_frames == 0
@@ -386,6 +429,34 @@ impl RunLogSink for SampleSink {
     }
 }
 
+/// The recorder's log going both to memory (the samples, for the run CSV) and to the MCAP file.
+struct Tee {
+    samples: SampleSink,
+    mcap: McapSink<io::BufWriter<std::fs::File>>,
+}
+
+impl RunLogSink for Tee {
+    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        self.mcap.frame(t_s, frame)
+    }
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+        self.samples.sample(sample)?;
+        self.mcap.sample(sample)
+    }
+    fn command(&mut self, row: &CommandRow) -> io::Result<()> {
+        self.mcap.command(row)
+    }
+    fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
+        self.mcap.event(t_s, event)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.mcap.flush()
+    }
+    fn finish(&mut self) -> io::Result<()> {
+        RunLogSink::finish(&mut self.mcap)
+    }
+}
+
 /// What one Rust path produced.
 struct RustResult {
     samples: Vec<RunSample>,
@@ -476,6 +547,13 @@ fn rust_from_raw(files: &Files, rover: &Rover) -> Result<RustResult> {
     statistics(sink.samples, rover, stages)
 }
 
+fn rust_from_mcap(files: &Files, rover: &Rover) -> Result<RustResult> {
+    let mut stages = Stages::start();
+    let run = load_run(&files.mcap)?;
+    stages.mark("load_run MCAP");
+    statistics(std::hint::black_box(run).samples, rover, stages)
+}
+
 /// Keeps the faster of `best` and `result`.
 fn keep_best(best: &mut Option<(Duration, RustResult)>, result: RustResult) {
     let time = result.stages.total();
@@ -497,15 +575,77 @@ struct NumpyOutput {
     spans: Vec<NumpySpan>,
 }
 
-/// Why the numpy baseline cannot run (python3 or numpy missing), or `None` if it can.
-fn numpy_probe() -> Option<String> {
-    match Command::new("python3")
-        .args(["-c", "import numpy"])
-        .output()
-    {
+/// A Python script of `bench/` timed on one of the log files, and its best run.
+struct Baseline {
+    script: &'static str,
+    input: PathBuf,
+    /// Python packages the script imports.
+    packages: &'static [&'static str],
+    /// Why it cannot run (python3 or a package missing), or `None` if it can.
+    missing: Option<String>,
+    /// Best time [s] and the spans of that run.
+    best: Option<(f64, Vec<NumpySpan>)>,
+}
+
+impl Baseline {
+    fn new(script: &'static str, input: &Path, packages: &'static [&'static str]) -> Self {
+        Baseline {
+            script,
+            input: input.to_owned(),
+            packages,
+            missing: python_probe(packages),
+            best: None,
+        }
+    }
+
+    /// One run of the script (if it can run), keeping the faster: its time is read + statistics
+    /// as measured by the script, so the interpreter's start-up is not counted.
+    fn run(&mut self) -> Result<()> {
+        if self.missing.is_some() {
+            return Ok(());
+        }
+        let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../bench")
+            .join(self.script);
+        let mut json = self.input.clone().into_os_string();
+        json.push(".python.json");
+        let json = PathBuf::from(json);
+        let out = Command::new("python3")
+            .arg(&script)
+            .arg(&self.input)
+            .arg("--json")
+            .arg(&json)
+            .arg("--repeat")
+            .arg("1")
+            .output()
+            .with_context(|| format!("running {}", script.display()))?;
+        if !out.status.success() {
+            bail!(
+                "{} failed: {}",
+                script.display(),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        let text = std::fs::read_to_string(&json).with_context(|| json.display().to_string())?;
+        let parsed: NumpyOutput = serde_json::from_str(&text)?;
+        if self
+            .best
+            .as_ref()
+            .is_none_or(|(best, _)| parsed.seconds < *best)
+        {
+            self.best = Some((parsed.seconds, parsed.spans));
+        }
+        Ok(())
+    }
+}
+
+/// Why python3 cannot import `packages`, or `None` if it can.
+fn python_probe(packages: &[&str]) -> Option<String> {
+    let import = format!("import {}", packages.join(", "));
+    match Command::new("python3").args(["-c", &import]).output() {
         Err(e) => Some(format!("python3 not found ({e})")),
         Ok(out) if !out.status.success() => Some(format!(
-            "python3 cannot import numpy ({})",
+            "python3 cannot {import} ({})",
             String::from_utf8_lossy(&out.stderr)
                 .lines()
                 .last()
@@ -514,32 +654,6 @@ fn numpy_probe() -> Option<String> {
         )),
         Ok(_) => None,
     }
-}
-
-/// One run of the numpy script on the run CSV: its time [s] (read + statistics, measured by the
-/// script, so the interpreter's start-up is not counted) and its spans.
-fn numpy(files: &Files) -> Result<(f64, Vec<NumpySpan>)> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/numpy_turn_stats.py");
-    let json = files.csv.with_extension("numpy.json");
-    let out = Command::new("python3")
-        .arg(&script)
-        .arg(&files.csv)
-        .arg("--json")
-        .arg(&json)
-        .arg("--repeat")
-        .arg("1")
-        .output()
-        .with_context(|| format!("running {}", script.display()))?;
-    if !out.status.success() {
-        bail!(
-            "{} failed: {}",
-            script.display(),
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
-    let text = std::fs::read_to_string(&json).with_context(|| json.display().to_string())?;
-    let parsed: NumpyOutput = serde_json::from_str(&text)?;
-    Ok((parsed.seconds, parsed.spans))
 }
 
 /// Checks that Rust and numpy found the same spans with the same energies; returns the largest

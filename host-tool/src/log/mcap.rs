@@ -35,6 +35,7 @@
 //! torn last record) as [`McapRun::truncated`] with everything before the cut.
 
 mod read;
+mod sample_json;
 mod sink;
 #[cfg(test)]
 pub(crate) mod tests;

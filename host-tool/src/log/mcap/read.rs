@@ -2,6 +2,7 @@
 //! (the summary section is not needed, so a file cut short by a killed recorder reads up to its
 //! last complete record).
 
+use super::sample_json::parse_sample_msg;
 use super::{
     frame_encoding, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND, TOPIC_EVENT,
     TOPIC_FRAME, TOPIC_SAMPLE,
@@ -9,8 +10,7 @@ use super::{
 use crate::log::run_log::RunLog;
 use ::mcap::records::{op, Record};
 use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
-use model_core::wire::{self, BoardFrame};
-use std::borrow::Cow;
+use model_core::wire::{self, BoardFrame, MAX_FRAME};
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -180,7 +180,7 @@ impl State {
             ));
         }
         if header.uncompressed_crc != 0 {
-            let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&records);
+            let crc = crc32fast::hash(&records);
             if crc != header.uncompressed_crc {
                 return Err(self.corrupt(
                     offset,
@@ -223,7 +223,7 @@ impl State {
         match record {
             Record::Channel(channel) => self.channel(channel, offset),
             Record::Message { header, data } => {
-                let Some((topic, name)) = self.channels.get(&header.channel_id).cloned() else {
+                let Some(&(topic, _)) = self.channels.get(&header.channel_id) else {
                     return Err(self.corrupt(
                         offset,
                         format!(
@@ -232,7 +232,7 @@ impl State {
                         ),
                     ));
                 };
-                self.message(topic, &name, header.log_time, data)
+                self.message(topic, header.channel_id, header.log_time, &data)
             }
             _ => Ok(()),
         }
@@ -281,52 +281,76 @@ impl State {
     fn message(
         &mut self,
         topic: Topic,
-        name: &str,
+        channel_id: u16,
         log_time_ns: u64,
-        data: Cow<'_, [u8]>,
+        data: &[u8],
     ) -> Result<(), McapError> {
-        let bad = |detail: String| McapError::BadMessage {
-            path: self.path.clone(),
-            topic: name.to_owned(),
+        // Built only on the error path (the topic's name is looked up then).
+        let bad = |state: &Self, detail: String| McapError::BadMessage {
+            path: state.path.clone(),
+            topic: state
+                .channels
+                .get(&channel_id)
+                .map(|(_, name)| name.clone())
+                .unwrap_or_default(),
             log_time_ns,
             detail,
         };
         match topic {
             Topic::Sample => {
-                let msg: SampleMsg =
-                    serde_json::from_slice(&data).map_err(|e| bad(e.to_string()))?;
+                let msg = match parse_sample_msg(data) {
+                    Some(msg) => msg,
+                    None => serde_json::from_slice::<SampleMsg>(data)
+                        .map_err(|e| bad(self, e.to_string()))?,
+                };
                 let sample = msg.sample();
                 if let Some(previous) = self.run.samples.last() {
                     if sample.t_s <= previous.t_s {
-                        return Err(bad(format!(
-                            "sample time {} is not after the previous sample's {}",
-                            sample.t_s, previous.t_s
-                        )));
+                        return Err(bad(
+                            self,
+                            format!(
+                                "sample time {} is not after the previous sample's {}",
+                                sample.t_s, previous.t_s
+                            ),
+                        ));
                     }
                 }
                 self.run.samples.push(sample);
             }
             Topic::Command => {
                 let msg: CommandMsg =
-                    serde_json::from_slice(&data).map_err(|e| bad(e.to_string()))?;
+                    serde_json::from_slice(data).map_err(|e| bad(self, e.to_string()))?;
                 self.run.commands.push(msg.row());
             }
             Topic::Event => {
                 let msg: EventMsg =
-                    serde_json::from_slice(&data).map_err(|e| bad(e.to_string()))?;
+                    serde_json::from_slice(data).map_err(|e| bad(self, e.to_string()))?;
                 self.run.events.push((msg.t_s, msg.event));
             }
             Topic::Frame => {
-                let mut bytes = data.into_owned();
-                let Some((&0, body)) = bytes.split_last() else {
-                    return Err(bad("frame does not end with its 0x00 delimiter".into()));
+                let Some((&0, body)) = data.split_last() else {
+                    return Err(bad(
+                        self,
+                        "frame does not end with its 0x00 delimiter".into(),
+                    ));
                 };
                 if body.contains(&0) {
-                    return Err(bad("frame holds more than one frame".into()));
+                    return Err(bad(self, "frame holds more than one frame".into()));
                 }
-                let n = body.len();
-                let frame: BoardFrame = wire::decode_frame(&mut bytes[..n])
-                    .map_err(|e| bad(format!("frame does not decode: {e}")))?;
+                // Decoded in place in a copy, on the stack for any frame the board can send
+                // (no allocation per frame); a longer one gets the decoder's own error.
+                let mut stack = [0u8; MAX_FRAME];
+                let mut heap = Vec::new();
+                let copy: &mut [u8] = match stack.get_mut(..body.len()) {
+                    Some(copy) => copy,
+                    None => {
+                        heap.extend_from_slice(body);
+                        &mut heap
+                    }
+                };
+                copy.copy_from_slice(body);
+                let frame: BoardFrame = wire::decode_frame(copy)
+                    .map_err(|e| bad(self, format!("frame does not decode: {e}")))?;
                 // Division is correctly rounded: a time of whole nanoseconds comes back exactly.
                 self.run.frames.push((log_time_ns as f64 / 1e9, frame));
             }

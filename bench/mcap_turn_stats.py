@@ -1,0 +1,64 @@
+#!/usr/bin/env python3
+"""Per-manoeuvre statistics of an MCAP run log with the official `mcap` reader and numpy.
+
+The reader a user would write for the host tool's own log format (`host-tool record --out
+run.mcap`, `host-tool demo`): the `mcap` package's `make_reader`, every message on
+`/rover_power/sample` decoded with `json.loads`, the columns as numpy arrays, then the same
+statistics as `numpy_turn_stats.py` (its `stats` function). It is a baseline of the host tool's
+throughput benchmark (`bench/throughput.sh`).
+
+    python3 bench/mcap_turn_stats.py RUN.mcap [--json OUT.json] [--repeat N]
+
+Prints the best wall time of N repetitions (read + statistics) and the number of rows and spans.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+from mcap.reader import make_reader
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from numpy_turn_stats import stats  # noqa: E402  (the same statistics as the CSV baseline)
+
+TOPIC = "/rover_power/sample"
+COLUMNS = ["t_s", "left_bus_v", "left_current_a", "right_bus_v", "right_current_a",
+           "cmd_left_mps", "cmd_right_mps"]
+
+
+def read(path):
+    rows = []
+    with open(path, "rb") as f:
+        for _schema, _channel, message in make_reader(f).iter_messages(topics=[TOPIC]):
+            m = json.loads(message.data)
+            left, right = m["left"], m["right"]
+            rows.append((m["t_s"], left["bus_v"], left["current_a"], right["bus_v"],
+                         right["current_a"], left["cmd_mps"], right["cmd_mps"]))
+    data = np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS))
+    return {name: data[:, i] for i, name in enumerate(COLUMNS)}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("mcap")
+    ap.add_argument("--json")
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    best = float("inf")
+    for _ in range(max(1, args.repeat)):
+        t0 = time.perf_counter()
+        run = read(args.mcap)
+        result = stats(run)
+        best = min(best, time.perf_counter() - t0)
+    rows = len(run["t_s"])
+    print(f"mcap + json + numpy: {rows} rows, {len(result)} spans, best {best * 1e3:.1f} ms "
+          f"({rows / best / 1e6:.2f} M rows/s)")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"rows": rows, "seconds": best, "spans": result}, f)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
