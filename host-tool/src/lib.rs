@@ -4,6 +4,7 @@ pub mod decode;
 pub mod demo;
 pub mod figures;
 pub mod log;
+pub mod plan;
 pub mod plot;
 pub mod progress;
 pub mod record;

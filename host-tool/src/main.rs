@@ -11,6 +11,7 @@ use host_tool::log::convert::{convert, same_file};
 use host_tool::log::load::load;
 use host_tool::log::mcap::Truncation;
 use host_tool::log::write_atomically;
+use host_tool::plan::{self, ModelSource, Preset};
 use host_tool::plot::Format;
 use host_tool::progress;
 use host_tool::record::{self, RecordOptions, RecordStatus};
@@ -162,6 +163,52 @@ enum Command {
     /// Record the board's stream from a serial port into a run log, with a live status line.
     /// Stops on Ctrl-C, --duration or --samples; waits for an unplugged board to come back.
     Record(RecordArgs),
+    /// Energy of the optimal CLC path (arc – line – arc) against the PLP path (point turn –
+    /// line – point turn) between two poses (paper Eq 23–50). Headings are in the path frame:
+    /// from the start-to-end line, counter-clockwise positive, both in (0, 90] or both in
+    /// [-90, 0).
+    Plan(PlanArgs),
+}
+
+#[derive(clap::Args)]
+struct PlanArgs {
+    /// Start heading θ_A in the path frame [deg].
+    #[arg(long, allow_negative_numbers = true)]
+    start_deg: f64,
+    /// End heading θ_C in the path frame [deg].
+    #[arg(long, allow_negative_numbers = true)]
+    end_deg: f64,
+    /// Start-to-end distance d [m].
+    #[arg(long, allow_negative_numbers = true)]
+    distance_m: f64,
+    /// Built-in energy model (husky-hard-ground: paper Table 2, reproduces Table 3).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "husky-hard-ground",
+        conflicts_with = "model"
+    )]
+    preset: PresetArg,
+    /// Energy model file (TOML: rover, hard-ground base, effect terms; see the README).
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// Write the plan as JSON to FILE (`-` for stdout, then no table is printed).
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+/// `plan --preset` values.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum PresetArg {
+    HuskyHardGround,
+}
+
+impl From<PresetArg> for Preset {
+    fn from(p: PresetArg) -> Self {
+        match p {
+            PresetArg::HuskyHardGround => Preset::HuskyHardGround,
+        }
+    }
 }
 
 /// `MU,G_N,BS_M` → three finite positive numbers.
@@ -482,6 +529,38 @@ fn plot_cmd(rover: &Path, runs: &[PathBuf], out: &Path, format: FigureFormat) ->
     Ok(())
 }
 
+fn plan_cmd(args: PlanArgs) -> Result<()> {
+    let (model, source) = match args.model {
+        Some(path) => (plan::load_model(&path)?, ModelSource::File(path)),
+        None => {
+            let preset = Preset::from(args.preset);
+            (preset.model(), ModelSource::Preset(preset))
+        }
+    };
+    let report = plan::plan(
+        &model,
+        &source,
+        args.start_deg,
+        args.end_deg,
+        args.distance_m,
+    )?;
+    let json_to_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    if let Some(path) = &args.json {
+        let text = serde_json::to_vec_pretty(&report).context("serialising the plan")?;
+        if json_to_stdout {
+            let mut out = std::io::stdout().lock();
+            out.write_all(&text)?;
+            writeln!(out)?;
+        } else {
+            write_file(path, &text)?;
+        }
+    }
+    if !json_to_stdout {
+        print!("{report}");
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Decode { capture } => {
@@ -635,6 +714,7 @@ fn main() -> Result<()> {
             format,
         } => plot_cmd(&rover, &runs, &out, format)?,
         Command::Record(args) => record_cmd(args)?,
+        Command::Plan(args) => plan_cmd(args)?,
     }
     Ok(())
 }
