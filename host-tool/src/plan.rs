@@ -46,7 +46,7 @@
 //! commanded duration, minus the hard-ground power. A file with no effects is the hard-ground
 //! model; [`EnergyModel::husky_hard_ground`] written out ([`EnergyModel::to_toml`]) is the preset.
 
-use crate::rover::parse_rover;
+use crate::rover::{decimal_f64, parse_rover};
 use model_core::paths::{optimise_clc, ClcEnds, ClcPath, PathError, SegmentEnergy};
 use model_core::power::IcrHardGround;
 use model_core::Rover;
@@ -186,12 +186,6 @@ pub struct EnergyModel {
     /// Additive effect terms (none: the hard-ground model).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<EffectTerm>,
-}
-
-/// The f64 nearest the shortest decimal that reads back as `x` (0.55f32 → 0.55, not
-/// 0.550000011920929): a rover file's `0.55` means 0.55.
-fn decimal_f64(x: f32) -> f64 {
-    x.to_string().parse().unwrap_or(f64::from(x))
 }
 
 fn rover_from_table<'de, D: Deserializer<'de>>(d: D) -> Result<Rover, D::Error> {

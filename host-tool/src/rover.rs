@@ -16,6 +16,14 @@
 use model_core::Rover;
 use std::path::{Path, PathBuf};
 
+/// The f64 nearest the shortest decimal that reads back as `x` (0.55f32 → 0.55, where
+/// `f64::from` gives 0.550000011920929). Rover values and the board-side kinematics are f32
+/// (shared with the board); host models and logs use the decimal the user wrote or the
+/// controller sent.
+pub fn decimal_f64(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(f64::from(x))
+}
+
 /// The keys of a rover TOML, in the order of [`Rover`]'s fields.
 pub const ROVER_KEYS: [&str; 5] = [
     "track_width_m",

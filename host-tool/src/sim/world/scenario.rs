@@ -42,6 +42,7 @@
 //! R' is the rover's (its controller slip track B_s / 2, Eq 2.5). Unknown keys are errors.
 
 use super::WorldError;
+use crate::rover::decimal_f64;
 use model_core::kinematics::{side_speeds_for, TurnDirection};
 use model_core::paths::{ClcEnds, ClcPath};
 use model_core::Rover;
@@ -313,13 +314,6 @@ fn turn_segment(
     let s = side_speeds_for(v_c_mps as f32, radius_m as f32, r_prime_m as f32, direction);
     let cmd = model_core::Sides::new(decimal_f64(s.left_mps), decimal_f64(s.right_mps));
     (cmd, Until::Yaw(angle_rad))
-}
-
-/// The f64 nearest the shortest decimal that reads back as `x` (0.3f32 → 0.3, where
-/// `f64::from` gives 0.30000001192092896): commanded speeds computed with model-core's f32
-/// kinematics (the board's) then log as the numbers a controller would send.
-fn decimal_f64(x: f32) -> f64 {
-    x.to_string().parse().unwrap_or(f64::from(x))
 }
 
 impl Scenario {
