@@ -238,6 +238,22 @@ fn positive_speed(text: &str) -> Result<f64, String> {
     }
 }
 
+/// Reads run logs (.mcap or .csv), with a progress bar; names are the paths as given.
+fn load_runs(paths: &[PathBuf]) -> Result<(Vec<String>, Vec<host_tool::log::run_log::RunLog>)> {
+    let bar = progress::bar(paths.len() as u64, "reading runs");
+    let mut names = Vec::with_capacity(paths.len());
+    let mut logs = Vec::with_capacity(paths.len());
+    for path in paths {
+        let loaded = load(path)?;
+        warn_truncated(path, loaded.truncated);
+        names.push(path.display().to_string());
+        logs.push(loaded.run);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok((names, logs))
+}
+
 fn warn_truncated(path: &Path, truncated: Option<Truncation>) {
     if let Some(t) = truncated {
         eprintln!(
@@ -499,15 +515,7 @@ fn demo_cmd(
 
 fn plot_cmd(rover: &Path, runs: &[PathBuf], out: &Path, format: FigureFormat) -> Result<()> {
     let rover = load_rover(rover)?;
-    let names: Vec<String> = runs.iter().map(|p| p.display().to_string()).collect();
-    let logs = runs
-        .iter()
-        .map(|p| {
-            let loaded = load(p)?;
-            warn_truncated(p, loaded.truncated);
-            Ok(loaded.run)
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let (names, logs) = load_runs(runs)?;
     let inputs: Vec<RunInput<'_>> = names
         .iter()
         .zip(&logs)
@@ -607,15 +615,7 @@ fn main() -> Result<()> {
                     slip_track_m: bs,
                 });
             }
-            let names: Vec<String> = runs.iter().map(|p| p.display().to_string()).collect();
-            let logs = runs
-                .iter()
-                .map(|p| {
-                    let loaded = load(p)?;
-                    warn_truncated(p, loaded.truncated);
-                    Ok(loaded.run)
-                })
-                .collect::<Result<Vec<_>>>()?;
+            let (names, logs) = load_runs(&runs)?;
             let inputs: Vec<RunInput<'_>> = names
                 .iter()
                 .zip(&logs)
