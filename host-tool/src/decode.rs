@@ -38,7 +38,7 @@ pub enum Event {
 }
 
 /// Counters of what arrived and what was lost.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct StreamStats {
     /// Frames that decoded.
     pub frames: u64,
@@ -315,8 +315,9 @@ impl StreamDecoder {
     }
 }
 
-/// What a capture holds: the board, what arrived and what was lost, and the energy check.
-#[derive(Debug, Clone, PartialEq)]
+/// What a capture holds: the board, what arrived and what was lost, and the energy check
+/// (`decode --json` prints it as JSON).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Summary {
     pub bytes: usize,
     pub hello: Option<Hello>,

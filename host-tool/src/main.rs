@@ -41,6 +41,9 @@ enum Command {
     Decode {
         /// Capture file (raw bytes as read from the board's serial port; `-` for stdin).
         capture: PathBuf,
+        /// Print the summary as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// Validate runs against the seed's power models: cut them into manoeuvres from the
     /// commanded speeds, print a per-turn table (R_cmd, R/R', regime, duration vs expected,
@@ -571,7 +574,7 @@ fn plan_cmd(args: PlanArgs) -> Result<()> {
 
 fn main() -> Result<()> {
     match Cli::parse().command {
-        Command::Decode { capture } => {
+        Command::Decode { capture, json } => {
             let bytes = if capture.as_os_str() == "-" {
                 let mut bytes = Vec::new();
                 std::io::stdin()
@@ -581,7 +584,12 @@ fn main() -> Result<()> {
             } else {
                 std::fs::read(&capture).with_context(|| format!("reading {}", capture.display()))?
             };
-            print!("{}: {}", capture.display(), Summary::of(&bytes));
+            let summary = Summary::of(&bytes);
+            if json {
+                println!("{}", serde_json::to_string_pretty(&summary)?);
+            } else {
+                print!("{}: {summary}", capture.display());
+            }
         }
         Command::Validate {
             rover,
