@@ -10,7 +10,7 @@
 
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::RunLog;
-use crate::serial::PtyWriter;
+use crate::serial::{PtyTask, PtyWriter};
 use crate::sim::board::USB_PACKET;
 use firmware::board::MODEL_PERIOD_US;
 use firmware::sampler::{BOARD_ADDRESSES, DEFAULT_SAMPLE_PERIOD_US};
@@ -26,8 +26,6 @@ use model_core::wire::{
 use model_core::Sides;
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// Registers an INA226 on our board ([`Scale::BOARD`]: 5 mΩ shunt, 0.5 mA current LSB) reads
@@ -197,14 +195,11 @@ pub struct ReplayStats {
 /// nothing. Frames go out in USB-sized packets ([`USB_PACKET`]). After the last frame the writer
 /// waits for the reader to read everything, then hangs up (the device vanishes), as
 /// [`crate::sim::board::PtyBoard`] does — both write through [`PtyWriter`].
-#[derive(Debug)]
-pub struct ReplayPty {
-    path: String,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<io::Result<ReplayStats>>>,
-}
+///
+/// [`PtyTask::stop`] ends it after the current frame; the reader gets what was written.
+pub type ReplayPty = PtyTask<ReplayStats>;
 
-impl ReplayPty {
+impl PtyTask<ReplayStats> {
     /// Starts replaying `frames` (from [`frames_of`]) into a new pty. `wait_for_reader` bounds
     /// the wait for someone to read the first frame (`None`: as long as it takes); past it the
     /// replay ends with a `TimedOut` error.
@@ -221,80 +216,40 @@ impl ReplayPty {
                 ));
             }
         }
-        let mut pty = PtyWriter::open()?;
-        let path = pty.path().to_owned();
-        let stop = Arc::new(AtomicBool::new(false));
-        let stop_flag = Arc::clone(&stop);
-        let thread = std::thread::Builder::new()
-            .name("replay-pty".into())
-            .spawn(move || {
-                let mut stats = ReplayStats {
-                    frames: 0,
-                    bytes: 0,
-                };
-                let Some((t0_s, first)) = frames.first() else {
-                    pty.hang_up()?;
-                    return Ok(stats);
-                };
-                send(&mut pty, first, &mut stats)?;
-                if !pty.wait_until_read(wait_for_reader)? {
-                    return Err(io::Error::new(
-                        io::ErrorKind::TimedOut,
-                        format!("nobody read {} in time", pty.path()),
-                    ));
-                }
-                let start = Instant::now();
-                for (t_s, frame) in &frames[1..] {
-                    if stop_flag.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    if let ReplayPacing::RealTime { speed } = pacing {
-                        let after_s = ((t_s - t0_s) / speed).max(0.0);
-                        let after = Duration::try_from_secs_f64(after_s).unwrap_or(Duration::MAX);
-                        let wait = start.checked_add(after).map_or(Duration::MAX, |due| {
-                            due.saturating_duration_since(Instant::now())
-                        });
-                        sleep_unless_stopped(wait, &stop_flag);
-                    }
-                    send(&mut pty, frame, &mut stats)?;
-                }
+        PtyTask::run("replay", move |mut pty, stop_flag| {
+            let mut stats = ReplayStats {
+                frames: 0,
+                bytes: 0,
+            };
+            let Some((t0_s, first)) = frames.first() else {
                 pty.hang_up()?;
-                Ok(stats)
-            })?;
-        Ok(ReplayPty {
-            path,
-            stop,
-            thread: Some(thread),
+                return Ok(stats);
+            };
+            send(&mut pty, first, &mut stats)?;
+            if !pty.wait_until_read(wait_for_reader)? {
+                return Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    format!("nobody read {} in time", pty.path()),
+                ));
+            }
+            let start = Instant::now();
+            for (t_s, frame) in &frames[1..] {
+                if stop_flag.load(Ordering::Relaxed) {
+                    break;
+                }
+                if let ReplayPacing::RealTime { speed } = pacing {
+                    let after_s = ((t_s - t0_s) / speed).max(0.0);
+                    let after = Duration::try_from_secs_f64(after_s).unwrap_or(Duration::MAX);
+                    let wait = start.checked_add(after).map_or(Duration::MAX, |due| {
+                        due.saturating_duration_since(Instant::now())
+                    });
+                    sleep_unless_stopped(wait, stop_flag);
+                }
+                send(&mut pty, frame, &mut stats)?;
+            }
+            pty.hang_up()?;
+            Ok(stats)
         })
-    }
-
-    /// The pty slave's path (`/dev/pts/N`), to open like a serial port.
-    pub fn path(&self) -> &str {
-        &self.path
-    }
-
-    /// Asks the writer to stop after the current frame, wait for the reader and hang up.
-    pub fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
-    }
-
-    /// Waits for the replay to finish.
-    pub fn join(mut self) -> io::Result<ReplayStats> {
-        match self.thread.take() {
-            Some(thread) => thread
-                .join()
-                .map_err(|_| io::Error::other("the replay thread panicked"))?,
-            None => Err(io::Error::other("already joined")),
-        }
-    }
-}
-
-impl Drop for ReplayPty {
-    fn drop(&mut self) {
-        self.stop();
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
     }
 }
 

@@ -8,6 +8,9 @@ use crate::decode::{Event, StreamDecoder};
 use serialport::{SerialPort, SerialPortType, TTYPort};
 use std::fmt;
 use std::io::{self, Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// Baud rate requested on open. CDC ACM ignores it (USB runs at its own speed); a pty accepts it.
@@ -341,6 +344,71 @@ impl PtyWriter {
     pub fn hang_up(self) -> io::Result<()> {
         self.wait_until_read(Some(WRITER_STALL))?;
         Ok(())
+    }
+}
+
+/// A [`PtyWriter`] fed from its own thread (the simulated board, a replay): the pty's path to
+/// open, a stop request, and the thread's result. Dropping it stops and joins the thread.
+#[derive(Debug)]
+pub struct PtyTask<T> {
+    name: String,
+    path: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<io::Result<T>>>,
+}
+
+impl<T: Send + 'static> PtyTask<T> {
+    /// Opens a pty pair and runs `work(pty, stop)` on a thread called `name`; `work` checks
+    /// `stop` between writes and hangs the pty up when it is done.
+    pub fn run(
+        name: &str,
+        work: impl FnOnce(PtyWriter, &AtomicBool) -> io::Result<T> + Send + 'static,
+    ) -> io::Result<PtyTask<T>> {
+        let pty = PtyWriter::open()?;
+        let path = pty.path().to_owned();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_flag = Arc::clone(&stop);
+        let thread = std::thread::Builder::new()
+            .name(name.into())
+            .spawn(move || work(pty, &stop_flag))?;
+        Ok(PtyTask {
+            name: name.into(),
+            path,
+            stop,
+            thread: Some(thread),
+        })
+    }
+}
+
+impl<T> PtyTask<T> {
+    /// The pty slave's path (`/dev/pts/N`), to open like a serial port.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// Asks the writer to stop after what it is writing now: it waits for the reader to read
+    /// that, then hangs up (the device vanishes mid-stream).
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Waits for the writer to finish.
+    pub fn join(mut self) -> io::Result<T> {
+        match self.thread.take() {
+            Some(thread) => thread
+                .join()
+                .map_err(|_| io::Error::other(format!("the {} thread panicked", self.name)))?,
+            None => Err(io::Error::other("already joined")),
+        }
+    }
+}
+
+impl<T> Drop for PtyTask<T> {
+    fn drop(&mut self) {
+        self.stop();
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
     }
 }
 

@@ -4,16 +4,14 @@
 //! `/dev/ttyACM0`.
 
 use super::SimBus;
-use crate::serial::PtyWriter;
+use crate::serial::PtyTask;
 use firmware::board::Board;
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
 use model_core::Sides;
 use std::fmt;
 use std::io::{self, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::thread::JoinHandle;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// USB full-speed bulk packet size [bytes].
@@ -255,14 +253,12 @@ pub struct PtyRun {
 ///
 /// Bytes the host writes into the pty (commands) reach the board's link between steps, as the
 /// USB interrupt would hand them over: the board applies them at its next step and acks.
-#[derive(Debug)]
-pub struct PtyBoard {
-    path: String,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<io::Result<PtyRun>>>,
-}
+///
+/// [`PtyTask::stop`] ends it after the current step: that step's frames are written whole and
+/// read by the host before the pty closes.
+pub type PtyBoard = PtyTask<PtyRun>;
 
-impl PtyBoard {
+impl PtyTask<PtyRun> {
     /// Starts `board` for `steps` sample periods into a new pty pair.
     pub fn spawn(board: SimBoard, steps: u64, pacing: Pacing) -> io::Result<PtyBoard> {
         Self::spawn_with(board, steps, pacing, PtyHooks::default())
@@ -283,95 +279,53 @@ impl PtyBoard {
                 ));
             }
         }
-        let mut pty = PtyWriter::open()?;
-        let path = pty.path().to_owned();
-        let stop = Arc::new(AtomicBool::new(false));
-        let stop_flag = Arc::clone(&stop);
         board.set_host_connected(true);
-        let thread = std::thread::Builder::new()
-            .name("sim-board-pty".into())
-            .spawn(move || {
-                let start = Instant::now();
-                let mut bytes = 0u64;
-                let mut done = 0u64;
-                let mut from_host = vec![0u8; 256];
-                let mut line_bytes = Vec::new();
-                while done < steps && !stop_flag.load(Ordering::Relaxed) {
-                    if let Some(due) = pacing.due(board.now_us()) {
-                        if let Some(wait) = (start + due).checked_duration_since(Instant::now()) {
-                            std::thread::sleep(wait);
-                        }
+        PtyTask::run("simulated board", move |mut pty, stop_flag| {
+            let start = Instant::now();
+            let mut bytes = 0u64;
+            let mut done = 0u64;
+            let mut from_host = vec![0u8; 256];
+            let mut line_bytes = Vec::new();
+            while done < steps && !stop_flag.load(Ordering::Relaxed) {
+                if let Some(due) = pacing.due(board.now_us()) {
+                    if let Some(wait) = (start + due).checked_duration_since(Instant::now()) {
+                        std::thread::sleep(wait);
                     }
-                    // Commands the host wrote reach the board's link before this step, as the
-                    // USB interrupt would hand them over.
-                    loop {
-                        let n = pty.read_from_host(&mut from_host)?;
-                        if n == 0 {
-                            break;
-                        }
-                        board.receive(&from_host[..n]);
-                    }
-                    if let Some(before_step) = hooks.before_step.as_mut() {
-                        before_step(done, &mut board);
-                    }
-                    board.step();
-                    // Whole frames only (the pty waits while full): a stop takes effect
-                    // between steps.
-                    bytes += match hooks.line.as_mut() {
-                        None => board.drain_into(&mut pty)? as u64,
-                        Some(line) => {
-                            line_bytes.clear();
-                            board.drain_into(&mut line_bytes)?;
-                            line(done, &mut line_bytes);
-                            pty.write_all(&line_bytes)?;
-                            line_bytes.len() as u64
-                        }
-                    };
-                    done += 1;
                 }
-                pty.hang_up()?;
-                Ok(PtyRun {
-                    board,
-                    steps: done,
-                    bytes,
-                })
-            })?;
-        Ok(PtyBoard {
-            path,
-            stop,
-            thread: Some(thread),
+                // Commands the host wrote reach the board's link before this step, as the
+                // USB interrupt would hand them over.
+                loop {
+                    let n = pty.read_from_host(&mut from_host)?;
+                    if n == 0 {
+                        break;
+                    }
+                    board.receive(&from_host[..n]);
+                }
+                if let Some(before_step) = hooks.before_step.as_mut() {
+                    before_step(done, &mut board);
+                }
+                board.step();
+                // Whole frames only (the pty waits while full): a stop takes effect
+                // between steps.
+                bytes += match hooks.line.as_mut() {
+                    None => board.drain_into(&mut pty)? as u64,
+                    Some(line) => {
+                        line_bytes.clear();
+                        board.drain_into(&mut line_bytes)?;
+                        line(done, &mut line_bytes);
+                        pty.write_all(&line_bytes)?;
+                        line_bytes.len() as u64
+                    }
+                };
+                done += 1;
+            }
+            pty.hang_up()?;
+            Ok(PtyRun {
+                board,
+                steps: done,
+                bytes,
+            })
         })
-    }
-
-    /// The pty slave's path (`/dev/pts/N`), to open like a serial port.
-    pub fn path(&self) -> &str {
-        &self.path
-    }
-
-    /// Asks the writer to stop after the current step: it writes that step's frames whole, waits
-    /// for the host to read them as after its last step, and closes the pty (the device vanishes
-    /// mid-stream).
-    pub fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
-    }
-
-    /// Waits for the writer to finish.
-    pub fn join(mut self) -> io::Result<PtyRun> {
-        match self.thread.take() {
-            Some(thread) => thread
-                .join()
-                .map_err(|_| io::Error::other("the simulated board's thread panicked"))?,
-            None => Err(io::Error::other("already joined")),
-        }
-    }
-}
-
-impl Drop for PtyBoard {
-    fn drop(&mut self) {
-        self.stop();
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
     }
 }
 
@@ -535,7 +489,7 @@ mod tests {
 
     #[test]
     fn the_line_hook_sees_every_step_and_before_step_reaches_the_board() {
-        use std::sync::Mutex;
+        use std::sync::{Arc, Mutex};
         let seen = Arc::new(Mutex::new(Vec::new()));
         let seen_in_line = Arc::clone(&seen);
         let hooks = PtyHooks {
