@@ -147,6 +147,8 @@ pub struct FittedEffect {
     pub effect: EffectId,
     /// Its coefficients (the first `param_count` are used).
     pub params: [f64; MAX_PARAMS],
+    /// Correction to the baseline's G fitted with it [N].
+    pub correction: f64,
 }
 
 /// Why an effect could not be fitted on a training set (e.g. its regressors are all zero there:
@@ -171,30 +173,41 @@ impl FittedEffect {
             effect,
             reason: e.to_string(),
         };
-        let mut one = LinearFit::<1>::new();
-        let mut two = LinearFit::<2>::new();
+        // Joint with a correction of the baseline's G: at one v_c an offset per side is
+        // indistinguishable from G on the calibration rows, so offset-type terms (current
+        // offset, slope) are absorbed unless G may move with them: [effect..., |V|].
+        let mut one = LinearFit::<2>::new();
+        let mut two = LinearFit::<3>::new();
         for row in train {
             let res = ctx.baseline.residual_w(row);
             for (side, &r) in res.iter().enumerate() {
                 let x = regressors(effect, row, side, ctx).unwrap_or([0.0; MAX_PARAMS]);
+                let v = row.sides[side].cmd_mps.abs();
                 if param_count(effect) == 1 {
-                    one.add([x[0]], r).map_err(err)?;
+                    one.add([x[0], v], r).map_err(err)?;
                 } else {
-                    two.add(x, r).map_err(err)?;
+                    two.add([x[0], x[1], v], r).map_err(err)?;
                 }
             }
         }
-        let params = if param_count(effect) == 1 {
-            [one.coefficients().map_err(err)?[0], 0.0]
+        let (params, correction) = if param_count(effect) == 1 {
+            let c = one.coefficients().map_err(err)?;
+            ([c[0], 0.0], c[1])
         } else {
-            two.coefficients().map_err(err)?
+            let c = two.coefficients().map_err(err)?;
+            ([c[0], c[1]], c[2])
         };
-        Ok(FittedEffect { effect, params })
+        Ok(FittedEffect {
+            effect,
+            params,
+            correction,
+        })
     }
 
     /// The term's extra power for side `side` of `row` [W].
     pub fn extra_w(&self, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
-        regressors(self.effect, row, side, ctx)
+        let base = self.correction * row.sides[side].cmd_mps.abs();
+        base + regressors(self.effect, row, side, ctx)
             .map_or(0.0, |x| x[0] * self.params[0] + x[1] * self.params[1])
     }
 }

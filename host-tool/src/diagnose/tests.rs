@@ -183,8 +183,8 @@ fn control_world_has_no_significant_gap() {
 }
 
 /// The effects the current catalogue already names on their default strengths (hard ground,
-/// 3 runs); `sinkage-bulldozing`, `current-offset` and `slope` come out `ambiguous` and
-/// `motor-heating` `none` for now (see NOTES.md).
+/// 3 runs); `sinkage-bulldozing` comes out `ambiguous` and `motor-heating` `none` for now (see
+/// NOTES.md).
 #[test]
 fn single_effect_worlds_are_named() {
     for effect in [
@@ -192,6 +192,8 @@ fn single_effect_worlds_are_named() {
         EffectId::AngularSlip,
         EffectId::SlipTrack,
         EffectId::BrakedInner,
+        EffectId::CurrentOffset,
+        EffectId::Slope,
     ] {
         let d = diagnose_world(&WorldConfig::hard_ground().with_effect(effect, true));
         assert_eq!(d.effect, effect.id(), "{}", summary(&d));
