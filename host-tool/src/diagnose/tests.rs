@@ -201,3 +201,58 @@ fn single_effect_worlds_are_named() {
         assert!(best.shrink_pct > 50.0, "{}", summary(&d));
     }
 }
+
+/// `world` with `effect` on at `scale` × its default strength (a rough bench point).
+pub(super) fn scaled(effect: EffectId, scale: f64, current_std_a: f64) -> WorldConfig {
+    let mut w = WorldConfig::hard_ground().with_effect(effect, true);
+    w.noise.left_current_std_a = current_std_a;
+    w.noise.right_current_std_a = current_std_a;
+    let e = &mut w.effects;
+    match effect {
+        EffectId::InnerDrag => e.inner_drag.torque_nm *= scale,
+        EffectId::SinkageBulldozing => e.sinkage_bulldozing.resistance_n_per_mm *= scale,
+        EffectId::AngularSlip => {
+            e.angular_slip.at_zero *= scale.min(2.0);
+            e.angular_slip.at_r_prime *= scale.min(2.0);
+        }
+        EffectId::SlipTrack => {
+            let b = crate::sim::world::effects::HARD_GROUND_SLIP_TRACK_M;
+            e.slip_track.slip_track_m = Some(1.1 + (b - 1.1) * scale);
+        }
+        EffectId::BrakedInner => e.braked_inner.resistance_n *= scale,
+        EffectId::CurrentOffset => {
+            e.current_offset.left_a *= scale;
+            e.current_offset.right_a *= scale;
+        }
+        EffectId::MotorHeating => e.motor_heating.thermal_resistance_k_per_w *= scale,
+        EffectId::Slope => e.slope.amplitude_deg *= scale,
+    }
+    w
+}
+
+/// A small grid of strengths (0.5×, 1×, 2× default) and current noise (30 and 100 mA): the
+/// diagnosis names the true effect wherever the catalogue can already see it, and never names a
+/// wrong one. Known gaps (NOTES.md): `sinkage-bulldozing` is `ambiguous`, `motor-heating` is
+/// invisible in ~40 s runs, and `braked-inner` at half strength is `ambiguous`.
+#[test]
+fn strengths_and_noise_grid_names_no_wrong_effect() {
+    for effect in EffectId::ALL {
+        for scale in [0.5, 1.0, 2.0] {
+            for noise in [0.03, 0.1] {
+                let d = diagnose_world(&scaled(effect, scale, noise));
+                let line = format!("{effect} x{scale} noise {noise}: {}", summary(&d));
+                let known_gap =
+                    matches!(effect, EffectId::SinkageBulldozing | EffectId::MotorHeating)
+                        || (effect == EffectId::BrakedInner && scale < 1.0);
+                if known_gap {
+                    assert!(
+                        ["ambiguous", "none", effect.id()].contains(&d.effect.as_str()),
+                        "{line}"
+                    );
+                } else {
+                    assert_eq!(d.effect, effect.id(), "{line}");
+                }
+            }
+        }
+    }
+}
