@@ -73,6 +73,66 @@ pub struct Diagnosis {
     pub candidates: Vec<CandidateScore>,
     /// Every candidate under the other scheme (if it has ≥ 2 groups), catalogue order.
     pub other_scheme: Option<(Scheme, Vec<CandidateScore>)>,
+    /// Held-out error before/after the named effect (the best candidate when none is named),
+    /// all rows and per regime, under `scheme`.
+    pub heldout: Vec<HeldOutError>,
+}
+
+/// Held-out RMS before and after one effect over a set of rows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOutError {
+    /// `all` or a regime id.
+    pub regime: String,
+    /// The effect added.
+    pub effect: EffectId,
+    /// RMS before [W].
+    pub error_before: f64,
+    /// RMS after [W].
+    pub error_after: f64,
+    /// 100·(1 − after/before) [%].
+    pub shrink_pct: f64,
+}
+
+impl Diagnosis {
+    /// The issue's JSON: `effect`, `regime`, `significant`, `candidates`, `metric`, `heldout`
+    /// (all rows; `heldout_per_regime` has the rest), plus the baseline and the gaps.
+    pub fn to_json(&self) -> serde_json::Value {
+        let all = self.heldout.iter().find(|h| h.regime == "all");
+        serde_json::json!({
+            "effect": self.effect,
+            "regime": self.regime,
+            "significant": self.significant,
+            "candidates": self.candidates.iter().map(|c| serde_json::json!({
+                "effect": c.effect.id(),
+                "heldout_error_before": c.heldout_error_before,
+                "heldout_error_after": c.heldout_error_after,
+                "shrink_pct": c.shrink_pct,
+            })).collect::<Vec<_>>(),
+            "metric": {
+                "what": "RMS over held-out manoeuvres and both sides of the effective-power \
+                         residual (energy / expected duration, measured minus model)",
+                "unit": "W",
+            },
+            "heldout": all.map(|h| serde_json::json!({
+                "scheme": self.scheme.id(),
+                "effect": h.effect.id(),
+                "error_before": h.error_before,
+                "error_after": h.error_after,
+                "shrink_pct": h.shrink_pct,
+            })),
+            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all").collect::<Vec<_>>(),
+            "baseline": self.baseline,
+            "gaps": self.gaps,
+        })
+    }
+}
+
+fn shrink_pct(before: f64, after: f64) -> f64 {
+    if before > 0.0 {
+        100.0 * (1.0 - after / before)
+    } else {
+        0.0
+    }
 }
 
 /// Diagnoses `rows` (see [`features::rows`]).
@@ -137,7 +197,34 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
             _ => "ambiguous".to_owned(),
         }
     };
+    let added = named_id(&effect).unwrap_or(candidates[0].effect);
+    let mut heldout = Vec::new();
+    if let (Some(before), Some(after)) = (
+        cv::heldout_residuals(rover, rows, primary, None)?,
+        cv::heldout_residuals(rover, rows, primary, Some(added))?,
+    ) {
+        let mut push = |regime: String, keep: &dyn Fn(usize) -> bool| {
+            if let (Some(b), Some(a)) = (
+                cv::mean_square(&before, keep),
+                cv::mean_square(&after, keep),
+            ) {
+                let (b, a) = (b.sqrt(), a.sqrt());
+                heldout.push(HeldOutError {
+                    regime,
+                    effect: added,
+                    error_before: b,
+                    error_after: a,
+                    shrink_pct: shrink_pct(b, a),
+                });
+            }
+        };
+        push("all".to_owned(), &|_| true);
+        for regime in Regime::ALL {
+            push(regime.id().to_owned(), &|i| rows[i].regime == regime);
+        }
+    }
     Ok(Diagnosis {
+        heldout,
         effect,
         regime,
         significant,
@@ -151,5 +238,9 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
 
 /// The effect a diagnosis named, if it named one.
 pub fn named_effect(d: &Diagnosis) -> Option<EffectId> {
-    EffectId::from_id(&d.effect)
+    named_id(&d.effect)
+}
+
+fn named_id(effect: &str) -> Option<EffectId> {
+    EffectId::from_id(effect)
 }

@@ -256,3 +256,25 @@ fn strengths_and_noise_grid_names_no_wrong_effect() {
         }
     }
 }
+
+#[test]
+fn json_has_the_issue_keys_and_per_regime_shrink() {
+    let d = diagnose_world(&WorldConfig::hard_ground().with_effect(EffectId::InnerDrag, true));
+    let j = d.to_json();
+    assert_eq!(j["effect"], "inner-drag");
+    assert_eq!(j["regime"], "dragged-inner");
+    assert_eq!(j["significant"], true);
+    assert_eq!(j["metric"]["unit"], "W");
+    assert_eq!(j["heldout"]["scheme"], "leave-one-run-out");
+    assert_eq!(j["candidates"].as_array().map(Vec::len), Some(8));
+    let first = &j["candidates"][0];
+    assert_eq!(first["effect"], "inner-drag");
+    assert_eq!(j["heldout"]["shrink_pct"], first["shrink_pct"]);
+    // Where the effect acts, it closes most of the gap.
+    let dragged = d
+        .heldout
+        .iter()
+        .find(|h| h.regime == "dragged-inner")
+        .expect("regime present");
+    assert!(dragged.shrink_pct > 70.0, "{dragged:?}");
+}
