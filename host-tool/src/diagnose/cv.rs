@@ -6,12 +6,12 @@
 //!   measured − predicted [W] (see [`features`](super::features)).
 //! - **Folds**: leave-one-run-out (groups: runs; needs ≥ 2 runs) and leave-one-radius-out
 //!   (groups: commanded R/R' rounded to 0.01, straights one group). In every fold the baseline is
-//!   refitted on the training fold's calibration rows and the effect (with a correction of G) on
-//!   the training fold's residuals; a fold where the effect cannot be fitted (no training row where it acts) predicts
+//!   refitted on the training fold's calibration rows and the effect (with a correction of G for
+//!   the terms acting on every row) on the training fold's residuals; a fold where the effect cannot be fitted (no training row where it acts) predicts
 //!   no extra power.
 //! - **Penalty**: Akaike's final prediction error on the pooled held-out MSE,
-//!   MSE·(n + k)/(n − k) for k fitted parameters (the effect's plus the G correction fitted with
-//!   it, see [`FittedEffect::fit`]) and n held-out side observations.
+//!   MSE·(n + k)/(n − k) for k fitted parameters (the effect's, plus the G correction of the
+//!   terms acting on every row, see [`FittedEffect::fit`]) and n held-out side observations.
 //! - **Significance**: the mean baseline residual of a (regime, side) group is significant when
 //!   its 95 % bootstrap interval (resampling runs, or manoeuvres within the group for one run)
 //!   excludes 0 and its size exceeds [`PRACTICAL_FLOOR_W`].
@@ -20,7 +20,7 @@
 //!   penalised MSE is at least [`CLEAR_MARGIN`] times its own; otherwise `ambiguous`.
 
 use super::baseline::{Baseline, BaselineError};
-use super::effects::{param_count, Context, FittedEffect};
+use super::effects::{fitted_params, Context, FittedEffect};
 use super::features::TurnRow;
 use crate::sim::world::EffectId;
 use model_core::Rover;
@@ -176,7 +176,7 @@ pub fn score_all(
             } else {
                 0.0
             },
-            penalised_mse: penalised(mse, n, param_count(effect) + 1),
+            penalised_mse: penalised(mse, n, fitted_params(effect)),
         });
     }
     Ok(Some(out))

@@ -50,6 +50,20 @@ pub const fn param_count(effect: EffectId) -> usize {
     }
 }
 
+/// Whether `effect` acts on every manoeuvre (and so is fitted with a correction of G, one
+/// more parameter).
+pub const fn corrects_g(effect: EffectId) -> bool {
+    matches!(
+        effect,
+        EffectId::CurrentOffset | EffectId::Slope | EffectId::MotorHeating
+    )
+}
+
+/// Parameters a candidate fits: its own plus the G correction where [`corrects_g`].
+pub const fn fitted_params(effect: EffectId) -> usize {
+    param_count(effect) + if corrects_g(effect) { 1 } else { 0 }
+}
+
 /// The regressors of `effect` for side `side` of `row` (unused slots are 0); `None` when the
 /// row lacks what the term needs (pitch for `slope`), which counts as 0 extra power.
 pub fn regressors(
@@ -147,7 +161,7 @@ pub struct FittedEffect {
     pub effect: EffectId,
     /// Its coefficients (the first `param_count` are used).
     pub params: [f64; MAX_PARAMS],
-    /// Correction to the baseline's G fitted with it [N].
+    /// Correction to the baseline's G fitted with it (0 unless [`corrects_g`]) [N].
     pub correction: f64,
 }
 
@@ -173,29 +187,34 @@ impl FittedEffect {
             effect,
             reason: e.to_string(),
         };
-        // Joint with a correction of the baseline's G: at one v_c an offset per side is
-        // indistinguishable from G on the calibration rows, so offset-type terms (current
-        // offset, slope) are absorbed unless G may move with them: [effect..., |V|].
-        let mut one = LinearFit::<2>::new();
-        let mut two = LinearFit::<3>::new();
+        // Terms acting on every row (offset, slope, heating) are fitted jointly with a
+        // correction of the baseline's G: at one v_c an offset per side is indistinguishable
+        // from G on the calibration rows, so they are absorbed unless G may move with them.
+        // Terms acting on some rows only are fitted alone (a G correction would move the rows
+        // they do not act on, e.g. the straights).
+        let mut alone1 = LinearFit::<1>::new();
+        let mut alone2 = LinearFit::<2>::new();
+        let mut with_g = LinearFit::<2>::new();
         for row in train {
             let res = ctx.baseline.residual_w(row);
             for (side, &r) in res.iter().enumerate() {
                 let x = regressors(effect, row, side, ctx).unwrap_or([0.0; MAX_PARAMS]);
                 let v = row.sides[side].cmd_mps.abs();
-                if param_count(effect) == 1 {
-                    one.add([x[0], v], r).map_err(err)?;
-                } else {
-                    two.add([x[0], x[1], v], r).map_err(err)?;
+                match (corrects_g(effect), param_count(effect)) {
+                    (true, _) => with_g.add([x[0], v], r),
+                    (false, 1) => alone1.add([x[0]], r),
+                    (false, _) => alone2.add(x, r),
                 }
+                .map_err(err)?;
             }
         }
-        let (params, correction) = if param_count(effect) == 1 {
-            let c = one.coefficients().map_err(err)?;
-            ([c[0], 0.0], c[1])
-        } else {
-            let c = two.coefficients().map_err(err)?;
-            ([c[0], c[1]], c[2])
+        let (params, correction) = match (corrects_g(effect), param_count(effect)) {
+            (true, _) => {
+                let c = with_g.coefficients().map_err(err)?;
+                ([c[0], 0.0], c[1])
+            }
+            (false, 1) => ([alone1.coefficients().map_err(err)?[0], 0.0], 0.0),
+            (false, _) => (alone2.coefficients().map_err(err)?, 0.0),
         };
         Ok(FittedEffect {
             effect,
