@@ -2,6 +2,7 @@
 
 pub mod decode;
 pub mod demo;
+pub mod diagnose;
 pub mod figures;
 pub mod log;
 pub mod plan;

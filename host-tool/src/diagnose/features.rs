@@ -1,0 +1,223 @@
+//! The design matrix of the diagnosis: one [`TurnRow`] per analysed manoeuvre of
+//! [`validate`](crate::validate), with each side labelled inner or outer, the quantities every
+//! candidate effect is a function of (regime, R/R', v_c, duration against the commanded yaw
+//! rate, angular slip Eq 6.3, growth through the turn, run time, pitch) and the measured power.
+//!
+//! The measured quantity the diagnosis compares is the **effective power** per side,
+//! P_eff = E / T_expected [W]: the manoeuvre's energy over the time the commanded yaw rate
+//! needed for the measured heading change (Fig 6.7's expected time; straights: the actual
+//! duration). It equals the average power when the rover turns as commanded and grows as
+//! 1/(1 − s_ω) when it turns slower (Eq 6.3), so power-type effects (drag, bulldozing, offsets,
+//! heating, slope) and time-type effects (angular slip, slip track) appear in one unit, and
+//! E = P_eff · T_expected is what a planner needs for an arc.
+
+use crate::log::run_csv::RunSample;
+use crate::validate::{ManoeuvreKind, ValidationReport};
+use model_core::kinematics::{Regime, TurnDirection};
+use model_core::Sides;
+use serde::Serialize;
+
+/// Which side of the turn a side was on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SideRole {
+    /// The side towards the turning centre.
+    Inner,
+    /// The side away from it.
+    Outer,
+}
+
+impl SideRole {
+    /// Stable identifier in reports (`inner`, `outer`).
+    pub const fn id(self) -> &'static str {
+        match self {
+            SideRole::Inner => "inner",
+            SideRole::Outer => "outer",
+        }
+    }
+}
+
+/// One side of one manoeuvre.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SideObs {
+    /// Inner or outer (straights: left is labelled outer, right inner, by convention only).
+    pub role: SideRole,
+    /// Commanded side speed, positive forward [m/s].
+    pub cmd_mps: f64,
+    /// Average power over the steady part [W].
+    pub avg_power_w: f64,
+    /// Energy over the whole manoeuvre [J].
+    pub energy_j: f64,
+    /// Energy over the expected duration, E / T_expected [W] (the diagnosis' measured value).
+    pub effective_power_w: f64,
+    /// Second minus first half of the steady part, average power [W]; `None` if too short.
+    pub growth_w: Option<f64>,
+}
+
+/// One manoeuvre (turn or straight) as the diagnosis sees it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TurnRow {
+    /// The run it came from (a grouping key of the cross-validation).
+    pub run: String,
+    /// Index of the run in the input order.
+    pub run_index: usize,
+    /// Index into the validation report's manoeuvres.
+    pub manoeuvre: usize,
+    /// Regime of the commanded radius.
+    pub regime: Regime,
+    /// Commanded turn radius [m]; ∞ for straights.
+    pub radius_cmd_m: f64,
+    /// R/R' with the rover's controller slip track; ∞ for straights.
+    pub r_over_r_prime: f64,
+    /// v_c = (|V_l| + |V_r|)/2 [m/s].
+    pub v_c_mps: f64,
+    /// Commanded yaw rate magnitude [rad/s] (0 for straights).
+    pub yaw_rate_cmd_rad_s: f64,
+    /// Measured duration [s].
+    pub duration_s: f64,
+    /// Expected duration: turned angle over the commanded yaw rate; the duration for straights [s].
+    pub expected_duration_s: f64,
+    /// Whether the turned angle came from the yaw (else an assumed angle: time-type effects are
+    /// invisible).
+    pub turned_from_yaw: bool,
+    /// Eq 6.3 angular slip, turns with yaw only.
+    pub angular_slip: Option<f64>,
+    /// Run time at the start of the manoeuvre [s].
+    pub t_start_s: f64,
+    /// Mean pitch over the steady part [deg]; `None` without pitch.
+    pub pitch_deg: Option<f64>,
+    /// Mean current per side at standstill in this run [A]; `None` if the run never stands
+    /// still long enough.
+    pub standstill_current_a: Option<Sides<f64>>,
+    /// Mean bus voltage over the manoeuvre's steady part, per side [V] (for current-type terms).
+    pub bus_v: f64,
+    /// The inner then the outer side (turns), or left then right (straights).
+    pub sides: [SideObs; 2],
+    /// Whether the manoeuvre is of a kind the hard-ground model is trusted on (straights, point
+    /// turns, turns with R ≥ 2R').
+    pub calibration_kind: bool,
+}
+
+impl TurnRow {
+    /// Whether this is a straight line.
+    pub fn is_straight(&self) -> bool {
+        self.regime == Regime::Straight
+    }
+
+    /// Total effective power [W].
+    pub fn effective_power_w(&self) -> f64 {
+        self.sides[0].effective_power_w + self.sides[1].effective_power_w
+    }
+}
+
+/// R/R' from which a turn is a calibration manoeuvre (the issue: "wide turns R ≥ 2R'").
+pub const CALIBRATION_MIN_R_OVER_R_PRIME: f64 = 2.0;
+
+/// Time a run must have stood still before its current counts as the standstill draw [s].
+pub const STANDSTILL_SETTLE_S: f64 = 0.5;
+
+/// Mean current per side over the settled standstill samples of a run; `None` if there are
+/// fewer than 10.
+pub fn standstill_current_a(samples: &[RunSample]) -> Option<Sides<f64>> {
+    let mut still_since: Option<f64> = None;
+    let (mut sum_l, mut sum_r, mut n) = (0.0, 0.0, 0usize);
+    for s in samples {
+        let still = s.cmd_mps.left == 0.0 && s.cmd_mps.right == 0.0;
+        if !still {
+            still_since = None;
+            continue;
+        }
+        let since = *still_since.get_or_insert(s.t_s);
+        if s.t_s - since >= STANDSTILL_SETTLE_S {
+            sum_l += s.current_a.left;
+            sum_r += s.current_a.right;
+            n += 1;
+        }
+    }
+    (n >= 10).then(|| Sides::new(sum_l / n as f64, sum_r / n as f64))
+}
+
+/// The rows of `report` (turns and straights; standstill and too-short spans are not in it),
+/// with each run's samples for the standstill current and bus voltage. `runs[i]` must be the
+/// samples of the report's `runs[i]`.
+pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
+    let standstill: Vec<Option<Sides<f64>>> =
+        runs.iter().map(|s| standstill_current_a(s)).collect();
+    let mut out = Vec::new();
+    for (index, m) in report.manoeuvres.iter().enumerate() {
+        let Some(run_index) = report.runs.iter().position(|r| r.name == m.run) else {
+            continue;
+        };
+        let Some(regime) = m.regime else { continue };
+        if m.kind == ManoeuvreKind::Standstill {
+            continue;
+        }
+        let s = &m.stats;
+        let straight = regime == Regime::Straight;
+        let expected_duration_s = if straight {
+            s.duration_s
+        } else {
+            match s.expected_duration_s {
+                Some(t) if t > 0.0 => t,
+                _ => continue,
+            }
+        };
+        // Inner is the side towards the turning centre: the left side of a left (CCW) turn.
+        let left_inner = !straight && m.direction != Some(TurnDirection::Right);
+        let side = |left: bool, role: SideRole| {
+            let pick = |l: f64, r: f64| if left { l } else { r };
+            let energy_j = pick(s.energy_j.left, s.energy_j.right);
+            SideObs {
+                role,
+                cmd_mps: pick(m.cmd_mps.left, m.cmd_mps.right),
+                avg_power_w: pick(s.avg_power_w.left, s.avg_power_w.right),
+                energy_j,
+                effective_power_w: energy_j / expected_duration_s,
+                growth_w: s.phases.map(|p| {
+                    pick(p.second_half_w.left, p.second_half_w.right)
+                        - pick(p.first_half_w.left, p.first_half_w.right)
+                }),
+            }
+        };
+        let sides = [
+            side(left_inner, SideRole::Inner),
+            side(!left_inner, SideRole::Outer),
+        ];
+        let samples = runs.get(run_index).copied().unwrap_or(&[]);
+        let span = samples
+            .get(m.first_sample..m.end_sample.min(samples.len()))
+            .unwrap_or(&[]);
+        let bus_v = if span.is_empty() {
+            0.0
+        } else {
+            span.iter()
+                .map(|x| 0.5 * (x.bus_v.left + x.bus_v.right))
+                .sum::<f64>()
+                / span.len() as f64
+        };
+        let r_over_r_prime = m.r_over_r_prime.unwrap_or(f64::INFINITY);
+        out.push(TurnRow {
+            run: m.run.clone(),
+            run_index,
+            manoeuvre: index,
+            regime,
+            radius_cmd_m: m.radius_cmd_m.unwrap_or(f64::INFINITY),
+            r_over_r_prime,
+            v_c_mps: m.v_c_mps,
+            yaw_rate_cmd_rad_s: s.yaw_rate_cmd_rad_s.abs(),
+            duration_s: s.duration_s,
+            expected_duration_s,
+            turned_from_yaw: s.turned_from_yaw,
+            angular_slip: s.angular_slip,
+            t_start_s: m.t_start_s,
+            pitch_deg: s.mean_pitch_deg,
+            standstill_current_a: standstill.get(run_index).copied().flatten(),
+            bus_v,
+            sides,
+            calibration_kind: straight
+                || regime == Regime::Point
+                || r_over_r_prime >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
+        });
+    }
+    out
+}
