@@ -2,37 +2,15 @@
 //! pseudo-terminal; the host opens the pty's path with `host_tool::serial::open` and reads it with
 //! `PortReader` into the `StreamDecoder` — the code path of a real `/dev/ttyACM0`.
 
-use firmware::sampler::SamplerConfig;
 use host_tool::decode::{Event, StreamDecoder};
 use host_tool::serial::{self, PortReader, ReadOutcome};
-use host_tool::sim::board::{Pacing, PtyBoard, SideLoad, SimBoard};
+use host_tool::sim::board::{Pacing, PtyBoard};
 use model_core::wire::{BoardFrame, Sample};
-use model_core::Sides;
+use rover_power_tests::sim_board;
 use std::time::{Duration, Instant};
 
 /// Upper bound on any test's wall-clock time; the runs below take well under a second.
 const DEADLINE: Duration = Duration::from_secs(30);
-
-/// A turn-like load: the left (inner) side regenerates for a while.
-fn load(t_us: u64) -> Sides<SideLoad> {
-    let t = t_us as f64 * 1e-6;
-    Sides::new(
-        SideLoad {
-            current_a: 2.0 * (t * 0.7).sin() - 0.3,
-            bus_v: 24.6,
-        },
-        SideLoad {
-            current_a: 4.0 + 0.5 * (t * 1.3).cos(),
-            bus_v: 24.5,
-        },
-    )
-}
-
-fn sim_board() -> SimBoard {
-    let mut sim = SimBoard::new(SamplerConfig::BOARD);
-    sim.set_load(load);
-    sim
-}
 
 /// Everything the host saw until the device vanished.
 struct Received {

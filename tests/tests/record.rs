@@ -5,16 +5,16 @@
 //! does to it: an unplug and replug, a file read while it is written, corrupted and dropped
 //! bytes, a chip that stops answering, and forwarded commands whose τ the host mirrors.
 
-use firmware::sampler::SamplerConfig;
 use host_tool::log::commands::{write_commands_csv_atomically, CommandRow};
 use host_tool::log::csv_sink::{events_path, read_events, CsvRunSink};
 use host_tool::log::run_csv::{read_run_csv, RunSample};
 use host_tool::log::run_log::LogEvent;
 use host_tool::record::{self, RecordOptions, RecordStatus, RecordSummary, StopReason};
-use host_tool::sim::board::{Pacing, PtyBoard, PtyHooks, PtyRun, SideLoad, SimBoard};
+use host_tool::sim::board::{Pacing, PtyBoard, PtyHooks, PtyRun, SimBoard};
 use model_core::ina226::Scale;
 use model_core::wire::{self, BoardFrame};
 use model_core::Sides;
+use rover_power_tests::sim_board;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -49,27 +49,6 @@ impl Drop for TempDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
-}
-
-/// A turn-like load: the left (inner) side regenerates for a while.
-fn load(t_us: u64) -> Sides<SideLoad> {
-    let t = t_us as f64 * 1e-6;
-    Sides::new(
-        SideLoad {
-            current_a: 2.0 * (t * 0.7).sin() - 0.3,
-            bus_v: 24.6,
-        },
-        SideLoad {
-            current_a: 4.0 + 0.5 * (t * 1.3).cos(),
-            bus_v: 24.5,
-        },
-    )
-}
-
-fn sim_board() -> SimBoard {
-    let mut sim = SimBoard::new(SamplerConfig::BOARD);
-    sim.set_load(load);
-    sim
 }
 
 fn options(port: &str) -> RecordOptions {
