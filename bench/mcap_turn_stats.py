@@ -11,17 +11,15 @@ throughput benchmark (`bench/throughput.sh`).
 
 Prints the best wall time of N repetitions (read + statistics) and the number of rows and spans.
 """
-import argparse
 import json
 import os
 import sys
-import time
 
 import numpy as np
 from mcap.reader import make_reader
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from numpy_turn_stats import stats  # noqa: E402  (the same statistics as the CSV baseline)
+from numpy_turn_stats import timed_main  # noqa: E402  (same statistics and command line)
 
 TOPIC = "/rover_power/sample"
 COLUMNS = ["t_s", "left_bus_v", "left_current_a", "right_bus_v", "right_current_a",
@@ -41,23 +39,7 @@ def read(path):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("mcap")
-    ap.add_argument("--json")
-    ap.add_argument("--repeat", type=int, default=3)
-    args = ap.parse_args()
-    best = float("inf")
-    for _ in range(max(1, args.repeat)):
-        t0 = time.perf_counter()
-        run = read(args.mcap)
-        result = stats(run)
-        best = min(best, time.perf_counter() - t0)
-    rows = len(run["t_s"])
-    print(f"mcap + json + numpy: {rows} rows, {len(result)} spans, best {best * 1e3:.1f} ms "
-          f"({rows / best / 1e6:.2f} M rows/s)")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"rows": rows, "seconds": best, "spans": result}, f)
+    timed_main(read, "mcap + json + numpy", __doc__, "mcap")
 
 
 if __name__ == "__main__":

@@ -57,24 +57,29 @@ def stats(run):
     return out
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("csv")
+def timed_main(read, label, doc, input_name):
+    """The command line both baselines share: read + statistics N times, print the best time."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument(input_name)
     ap.add_argument("--json")
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
     best = float("inf")
     for _ in range(max(1, args.repeat)):
         t0 = time.perf_counter()
-        run = read(args.csv)
+        run = read(getattr(args, input_name))
         result = stats(run)
         best = min(best, time.perf_counter() - t0)
     rows = len(run["t_s"])
-    print(f"numpy: {rows} rows, {len(result)} spans, best {best * 1e3:.1f} ms "
+    print(f"{label}: {rows} rows, {len(result)} spans, best {best * 1e3:.1f} ms "
           f"({rows / best / 1e6:.2f} M rows/s)")
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"rows": rows, "seconds": best, "spans": result}, f)
+
+
+def main():
+    timed_main(read, "numpy", __doc__, "csv")
 
 
 if __name__ == "__main__":
