@@ -600,27 +600,30 @@ fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
     };
     let diagnosis =
         diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;
+    // Files first: a closed stdout (`| head`) must not lose them.
+    let files = match &args.out {
+        Some(dir) => report::write_out_dir(dir, &rover, &diagnosis, &rows, calibration)?,
+        None => Vec::new(),
+    };
     let json_to_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
     if let Some(path) = &args.json {
-        if json_to_stdout {
-            let text = serde_json::to_vec_pretty(&diagnosis.to_json()).context("serialising")?;
-            let mut out = std::io::stdout().lock();
-            out.write_all(&text)?;
-            writeln!(out)?;
-        } else {
+        if !json_to_stdout {
             report::write_json(path, &diagnosis)?;
         }
     }
-    if !json_to_stdout {
-        print!("{}", report::table(&diagnosis));
-    }
-    if let Some(dir) = &args.out {
-        let files = report::write_out_dir(dir, &rover, &diagnosis, &rows, calibration)?;
-        if !json_to_stdout {
-            println!();
-            for file in files {
-                println!("{}", file.display());
-            }
+    // Written, not print!ed: a closed stdout is an error, not a panic.
+    let mut stdout = std::io::stdout().lock();
+    if json_to_stdout {
+        serde_json::to_writer_pretty(&mut stdout, &diagnosis.to_json())
+            .context("writing the JSON")?;
+        writeln!(stdout)?;
+    } else {
+        write!(stdout, "{}", report::table(&diagnosis))?;
+        if !files.is_empty() {
+            writeln!(stdout)?;
+        }
+        for file in files {
+            writeln!(stdout, "{}", file.display())?;
         }
     }
     Ok(())

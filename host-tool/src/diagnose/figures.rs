@@ -9,6 +9,9 @@ use crate::plot::{Chart, Figure, Legend, Marker, Series, SeriesStyle};
 use crate::sim::world::EffectId;
 use model_core::Rover;
 
+/// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
+pub const DODGE: f64 = 0.025;
+
 /// Markers at R = B/2 and R = R′ (R/R′ axis).
 fn regime_markers(rover: &Rover) -> Vec<Marker> {
     let r_prime = f64::from(rover.r_prime_m());
@@ -50,8 +53,8 @@ fn side_of(row: &TurnRow, role: SideRole) -> usize {
 }
 
 /// Held-out effective-power residual of every turn against R/R′, before (the baseline) and
-/// after adding `effect`, inner and outer side in two panels. Straights (R/R′ = ∞) are not
-/// drawn.
+/// after adding `effect`, inner and outer side in two panels; before and after are drawn
+/// [`DODGE`] left and right of the turn's R/R′. Straights (R/R′ = ∞) are not drawn.
 pub fn residuals_vs_radius(
     rover: &Rover,
     rows: &[TurnRow],
@@ -67,23 +70,26 @@ pub fn residuals_vs_radius(
                 "R / R′",
                 "held-out residual, measured − model [W]",
             );
-            let points = |res: &HeldOut| {
+            // Before and after are dodged by ∓DODGE in R/R′ so that equal residuals (where the
+            // effect adds nothing) stay visible.
+            let points = |res: &HeldOut, dx: f64| {
                 res.iter()
                     .filter_map(|(i, r)| {
                         let row = rows.get(*i)?;
-                        (!row.is_straight()).then(|| (row.r_over_r_prime, r[side_of(row, role)]))
+                        (!row.is_straight())
+                            .then(|| (row.r_over_r_prime + dx, r[side_of(row, role)]))
                     })
                     .collect::<Vec<_>>()
             };
             chart.series.push(Series::new(
                 "hard-ground model",
-                points(before),
+                points(before, -DODGE),
                 SeriesStyle::Points,
                 1,
             ));
             chart.series.push(Series::new(
                 format!("+ {effect}"),
-                points(after),
+                points(after, DODGE),
                 SeriesStyle::Points,
                 0,
             ));

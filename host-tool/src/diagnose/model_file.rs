@@ -27,6 +27,7 @@ use super::effects::{Context, EffectFitError, FittedEffect};
 use super::features::{SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
 use super::{named_effect, Diagnosis};
 use crate::plan::{self, EffectTerm, EnergyModel, HardGroundBase, ModelError};
+use crate::rover::decimal_f64;
 use crate::sim::world::EffectId;
 use model_core::kinematics::{side_speeds_for, yaw_rate_for, Regime, RegimeBounds, TurnDirection};
 use model_core::Rover;
@@ -90,6 +91,7 @@ impl Conditions {
                 .filter(|v| *v > 0.0)
                 .collect(),
         )
+        .map(micro)
         .ok_or(ModelFileError::NoSpeed)?;
         let turn_rad = median(
             rows.iter()
@@ -197,6 +199,11 @@ pub fn synthetic_row(
     row
 }
 
+/// `x` to 1e-6 (file values free of f32 → f64 noise).
+fn micro(x: f64) -> f64 {
+    (x * 1e6).round() / 1e6
+}
+
 /// The R/R′ breakpoints of the table: a uniform grid, the regime edges (B/2, R′ ± the at-R′
 /// tolerance) with a point just outside each, wider turns, and the straight line's position.
 pub fn grid(rover: &Rover) -> Vec<f64> {
@@ -205,12 +212,15 @@ pub fn grid(rover: &Rover) -> Vec<f64> {
     let tol = f64::from(bounds.r_prime_fraction);
     let half = f64::from(rover.half_track_m()) / r_prime;
     let straight = f64::from(bounds.straight_from_m) / r_prime;
-    let steps = (GRID_UNIFORM_MAX / GRID_STEP).round() as usize;
-    let mut out: Vec<f64> = (0..=steps).map(|k| k as f64 * GRID_STEP).collect();
+    let per_unit = (1.0 / GRID_STEP).round();
+    let steps = (GRID_UNIFORM_MAX * per_unit).round() as usize;
+    // k / per_unit rather than k · step: 0.15, not 0.15000000000000002, in the file.
+    let mut out: Vec<f64> = (0..=steps).map(|k| k as f64 / per_unit).collect();
     for edge in [half, 1.0 - tol, 1.0 + tol] {
-        out.extend([edge - 1e-3, edge, edge + 1e-3]);
+        out.extend([edge - 1e-3, edge, edge + 1e-3].map(micro));
     }
     out.extend(GRID_WIDE);
+    let straight = micro(straight);
     out.retain(|x| *x >= 0.0 && *x < straight);
     out.push(straight);
     out.sort_by(f64::total_cmp);
@@ -283,7 +293,8 @@ pub fn energy_model(
         base: HardGroundBase {
             mu: icr.mu,
             rolling_resistance_n: icr.rolling_resistance_n,
-            slip_track_m: icr.slip_track_m,
+            // The rover file's decimal (the baseline carries its f32 as f64).
+            slip_track_m: decimal_f64(rover.slip_track_m),
         },
         effects,
     };
