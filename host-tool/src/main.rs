@@ -5,6 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use host_tool::decode::Summary;
 use host_tool::demo::{self, DemoOptions};
+use host_tool::diagnose::{self, calibration::Calibration, report};
 use host_tool::figures::{write_figures, RunSamples};
 use host_tool::log::commands::read_commands_csv;
 use host_tool::log::convert::{convert, same_file};
@@ -166,11 +167,37 @@ enum Command {
     /// Record the board's stream from a serial port into a run log, with a live status line.
     /// Stops on Ctrl-C, --duration or --samples; waits for an unplugged board to come back.
     Record(RecordArgs),
+    /// Diagnose the gap between the hard-ground model and the runs: where it departs (gaps per
+    /// regime and side, significant beyond the repeat noise), which catalogued unmodelled effect
+    /// explains it (grouped cross-validation, penalised), and how much of the held-out gap it
+    /// closes. Table on the terminal; JSON with --json; report, figures and a `plan --model`
+    /// file with --out.
+    Diagnose(DiagnoseArgs),
     /// Energy of the optimal CLC path (arc – line – arc) against the PLP path (point turn –
     /// line – point turn) between two poses (paper Eq 23–50). Headings are in the path frame:
     /// from the start-to-end line, counter-clockwise positive, both in (0, 90] or both in
     /// [-90, 0).
     Plan(PlanArgs),
+}
+
+#[derive(clap::Args)]
+struct DiagnoseArgs {
+    /// Rover TOML (e.g. rovers/husky-a200.toml).
+    #[arg(long)]
+    rover: PathBuf,
+    /// Calibration runs, .csv or .mcap: their straights, point turns and turns with R ≥ 2R′ fit
+    /// the hard-ground baseline and are not scored (default: those manoeuvres of --runs).
+    #[arg(long, num_args = 1..)]
+    calibration: Vec<PathBuf>,
+    /// Runs to diagnose, .csv or .mcap.
+    #[arg(long, num_args = 1.., required = true)]
+    runs: Vec<PathBuf>,
+    /// Write the diagnosis as JSON to FILE (`-` for stdout, then no table is printed).
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Output directory: diagnosis.md, figures (PNG, SVG) and model.toml for `plan --model`.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -540,6 +567,68 @@ fn plot_cmd(rover: &Path, runs: &[PathBuf], out: &Path, format: FigureFormat) ->
     Ok(())
 }
 
+/// The diagnosis' rows of run logs (validated with the rover's default options).
+fn diagnosis_rows(
+    rover: &model_core::Rover,
+    paths: &[PathBuf],
+    what: &str,
+) -> Result<Vec<diagnose::features::TurnRow>> {
+    let (names, logs) = load_runs(paths)?;
+    let inputs: Vec<RunInput<'_>> = names
+        .iter()
+        .zip(&logs)
+        .map(|(name, log)| RunInput::from_log(name, log))
+        .collect();
+    let report = validate::validate(rover, &inputs, &ValidateOptions::for_rover(rover))
+        .with_context(|| format!("{what} runs"))?;
+    let samples: Vec<&[host_tool::log::run_csv::RunSample]> =
+        logs.iter().map(|l| l.samples.as_slice()).collect();
+    Ok(diagnose::features::rows(&report, &samples))
+}
+
+fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
+    let rover = load_rover(&args.rover)?;
+    let rows = diagnosis_rows(&rover, &args.runs, "diagnosed")?;
+    let cal_rows = if args.calibration.is_empty() {
+        None
+    } else {
+        Some(diagnosis_rows(&rover, &args.calibration, "calibration")?)
+    };
+    let calibration = match &cal_rows {
+        Some(rows) => Calibration::Rows(rows),
+        None => Calibration::FromRuns,
+    };
+    let diagnosis =
+        diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;
+    // Files first: a closed stdout (`| head`) must not lose them.
+    let files = match &args.out {
+        Some(dir) => report::write_out_dir(dir, &rover, &diagnosis, &rows, calibration)?,
+        None => Vec::new(),
+    };
+    let json_to_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    if let Some(path) = &args.json {
+        if !json_to_stdout {
+            report::write_json(path, &diagnosis)?;
+        }
+    }
+    // Written, not print!ed: a closed stdout is an error, not a panic.
+    let mut stdout = std::io::stdout().lock();
+    if json_to_stdout {
+        serde_json::to_writer_pretty(&mut stdout, &diagnosis.to_json())
+            .context("writing the JSON")?;
+        writeln!(stdout)?;
+    } else {
+        write!(stdout, "{}", report::table(&diagnosis))?;
+        if !files.is_empty() {
+            writeln!(stdout)?;
+        }
+        for file in files {
+            writeln!(stdout, "{}", file.display())?;
+        }
+    }
+    Ok(())
+}
+
 fn plan_cmd(args: PlanArgs) -> Result<()> {
     let (model, source) = match args.model {
         Some(path) => (plan::load_model(&path)?, ModelSource::File(path)),
@@ -723,6 +812,7 @@ fn main() -> Result<()> {
         } => plot_cmd(&rover, &runs, &out, format)?,
         Command::Record(args) => record_cmd(args)?,
         Command::Plan(args) => plan_cmd(args)?,
+        Command::Diagnose(args) => diagnose_cmd(args)?,
     }
     Ok(())
 }

@@ -8,15 +8,20 @@
 //! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection.
 
 pub mod baseline;
+pub mod calibration;
 pub mod cv;
 pub mod effects;
 pub mod features;
+pub mod figures;
+pub mod model_file;
+pub mod report;
 
 #[cfg(test)]
 mod tests;
 
 use crate::sim::world::EffectId;
 use baseline::{Baseline, BaselineError};
+use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};
 use features::{SideRole, TurnRow};
 use model_core::kinematics::Regime;
@@ -76,6 +81,8 @@ pub struct Diagnosis {
     /// Held-out error before/after the named effect (the best candidate when none is named),
     /// all rows and per regime, under `scheme`.
     pub heldout: Vec<HeldOutError>,
+    /// What the baseline was fitted on.
+    pub calibration: CalibrationNote,
 }
 
 /// Held-out RMS before and after one effect over a set of rows.
@@ -123,6 +130,7 @@ impl Diagnosis {
             "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all").collect::<Vec<_>>(),
             "baseline": self.baseline,
             "gaps": self.gaps,
+            "calibration": self.calibration,
         })
     }
 }
@@ -135,13 +143,22 @@ fn shrink_pct(before: f64, after: f64) -> f64 {
     }
 }
 
-/// Diagnoses `rows` (see [`features::rows`]).
+/// Diagnoses `rows` (see [`features::rows`]), calibrated on their own calibration manoeuvres.
 pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseError> {
+    diagnose_with(rover, rows, Calibration::FromRuns)
+}
+
+/// Diagnoses `rows` with the baseline fitted as `calibration` says (e.g. on the calibration
+/// manoeuvres of separate calibration runs, which are then not scored).
+pub fn diagnose_with(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+) -> Result<Diagnosis, DiagnoseError> {
     if rows.is_empty() {
         return Err(DiagnoseError::NoRows);
     }
-    let cal: Vec<&TurnRow> = rows.iter().filter(|r| r.calibration_kind).collect();
-    let baseline = Baseline::fit(rover, &cal)?;
+    let baseline = calibration.baseline(rover, rows)?;
 
     let mut gaps = Vec::new();
     for regime in Regime::ALL {
@@ -179,10 +196,13 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
     } else {
         (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
     };
-    let mut candidates =
-        cv::score_all(rover, rows, primary)?.ok_or(DiagnoseError::NothingToHoldOut)?;
+    let mut candidates = calibration
+        .score_all(rover, rows, primary)?
+        .ok_or(DiagnoseError::NothingToHoldOut)?;
     candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
-    let other_scheme = cv::score_all(rover, rows, secondary)?.map(|c| (secondary, c));
+    let other_scheme = calibration
+        .score_all(rover, rows, secondary)?
+        .map(|c| (secondary, c));
 
     let effect = if !significant {
         "none".to_owned()
@@ -200,8 +220,8 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
     let added = named_id(&effect).unwrap_or(candidates[0].effect);
     let mut heldout = Vec::new();
     if let (Some(before), Some(after)) = (
-        cv::heldout_residuals(rover, rows, primary, None)?,
-        cv::heldout_residuals(rover, rows, primary, Some(added))?,
+        calibration.heldout_residuals(rover, rows, primary, None)?,
+        calibration.heldout_residuals(rover, rows, primary, Some(added))?,
     ) {
         let mut push = |regime: String, keep: &dyn Fn(usize) -> bool| {
             if let (Some(b), Some(a)) = (
@@ -233,6 +253,7 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
         scheme: primary,
         candidates,
         other_scheme,
+        calibration: calibration.note(rows),
     })
 }
 

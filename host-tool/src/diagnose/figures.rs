@@ -1,0 +1,140 @@
+//! The diagnosis' figures (drawn with [`crate::plot`]): the held-out residual of every turn
+//! against R/R′ before and after adding the effect, one panel per side, and the growth of power
+//! through each turn (second minus first half) against R/R′ per side, measured against the
+//! models (Eq 21 and every catalogue term predict a constant power through a steady turn).
+
+use super::cv::HeldOut;
+use super::features::{SideRole, TurnRow};
+use crate::plot::{Chart, Figure, Legend, Marker, Series, SeriesStyle};
+use crate::sim::world::EffectId;
+use model_core::Rover;
+
+/// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
+pub const DODGE: f64 = 0.025;
+
+/// Markers at R = B/2 and R = R′ (R/R′ axis).
+fn regime_markers(rover: &Rover) -> Vec<Marker> {
+    let r_prime = f64::from(rover.r_prime_m());
+    let mut out = Vec::new();
+    if r_prime > 0.0 {
+        out.push(Marker::new(
+            f64::from(rover.half_track_m()) / r_prime,
+            "B/2",
+        ));
+    }
+    out.push(Marker::new(1.0, "R′"));
+    out
+}
+
+/// A horizontal line at 0 over the turns' R/R′ range (none without turns).
+fn zero_line(rows: &[TurnRow], name: &str) -> Series {
+    let xs = rows
+        .iter()
+        .map(|r| r.r_over_r_prime)
+        .filter(|x| x.is_finite());
+    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    let points = if lo <= hi {
+        vec![(lo.min(0.0), 0.0), (hi, 0.0)]
+    } else {
+        Vec::new()
+    };
+    Series::new(name, points, SeriesStyle::Line, 6)
+}
+
+/// The side index of `role` in `row` (turns: 0 inner, 1 outer).
+fn side_of(row: &TurnRow, role: SideRole) -> usize {
+    if row.sides[0].role == role {
+        0
+    } else {
+        1
+    }
+}
+
+/// Held-out effective-power residual of every turn against R/R′, before (the baseline) and
+/// after adding `effect`, inner and outer side in two panels; before and after are drawn
+/// [`DODGE`] left and right of the turn's R/R′. Straights (R/R′ = ∞) are not drawn.
+pub fn residuals_vs_radius(
+    rover: &Rover,
+    rows: &[TurnRow],
+    before: &HeldOut,
+    after: &HeldOut,
+    effect: EffectId,
+) -> Figure {
+    let charts = [SideRole::Inner, SideRole::Outer]
+        .into_iter()
+        .map(|role| {
+            let mut chart = Chart::new(
+                format!("{} side", role.id()),
+                "R / R′",
+                "held-out residual, measured − model [W]",
+            );
+            // Before and after are dodged by ∓DODGE in R/R′ so that equal residuals (where the
+            // effect adds nothing) stay visible.
+            let points = |res: &HeldOut, dx: f64| {
+                res.iter()
+                    .filter_map(|(i, r)| {
+                        let row = rows.get(*i)?;
+                        (!row.is_straight())
+                            .then(|| (row.r_over_r_prime + dx, r[side_of(row, role)]))
+                    })
+                    .collect::<Vec<_>>()
+            };
+            chart.series.push(Series::new(
+                "hard-ground model",
+                points(before, -DODGE),
+                SeriesStyle::Points,
+                1,
+            ));
+            chart.series.push(Series::new(
+                format!("+ {effect}"),
+                points(after, DODGE),
+                SeriesStyle::Points,
+                0,
+            ));
+            chart.series.push(zero_line(rows, ""));
+            chart.markers = regime_markers(rover);
+            chart
+        })
+        .collect();
+    Figure::new(
+        format!("Held-out residual before and after adding {effect}"),
+        charts,
+        2,
+    )
+}
+
+/// Growth of average power through each turn (second half minus first half of its steady part)
+/// against R/R′, inner and outer side, with the models' growth (none).
+pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow]) -> Figure {
+    let charts = [SideRole::Inner, SideRole::Outer]
+        .into_iter()
+        .map(|role| {
+            let mut chart = Chart::new(
+                format!("{} side", role.id()),
+                "R / R′",
+                "growth through the turn [W]",
+            );
+            let measured = rows
+                .iter()
+                .filter(|r| !r.is_straight())
+                .filter_map(|r| {
+                    r.sides[side_of(r, role)]
+                        .growth_w
+                        .map(|g| (r.r_over_r_prime, g))
+                })
+                .collect();
+            chart
+                .series
+                .push(Series::new("measured", measured, SeriesStyle::Points, 0));
+            chart
+                .series
+                .push(zero_line(rows, "models (constant power)"));
+            chart.markers = regime_markers(rover);
+            chart.legend = Legend::UpperRight;
+            chart
+        })
+        .collect();
+    Figure::new("Power growth through the turn", charts, 2)
+}

@@ -1,0 +1,439 @@
+//! The model file `diagnose --out` writes for `plan --model`: the fitted hard-ground base
+//! (μ via Eq 22, G, B_s of the [`Baseline`]) plus the named effect as a [`plan::EffectTerm`],
+//! tabulated over R/R′ at the runs' v_c.
+//!
+//! The table is the effect fitted on every diagnosed row (and the calibration manoeuvres of
+//! calibration runs), evaluated on synthetic manoeuvres: at each R/R′ of the grid a left turn
+//! at the runs' median v_c with the constant-v_c side speeds of Appendix A (Eq A.14,
+//! [`side_speeds_for`]), the yaw rate of Eq 2.9, the runs' median turned angle, bus voltage and
+//! start time, and zero pitch (the planner plans on level ground). The value is the extra power
+//! of both sides together.
+//!
+//! Units agree with the planner: the diagnosis measures **effective** power, energy over the
+//! commanded duration of the heading change (E/T_expected, see [`features`](super::features)),
+//! and `plan` prices an arc as (Eq 21 power + ΔP(R/R′)) × |Δθ| max(R, R′)/v_c, the commanded
+//! duration (paper Eq 26 is Eq 21 power times that duration). So a time-type effect (angular
+//! slip, slip track: the rover turns slower than commanded, average power unchanged) enters as
+//! the extra energy it costs per commanded second, and the planned arc energy is the energy the
+//! rover will actually spend on it.
+//!
+//! The last breakpoint is a straight line placed at R = [`RegimeBounds::straight_from_m`] (where
+//! `validate` calls a manoeuvre straight); `plan` holds it for lines (R = ∞) and interpolates
+//! between the widest tabulated turn and it.
+
+use super::baseline::Baseline;
+use super::calibration::Calibration;
+use super::effects::{Context, EffectFitError, FittedEffect};
+use super::features::{SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
+use super::{named_effect, Diagnosis};
+use crate::plan::{self, EffectTerm, EnergyModel, HardGroundBase, ModelError};
+use crate::rover::decimal_f64;
+use crate::sim::world::EffectId;
+use model_core::kinematics::{side_speeds_for, yaw_rate_for, Regime, RegimeBounds, TurnDirection};
+use model_core::Rover;
+
+/// Uniform grid step of R/R′ up to [`GRID_UNIFORM_MAX`].
+pub const GRID_STEP: f64 = 0.05;
+/// End of the uniform part of the grid (R/R′).
+pub const GRID_UNIFORM_MAX: f64 = 4.0;
+/// Wider turns tabulated beyond the uniform grid (R/R′).
+pub const GRID_WIDE: [f64; 6] = [5.0, 6.0, 8.0, 10.0, 12.0, 16.0];
+/// Turned angle of the synthetic turns when no run has a turn with a yaw-based angle [rad].
+pub const DEFAULT_TURN_RAD: f64 = std::f64::consts::FRAC_PI_2;
+
+/// Why no model file could be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelFileError {
+    /// No manoeuvre with a positive v_c.
+    #[error("no manoeuvre with a positive speed to take v_c from")]
+    NoSpeed,
+    /// The named effect could not be fitted on all rows.
+    #[error("fitting the named effect on all manoeuvres: {0}")]
+    Effect(#[from] EffectFitError),
+    /// The fitted values make no valid model (e.g. a negative μ or G).
+    #[error("the fitted model is not a valid plan model: {0}")]
+    Model(#[from] ModelError),
+}
+
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    values.retain(|v| v.is_finite());
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    Some(if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    })
+}
+
+/// The conditions the synthetic manoeuvres are built at (medians over the diagnosed rows).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Conditions {
+    /// v_c [m/s].
+    pub v_c_mps: f64,
+    /// Turned angle of a turn [rad].
+    pub turn_rad: f64,
+    /// Bus voltage [V].
+    pub bus_v: f64,
+    /// Run time at the start of a manoeuvre [s].
+    pub t_start_s: f64,
+}
+
+impl Conditions {
+    /// Medians of `rows` (v_c over moving manoeuvres; turned angle over turns with yaw).
+    pub fn of(rows: &[TurnRow]) -> Result<Conditions, ModelFileError> {
+        let v_c_mps = median(
+            rows.iter()
+                .map(|r| r.v_c_mps)
+                .filter(|v| *v > 0.0)
+                .collect(),
+        )
+        .map(micro)
+        .ok_or(ModelFileError::NoSpeed)?;
+        let turn_rad = median(
+            rows.iter()
+                .filter(|r| !r.is_straight() && r.turned_from_yaw)
+                .map(|r| r.expected_duration_s * r.yaw_rate_cmd_rad_s)
+                .filter(|a| *a > 0.0)
+                .collect(),
+        )
+        .unwrap_or(DEFAULT_TURN_RAD);
+        Ok(Conditions {
+            v_c_mps,
+            turn_rad,
+            bus_v: median(rows.iter().map(|r| r.bus_v).collect()).unwrap_or(0.0),
+            t_start_s: median(rows.iter().map(|r| r.t_start_s).collect()).unwrap_or(0.0),
+        })
+    }
+}
+
+/// A synthetic left turn at `r_over_r_prime` (∞: a straight line) under `at`, with the
+/// baseline's power as its measured power.
+pub fn synthetic_row(
+    rover: &Rover,
+    baseline: &Baseline,
+    r_over_r_prime: f64,
+    at: &Conditions,
+) -> TurnRow {
+    let r_prime = f64::from(rover.r_prime_m());
+    let bounds = RegimeBounds::default();
+    let straight = !r_over_r_prime.is_finite()
+        || r_over_r_prime * r_prime >= f64::from(bounds.straight_from_m);
+    let radius_m = if straight {
+        f64::INFINITY
+    } else {
+        r_over_r_prime * r_prime
+    };
+    let (regime, inner_mps, outer_mps, yaw_rate) = if straight {
+        (Regime::Straight, at.v_c_mps, at.v_c_mps, 0.0)
+    } else {
+        let s = side_speeds_for(
+            at.v_c_mps as f32,
+            radius_m as f32,
+            r_prime as f32,
+            TurnDirection::Left,
+        );
+        (
+            Regime::of(radius_m as f32, rover, &bounds),
+            f64::from(s.left_mps),
+            f64::from(s.right_mps),
+            f64::from(yaw_rate_for(
+                at.v_c_mps as f32,
+                radius_m as f32,
+                r_prime as f32,
+            )),
+        )
+    };
+    let duration_s = if straight || yaw_rate <= 0.0 {
+        1.0
+    } else {
+        at.turn_rad / yaw_rate
+    };
+    let side = |role, cmd_mps| SideObs {
+        role,
+        cmd_mps,
+        avg_power_w: 0.0,
+        energy_j: 0.0,
+        effective_power_w: 0.0,
+        growth_w: None,
+    };
+    let mut row = TurnRow {
+        run: "synthetic".into(),
+        run_index: 0,
+        manoeuvre: 0,
+        regime,
+        radius_cmd_m: radius_m,
+        r_over_r_prime: if straight {
+            f64::INFINITY
+        } else {
+            r_over_r_prime
+        },
+        v_c_mps: at.v_c_mps,
+        yaw_rate_cmd_rad_s: yaw_rate,
+        duration_s,
+        expected_duration_s: duration_s,
+        turned_from_yaw: true,
+        angular_slip: None,
+        t_start_s: at.t_start_s,
+        pitch_deg: Some(0.0),
+        standstill_current_a: None,
+        bus_v: at.bus_v,
+        sides: [
+            side(SideRole::Inner, inner_mps),
+            side(SideRole::Outer, outer_mps),
+        ],
+        calibration_kind: straight
+            || regime == Regime::Point
+            || r_over_r_prime >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
+    };
+    for k in 0..2 {
+        let p = baseline.side_power_w(&row, k);
+        let s = &mut row.sides[k];
+        s.avg_power_w = p;
+        s.effective_power_w = p;
+        s.energy_j = p * duration_s;
+    }
+    row
+}
+
+/// `x` to 1e-6 (file values free of f32 → f64 noise).
+fn micro(x: f64) -> f64 {
+    (x * 1e6).round() / 1e6
+}
+
+/// The R/R′ breakpoints of the table: a uniform grid, the regime edges (B/2, R′ ± the at-R′
+/// tolerance) with a point just outside each, wider turns, and the straight line's position.
+pub fn grid(rover: &Rover) -> Vec<f64> {
+    let r_prime = f64::from(rover.r_prime_m());
+    let bounds = RegimeBounds::default();
+    let tol = f64::from(bounds.r_prime_fraction);
+    let half = f64::from(rover.half_track_m()) / r_prime;
+    let straight = f64::from(bounds.straight_from_m) / r_prime;
+    let per_unit = (1.0 / GRID_STEP).round();
+    let steps = (GRID_UNIFORM_MAX * per_unit).round() as usize;
+    // k / per_unit rather than k · step: 0.15, not 0.15000000000000002, in the file.
+    let mut out: Vec<f64> = (0..=steps).map(|k| k as f64 / per_unit).collect();
+    for edge in [half, 1.0 - tol, 1.0 + tol] {
+        out.extend([edge - 1e-3, edge, edge + 1e-3].map(micro));
+    }
+    out.extend(GRID_WIDE);
+    let straight = micro(straight);
+    out.retain(|x| *x >= 0.0 && *x < straight);
+    out.push(straight);
+    out.sort_by(f64::total_cmp);
+    out.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    out
+}
+
+/// The effect fitted on all rows, tabulated: total extra power of both sides at each R/R′ of
+/// [`grid`] (the last breakpoint is the straight line).
+pub fn effect_term(
+    rover: &Rover,
+    baseline: &Baseline,
+    effect: EffectId,
+    train: &[&TurnRow],
+    at: &Conditions,
+) -> Result<EffectTerm, ModelFileError> {
+    let ctx = Context { rover, baseline };
+    let fitted = FittedEffect::fit(effect, train, &ctx)?;
+    let r_over_r_prime = grid(rover);
+    let extra_power_w = r_over_r_prime
+        .iter()
+        .map(|&k| {
+            let row = synthetic_row(rover, baseline, k, at);
+            fitted.extra_w(&row, 0, &ctx) + fitted.extra_w(&row, 1, &ctx)
+        })
+        .collect();
+    Ok(EffectTerm {
+        name: effect.id().to_owned(),
+        r_over_r_prime,
+        extra_power_w,
+    })
+}
+
+/// The plan model of `diagnosis`: its baseline as the hard-ground base and its named effect (if
+/// it named one) as an effect term, at the median v_c of `rows`.
+pub fn energy_model(
+    rover: &Rover,
+    diagnosis: &Diagnosis,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+) -> Result<EnergyModel, ModelFileError> {
+    let at = Conditions::of(rows)?;
+    let b = &diagnosis.baseline;
+    let icr = b.as_icr(rover);
+    let effects = match named_effect(diagnosis) {
+        Some(effect) => vec![effect_term(
+            rover,
+            b,
+            effect,
+            &calibration.training_rows(rows),
+            &at,
+        )?],
+        None => Vec::new(),
+    };
+    let what = match named_effect(diagnosis) {
+        Some(e) => format!("plus the diagnosed {e}"),
+        None => format!("no effect term (diagnosis: {})", diagnosis.effect),
+    };
+    let model = EnergyModel {
+        version: plan::MODEL_FORMAT_VERSION,
+        description: Some(format!(
+            "host-tool diagnose: hard-ground model (paper Eq 21-22) fitted on {} calibration \
+             manoeuvres ({}), {what}, tabulated at v_c = {:.3} m/s",
+            diagnosis.calibration.manoeuvres,
+            diagnosis.calibration.source.id(),
+            at.v_c_mps
+        )),
+        v_c_mps: at.v_c_mps,
+        rover: *rover,
+        base: HardGroundBase {
+            mu: icr.mu,
+            rolling_resistance_n: icr.rolling_resistance_n,
+            // The rover file's decimal (the baseline carries its f32 as f64).
+            slip_track_m: decimal_f64(rover.slip_track_m),
+        },
+        effects,
+    };
+    model.check()?;
+    Ok(model)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::tests::{rows_of, simulate_run};
+    use crate::diagnose::{diagnose, features::TurnRow};
+    use crate::plan::parse_model;
+    use crate::sim::world::{Manoeuvre, Scenario, WorldConfig};
+    use model_core::paths::SegmentEnergy;
+
+    const HUSKY: Rover = Rover::HUSKY_A200;
+
+    /// The seed's turn set with 4R′ in place of 4R′/3 (wide calibration turns).
+    fn scenario() -> Scenario {
+        let mut s = Scenario::seed_turns(0.3, 1);
+        if let Some(Manoeuvre::Turn {
+            r_over_r_prime: Some(k),
+            ..
+        }) = s.manoeuvres.get_mut(4)
+        {
+            *k = 4.0;
+        }
+        s
+    }
+
+    fn rows_of_world(world: &WorldConfig) -> Vec<TurnRow> {
+        let runs: Vec<_> = (0..3)
+            .map(|k| simulate_run(world, &scenario(), 20 + k))
+            .collect();
+        rows_of(&runs)
+    }
+
+    /// Planned energy of the turns of `rows` (their commanded radius and measured heading
+    /// change) against their measured energy: the largest relative error.
+    fn worst_turn_error(model: &EnergyModel, rows: &[TurnRow]) -> f64 {
+        let law = model.law().expect("valid model");
+        rows.iter()
+            .filter(|r| !r.is_straight() && r.turned_from_yaw)
+            .map(|r| {
+                let angle = r.expected_duration_s * r.yaw_rate_cmd_rad_s;
+                let planned = law.arc_energy_j(r.radius_cmd_m, angle);
+                let measured = r.sides[0].energy_j + r.sides[1].energy_j;
+                ((planned - measured) / measured).abs()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Angular slip is a time-type effect: the turns last longer than commanded at unchanged
+    /// power. The diagnosis tabulates it as effective power (energy over the commanded
+    /// duration), `plan` prices an arc as power × commanded duration, so the model file's arc
+    /// energies are the measured turn energies; the hard-ground base alone is far off.
+    #[test]
+    fn model_file_round_trips_and_prices_angular_slip_turns_at_their_measured_energy() {
+        let world = WorldConfig::hard_ground().with_effect(EffectId::AngularSlip, true);
+        let rows = rows_of_world(&world);
+        let d = diagnose(&HUSKY, &rows).expect("diagnoses");
+        assert_eq!(d.effect, "angular-slip");
+        let model = energy_model(&HUSKY, &d, &rows, Calibration::FromRuns).expect("model");
+        let text = model.to_toml().expect("toml");
+        assert_eq!(parse_model(&text).expect("parses"), model);
+        assert_eq!(model.effects.len(), 1);
+
+        let with_effect = worst_turn_error(&model, &rows);
+        let base_only = worst_turn_error(
+            &EnergyModel {
+                effects: Vec::new(),
+                ..model.clone()
+            },
+            &rows,
+        );
+        assert!(with_effect < 0.06, "{with_effect}");
+        assert!(base_only > 0.15, "{base_only}");
+    }
+
+    #[test]
+    fn control_runs_give_the_fitted_base_without_effect_terms() {
+        let rows = rows_of_world(&WorldConfig::hard_ground());
+        let d = diagnose(&HUSKY, &rows).expect("diagnoses");
+        assert_eq!(d.effect, "none");
+        let model = energy_model(&HUSKY, &d, &rows, Calibration::FromRuns).expect("model");
+        assert!(model.effects.is_empty());
+        assert_eq!(model.v_c_mps, 0.3);
+        assert_eq!(model.base.slip_track_m, 1.1);
+        assert!((model.base.mu - d.baseline.mu).abs() < 1e-6);
+        assert_eq!(
+            model.base.rolling_resistance_n,
+            d.baseline.rolling_resistance_n
+        );
+        // Hard ground: every turn within a few percent of its planned energy.
+        assert!(worst_turn_error(&model, &rows) < 0.05);
+    }
+
+    #[test]
+    fn synthetic_turns_have_appendix_a_speeds_and_the_grid_ends_at_a_straight() {
+        let baseline = Baseline {
+            skid_force_n: 160.0,
+            skid_force_ci_n: 0.0,
+            rolling_resistance_n: 31.0,
+            rolling_resistance_ci_n: 0.0,
+            slip_track_m: 1.1,
+            mu: 0.74,
+            residual_std_w: 0.0,
+            n: 10,
+        };
+        let at = Conditions {
+            v_c_mps: 0.3,
+            turn_rad: std::f64::consts::FRAC_PI_2,
+            bus_v: 24.0,
+            t_start_s: 10.0,
+        };
+        for (k, regime) in [
+            (0.0, Regime::Point),
+            (0.3, Regime::BelowHalfTrack),
+            (2.0 / 3.0, Regime::DraggedInner),
+            (1.0, Regime::AtRPrime),
+            (2.0, Regime::AboveRPrime),
+            (f64::INFINITY, Regime::Straight),
+        ] {
+            let row = synthetic_row(&HUSKY, &baseline, k, &at);
+            assert_eq!(row.regime, regime, "{k}");
+            let [i, o] = [row.sides[0].cmd_mps, row.sides[1].cmd_mps];
+            assert!((i.abs() + o.abs() - 0.6).abs() < 1e-6, "{k}: {i} {o}");
+            assert!(i <= o, "{k}");
+            assert_eq!(
+                row.sides[0].effective_power_w,
+                baseline.side_power_w(&row, 0)
+            );
+        }
+        let g = grid(&HUSKY);
+        assert!(g.windows(2).all(|w| w[0] < w[1]));
+        let last = *g.last().expect("grid");
+        assert!((last * 0.55 - 20.0).abs() < 1e-3, "{last}");
+        let straight = synthetic_row(&HUSKY, &baseline, last, &at);
+        assert!(straight.is_straight());
+    }
+}

@@ -1,0 +1,501 @@
+//! The diagnosis' outputs: the terminal table ([`table`]), the JSON ([`write_json`]:
+//! [`Diagnosis::to_json`], which carries the calibration note) and the `--out` directory
+//! ([`write_out_dir`]: `diagnosis.md` with the figures embedded, the figures as PNG and SVG, and
+//! `model.toml` for `plan --model`). Every file is written atomically.
+
+use super::baseline::BaselineError;
+use super::calibration::{Calibration, CalibrationSource};
+use super::cv::{self, PRACTICAL_FLOOR_W};
+use super::features::TurnRow;
+use super::model_file::{self, ModelFileError};
+use super::{figures, named_effect, Diagnosis};
+use crate::log::{write_atomically, AtomicWriteError};
+use crate::plan::{EnergyModel, ModelError};
+use crate::plot::{render_figure, PlotError};
+use model_core::Rover;
+use std::fmt::Write as _;
+use std::io::{self, Write as _};
+use std::path::{Path, PathBuf};
+
+/// The Markdown report's file name in the output directory.
+pub const REPORT_FILE: &str = "diagnosis.md";
+/// The model file's name in the output directory.
+pub const MODEL_FILE: &str = "model.toml";
+/// Figure of held-out residuals vs R/R′ (without extension).
+pub const RESIDUALS_FIGURE: &str = "residuals-vs-radius";
+/// Figure of growth through the turn vs R/R′ (without extension).
+pub const GROWTH_FIGURE: &str = "growth-vs-radius";
+
+/// Why an output was not written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Recomputing the held-out residuals for the figures failed.
+    #[error(transparent)]
+    Baseline(#[from] BaselineError),
+    /// The scheme of the diagnosis has fewer than 2 groups (cannot happen for a diagnosis).
+    #[error("no held-out residuals to draw")]
+    NothingToHoldOut,
+    /// A figure could not be drawn or written.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// The plan model could not be made.
+    #[error("model file: {0}")]
+    ModelFile(#[from] ModelFileError),
+    /// The plan model could not be written as TOML.
+    #[error("model file: {0}")]
+    Model(#[from] ModelError),
+    /// The output directory could not be created.
+    #[error("{}: {source}", path.display())]
+    Dir {
+        /// The directory.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+    /// A file could not be written (a previous file of that name is untouched).
+    #[error(transparent)]
+    Write(#[from] AtomicWriteError<io::Error>),
+}
+
+/// Columns aligned: the first left, the others right, two spaces apart.
+fn columns(rows: &[Vec<String>]) -> String {
+    let n = rows.iter().map(Vec::len).max().unwrap_or(0);
+    let widths: Vec<usize> = (0..n)
+        .map(|c| {
+            rows.iter()
+                .filter_map(|r| r.get(c))
+                .map(|s| s.chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for row in rows {
+        let cells: Vec<String> = row
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(|(c, (s, &w))| {
+                if c == 0 {
+                    format!("{s:<w$}")
+                } else {
+                    format!("{s:>w$}")
+                }
+            })
+            .collect();
+        out.push_str("  ");
+        out.push_str(cells.join("  ").trim_end());
+        out.push('\n');
+    }
+    out
+}
+
+/// A Markdown table (header row first).
+fn markdown_table(rows: &[Vec<String>]) -> String {
+    let mut out = String::new();
+    for (k, row) in rows.iter().enumerate() {
+        out.push_str("| ");
+        out.push_str(&row.join(" | "));
+        out.push_str(" |\n");
+        if k == 0 {
+            out.push('|');
+            out.push_str(&"---|".repeat(row.len()));
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// The one-line conclusion.
+pub fn conclusion(d: &Diagnosis) -> String {
+    let all = d.heldout.iter().find(|h| h.regime == "all");
+    let heldout = |h: &super::HeldOutError| {
+        format!(
+            "held-out error {:.2} → {:.2} W ({:.0} % of the gap closed), {}",
+            h.error_before,
+            h.error_after,
+            h.shrink_pct,
+            d.scheme.id()
+        )
+    };
+    if let Some(effect) = named_effect(d) {
+        let h = all.map_or_else(|| d.scheme.id().to_owned(), heldout);
+        format!("diagnosis: {effect} @ {} (significant gap); {h}", d.regime)
+    } else if d.effect == "ambiguous" {
+        let best: Vec<String> = d
+            .candidates
+            .iter()
+            .take(2)
+            .map(|c| format!("{} closes {:.0} %", c.effect, c.shrink_pct))
+            .collect();
+        format!(
+            "diagnosis: ambiguous @ {} (significant gap, no clear cause): {}; naming one needs ≥ \
+             {:.0} % closed and a {:.1}× margin in penalised held-out error over the runner-up",
+            d.regime,
+            best.join(", "),
+            cv::MIN_SHRINK_PCT,
+            cv::CLEAR_MARGIN
+        )
+    } else {
+        format!(
+            "diagnosis: none: no significant gap (every regime's mean residual has a 95 % \
+             bootstrap interval containing 0 or is under {PRACTICAL_FLOOR_W} W per side); the \
+             hard-ground model explains the runs"
+        )
+    }
+}
+
+/// Where the baseline came from, in words.
+pub fn calibration_line(d: &Diagnosis) -> String {
+    let c = &d.calibration;
+    match c.source {
+        CalibrationSource::Runs => format!(
+            "calibration: {} manoeuvres taken from the runs themselves (straights, point turns, \
+             R ≥ 2R′; no --calibration runs given), refitted in every cross-validation fold",
+            c.manoeuvres
+        ),
+        CalibrationSource::CalibrationFiles => format!(
+            "calibration: {} manoeuvres from the --calibration runs (straights, point turns, \
+             R ≥ 2R′), not scored",
+            c.manoeuvres
+        ),
+    }
+}
+
+fn baseline_line(d: &Diagnosis) -> String {
+    let b = &d.baseline;
+    format!(
+        "baseline (paper Eq 21 per side): a = F/B_s = {:.1} ± {:.1} N, G = {:.2} ± {:.2} N, \
+         μ = {:.3} (Eq 22, B_s = {:.2} m), residual σ = {:.2} W per side over {} sides",
+        b.skid_force_n,
+        b.skid_force_ci_n,
+        b.rolling_resistance_n,
+        b.rolling_resistance_ci_n,
+        b.mu,
+        b.slip_track_m,
+        b.residual_std_w,
+        b.n
+    )
+}
+
+fn gap_rows(d: &Diagnosis) -> Vec<Vec<String>> {
+    let mut rows = vec![["regime", "side", "n", "mean [W]", "95 % CI [W]", "sig"]
+        .map(String::from)
+        .to_vec()];
+    for g in &d.gaps {
+        rows.push(vec![
+            g.regime.id().to_owned(),
+            g.side.id().to_owned(),
+            g.n.to_string(),
+            format!("{:+.2}", g.mean_w),
+            format!("[{:+.2}, {:+.2}]", g.ci_w.0, g.ci_w.1),
+            if g.significant { "*" } else { "" }.to_owned(),
+        ]);
+    }
+    rows
+}
+
+fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
+    let other = d.other_scheme.as_ref();
+    let other_head = other.map_or("-".to_owned(), |(s, _)| format!("shrink {}", s.id()));
+    let mut rows = vec![vec![
+        "effect".to_owned(),
+        "before [W]".to_owned(),
+        "after [W]".to_owned(),
+        "shrink".to_owned(),
+        "penalised [W²]".to_owned(),
+        other_head,
+        String::new(),
+    ]];
+    let named = named_effect(d);
+    for c in &d.candidates {
+        let other_shrink = other
+            .and_then(|(_, list)| list.iter().find(|o| o.effect == c.effect))
+            .map_or("-".to_owned(), |o| format!("{:.0} %", o.shrink_pct));
+        rows.push(vec![
+            c.effect.id().to_owned(),
+            format!("{:.2}", c.heldout_error_before),
+            format!("{:.2}", c.heldout_error_after),
+            format!("{:.0} %", c.shrink_pct),
+            format!("{:.3}", c.penalised_mse),
+            other_shrink,
+            if Some(c.effect) == named {
+                "<- named"
+            } else {
+                ""
+            }
+            .to_owned(),
+        ]);
+    }
+    rows
+}
+
+fn regime_rows(d: &Diagnosis) -> Vec<Vec<String>> {
+    let mut rows = vec![["regime", "before [W]", "after [W]", "shrink"]
+        .map(String::from)
+        .to_vec()];
+    for h in &d.heldout {
+        rows.push(vec![
+            h.regime.clone(),
+            format!("{:.2}", h.error_before),
+            format!("{:.2}", h.error_after),
+            format!("{:.0} %", h.shrink_pct),
+        ]);
+    }
+    rows
+}
+
+/// The effect the per-regime table and the figures add (the named one, else the best).
+fn added_effect(d: &Diagnosis) -> Option<crate::sim::world::EffectId> {
+    d.heldout
+        .first()
+        .map(|h| h.effect)
+        .or_else(|| d.candidates.first().map(|c| c.effect))
+}
+
+const METRIC: &str = "metric: RMS over held-out manoeuvres and both sides of the effective-power \
+                      residual (energy / expected duration, measured − model) [W]";
+
+/// The terminal table: conclusion, calibration and baseline, gaps per regime × side, the
+/// candidates ranked, the held-out error per regime.
+pub fn table(d: &Diagnosis) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{}", conclusion(d));
+    let _ = writeln!(out, "{}", calibration_line(d));
+    let _ = writeln!(out, "{}", baseline_line(d));
+    let _ = writeln!(out, "{METRIC}");
+    let _ = writeln!(
+        out,
+        "\ngaps: mean residual per regime and side (* significant: 95 % bootstrap CI over \
+         repeats excludes 0 and |mean| > {PRACTICAL_FLOOR_W} W; straights: inner = left by \
+         convention)"
+    );
+    out.push_str(&columns(&gap_rows(d)));
+    let _ = writeln!(
+        out,
+        "\ncandidates ({}, best first by penalised held-out error):",
+        d.scheme.id()
+    );
+    out.push_str(&columns(&candidate_rows(d)));
+    if let Some(effect) = added_effect(d) {
+        let _ = writeln!(out, "\nheld-out error per regime with {effect}:");
+        out.push_str(&columns(&regime_rows(d)));
+    }
+    out
+}
+
+/// The Markdown report; `figures` are (caption, file name relative to the report), `model` the
+/// model file written beside it.
+pub fn markdown(
+    d: &Diagnosis,
+    figures: &[(String, String)],
+    model: Option<&EnergyModel>,
+) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "# Sim-to-real gap diagnosis\n");
+    let _ = writeln!(out, "**{}**\n", conclusion(d));
+    let _ = writeln!(
+        out,
+        "JSON summary: effect `{}`, regime `{}`, significant `{}`, scheme `{}`.\n",
+        d.effect,
+        d.regime,
+        d.significant,
+        d.scheme.id()
+    );
+    let _ = writeln!(out, "- {}", calibration_line(d));
+    let _ = writeln!(out, "- {}", baseline_line(d));
+    let _ = writeln!(out, "- {METRIC}\n");
+    let _ = writeln!(out, "## Where: gaps per regime and side\n");
+    let _ = writeln!(
+        out,
+        "Mean effective-power residual against the baseline, with its 95 % bootstrap interval \
+         over repeats (runs). `*`: significant (interval excludes 0 and |mean| > \
+         {PRACTICAL_FLOOR_W} W). On straights, `inner` is the left side by convention.\n"
+    );
+    out.push_str(&markdown_table(&gap_rows(d)));
+    let _ = writeln!(out, "\n## Which: candidate effects\n");
+    let _ = writeln!(
+        out,
+        "Each candidate is fitted on the training folds only and scored on the withheld ones \
+         ({}; the other scheme's shrink is the extrapolation check). Penalised: Akaike's final \
+         prediction error of the held-out MSE.\n",
+        d.scheme.id()
+    );
+    out.push_str(&markdown_table(&candidate_rows(d)));
+    if let Some(effect) = added_effect(d) {
+        let _ = writeln!(
+            out,
+            "\n## How far it shrinks: held-out error per regime with `{effect}`\n"
+        );
+        out.push_str(&markdown_table(&regime_rows(d)));
+    }
+    if !figures.is_empty() {
+        let _ = writeln!(out, "\n## Figures\n");
+        for (caption, file) in figures {
+            let _ = writeln!(out, "![{caption}]({file})\n\n*{caption}*\n");
+        }
+    }
+    if let Some(m) = model {
+        let _ = writeln!(out, "## Model file for `plan --model`\n");
+        let _ = writeln!(
+            out,
+            "`{MODEL_FILE}`: μ = {:.3}, G = {:.2} N, B_s = {:.2} m at v_c = {:.3} m/s{}.\n",
+            m.base.mu,
+            m.base.rolling_resistance_n,
+            m.base.slip_track_m,
+            m.v_c_mps,
+            match m.effects.first() {
+                Some(e) => format!(
+                    ", plus `{}` tabulated at {} R/R′ breakpoints (the last one is the straight \
+                     line)",
+                    e.name,
+                    e.r_over_r_prime.len()
+                ),
+                None => ", no effect term".to_owned(),
+            }
+        );
+        let _ = writeln!(
+            out,
+            "The effect is extra *effective* power (energy over the commanded duration); `plan` \
+             multiplies it by the commanded arc duration |Δθ| max(R, R′)/v_c, so time-type \
+             effects (turning slower than commanded) are priced as the energy they cost. \
+             Use: `host-tool plan --model {MODEL_FILE} --start-deg A --end-deg C --distance-m D`."
+        );
+    }
+    out
+}
+
+/// Writes `d.to_json()` (pretty) to `path`.
+pub fn write_json(path: &Path, d: &Diagnosis) -> Result<(), ReportError> {
+    write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, &d.to_json()).map_err(io::Error::from)?;
+        writeln!(w)
+    })?;
+    Ok(())
+}
+
+/// Writes the figures, `model.toml` and `diagnosis.md` into `dir` (created if missing) and
+/// returns the files written. `rows` and `calibration` must be the diagnosis' inputs.
+pub fn write_out_dir(
+    dir: &Path,
+    rover: &Rover,
+    d: &Diagnosis,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+) -> Result<Vec<PathBuf>, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Dir {
+        path: dir.to_owned(),
+        source,
+    })?;
+    let mut files = Vec::new();
+    let mut captions = Vec::new();
+    let mut draw = |name: &str, caption: String, figure: &crate::plot::Figure| {
+        for ext in ["png", "svg"] {
+            let path = dir.join(format!("{name}.{ext}"));
+            render_figure(figure, &path)?;
+            files.push(path);
+        }
+        captions.push((caption, format!("{name}.png")));
+        Ok::<(), ReportError>(())
+    };
+    if let Some(effect) = added_effect(d) {
+        let before = calibration
+            .heldout_residuals(rover, rows, d.scheme, None)?
+            .ok_or(ReportError::NothingToHoldOut)?;
+        let after = calibration
+            .heldout_residuals(rover, rows, d.scheme, Some(effect))?
+            .ok_or(ReportError::NothingToHoldOut)?;
+        draw(
+            RESIDUALS_FIGURE,
+            format!(
+                "Held-out residual of every turn vs R/R′ ({}), before and after adding {effect}",
+                d.scheme.id()
+            ),
+            &figures::residuals_vs_radius(rover, rows, &before, &after, effect),
+        )?;
+    }
+    draw(
+        GROWTH_FIGURE,
+        "Power growth through each turn (second half − first half) vs R/R′".to_owned(),
+        &figures::growth_vs_radius(rover, rows),
+    )?;
+    let model = model_file::energy_model(rover, d, rows, calibration)?;
+    let text = model.to_toml()?;
+    let path = dir.join(MODEL_FILE);
+    write_atomically(&path, |w| w.write_all(text.as_bytes()))?;
+    files.push(path);
+    let path = dir.join(REPORT_FILE);
+    let md = markdown(d, &captions, Some(&model));
+    write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    files.push(path);
+    Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::diagnose;
+    use crate::diagnose::tests::{rows_of, simulate_run};
+    use crate::sim::world::{EffectId, Scenario, WorldConfig};
+
+    fn diagnosis_of(world: &WorldConfig) -> (Diagnosis, Vec<TurnRow>) {
+        let runs: Vec<_> = (0..2)
+            .map(|k| simulate_run(world, &Scenario::seed_turns(0.3, 1), 30 + k))
+            .collect();
+        let rows = rows_of(&runs);
+        (
+            diagnose(&Rover::HUSKY_A200, &rows).expect("diagnoses"),
+            rows,
+        )
+    }
+
+    #[test]
+    fn table_states_the_conclusion_the_calibration_and_every_candidate() {
+        let (d, _) = diagnosis_of(&WorldConfig::hard_ground().with_effect(EffectId::Slope, true));
+        assert_eq!(d.effect, "slope");
+        let t = table(&d);
+        let first = t.lines().next().expect("conclusion");
+        assert!(first.starts_with("diagnosis: slope @ "), "{t}");
+        assert!(first.contains("leave-one-run-out"), "{t}");
+        assert!(t.contains("taken from the runs themselves"), "{t}");
+        for effect in EffectId::ALL {
+            assert!(t.contains(effect.id()), "{effect}: {t}");
+        }
+        assert_eq!(t.matches("<- named").count(), 1, "{t}");
+
+        let mut ambiguous = d.clone();
+        ambiguous.effect = "ambiguous".into();
+        let c = conclusion(&ambiguous);
+        let (a, b) = (d.candidates[0].effect.id(), d.candidates[1].effect.id());
+        assert!(
+            c.contains("no clear cause") && c.contains(a) && c.contains(b),
+            "{c}"
+        );
+        assert!(!table(&ambiguous).contains("<- named"));
+    }
+
+    #[test]
+    fn control_report_says_there_is_no_gap_and_writes_a_base_only_model() {
+        let (d, rows) = diagnosis_of(&WorldConfig::hard_ground());
+        assert!(table(&d).starts_with("diagnosis: none: no significant gap"));
+        let dir = std::env::temp_dir().join(format!("diagnose-report-{}", std::process::id()));
+        let files = write_out_dir(&dir, &Rover::HUSKY_A200, &d, &rows, Calibration::FromRuns)
+            .expect("writes");
+        for name in [
+            "residuals-vs-radius.png",
+            "residuals-vs-radius.svg",
+            "growth-vs-radius.png",
+            "growth-vs-radius.svg",
+            MODEL_FILE,
+            REPORT_FILE,
+        ] {
+            assert!(files.contains(&dir.join(name)), "{name}: {files:?}");
+        }
+        let model = crate::plan::load_model(&dir.join(MODEL_FILE)).expect("loads");
+        assert!(model.effects.is_empty());
+        let md = std::fs::read_to_string(dir.join(REPORT_FILE)).expect("report");
+        assert!(md.contains("no effect term"), "{md}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
