@@ -18,8 +18,9 @@ mod tests;
 use crate::sim::world::EffectId;
 use baseline::{Baseline, BaselineError};
 use cv::{CandidateScore, Scheme};
-use features::{SideRole, TurnRow};
-use model_core::kinematics::Regime;
+use effects::{Context, EffectFitError, FittedModel, HEATING_TAU_GRID_S};
+use features::{SideObs, SideRole, TurnRow};
+use model_core::kinematics::{self, Regime, RegimeBounds, TurnDirection};
 use model_core::Rover;
 use serde::Serialize;
 
@@ -35,6 +36,17 @@ pub enum DiagnoseError {
     /// One run and one radius: nothing to hold out.
     #[error("cross-validation needs at least two runs or two radii")]
     NothingToHoldOut,
+    /// The effects asked for cannot be fitted on these rows.
+    #[error(transparent)]
+    EffectFit(#[from] EffectFitError),
+    /// A synthetic turn was asked for with a non-positive or non-finite R/R' or v_c.
+    #[error("synthetic turn: R/R' = {r_over_r_prime} and v_c = {v_c_mps} m/s must be finite, R/R' ≥ 0, v_c > 0")]
+    SyntheticTurn {
+        /// R/R' asked for.
+        r_over_r_prime: f64,
+        /// v_c asked for [m/s].
+        v_c_mps: f64,
+    },
 }
 
 /// The mean baseline residual of one (regime, side) group.
@@ -74,8 +86,29 @@ pub struct Diagnosis {
     /// Every candidate under the other scheme (if it has ≥ 2 groups), catalogue order.
     pub other_scheme: Option<(Scheme, Vec<CandidateScore>)>,
     /// Held-out error before/after the named effect (the best candidate when none is named),
-    /// all rows and per regime, under `scheme`.
+    /// under `scheme`: all rows (`all`), the rows of the regimes with a significant gap
+    /// (`gap`, absent without one), then per regime.
     pub heldout: Vec<HeldOutError>,
+    /// The regimes with a significant gap on either side (the rows of `heldout`'s `gap`).
+    pub gap_regimes: Vec<Regime>,
+    /// Further effects added by forward stepwise selection after the named one, in order, each
+    /// with the held-out error of the model up to it.
+    pub secondary: Vec<StepwiseStep>,
+}
+
+/// One step of the forward stepwise selection after the named effect.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StepwiseStep {
+    /// The effect added.
+    pub effect: EffectId,
+    /// Held-out RMS of the model with every effect up to this one, all rows [W].
+    pub heldout_error_after: f64,
+    /// 100·(1 − after/baseline's held-out RMS) [%].
+    pub shrink_pct: f64,
+    /// The selection score of the model up to this one (see [`cv::score`]) [W²].
+    pub penalised_mse: f64,
+    /// The score of the model before this step [W²].
+    pub penalised_mse_before: f64,
 }
 
 /// Held-out RMS before and after one effect over a set of rows.
@@ -98,6 +131,7 @@ impl Diagnosis {
     /// (all rows; `heldout_per_regime` has the rest), plus the baseline and the gaps.
     pub fn to_json(&self) -> serde_json::Value {
         let all = self.heldout.iter().find(|h| h.regime == "all");
+        let gap = self.heldout.iter().find(|h| h.regime == "gap");
         serde_json::json!({
             "effect": self.effect,
             "regime": self.regime,
@@ -120,7 +154,17 @@ impl Diagnosis {
                 "error_after": h.error_after,
                 "shrink_pct": h.shrink_pct,
             })),
-            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all").collect::<Vec<_>>(),
+            "heldout_gap": gap.map(|h| serde_json::json!({
+                "scheme": self.scheme.id(),
+                "rows": "regimes with a significant gap",
+                "regimes": self.gap_regimes.iter().map(|r| r.id()).collect::<Vec<_>>(),
+                "effect": h.effect.id(),
+                "error_before": h.error_before,
+                "error_after": h.error_after,
+                "shrink_pct": h.shrink_pct,
+            })),
+            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all" && h.regime != "gap").collect::<Vec<_>>(),
+            "secondary": self.secondary,
             "baseline": self.baseline,
             "gaps": self.gaps,
         })
@@ -166,12 +210,17 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
         }
     }
     let significant = gaps.iter().any(|g| g.significant);
-    let regime = gaps
+    let mut gap_regimes: Vec<Regime> = gaps
+        .iter()
+        .filter(|g| g.significant)
+        .map(|g| g.regime)
+        .collect();
+    gap_regimes.dedup();
+    let largest_gap = gaps
         .iter()
         .filter(|g| g.significant)
         .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
-        .map_or("all", |g| g.regime.id())
-        .to_owned();
+        .map(|g| g.regime);
 
     let runs = rows.iter().map(|r| r.run_index).max().unwrap_or(0) + 1;
     let (primary, secondary) = if runs >= 2 {
@@ -179,6 +228,8 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
     } else {
         (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
     };
+    let before =
+        cv::heldout_residuals(rover, rows, primary, &[])?.ok_or(DiagnoseError::NothingToHoldOut)?;
     let mut candidates =
         cv::score_all(rover, rows, primary)?.ok_or(DiagnoseError::NothingToHoldOut)?;
     candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
@@ -187,22 +238,14 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
     let effect = if !significant {
         "none".to_owned()
     } else {
-        match candidates.as_slice() {
-            [best, runner_up, ..]
-                if best.shrink_pct >= cv::MIN_SHRINK_PCT
-                    && runner_up.penalised_mse >= cv::CLEAR_MARGIN * best.penalised_mse =>
-            {
-                best.effect.id().to_owned()
-            }
-            _ => "ambiguous".to_owned(),
-        }
+        select(&candidates)
+            .map_or("ambiguous", |e| e.id())
+            .to_owned()
     };
-    let added = named_id(&effect).unwrap_or(candidates[0].effect);
+    let named = named_id(&effect);
+    let added = named.unwrap_or(candidates[0].effect);
     let mut heldout = Vec::new();
-    if let (Some(before), Some(after)) = (
-        cv::heldout_residuals(rover, rows, primary, None)?,
-        cv::heldout_residuals(rover, rows, primary, Some(added))?,
-    ) {
+    if let Some(after) = cv::heldout_residuals(rover, rows, primary, &[added])? {
         let mut push = |regime: String, keep: &dyn Fn(usize) -> bool| {
             if let (Some(b), Some(a)) = (
                 cv::mean_square(&before, keep),
@@ -219,10 +262,35 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
             }
         };
         push("all".to_owned(), &|_| true);
+        if !gap_regimes.is_empty() {
+            push("gap".to_owned(), &|i| gap_regimes.contains(&rows[i].regime));
+        }
         for regime in Regime::ALL {
             push(regime.id().to_owned(), &|i| rows[i].regime == regime);
         }
     }
+
+    let secondary_steps = match (named, candidates.first()) {
+        (Some(first), Some(score)) => stepwise(rover, rows, primary, &before, first, score)?,
+        _ => Vec::new(),
+    };
+
+    let regime = match named {
+        Some(e) if acts_in_every_regime(rover, rows, e)? => "all".to_owned(),
+        Some(_) => largest_gap.map_or("all", |r| r.id()).to_owned(),
+        // Without a named effect: `all` when every regime present has a significant gap.
+        None => {
+            let present = Regime::ALL
+                .iter()
+                .filter(|r| rows.iter().any(|row| row.regime == **r))
+                .count();
+            if gap_regimes.len() == present {
+                "all".to_owned()
+            } else {
+                largest_gap.map_or("all", |r| r.id()).to_owned()
+            }
+        }
+    };
     Ok(Diagnosis {
         heldout,
         effect,
@@ -233,6 +301,254 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
         scheme: primary,
         candidates,
         other_scheme,
+        gap_regimes,
+        secondary: secondary_steps,
+    })
+}
+
+/// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
+/// power if it beats the runner-up by [`cv::CLEAR_MARGIN`]; else the best on effective power
+/// and growth pooled if that beats its runner-up by the margin (the growth through the turn
+/// separates terms of similar average shape, e.g. sinkage from angular slip). Either way it must
+/// close [`cv::MIN_SHRINK_PCT`] of the held-out gap.
+fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
+    let clear = |sorted: &[&CandidateScore], key: fn(&CandidateScore) -> f64| match sorted {
+        [best, runner_up, ..]
+            if best.shrink_pct >= cv::MIN_SHRINK_PCT
+                && key(runner_up) >= cv::CLEAR_MARGIN * key(best) =>
+        {
+            Some(best.effect)
+        }
+        _ => None,
+    };
+    let mut by_power: Vec<&CandidateScore> = candidates.iter().collect();
+    by_power.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
+    let mut by_growth = by_power.clone();
+    by_growth.sort_by(|a, b| {
+        a.penalised_mse_with_growth
+            .total_cmp(&b.penalised_mse_with_growth)
+    });
+    clear(&by_power, |c| c.penalised_mse)
+        .or_else(|| clear(&by_growth, |c| c.penalised_mse_with_growth))
+}
+
+/// Forward stepwise selection after `first`: adds, one at a time, the effect whose joint model
+/// has the lowest score while that score beats the current one by [`cv::CLEAR_MARGIN`] and the
+/// held-out RMS it removes is at least [`cv::PRACTICAL_FLOOR_W`].
+fn stepwise(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    before: &[cv::RowResidual],
+    first: EffectId,
+    first_score: &CandidateScore,
+) -> Result<Vec<StepwiseStep>, DiagnoseError> {
+    let mut chosen = vec![first];
+    let mut current = first_score.penalised_mse;
+    let mut steps = Vec::new();
+    loop {
+        let mut best: Option<CandidateScore> = None;
+        for e in EffectId::ALL.into_iter().filter(|e| !chosen.contains(e)) {
+            let mut model = chosen.clone();
+            model.push(e);
+            if let Some(c) = cv::score_model(rover, rows, scheme, before, &model)? {
+                if best.is_none_or(|b| c.penalised_mse < b.penalised_mse) {
+                    best = Some(c);
+                }
+            }
+        }
+        // The step must beat the current model clearly and explain a practically relevant
+        // power: the RMS it removes, √(MSE_before − MSE_after), at least the practical floor.
+        let rms_now = steps
+            .last()
+            .map_or(first_score.heldout_error_after, |s: &StepwiseStep| {
+                s.heldout_error_after
+            });
+        match best {
+            Some(b)
+                if current >= cv::CLEAR_MARGIN * b.penalised_mse
+                    && (rms_now * rms_now - b.heldout_error_after * b.heldout_error_after)
+                        .max(0.0)
+                        .sqrt()
+                        >= cv::PRACTICAL_FLOOR_W =>
+            {
+                chosen.push(b.effect);
+                steps.push(StepwiseStep {
+                    effect: b.effect,
+                    heldout_error_after: b.heldout_error_after,
+                    shrink_pct: b.shrink_pct,
+                    penalised_mse: b.penalised_mse,
+                    penalised_mse_before: current,
+                });
+                current = b.penalised_mse;
+            }
+            _ => return Ok(steps),
+        }
+    }
+}
+
+/// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
+/// baseline corrections) has an RMS per side of at least [`cv::PRACTICAL_FLOOR_W`] in some
+/// regime and at least half of that floor on the straights and in every other regime present
+/// but at most one (a slope term vanishes on point turns, where v_y = 0). Then
+/// the departure is not confined to a regime and the diagnosis' regime is `all`. (The gaps
+/// alone cannot say so: a term acting on every row is partly absorbed into a and G on the
+/// calibration rows, so its gaps change sign between regimes.)
+fn acts_in_every_regime(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effect: EffectId,
+) -> Result<bool, DiagnoseError> {
+    let (baseline, model) = fit_model(rover, rows, &[effect])?;
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    let Some(term) = model.effects.first() else {
+        return Ok(false);
+    };
+    let rms: Vec<(Regime, f64)> = Regime::ALL
+        .iter()
+        .filter_map(|&regime| {
+            let of: Vec<&TurnRow> = rows.iter().filter(|r| r.regime == regime).collect();
+            (!of.is_empty()).then(|| {
+                let ms = of
+                    .iter()
+                    .flat_map(|r| (0..2).map(move |side| term.term_w(r, side, &ctx).powi(2)))
+                    .sum::<f64>()
+                    / (2 * of.len()) as f64;
+                (regime, ms.sqrt())
+            })
+        })
+        .collect();
+    let largest = rms.iter().map(|(_, r)| *r).fold(0.0, f64::max);
+    let acts = |r: f64| r >= 0.5 * cv::PRACTICAL_FLOOR_W;
+    let missing = rms.iter().filter(|(_, r)| !acts(*r)).count();
+    let on_straights = rms
+        .iter()
+        .any(|(regime, r)| *regime == Regime::Straight && acts(*r));
+    Ok(largest >= cv::PRACTICAL_FLOOR_W && on_straights && missing <= 1 && rms.len() >= 3)
+}
+
+/// The baseline on the calibration rows of `rows` and `effects` fitted jointly on all of them:
+/// the diagnosed model, for tabulating (e.g. a model file for `plan --model`) with
+/// [`extra_power_w`] on [`synthetic_turn`]s.
+pub fn fit_model(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effects: &[EffectId],
+) -> Result<(Baseline, FittedModel), DiagnoseError> {
+    let cal: Vec<&TurnRow> = rows.iter().filter(|r| r.calibration_kind).collect();
+    let baseline = Baseline::fit(rover, &cal)?;
+    let all: Vec<&TurnRow> = rows.iter().collect();
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: HEATING_TAU_GRID_S[0],
+    };
+    let model = FittedModel::fit(effects, &all, &ctx)?;
+    Ok((baseline, model))
+}
+
+/// The extra effective power `model` predicts on top of `baseline` for each side of `row`
+/// ([inner, outer] for turns) [W], baseline corrections included.
+pub fn extra_power_w(
+    rover: &Rover,
+    baseline: &Baseline,
+    model: &FittedModel,
+    row: &TurnRow,
+) -> [f64; 2] {
+    let ctx = Context {
+        rover,
+        baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    [0, 1].map(|side| model.extra_w(row, side, &ctx))
+}
+
+/// A left turn of `angle_rad` at R = `r_over_r_prime`·R' (∞: a straight of the same duration as
+/// a 1 m line) and v_c, executed as commanded (side speeds of Appendix A, Eq A.13–A.14), starting
+/// at run time `t_start_s` with bus voltage `bus_v` and no pitch: a row to evaluate a fitted
+/// model on ([`extra_power_w`]). Measured fields (power, energy, growth) are 0.
+pub fn synthetic_turn(
+    rover: &Rover,
+    r_over_r_prime: f64,
+    v_c_mps: f64,
+    angle_rad: f64,
+    t_start_s: f64,
+    bus_v: f64,
+) -> Result<TurnRow, DiagnoseError> {
+    if !(r_over_r_prime >= 0.0 && v_c_mps > 0.0 && v_c_mps.is_finite()) || r_over_r_prime.is_nan() {
+        return Err(DiagnoseError::SyntheticTurn {
+            r_over_r_prime,
+            v_c_mps,
+        });
+    }
+    let r_prime = f64::from(rover.r_prime_m());
+    let radius_m = r_over_r_prime * r_prime;
+    let regime = Regime::of(radius_m as f32, rover, &RegimeBounds::default());
+    let straight = regime == Regime::Straight;
+    let speeds = kinematics::side_speeds_for(
+        v_c_mps as f32,
+        if straight {
+            f32::INFINITY
+        } else {
+            radius_m as f32
+        },
+        r_prime as f32,
+        TurnDirection::Left,
+    );
+    let yaw_rate = if straight {
+        0.0
+    } else {
+        f64::from(kinematics::yaw_rate_for(
+            v_c_mps as f32,
+            radius_m as f32,
+            r_prime as f32,
+        ))
+    };
+    let duration_s = if straight {
+        1.0 / v_c_mps
+    } else {
+        angle_rad.abs() / yaw_rate
+    };
+    let side = |role, cmd: f32| SideObs {
+        role,
+        cmd_mps: f64::from(cmd),
+        avg_power_w: 0.0,
+        energy_j: 0.0,
+        effective_power_w: 0.0,
+        growth_w: None,
+    };
+    Ok(TurnRow {
+        run: "synthetic".to_owned(),
+        run_index: 0,
+        manoeuvre: 0,
+        regime,
+        radius_cmd_m: if straight { f64::INFINITY } else { radius_m },
+        r_over_r_prime: if straight {
+            f64::INFINITY
+        } else {
+            r_over_r_prime
+        },
+        v_c_mps,
+        yaw_rate_cmd_rad_s: yaw_rate,
+        duration_s,
+        expected_duration_s: duration_s,
+        turned_from_yaw: !straight,
+        angular_slip: None,
+        t_start_s,
+        pitch_deg: None,
+        standstill_current_a: None,
+        bus_v,
+        sides: [
+            side(SideRole::Inner, speeds.left_mps),
+            side(SideRole::Outer, speeds.right_mps),
+        ],
+        calibration_kind: straight
+            || regime == Regime::Point
+            || r_over_r_prime >= features::CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
     })
 }
 
