@@ -6,18 +6,20 @@
 //!   measured − predicted [W] (see [`features`](super::features)).
 //! - **Folds**: leave-one-run-out (groups: runs; needs ≥ 2 runs) and leave-one-radius-out
 //!   (groups: commanded R/R' rounded to 0.01, straights one group). In every fold the baseline is
-//!   refitted on the training fold's calibration rows and the effect (with a correction of G for
-//!   the terms acting on every row) on the training fold's residuals; a fold where the effect cannot be fitted (no training row where it acts) predicts
-//!   no extra power.
+//!   refitted on the training fold's calibration rows and the effects on the training fold's
+//!   residuals ([`FittedModel::fit`]); a fold where they cannot be fitted (no training row where
+//!   they act) predicts no extra power.
 //! - **Penalty**: Akaike's final prediction error on the pooled held-out MSE,
-//!   MSE·(n + k)/(n − k) for k fitted parameters (the effect's, plus the G correction of the
-//!   terms acting on every row, see [`FittedEffect::fit`]) and n held-out side observations.
+//!   MSE·(n + k)/(n − k) for k fitted parameters ([`model_params`]: the terms', their growth
+//!   coefficients, τ of `motor-heating`) and n held-out side observations. A second score pools
+//!   the growth residuals (second minus first half of each turn) with the effective power.
 //! - **Significance**: the mean baseline residual of a (regime, side) group is significant when
 //!   its 95 % bootstrap interval (resampling runs, or manoeuvres within the group for one run)
 //!   excludes 0 and its size exceeds [`PRACTICAL_FLOOR_W`].
 //! - **Selection**: the effect with the lowest penalised error is named when the gap is
 //!   significant, it closes at least [`MIN_SHRINK_PCT`] of the held-out gap, and the runner-up's
-//!   penalised MSE is at least [`CLEAR_MARGIN`] times its own; otherwise `ambiguous`.
+//!   penalised MSE is at least [`CLEAR_MARGIN`] times its own; failing that, the same rule on the
+//!   score with growth; otherwise `ambiguous`.
 
 use super::baseline::{Baseline, BaselineError};
 use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};

@@ -4,7 +4,10 @@
 //! simulator's [`EffectId`]s, but the shapes here are the seed's, not the simulator's code: the
 //! diagnosis must work on data from any generator.
 //!
-//! Every term is extra **effective** power per side, ΔP_side [W] (see [`features`]).
+//! Every term is extra **effective** power per side, ΔP_side [W] (see [`features`]). Terms are
+//! fitted jointly ([`FittedModel::fit`]); power-type terms through their projection off the
+//! baseline's calibration fit ([`is_power_type`]). `inner-drag` and `sinkage-bulldozing` also
+//! predict the growth of power through the turn ([`has_growth`]).
 //!
 //! | id | seed | regressors per side |
 //! |---|---|---|
@@ -14,7 +17,7 @@
 //! | `slip-track` | Eq 2.2, Table D.1 | P_side on turns (ω scales by B_s,ctrl/B_s,terrain everywhere) |
 //! | `braked-inner` | Section 6.2, Fig 6.10–6.11 | at R = R' only: outer \|V_o\| |
 //! | `current-offset` | Section 3.2, Fig 3.3 | V_bus (an offset current on every manoeuvre and side) |
-//! | `motor-heating` | Section 1.1.3 | (P_side/V_bus)²·t_run (copper loss × the early, linear part of the winding's heating) |
+//! | `motor-heating` | Section 1.1.3 | (P_side/V_bus)²·(1 − e^(−t/τ)), t the run time at mid-manoeuvre, τ from a grid (copper loss × a first-order winding temperature rise) |
 //! | `slope` | Eq 1.16, 2.12 | m g sin θ · v_c · \|V_side\|/(\|V_l\| + \|V_r\|) |
 //!
 //! [`features`]: super::features
