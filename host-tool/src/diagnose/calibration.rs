@@ -9,10 +9,7 @@
 //! held-out diagnosed rows only.
 
 use super::baseline::{Baseline, BaselineError};
-use super::cv::{self, CandidateScore, HeldOut, Scheme};
-use super::effects::{fitted_params, Context, FittedEffect};
 use super::features::TurnRow;
-use crate::sim::world::EffectId;
 use model_core::Rover;
 use serde::Serialize;
 
@@ -95,110 +92,15 @@ impl<'a> Calibration<'a> {
         }
         train
     }
-
-    /// [`cv::heldout_residuals`] under this calibration: held-out residuals of every diagnosed
-    /// row, before (`effect` `None`) or after adding `effect`; `Ok(None)` when `scheme` has
-    /// fewer than 2 groups.
-    pub fn heldout_residuals(
-        &self,
-        rover: &Rover,
-        rows: &[TurnRow],
-        scheme: Scheme,
-        effect: Option<EffectId>,
-    ) -> Result<Option<HeldOut>, BaselineError> {
-        let Calibration::Rows(cal) = self else {
-            return cv::heldout_residuals(rover, rows, scheme, effect);
-        };
-        let mut groups: Vec<i64> = rows.iter().map(|r| group(scheme, r)).collect();
-        groups.sort_unstable();
-        groups.dedup();
-        if groups.len() < 2 {
-            return Ok(None);
-        }
-        let cal: Vec<&TurnRow> = cal.iter().filter(|r| r.calibration_kind).collect();
-        let baseline = Baseline::fit(rover, &cal)?;
-        let ctx = Context {
-            rover,
-            baseline: &baseline,
-        };
-        let mut out = Vec::with_capacity(rows.len());
-        for g in groups {
-            let mut train: Vec<&TurnRow> = rows.iter().filter(|r| group(scheme, r) != g).collect();
-            train.extend(cal.iter().copied());
-            let fitted = effect.and_then(|e| FittedEffect::fit(e, &train, &ctx).ok());
-            for (i, row) in rows
-                .iter()
-                .enumerate()
-                .filter(|(_, r)| group(scheme, r) == g)
-            {
-                let mut res = baseline.residual_w(row);
-                if let Some(f) = &fitted {
-                    for (side, r) in res.iter_mut().enumerate() {
-                        *r -= f.extra_w(row, side, &ctx);
-                    }
-                }
-                out.push((i, res));
-            }
-        }
-        out.sort_by_key(|(i, _)| *i);
-        Ok(Some(out))
-    }
-
-    /// [`cv::score_all`] under this calibration.
-    pub fn score_all(
-        &self,
-        rover: &Rover,
-        rows: &[TurnRow],
-        scheme: Scheme,
-    ) -> Result<Option<Vec<CandidateScore>>, BaselineError> {
-        if let Calibration::FromRuns = self {
-            return cv::score_all(rover, rows, scheme);
-        }
-        let Some(before) = self.heldout_residuals(rover, rows, scheme, None)? else {
-            return Ok(None);
-        };
-        let rms_before = cv::mean_square(&before, |_| true).unwrap_or(0.0).sqrt();
-        let n = before.len() * 2;
-        let mut out = Vec::new();
-        for effect in EffectId::ALL {
-            let Some(after) = self.heldout_residuals(rover, rows, scheme, Some(effect))? else {
-                return Ok(None);
-            };
-            let mse = cv::mean_square(&after, |_| true).unwrap_or(0.0);
-            let rms_after = mse.sqrt();
-            out.push(CandidateScore {
-                effect,
-                heldout_error_before: rms_before,
-                heldout_error_after: rms_after,
-                shrink_pct: if rms_before > 0.0 {
-                    100.0 * (1.0 - rms_after / rms_before)
-                } else {
-                    0.0
-                },
-                penalised_mse: cv::penalised(mse, n, fitted_params(effect)),
-            });
-        }
-        Ok(Some(out))
-    }
-}
-
-/// The fold of `row` under `scheme` (as in [`cv`]: run index, or R/R′ to 0.01 with straights
-/// one group).
-fn group(scheme: Scheme, row: &TurnRow) -> i64 {
-    match scheme {
-        Scheme::LeaveOneRunOut => row.run_index as i64,
-        Scheme::LeaveOneRadiusOut if row.r_over_r_prime.is_finite() => {
-            (row.r_over_r_prime * 100.0).round() as i64
-        }
-        Scheme::LeaveOneRadiusOut => i64::MAX,
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnose::cv::{self, Scheme};
     use crate::diagnose::tests::{rows_of, simulate_run};
     use crate::diagnose::{diagnose, diagnose_with};
+    use crate::sim::world::EffectId;
     use crate::sim::world::{Scenario, WorldConfig};
     use model_core::kinematics::Regime;
 
@@ -250,15 +152,20 @@ mod tests {
             straight_gap(&from_runs)
         );
 
-        let held = Calibration::Rows(&cal)
-            .heldout_residuals(&HUSKY, &runs, Scheme::LeaveOneRunOut, None)
-            .expect("fits")
-            .expect("3 runs");
-        let indices: Vec<usize> = held.iter().map(|(i, _)| *i).collect();
+        let held = cv::heldout_residuals(
+            &HUSKY,
+            &runs,
+            Scheme::LeaveOneRunOut,
+            &[],
+            Calibration::Rows(&cal),
+        )
+        .expect("fits")
+        .expect("3 runs");
+        let indices: Vec<usize> = held.iter().map(|r| r.row).collect();
         assert_eq!(indices, (0..runs.len()).collect::<Vec<_>>());
         // The baseline is the same in every fold: held-out residuals are the plain residuals.
-        for (i, res) in &held {
-            assert_eq!(*res, with_cal.baseline.residual_w(&runs[*i]));
+        for r in &held {
+            assert_eq!(r.effective_w, with_cal.baseline.residual_w(&runs[r.row]));
         }
     }
 

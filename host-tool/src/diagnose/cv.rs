@@ -6,21 +6,24 @@
 //!   measured − predicted [W] (see [`features`](super::features)).
 //! - **Folds**: leave-one-run-out (groups: runs; needs ≥ 2 runs) and leave-one-radius-out
 //!   (groups: commanded R/R' rounded to 0.01, straights one group). In every fold the baseline is
-//!   refitted on the training fold's calibration rows and the effect (with a correction of G for
-//!   the terms acting on every row) on the training fold's residuals; a fold where the effect cannot be fitted (no training row where it acts) predicts
-//!   no extra power.
+//!   refitted on the training fold's calibration rows and the effects on the training fold's
+//!   residuals ([`FittedModel::fit`]); a fold where they cannot be fitted (no training row where
+//!   they act) predicts no extra power.
 //! - **Penalty**: Akaike's final prediction error on the pooled held-out MSE,
-//!   MSE·(n + k)/(n − k) for k fitted parameters (the effect's, plus the G correction of the
-//!   terms acting on every row, see [`FittedEffect::fit`]) and n held-out side observations.
+//!   MSE·(n + k)/(n − k) for k fitted parameters ([`model_params`]: the terms', their growth
+//!   coefficients, τ of `motor-heating`) and n held-out side observations. A second score pools
+//!   the growth residuals (second minus first half of each turn) with the effective power.
 //! - **Significance**: the mean baseline residual of a (regime, side) group is significant when
 //!   its 95 % bootstrap interval (resampling runs, or manoeuvres within the group for one run)
 //!   excludes 0 and its size exceeds [`PRACTICAL_FLOOR_W`].
 //! - **Selection**: the effect with the lowest penalised error is named when the gap is
 //!   significant, it closes at least [`MIN_SHRINK_PCT`] of the held-out gap, and the runner-up's
-//!   penalised MSE is at least [`CLEAR_MARGIN`] times its own; otherwise `ambiguous`.
+//!   penalised MSE is at least [`CLEAR_MARGIN`] times its own; failing that, the same rule on the
+//!   score with growth; otherwise `ambiguous`.
 
 use super::baseline::{Baseline, BaselineError};
-use super::effects::{fitted_params, Context, FittedEffect};
+use super::calibration::Calibration;
+use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
 use crate::sim::world::EffectId;
 use model_core::Rover;
@@ -65,17 +68,33 @@ impl Scheme {
     }
 }
 
-/// Held-out residuals: (row index, [inner/left, outer/right] residual [W]), in row order.
-pub type HeldOut = Vec<(usize, [f64; 2])>;
+/// Held-out residuals of one row: effective power and growth per side ([inner/left,
+/// outer/right], measured − predicted [W]; growth `None` without phases).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RowResidual {
+    /// Index into the rows.
+    pub row: usize,
+    /// Effective-power residual per side [W].
+    pub effective_w: [f64; 2],
+    /// Growth residual per side [W].
+    pub growth_w: [Option<f64>; 2],
+}
 
-/// Held-out residuals of every row and side, before (baseline) and after adding `effect`
-/// (`None`: the baseline alone), pooled over the folds of `scheme`. `Ok(None)` when the scheme
-/// has fewer than 2 groups.
+/// Held-out residuals, in row order.
+pub type HeldOut = Vec<RowResidual>;
+
+/// Held-out residuals of every row and side, before (the baseline; `effects` empty) or after
+/// adding the jointly fitted `effects`, pooled over the folds of `scheme`. `Ok(None)` when the
+/// scheme has fewer than 2 groups. With in-run calibration the baseline is refitted on each
+/// training fold's calibration manoeuvres; with calibration runs it is theirs in every fold,
+/// and their manoeuvres join every training fold of the effects (an effect must not claim power
+/// on the manoeuvres the model is trusted on) but are never scored.
 pub fn heldout_residuals(
     rover: &Rover,
     rows: &[TurnRow],
     scheme: Scheme,
-    effect: Option<EffectId>,
+    effects: &[EffectId],
+    calibration: Calibration<'_>,
 ) -> Result<Option<HeldOut>, BaselineError> {
     let mut groups: Vec<i64> = rows.iter().map(|r| scheme.group(r)).collect();
     groups.sort_unstable();
@@ -83,46 +102,75 @@ pub fn heldout_residuals(
     if groups.len() < 2 {
         return Ok(None);
     }
+    let fixed = match calibration {
+        Calibration::FromRuns => None,
+        Calibration::Rows(_) => Some(calibration.baseline(rover, rows)?),
+    };
     let mut out = Vec::with_capacity(rows.len());
     for g in groups {
-        let train: Vec<&TurnRow> = rows.iter().filter(|r| scheme.group(r) != g).collect();
-        let cal: Vec<&TurnRow> = train
-            .iter()
-            .copied()
-            .filter(|r| r.calibration_kind)
-            .collect();
-        let baseline = Baseline::fit(rover, &cal)?;
+        let mut train: Vec<&TurnRow> = rows.iter().filter(|r| scheme.group(r) != g).collect();
+        let baseline = match &fixed {
+            Some(b) => {
+                train.extend(calibration.manoeuvres(rows));
+                *b
+            }
+            None => {
+                let cal: Vec<&TurnRow> = train
+                    .iter()
+                    .copied()
+                    .filter(|r| r.calibration_kind)
+                    .collect();
+                Baseline::fit(rover, &cal)?
+            }
+        };
         let ctx = Context {
             rover,
             baseline: &baseline,
+            heating_tau_s: HEATING_TAU_GRID_S[0],
         };
-        let fitted = effect.and_then(|e| FittedEffect::fit(e, &train, &ctx).ok());
+        // A fold where the model cannot be fitted predicts no extra power.
+        let fitted =
+            FittedModel::fit(effects, &train, &ctx).unwrap_or_else(|_| FittedModel::empty());
         for (i, row) in rows
             .iter()
             .enumerate()
             .filter(|(_, r)| scheme.group(r) == g)
         {
-            let mut res = baseline.residual_w(row);
-            if let Some(f) = &fitted {
-                for (side, r) in res.iter_mut().enumerate() {
-                    *r -= f.extra_w(row, side, &ctx);
+            let mut effective_w = baseline.residual_w(row);
+            let mut growth_w = [row.sides[0].growth_w, row.sides[1].growth_w];
+            for side in 0..2 {
+                effective_w[side] -= fitted.extra_w(row, side, &ctx);
+                if let Some(gw) = &mut growth_w[side] {
+                    *gw -= fitted.growth_w(row, side, &ctx);
                 }
             }
-            out.push((i, res));
+            out.push(RowResidual {
+                row: i,
+                effective_w,
+                growth_w,
+            });
         }
     }
-    out.sort_by_key(|(i, _)| *i);
+    out.sort_by_key(|r| r.row);
     Ok(Some(out))
 }
 
-/// Mean square of the residuals of the rows `keep` selects [W²]; `None` if none.
-pub fn mean_square(res: &[(usize, [f64; 2])], keep: impl Fn(usize) -> bool) -> Option<f64> {
+/// Mean square of the effective-power residuals of the rows `keep` selects [W²]; `None` if
+/// none.
+pub fn mean_square(res: &[RowResidual], keep: impl Fn(usize) -> bool) -> Option<f64> {
     let (sum, n) = res
         .iter()
-        .filter(|(i, _)| keep(*i))
-        .flat_map(|(_, r)| r.iter())
+        .filter(|r| keep(r.row))
+        .flat_map(|r| r.effective_w.iter())
         .fold((0.0, 0usize), |(s, n), r| (s + r * r, n + 1));
     (n > 0).then(|| sum / n as f64)
+}
+
+/// Sum of squares and count of the growth residuals [W², –].
+pub fn growth_sum_squares(res: &[RowResidual]) -> (f64, usize) {
+    res.iter()
+        .flat_map(|r| r.growth_w.iter().flatten())
+        .fold((0.0, 0usize), |(s, n), g| (s + g * g, n + 1))
 }
 
 /// Akaike's final prediction error of a mean square over `n` observations with `k` parameters.
@@ -145,39 +193,75 @@ pub struct CandidateScore {
     pub heldout_error_after: f64,
     /// 100·(1 − after/before) on the RMS [%].
     pub shrink_pct: f64,
-    /// FPE-penalised MSE after [W²].
+    /// FPE-penalised MSE of the effective power after (the selection's score) [W²].
     pub penalised_mse: f64,
+    /// FPE-penalised MSE of the effective power and the growth through the turn pooled (the
+    /// selection's second target, used when the first leaves the choice ambiguous) [W²].
+    pub penalised_mse_with_growth: f64,
 }
 
-/// Scores every catalogue effect under `scheme`; `Ok(None)` when the scheme has < 2 groups.
+/// The second selection score of held-out residuals: FPE of the pooled mean square of the
+/// effective-power and growth residuals with `k` parameters [W²].
+pub fn score_with_growth(res: &[RowResidual], k: usize) -> f64 {
+    let n_eff = res.len() * 2;
+    let eff = mean_square(res, |_| true).unwrap_or(0.0) * n_eff as f64;
+    let (growth, n_growth) = growth_sum_squares(res);
+    let n = n_eff + n_growth;
+    penalised((eff + growth) / n.max(1) as f64, n, k)
+}
+
+/// The score of the model `base` + `effect` (jointly fitted) against `before` under `scheme`.
+pub fn score_model(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    calibration: Calibration<'_>,
+    before: &[RowResidual],
+    effects: &[EffectId],
+) -> Result<Option<CandidateScore>, BaselineError> {
+    let Some(&effect) = effects.last() else {
+        return Ok(None);
+    };
+    let Some(after) = heldout_residuals(rover, rows, scheme, effects, calibration)? else {
+        return Ok(None);
+    };
+    let rms_before = mean_square(before, |_| true).unwrap_or(0.0).sqrt();
+    let rms_after = mean_square(&after, |_| true).unwrap_or(0.0).sqrt();
+    Ok(Some(CandidateScore {
+        effect,
+        heldout_error_before: rms_before,
+        heldout_error_after: rms_after,
+        shrink_pct: if rms_before > 0.0 {
+            100.0 * (1.0 - rms_after / rms_before)
+        } else {
+            0.0
+        },
+        penalised_mse: penalised(
+            rms_after * rms_after,
+            after.len() * 2,
+            model_params(effects),
+        ),
+        penalised_mse_with_growth: score_with_growth(&after, model_params(effects)),
+    }))
+}
+
+/// Scores every catalogue effect alone under `scheme`; `Ok(None)` when the scheme has < 2
+/// groups.
 pub fn score_all(
     rover: &Rover,
     rows: &[TurnRow],
     scheme: Scheme,
+    calibration: Calibration<'_>,
 ) -> Result<Option<Vec<CandidateScore>>, BaselineError> {
-    let Some(before) = heldout_residuals(rover, rows, scheme, None)? else {
+    let Some(before) = heldout_residuals(rover, rows, scheme, &[], calibration)? else {
         return Ok(None);
     };
-    let rms_before = mean_square(&before, |_| true).unwrap_or(0.0).sqrt();
-    let n = before.len() * 2;
     let mut out = Vec::new();
     for effect in EffectId::ALL {
-        let Some(after) = heldout_residuals(rover, rows, scheme, Some(effect))? else {
-            return Ok(None);
-        };
-        let mse = mean_square(&after, |_| true).unwrap_or(0.0);
-        let rms_after = mse.sqrt();
-        out.push(CandidateScore {
-            effect,
-            heldout_error_before: rms_before,
-            heldout_error_after: rms_after,
-            shrink_pct: if rms_before > 0.0 {
-                100.0 * (1.0 - rms_after / rms_before)
-            } else {
-                0.0
-            },
-            penalised_mse: penalised(mse, n, fitted_params(effect)),
-        });
+        match score_model(rover, rows, scheme, calibration, &before, &[effect])? {
+            Some(c) => out.push(c),
+            None => return Ok(None),
+        }
     }
     Ok(Some(out))
 }

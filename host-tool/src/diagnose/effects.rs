@@ -4,7 +4,10 @@
 //! simulator's [`EffectId`]s, but the shapes here are the seed's, not the simulator's code: the
 //! diagnosis must work on data from any generator.
 //!
-//! Every term is extra **effective** power per side, ΔP_side [W] (see [`features`]).
+//! Every term is extra **effective** power per side, ΔP_side [W] (see [`features`]). Terms are
+//! fitted jointly ([`FittedModel::fit`]); power-type terms through their projection off the
+//! baseline's calibration fit ([`is_power_type`]). `inner-drag` and `sinkage-bulldozing` also
+//! predict the growth of power through the turn ([`has_growth`]).
 //!
 //! | id | seed | regressors per side |
 //! |---|---|---|
@@ -14,7 +17,7 @@
 //! | `slip-track` | Eq 2.2, Table D.1 | P_side on turns (ω scales by B_s,ctrl/B_s,terrain everywhere) |
 //! | `braked-inner` | Section 6.2, Fig 6.10–6.11 | at R = R' only: outer \|V_o\| |
 //! | `current-offset` | Section 3.2, Fig 3.3 | V_bus (an offset current on every manoeuvre and side) |
-//! | `motor-heating` | Section 1.1.3 | (P_side/V_bus)²·t_run (copper loss × the early, linear part of the winding's heating) |
+//! | `motor-heating` | Section 1.1.3 | (P_side/V_bus)²·(1 − e^(−t/τ)), t the run time at mid-manoeuvre, τ from a grid (copper loss × a first-order winding temperature rise) |
 //! | `slope` | Eq 1.16, 2.12 | m g sin θ · v_c · \|V_side\|/(\|V_l\| + \|V_r\|) |
 //!
 //! [`features`]: super::features
@@ -22,9 +25,9 @@
 use super::baseline::Baseline;
 use super::features::{SideRole, TurnRow};
 use crate::sim::world::EffectId;
-use model_core::fit::LinearFit;
 use model_core::power::GRAVITY_M_S2;
 use model_core::Rover;
+use serde::Serialize;
 
 /// Most parameters any effect has.
 pub const MAX_PARAMS: usize = 2;
@@ -40,7 +43,23 @@ pub struct Context<'a> {
     pub rover: &'a Rover,
     /// The fitted baseline (for P_side of the multiplicative terms).
     pub baseline: &'a Baseline,
+    /// τ of the `motor-heating` term [s] (one of [`HEATING_TAU_GRID_S`]).
+    pub heating_tau_s: f64,
 }
+
+/// The winding's first-order temperature rise at run time `t_s` as a fraction of its final
+/// value, 1 − e^(−t/τ) (a constant mean copper loss heating a first-order thermal mass).
+pub fn heating_rise(t_s: f64, tau_s: f64) -> f64 {
+    if tau_s > 0.0 {
+        1.0 - (-t_s.max(0.0) / tau_s).exp()
+    } else {
+        1.0
+    }
+}
+
+/// The thermal time constants the `motor-heating` term is tried with [s] (small gearmotors:
+/// minutes to tens of minutes); the choice counts as one fitted parameter.
+pub const HEATING_TAU_GRID_S: [f64; 6] = [60.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
 
 /// Parameter count of `effect`'s term.
 pub const fn param_count(effect: EffectId) -> usize {
@@ -50,18 +69,47 @@ pub const fn param_count(effect: EffectId) -> usize {
     }
 }
 
-/// Whether `effect` acts on every manoeuvre (and so is fitted with a correction of G, one
-/// more parameter).
-pub const fn corrects_g(effect: EffectId) -> bool {
-    matches!(
-        effect,
-        EffectId::CurrentOffset | EffectId::Slope | EffectId::MotorHeating
-    )
+/// Whether `effect` changes the **average** power (a power-type term), as opposed to the
+/// time-type terms (`angular-slip`, `slip-track`) that only lengthen the turn. The baseline is
+/// fitted on the calibration rows' average power, so a power-type term acting on calibration
+/// rows (point turns, straights, wide turns) is partly absorbed into a and G: it appears in the
+/// residuals as its regressor minus that regressor's projection on the baseline's features over
+/// the calibration rows (Frisch–Waugh–Lovell), which [`FittedModel::fit`] uses.
+pub const fn is_power_type(effect: EffectId) -> bool {
+    !matches!(effect, EffectId::AngularSlip | EffectId::SlipTrack)
 }
 
-/// Parameters a candidate fits: its own plus the G correction where [`corrects_g`].
-pub const fn fitted_params(effect: EffectId) -> usize {
-    param_count(effect) + if corrects_g(effect) { 1 } else { 0 }
+/// Parameters a candidate fits on its own: its term's, the growth coefficient where
+/// [`has_growth`], τ for `motor-heating`.
+pub fn fitted_params(effect: EffectId) -> usize {
+    model_params(&[effect])
+}
+
+/// Parameters of a model of several effects fitted jointly (see [`FittedModel::fit`]).
+pub fn model_params(effects: &[EffectId]) -> usize {
+    effects
+        .iter()
+        .map(|&e| {
+            param_count(e) + usize::from(has_growth(e)) + usize::from(e == EffectId::MotorHeating)
+        })
+        .sum()
+}
+
+/// Whether `effect` makes power rise through a turn (the seed's growing sand piles: the inner
+/// wheels' excavated pile, Fig 5.7b, and the sinkage of both sides, Fig 5.11 and 5.19), and so
+/// also predicts the growth target (second minus first half of the turn's average power).
+pub const fn has_growth(effect: EffectId) -> bool {
+    matches!(effect, EffectId::InnerDrag | EffectId::SinkageBulldozing)
+}
+
+/// The growth regressor of `effect` for side `side` of `row`: the shape of its power rise
+/// through the turn (0 when the effect does not grow or `row` has no phases).
+pub fn growth_regressor(effect: EffectId, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
+    if !has_growth(effect) {
+        return 0.0;
+    }
+    // Both growing terms rise with the shape of their base power.
+    regressors(effect, row, side, ctx).map_or(0.0, |x| x[0])
 }
 
 /// The regressors of `effect` for side `side` of `row` (unused slots are 0); `None` when the
@@ -134,7 +182,8 @@ pub fn regressors(
         EffectId::MotorHeating => {
             if row.bus_v > 0.0 {
                 let i = ctx.baseline.side_power_w(row, side) / row.bus_v;
-                [i * i * row.t_start_s, 0.0]
+                let t_mid_s = row.t_start_s + 0.5 * row.duration_s;
+                [i * i * heating_rise(t_mid_s, ctx.heating_tau_s), 0.0]
             } else {
                 [0.0, 0.0]
             }
@@ -154,79 +203,289 @@ pub fn regressors(
     Some(x)
 }
 
-/// An effect's term fitted to training residuals.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One effect's fitted term within a [`FittedModel`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FittedEffect {
     /// Which effect.
     pub effect: EffectId,
-    /// Its coefficients (the first `param_count` are used).
+    /// Its coefficients (the first [`param_count`] are used).
     pub params: [f64; MAX_PARAMS],
-    /// Correction to the baseline's G fitted with it (0 unless [`corrects_g`]) [N].
-    pub correction: f64,
+    /// Coefficient of its growth regressor (0 unless [`has_growth`]).
+    pub growth: f64,
+}
+
+/// Several catalogue terms fitted jointly to the baseline's residuals, with the baseline
+/// corrections the all-row terms need.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FittedModel {
+    /// The terms, in the order asked for.
+    pub effects: Vec<FittedEffect>,
+    /// What the power-type terms moved the baseline's a = F/B_s by on the calibration rows,
+    /// negated: a + this is the skid force without the terms [N].
+    pub correction_a_n: f64,
+    /// The same for G [N].
+    pub correction_g_n: f64,
+    /// τ of `motor-heating` chosen on the training rows [s] (the grid's first if absent).
+    pub heating_tau_s: f64,
 }
 
 /// Why an effect could not be fitted on a training set (e.g. its regressors are all zero there:
 /// the training fold holds no row of the regime it acts on).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{effect}: {reason}")]
+#[error("{effects:?}: {reason}")]
 pub struct EffectFitError {
-    /// The effect.
-    pub effect: EffectId,
+    /// The effects of the model.
+    pub effects: Vec<EffectId>,
     /// The least-squares complaint.
     pub reason: String,
 }
 
-impl FittedEffect {
-    /// Least squares of the baseline residual of every side of `train` on `effect`'s regressors.
-    pub fn fit(
-        effect: EffectId,
-        train: &[&TurnRow],
-        ctx: &Context<'_>,
-    ) -> Result<FittedEffect, EffectFitError> {
-        let err = |e: model_core::fit::FitError| EffectFitError {
-            effect,
-            reason: e.to_string(),
-        };
-        // Terms acting on every row (offset, slope, heating) are fitted jointly with a
-        // correction of the baseline's G: at one v_c an offset per side is indistinguishable
-        // from G on the calibration rows, so they are absorbed unless G may move with them.
-        // Terms acting on some rows only are fitted alone (a G correction would move the rows
-        // they do not act on, e.g. the straights).
-        let mut alone1 = LinearFit::<1>::new();
-        let mut alone2 = LinearFit::<2>::new();
-        let mut with_g = LinearFit::<2>::new();
-        for row in train {
-            let res = ctx.baseline.residual_w(row);
-            for (side, &r) in res.iter().enumerate() {
-                let x = regressors(effect, row, side, ctx).unwrap_or([0.0; MAX_PARAMS]);
-                let v = row.sides[side].cmd_mps.abs();
-                match (corrects_g(effect), param_count(effect)) {
-                    (true, _) => with_g.add([x[0], v], r),
-                    (false, 1) => alone1.add([x[0]], r),
-                    (false, _) => alone2.add(x, r),
-                }
-                .map_err(err)?;
-            }
+/// Least squares by Givens rotations for a column count known at run time; `None` when the
+/// columns are (numerically) dependent or there are fewer rows than columns.
+pub fn least_squares(rows: &[(Vec<f64>, f64)]) -> Option<(Vec<f64>, f64)> {
+    let k = rows.first()?.0.len();
+    if k == 0 || rows.len() < k {
+        return None;
+    }
+    let mut r = vec![vec![0.0f64; k]; k];
+    let mut qty = vec![0.0f64; k];
+    let mut ssr = 0.0;
+    let mut col_norm = vec![0.0f64; k];
+    for (x, y) in rows {
+        let (mut row, mut rhs) = (x.clone(), *y);
+        for (n, v) in col_norm.iter_mut().zip(x) {
+            *n += v * v;
         }
-        let (params, correction) = match (corrects_g(effect), param_count(effect)) {
-            (true, _) => {
-                let c = with_g.coefficients().map_err(err)?;
-                ([c[0], 0.0], c[1])
+        for i in 0..k {
+            let xi = row[i];
+            if xi == 0.0 {
+                continue;
             }
-            (false, 1) => ([alone1.coefficients().map_err(err)?[0], 0.0], 0.0),
-            (false, _) => (alone2.coefficients().map_err(err)?, 0.0),
-        };
-        Ok(FittedEffect {
-            effect,
-            params,
-            correction,
-        })
+            let h = r[i][i].hypot(xi);
+            let (c, s) = (r[i][i] / h, xi / h);
+            r[i][i] = h;
+            for j in (i + 1)..k {
+                let (rij, xj) = (r[i][j], row[j]);
+                r[i][j] = c * rij + s * xj;
+                row[j] = c * xj - s * rij;
+            }
+            let zi = qty[i];
+            qty[i] = c * zi + s * rhs;
+            rhs = c * rhs - s * zi;
+        }
+        ssr += rhs * rhs;
+    }
+    // A column whose pivot is a tiny fraction of its norm is a combination of the others.
+    for i in 0..k {
+        if r[i][i].is_nan() || r[i][i] <= 1e-7 * col_norm[i].sqrt() {
+            return None;
+        }
+    }
+    let mut b = vec![0.0; k];
+    for i in (0..k).rev() {
+        let mut acc = qty[i];
+        for j in (i + 1)..k {
+            acc -= r[i][j] * b[j];
+        }
+        b[i] = acc / r[i][i];
+    }
+    b.iter().all(|v| v.is_finite()).then_some((b, ssr))
+}
+
+impl FittedModel {
+    /// No term (the baseline alone).
+    pub fn empty() -> FittedModel {
+        FittedModel {
+            effects: Vec::new(),
+            correction_a_n: 0.0,
+            correction_g_n: 0.0,
+            heating_tau_s: HEATING_TAU_GRID_S[0],
+        }
     }
 
-    /// The term's extra power for side `side` of `row` [W].
+    /// Joint least squares of the baseline residual (effective power) of every side of `train`
+    /// on the regressors of `effects` (no intercept). A power-type term's regressor is taken
+    /// minus its projection on the baseline's features (skid, |V|) over the calibration rows of
+    /// `train` (see [`is_power_type`]): that is how the term shows in the residuals of a
+    /// baseline fitted with the term present, so e.g. a constant offset per side, which at one
+    /// v_c the baseline absorbs into G and a on the calibration rows, is still fitted exactly,
+    /// and no free correction of the baseline is needed. The growth coefficients are a second
+    /// least squares of the observed growth per side on the growth regressors.
+    /// `motor-heating`'s τ is the one of [`HEATING_TAU_GRID_S`] with the smallest training
+    /// residual.
+    pub fn fit(
+        effects: &[EffectId],
+        train: &[&TurnRow],
+        ctx: &Context<'_>,
+    ) -> Result<FittedModel, EffectFitError> {
+        let fail = |reason: &str| EffectFitError {
+            effects: effects.to_vec(),
+            reason: reason.to_owned(),
+        };
+        if effects.is_empty() {
+            return Ok(FittedModel::empty());
+        }
+        let taus: &[f64] = if effects.contains(&EffectId::MotorHeating) {
+            &HEATING_TAU_GRID_S
+        } else {
+            &HEATING_TAU_GRID_S[..1]
+        };
+        let features = |row: &TurnRow, side: usize| {
+            [
+                super::baseline::skid_feature_mps(row, side),
+                row.sides[side].cmd_mps.abs(),
+            ]
+        };
+        let mut best: Option<(f64, FittedModel)> = None;
+        for &tau in taus {
+            let ctx = Context {
+                heating_tau_s: tau,
+                ..*ctx
+            };
+            // Projection of each power-type column on the baseline's features over the
+            // calibration rows: [effect][param] -> [on skid, on |V|].
+            let projections: Vec<[[f64; 2]; MAX_PARAMS]> = effects
+                .iter()
+                .map(|&e| {
+                    let mut out = [[0.0; 2]; MAX_PARAMS];
+                    if !is_power_type(e) {
+                        return out;
+                    }
+                    for (p, slot) in out.iter_mut().enumerate().take(param_count(e)) {
+                        let design: Vec<(Vec<f64>, f64)> = train
+                            .iter()
+                            .filter(|r| r.calibration_kind)
+                            .flat_map(|r| {
+                                (0..2).map(move |side| {
+                                    let z =
+                                        regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS]);
+                                    (features(r, side).to_vec(), z[p])
+                                })
+                            })
+                            .collect();
+                        if let Some((b, _)) = least_squares(&design) {
+                            *slot = [b[0], b[1]];
+                        }
+                    }
+                    out
+                })
+                .collect();
+            let mut design = Vec::new();
+            for row in train {
+                let res = ctx.baseline.residual_w(row);
+                for (side, &y) in res.iter().enumerate() {
+                    let f = features(row, side);
+                    let mut x = Vec::new();
+                    for (&e, proj) in effects.iter().zip(&projections) {
+                        let r = regressors(e, row, side, &ctx).unwrap_or([0.0; MAX_PARAMS]);
+                        for p in 0..param_count(e) {
+                            x.push(r[p] - proj[p][0] * f[0] - proj[p][1] * f[1]);
+                        }
+                    }
+                    design.push((x, y));
+                }
+            }
+            let Some((b, ssr)) = least_squares(&design) else {
+                continue;
+            };
+            if best.as_ref().is_some_and(|(s, _)| *s <= ssr) {
+                continue;
+            }
+            let mut at = 0;
+            let mut fitted = Vec::new();
+            let (mut correction_a_n, mut correction_g_n) = (0.0, 0.0);
+            for (&e, proj) in effects.iter().zip(&projections) {
+                let mut params = [0.0; MAX_PARAMS];
+                params[..param_count(e)].copy_from_slice(&b[at..at + param_count(e)]);
+                at += param_count(e);
+                for p in 0..param_count(e) {
+                    correction_a_n -= proj[p][0] * params[p];
+                    correction_g_n -= proj[p][1] * params[p];
+                }
+                fitted.push(FittedEffect {
+                    effect: e,
+                    params,
+                    growth: 0.0,
+                });
+            }
+            best = Some((
+                ssr,
+                FittedModel {
+                    effects: fitted,
+                    correction_a_n,
+                    correction_g_n,
+                    heating_tau_s: tau,
+                },
+            ));
+        }
+        let (_, mut model) = best.ok_or_else(|| fail("regressors are zero or collinear"))?;
+        let growing: Vec<usize> = (0..effects.len())
+            .filter(|&k| has_growth(effects[k]))
+            .collect();
+        if !growing.is_empty() {
+            let mut design = Vec::new();
+            for row in train {
+                for side in 0..2 {
+                    let Some(g) = row.sides[side].growth_w else {
+                        continue;
+                    };
+                    let x = growing
+                        .iter()
+                        .map(|&k| growth_regressor(effects[k], row, side, ctx))
+                        .collect();
+                    design.push((x, g));
+                }
+            }
+            // No phases or no row where it grows: the terms predict no growth.
+            if let Some((b, _)) = least_squares(&design) {
+                for (&k, g) in growing.iter().zip(b) {
+                    model.effects[k].growth = g;
+                }
+            }
+        }
+        Ok(model)
+    }
+
+    /// The context with this model's τ.
+    fn ctx<'a>(&self, ctx: &Context<'a>) -> Context<'a> {
+        Context {
+            heating_tau_s: self.heating_tau_s,
+            ..*ctx
+        }
+    }
+
+    /// The model's extra effective power for side `side` of `row` [W] (corrections included).
     pub fn extra_w(&self, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
-        let base = self.correction * row.sides[side].cmd_mps.abs();
-        base + regressors(self.effect, row, side, ctx)
+        let ctx = self.ctx(ctx);
+        self.correction_w(row, side)
+            + self
+                .effects
+                .iter()
+                .map(|f| f.term_w(row, side, &ctx))
+                .sum::<f64>()
+    }
+
+    /// The baseline corrections' share of [`FittedModel::extra_w`] [W].
+    pub fn correction_w(&self, row: &TurnRow, side: usize) -> f64 {
+        self.correction_a_n * super::baseline::skid_feature_mps(row, side)
+            + self.correction_g_n * row.sides[side].cmd_mps.abs()
+    }
+
+    /// The model's predicted growth through the turn for side `side` of `row` [W].
+    pub fn growth_w(&self, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
+        let ctx = self.ctx(ctx);
+        self.effects
+            .iter()
+            .map(|f| f.growth * growth_regressor(f.effect, row, side, &ctx))
+            .sum()
+    }
+}
+
+impl FittedEffect {
+    /// This term's own extra power for side `side` of `row` (no baseline correction) [W];
+    /// `ctx` must carry the model's τ.
+    pub fn term_w(&self, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
+        regressors(self.effect, row, side, ctx)
             .map_or(0.0, |x| x[0] * self.params[0] + x[1] * self.params[1])
     }
 }

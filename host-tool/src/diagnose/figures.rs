@@ -6,7 +6,6 @@
 use super::cv::HeldOut;
 use super::features::{SideRole, TurnRow};
 use crate::plot::{Chart, Figure, Legend, Marker, Series, SeriesStyle};
-use crate::sim::world::EffectId;
 use model_core::Rover;
 
 /// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
@@ -60,7 +59,7 @@ pub fn residuals_vs_radius(
     rows: &[TurnRow],
     before: &HeldOut,
     after: &HeldOut,
-    effect: EffectId,
+    effect: &str,
 ) -> Figure {
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
@@ -74,10 +73,10 @@ pub fn residuals_vs_radius(
             // effect adds nothing) stay visible.
             let points = |res: &HeldOut, dx: f64| {
                 res.iter()
-                    .filter_map(|(i, r)| {
-                        let row = rows.get(*i)?;
+                    .filter_map(|r| {
+                        let row = rows.get(r.row)?;
                         (!row.is_straight())
-                            .then(|| (row.r_over_r_prime + dx, r[side_of(row, role)]))
+                            .then(|| (row.r_over_r_prime + dx, r.effective_w[side_of(row, role)]))
                     })
                     .collect::<Vec<_>>()
             };

@@ -23,6 +23,7 @@ use crate::sim::world::EffectId;
 use baseline::{Baseline, BaselineError};
 use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};
+use effects::{Context, EffectFitError, FittedModel, HEATING_TAU_GRID_S};
 use features::{SideRole, TurnRow};
 use model_core::kinematics::Regime;
 use model_core::Rover;
@@ -40,6 +41,9 @@ pub enum DiagnoseError {
     /// One run and one radius: nothing to hold out.
     #[error("cross-validation needs at least two runs or two radii")]
     NothingToHoldOut,
+    /// The effects asked for cannot be fitted on these rows.
+    #[error(transparent)]
+    EffectFit(#[from] EffectFitError),
 }
 
 /// The mean baseline residual of one (regime, side) group.
@@ -79,10 +83,31 @@ pub struct Diagnosis {
     /// Every candidate under the other scheme (if it has ≥ 2 groups), catalogue order.
     pub other_scheme: Option<(Scheme, Vec<CandidateScore>)>,
     /// Held-out error before/after the named effect (the best candidate when none is named),
-    /// all rows and per regime, under `scheme`.
+    /// under `scheme`: all rows (`all`), the rows of the regimes with a significant gap
+    /// (`gap`, absent without one), then per regime.
     pub heldout: Vec<HeldOutError>,
     /// What the baseline was fitted on.
     pub calibration: CalibrationNote,
+    /// The regimes with a significant gap on either side (the rows of `heldout`'s `gap`).
+    pub gap_regimes: Vec<Regime>,
+    /// Further effects added by forward stepwise selection after the named one, in order, each
+    /// with the held-out error of the model up to it.
+    pub secondary: Vec<StepwiseStep>,
+}
+
+/// One step of the forward stepwise selection after the named effect.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StepwiseStep {
+    /// The effect added.
+    pub effect: EffectId,
+    /// Held-out RMS of the model with every effect up to this one, all rows [W].
+    pub heldout_error_after: f64,
+    /// 100·(1 − after/baseline's held-out RMS) [%].
+    pub shrink_pct: f64,
+    /// The selection score of the model up to this one (see [`cv::score`]) [W²].
+    pub penalised_mse: f64,
+    /// The score of the model before this step [W²].
+    pub penalised_mse_before: f64,
 }
 
 /// Held-out RMS before and after one effect over a set of rows.
@@ -105,6 +130,7 @@ impl Diagnosis {
     /// (all rows; `heldout_per_regime` has the rest), plus the baseline and the gaps.
     pub fn to_json(&self) -> serde_json::Value {
         let all = self.heldout.iter().find(|h| h.regime == "all");
+        let gap = self.heldout.iter().find(|h| h.regime == "gap");
         serde_json::json!({
             "effect": self.effect,
             "regime": self.regime,
@@ -127,7 +153,17 @@ impl Diagnosis {
                 "error_after": h.error_after,
                 "shrink_pct": h.shrink_pct,
             })),
-            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all").collect::<Vec<_>>(),
+            "heldout_gap": gap.map(|h| serde_json::json!({
+                "scheme": self.scheme.id(),
+                "rows": "regimes with a significant gap",
+                "regimes": self.gap_regimes.iter().map(|r| r.id()).collect::<Vec<_>>(),
+                "effect": h.effect.id(),
+                "error_before": h.error_before,
+                "error_after": h.error_after,
+                "shrink_pct": h.shrink_pct,
+            })),
+            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all" && h.regime != "gap").collect::<Vec<_>>(),
+            "secondary": self.secondary,
             "baseline": self.baseline,
             "gaps": self.gaps,
             "calibration": self.calibration,
@@ -183,12 +219,17 @@ pub fn diagnose_with(
         }
     }
     let significant = gaps.iter().any(|g| g.significant);
-    let regime = gaps
+    let mut gap_regimes: Vec<Regime> = gaps
+        .iter()
+        .filter(|g| g.significant)
+        .map(|g| g.regime)
+        .collect();
+    gap_regimes.dedup();
+    let largest_gap = gaps
         .iter()
         .filter(|g| g.significant)
         .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
-        .map_or("all", |g| g.regime.id())
-        .to_owned();
+        .map(|g| g.regime);
 
     let runs = rows.iter().map(|r| r.run_index).max().unwrap_or(0) + 1;
     let (primary, secondary) = if runs >= 2 {
@@ -196,33 +237,24 @@ pub fn diagnose_with(
     } else {
         (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
     };
-    let mut candidates = calibration
-        .score_all(rover, rows, primary)?
+    let before = cv::heldout_residuals(rover, rows, primary, &[], calibration)?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
+    let mut candidates =
+        cv::score_all(rover, rows, primary, calibration)?.ok_or(DiagnoseError::NothingToHoldOut)?;
     candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
-    let other_scheme = calibration
-        .score_all(rover, rows, secondary)?
-        .map(|c| (secondary, c));
+    let other_scheme = cv::score_all(rover, rows, secondary, calibration)?.map(|c| (secondary, c));
 
     let effect = if !significant {
         "none".to_owned()
     } else {
-        match candidates.as_slice() {
-            [best, runner_up, ..]
-                if best.shrink_pct >= cv::MIN_SHRINK_PCT
-                    && runner_up.penalised_mse >= cv::CLEAR_MARGIN * best.penalised_mse =>
-            {
-                best.effect.id().to_owned()
-            }
-            _ => "ambiguous".to_owned(),
-        }
+        select(&candidates)
+            .map_or("ambiguous", |e| e.id())
+            .to_owned()
     };
-    let added = named_id(&effect).unwrap_or(candidates[0].effect);
+    let named = named_id(&effect);
+    let added = named.unwrap_or(candidates[0].effect);
     let mut heldout = Vec::new();
-    if let (Some(before), Some(after)) = (
-        calibration.heldout_residuals(rover, rows, primary, None)?,
-        calibration.heldout_residuals(rover, rows, primary, Some(added))?,
-    ) {
+    if let Some(after) = cv::heldout_residuals(rover, rows, primary, &[added], calibration)? {
         let mut push = |regime: String, keep: &dyn Fn(usize) -> bool| {
             if let (Some(b), Some(a)) = (
                 cv::mean_square(&before, keep),
@@ -239,10 +271,37 @@ pub fn diagnose_with(
             }
         };
         push("all".to_owned(), &|_| true);
+        if !gap_regimes.is_empty() {
+            push("gap".to_owned(), &|i| gap_regimes.contains(&rows[i].regime));
+        }
         for regime in Regime::ALL {
             push(regime.id().to_owned(), &|i| rows[i].regime == regime);
         }
     }
+
+    let secondary_steps = match (named, candidates.first()) {
+        (Some(first), Some(score)) => {
+            stepwise(rover, rows, primary, calibration, &before, first, score)?
+        }
+        _ => Vec::new(),
+    };
+
+    let regime = match named {
+        Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => "all".to_owned(),
+        Some(_) => largest_gap.map_or("all", |r| r.id()).to_owned(),
+        // Without a named effect: `all` when every regime present has a significant gap.
+        None => {
+            let present = Regime::ALL
+                .iter()
+                .filter(|r| rows.iter().any(|row| row.regime == **r))
+                .count();
+            if gap_regimes.len() == present {
+                "all".to_owned()
+            } else {
+                largest_gap.map_or("all", |r| r.id()).to_owned()
+            }
+        }
+    };
     Ok(Diagnosis {
         heldout,
         effect,
@@ -253,8 +312,183 @@ pub fn diagnose_with(
         scheme: primary,
         candidates,
         other_scheme,
+        gap_regimes,
+        secondary: secondary_steps,
         calibration: calibration.note(rows),
     })
+}
+
+/// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
+/// power if it beats the runner-up by [`cv::CLEAR_MARGIN`]; else the best on effective power
+/// and growth pooled if that beats its runner-up by the margin (the growth through the turn
+/// separates terms of similar average shape, e.g. sinkage from angular slip). Either way it must
+/// close [`cv::MIN_SHRINK_PCT`] of the held-out gap.
+fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
+    let clear = |sorted: &[&CandidateScore], key: fn(&CandidateScore) -> f64| match sorted {
+        [best, runner_up, ..]
+            if best.shrink_pct >= cv::MIN_SHRINK_PCT
+                && key(runner_up) >= cv::CLEAR_MARGIN * key(best) =>
+        {
+            Some(best.effect)
+        }
+        _ => None,
+    };
+    let mut by_power: Vec<&CandidateScore> = candidates.iter().collect();
+    by_power.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
+    let mut by_growth = by_power.clone();
+    by_growth.sort_by(|a, b| {
+        a.penalised_mse_with_growth
+            .total_cmp(&b.penalised_mse_with_growth)
+    });
+    clear(&by_power, |c| c.penalised_mse)
+        .or_else(|| clear(&by_growth, |c| c.penalised_mse_with_growth))
+}
+
+/// Forward stepwise selection after `first`: adds, one at a time, the effect whose joint model
+/// has the lowest score while that score beats the current one by [`cv::CLEAR_MARGIN`] and the
+/// held-out RMS it removes is at least [`cv::PRACTICAL_FLOOR_W`].
+fn stepwise(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    calibration: Calibration<'_>,
+    before: &[cv::RowResidual],
+    first: EffectId,
+    first_score: &CandidateScore,
+) -> Result<Vec<StepwiseStep>, DiagnoseError> {
+    let mut chosen = vec![first];
+    let mut current = first_score.penalised_mse;
+    let mut steps = Vec::new();
+    loop {
+        let mut best: Option<CandidateScore> = None;
+        for e in EffectId::ALL.into_iter().filter(|e| !chosen.contains(e)) {
+            let mut model = chosen.clone();
+            model.push(e);
+            if let Some(c) = cv::score_model(rover, rows, scheme, calibration, before, &model)? {
+                if best.is_none_or(|b| c.penalised_mse < b.penalised_mse) {
+                    best = Some(c);
+                }
+            }
+        }
+        // The step must beat the current model clearly and explain a practically relevant
+        // power: the RMS it removes, √(MSE_before − MSE_after), at least the practical floor.
+        let rms_now = steps
+            .last()
+            .map_or(first_score.heldout_error_after, |s: &StepwiseStep| {
+                s.heldout_error_after
+            });
+        match best {
+            Some(b)
+                if current >= cv::CLEAR_MARGIN * b.penalised_mse
+                    && (rms_now * rms_now - b.heldout_error_after * b.heldout_error_after)
+                        .max(0.0)
+                        .sqrt()
+                        >= cv::PRACTICAL_FLOOR_W =>
+            {
+                chosen.push(b.effect);
+                steps.push(StepwiseStep {
+                    effect: b.effect,
+                    heldout_error_after: b.heldout_error_after,
+                    shrink_pct: b.shrink_pct,
+                    penalised_mse: b.penalised_mse,
+                    penalised_mse_before: current,
+                });
+                current = b.penalised_mse;
+            }
+            _ => return Ok(steps),
+        }
+    }
+}
+
+/// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
+/// baseline corrections) has an RMS per side of at least [`cv::PRACTICAL_FLOOR_W`] in some
+/// regime and at least half of that floor on the straights and in every other regime present
+/// but at most one (a slope term vanishes on point turns, where v_y = 0). Then
+/// the departure is not confined to a regime and the diagnosis' regime is `all`. (The gaps
+/// alone cannot say so: a term acting on every row is partly absorbed into a and G on the
+/// calibration rows, so its gaps change sign between regimes.)
+fn acts_in_every_regime(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effect: EffectId,
+    calibration: Calibration<'_>,
+) -> Result<bool, DiagnoseError> {
+    let (baseline, model) = fit_model(rover, rows, &[effect], calibration)?;
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    let Some(term) = model.effects.first() else {
+        return Ok(false);
+    };
+    let rms: Vec<(Regime, f64)> = Regime::ALL
+        .iter()
+        .filter_map(|&regime| {
+            let of: Vec<&TurnRow> = rows.iter().filter(|r| r.regime == regime).collect();
+            (!of.is_empty()).then(|| {
+                let ms = of
+                    .iter()
+                    .flat_map(|r| (0..2).map(move |side| term.term_w(r, side, &ctx).powi(2)))
+                    .sum::<f64>()
+                    / (2 * of.len()) as f64;
+                (regime, ms.sqrt())
+            })
+        })
+        .collect();
+    let largest = rms.iter().map(|(_, r)| *r).fold(0.0, f64::max);
+    let acts = |r: f64| r >= 0.5 * cv::PRACTICAL_FLOOR_W;
+    let missing = rms.iter().filter(|(_, r)| !acts(*r)).count();
+    let on_straights = rms
+        .iter()
+        .any(|(regime, r)| *regime == Regime::Straight && acts(*r));
+    Ok(largest >= cv::PRACTICAL_FLOOR_W && on_straights && missing <= 1 && rms.len() >= 3)
+}
+
+/// The baseline as `calibration` says and `effects` fitted jointly on all rows (plus the
+/// calibration runs' manoeuvres): the diagnosed model, for tabulating (e.g. the model file of
+/// `plan --model`, [`model_file`]) with [`extra_power_w`].
+pub fn fit_model(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effects: &[EffectId],
+    calibration: Calibration<'_>,
+) -> Result<(Baseline, FittedModel), DiagnoseError> {
+    let baseline = calibration.baseline(rover, rows)?;
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: HEATING_TAU_GRID_S[0],
+    };
+    let model = FittedModel::fit(effects, &calibration.training_rows(rows), &ctx)?;
+    Ok((baseline, model))
+}
+
+/// The extra effective power `model` predicts on top of `baseline` for each side of `row`
+/// ([inner, outer] for turns) [W], baseline corrections included.
+pub fn extra_power_w(
+    rover: &Rover,
+    baseline: &Baseline,
+    model: &FittedModel,
+    row: &TurnRow,
+) -> [f64; 2] {
+    let ctx = Context {
+        rover,
+        baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    [0, 1].map(|side| model.extra_w(row, side, &ctx))
+}
+
+impl Diagnosis {
+    /// The effects of the diagnosed model: the named one, then its stepwise secondaries; empty
+    /// for `none` and `ambiguous`.
+    pub fn model_effects(&self) -> Vec<EffectId> {
+        named_id(&self.effect)
+            .into_iter()
+            .chain(self.secondary.iter().map(|s| s.effect))
+            .collect()
+    }
 }
 
 /// The effect a diagnosis named, if it named one.

@@ -400,19 +400,28 @@ pub fn write_out_dir(
         Ok::<(), ReportError>(())
     };
     if let Some(effect) = added_effect(d) {
-        let before = calibration
-            .heldout_residuals(rover, rows, d.scheme, None)?
+        // "After" is the diagnosed model: the named effect and its stepwise secondaries (or the
+        // best candidate when none is named).
+        let mut effects = d.model_effects();
+        if effects.is_empty() {
+            effects.push(effect);
+        }
+        let label = effects
+            .iter()
+            .map(|e| e.id())
+            .collect::<Vec<_>>()
+            .join(" + ");
+        let before = cv::heldout_residuals(rover, rows, d.scheme, &[], calibration)?
             .ok_or(ReportError::NothingToHoldOut)?;
-        let after = calibration
-            .heldout_residuals(rover, rows, d.scheme, Some(effect))?
+        let after = cv::heldout_residuals(rover, rows, d.scheme, &effects, calibration)?
             .ok_or(ReportError::NothingToHoldOut)?;
         draw(
             RESIDUALS_FIGURE,
             format!(
-                "Held-out residual of every turn vs R/R′ ({}), before and after adding {effect}",
+                "Held-out residual of every turn vs R/R′ ({}), before and after adding {label}",
                 d.scheme.id()
             ),
-            &figures::residuals_vs_radius(rover, rows, &before, &after, effect),
+            &figures::residuals_vs_radius(rover, rows, &before, &after, &label),
         )?;
     }
     draw(

@@ -14,8 +14,17 @@ const HUSKY: Rover = Rover::HUSKY_A200;
 
 /// One simulated run of `world` over `scenario`, sampled at 200 Hz.
 pub(super) fn simulate_run(world: &WorldConfig, scenario: &Scenario, seed: u64) -> Vec<RunSample> {
+    simulate_run_every(world, scenario, seed, 5_000)
+}
+
+/// [`simulate_run`] sampled every `step_us` (coarser for long runs).
+pub(super) fn simulate_run_every(
+    world: &WorldConfig,
+    scenario: &Scenario,
+    seed: u64,
+    step_us: u64,
+) -> Vec<RunSample> {
     let timeline = world.simulate(scenario, seed).expect("scenario runs");
-    let step_us = 5_000;
     (0..=timeline.duration_us() / step_us)
         .map(|k| {
             let t_us = k * step_us;
@@ -182,23 +191,84 @@ fn control_world_has_no_significant_gap() {
     assert!(!d.significant);
 }
 
-/// The effects the current catalogue already names on their default strengths (hard ground,
-/// 3 runs); `sinkage-bulldozing` comes out `ambiguous` and `motor-heating` `none` for now (see
-/// NOTES.md).
+/// The effects the catalogue names on their default strengths (hard ground, 3 runs of ~40 s),
+/// with the regime: `all` for the terms acting on every manoeuvre. `motor-heating` needs long
+/// runs (see `motor_heating_is_named_on_long_runs`).
 #[test]
 fn single_effect_worlds_are_named() {
-    for effect in [
-        EffectId::InnerDrag,
-        EffectId::AngularSlip,
-        EffectId::SlipTrack,
-        EffectId::BrakedInner,
-        EffectId::CurrentOffset,
-        EffectId::Slope,
+    for (effect, regime, min_shrink_pct) in [
+        (EffectId::InnerDrag, "dragged-inner", 50.0),
+        (EffectId::SinkageBulldozing, "dragged-inner", 25.0),
+        (EffectId::AngularSlip, "at-r-prime", 80.0),
+        (EffectId::SlipTrack, "at-r-prime", 80.0),
+        (EffectId::BrakedInner, "at-r-prime", 60.0),
+        (EffectId::CurrentOffset, "all", 80.0),
+        (EffectId::Slope, "all", 80.0),
     ] {
         let d = diagnose_world(&WorldConfig::hard_ground().with_effect(effect, true));
         assert_eq!(d.effect, effect.id(), "{}", summary(&d));
-        let best = &d.candidates[0];
-        assert!(best.shrink_pct > 50.0, "{}", summary(&d));
+        assert_eq!(d.regime, regime, "{}", summary(&d));
+        let all = d
+            .heldout
+            .iter()
+            .find(|h| h.regime == "all")
+            .expect("all rows");
+        assert_eq!(all.effect, effect);
+        assert!(all.shrink_pct > min_shrink_pct, "{}", summary(&d));
+        // The effect closes most of the gap where it is (the regimes with a significant gap).
+        let gap = d.heldout.iter().find(|h| h.regime == "gap").expect("a gap");
+        let min_gap_pct = if effect == EffectId::SinkageBulldozing {
+            35.0
+        } else {
+            70.0
+        };
+        assert!(gap.shrink_pct > min_gap_pct, "{effect}: {gap:?}");
+        // One effect in the world: no other effect explains a practically relevant power.
+        if !matches!(effect, EffectId::SinkageBulldozing) {
+            assert!(d.secondary.is_empty(), "{effect}: {:?}", d.secondary);
+        }
+    }
+}
+
+/// The fitted model tabulates: a synthetic 2R'/3 turn gets inner-drag's extra power on the
+/// inner side only, a wide turn and a straight get none.
+#[test]
+fn fitted_model_evaluates_synthetic_turns() {
+    let runs: Vec<Vec<RunSample>> = (0..2)
+        .map(|k| {
+            simulate_run(
+                &WorldConfig::hard_ground().with_effect(EffectId::InnerDrag, true),
+                &scenario(),
+                k,
+            )
+        })
+        .collect();
+    let rows = rows_of(&runs);
+    let (baseline, model) = super::fit_model(
+        &HUSKY,
+        &rows,
+        &[EffectId::InnerDrag],
+        super::calibration::Calibration::FromRuns,
+    )
+    .expect("fits");
+    let at = super::model_file::Conditions {
+        v_c_mps: 0.3,
+        turn_rad: std::f64::consts::FRAC_PI_2,
+        bus_v: 24.0,
+        t_start_s: 10.0,
+    };
+    let turn = |k: f64| super::model_file::synthetic_row(&HUSKY, &baseline, k, &at);
+    let dragged = turn(2.0 / 3.0);
+    assert_eq!(dragged.regime, Regime::DraggedInner);
+    let [inner, outer] = super::extra_power_w(&HUSKY, &baseline, &model, &dragged);
+    // The measured inner gap at 2R'/3 is about 6 W (inner_drag_leaves_a_gap…).
+    assert!((4.0..9.0).contains(&inner), "{inner}");
+    assert_eq!(outer, 0.0);
+    for k in [2.0, f64::INFINITY] {
+        assert_eq!(
+            super::extra_power_w(&HUSKY, &baseline, &model, &turn(k)),
+            [0.0, 0.0]
+        );
     }
 }
 
@@ -231,9 +301,9 @@ pub(super) fn scaled(effect: EffectId, scale: f64, current_std_a: f64) -> WorldC
 }
 
 /// A small grid of strengths (0.5×, 1×, 2× default) and current noise (30 and 100 mA): the
-/// diagnosis names the true effect wherever the catalogue can already see it, and never names a
-/// wrong one. Known gaps (NOTES.md): `sinkage-bulldozing` is `ambiguous`, `motor-heating` is
-/// invisible in ~40 s runs, and `braked-inner` at half strength is `ambiguous`.
+/// diagnosis names the true effect wherever the catalogue can see it, and never names a wrong
+/// one. Known gaps (NOTES.md): `motor-heating` is invisible in ~40 s runs, `sinkage-bulldozing`
+/// at 2× and `braked-inner` at half strength are `ambiguous`.
 #[test]
 fn strengths_and_noise_grid_names_no_wrong_effect() {
     for effect in EffectId::ALL {
@@ -241,9 +311,9 @@ fn strengths_and_noise_grid_names_no_wrong_effect() {
             for noise in [0.03, 0.1] {
                 let d = diagnose_world(&scaled(effect, scale, noise));
                 let line = format!("{effect} x{scale} noise {noise}: {}", summary(&d));
-                let known_gap =
-                    matches!(effect, EffectId::SinkageBulldozing | EffectId::MotorHeating)
-                        || (effect == EffectId::BrakedInner && scale < 1.0);
+                let known_gap = effect == EffectId::MotorHeating
+                    || (effect == EffectId::SinkageBulldozing && scale > 1.0)
+                    || (effect == EffectId::BrakedInner && scale < 1.0);
                 if known_gap {
                     assert!(
                         ["ambiguous", "none", effect.id()].contains(&d.effect.as_str()),
@@ -277,4 +347,93 @@ fn json_has_the_issue_keys_and_per_regime_shrink() {
         .find(|h| h.regime == "dragged-inner")
         .expect("regime present");
     assert!(dragged.shrink_pct > 70.0, "{dragged:?}");
+}
+
+/// The world's `motor-heating` is physically tiny at the seed's speeds (≈ 2 A per side: copper
+/// loss ≈ 0.6 W, a few kelvin, < 0.05 W of extra power even after 20 min at 2× its thermal
+/// resistance), so the diagnosis rightly says `none` on it (NOTES.md). When the data does hold
+/// a heating signal, the τ-grid term finds it: long runs of the hard-ground world (15 repeats of
+/// the turn set, ~11 min each, sampled at 50 Hz) with a first-order winding heating added to
+/// each side's measured power, ΔP = k I² (1 − e^(−t/τ)), I from the measured power, k such
+/// that the last manoeuvres draw ~4 W more at a point turn, τ = 400 s (not on the grid).
+#[test]
+fn motor_heating_is_named_on_long_runs() {
+    let world = WorldConfig::hard_ground();
+    let mut long = scenario();
+    long.repeats = 15;
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run_every(&world, &long, 20 + k, 20_000))
+        .collect();
+    let mut rows = rows_of(&runs);
+    let tau_s = 400.0;
+    for row in &mut rows {
+        let t_mid = row.t_start_s + 0.5 * row.duration_s;
+        for side in &mut row.sides {
+            let i = side.avg_power_w / row.bus_v;
+            let extra_w = 1.5 * i * i * (1.0 - (-t_mid / tau_s).exp());
+            side.avg_power_w += extra_w;
+            side.effective_power_w += extra_w * row.duration_s / row.expected_duration_s;
+            side.energy_j += extra_w * row.duration_s;
+        }
+    }
+    let d = super::diagnose(&HUSKY, &rows).expect("diagnoses");
+    assert_eq!(d.effect, "motor-heating", "{}", summary(&d));
+    // Its regime is where I² is largest (at-r-prime's outer side): the term is ∝ I², under
+    // half the practical floor on the low-current straights, so the `all` rule does not fire.
+    assert!(d.candidates[0].shrink_pct > 70.0, "{}", summary(&d));
+    // Without the added heating the same long runs show no significant gap.
+    let plain = super::diagnose(&HUSKY, &rows_of(&runs)).expect("diagnoses");
+    assert_eq!(plain.effect, "none", "{}", summary(&plain));
+}
+
+/// The sand world (every sand effect on at once, 3 runs): the diagnosis names a primary effect
+/// and explains most of the held-out error with the stepwise secondaries; the numbers are in
+/// NOTES.md.
+#[test]
+fn sand_world_primary_and_secondary_effects() {
+    let world = WorldConfig::sand();
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run(&world, &scenario(), 30 + k))
+        .collect();
+    let rows = rows_of(&runs);
+    let d = super::diagnose(&HUSKY, &rows).expect("diagnoses");
+    let secondary: Vec<String> = d
+        .secondary
+        .iter()
+        .map(|s| {
+            format!(
+                "{} -> {:.2} W ({:.0} %)",
+                s.effect, s.heldout_error_after, s.shrink_pct
+            )
+        })
+        .collect();
+    let line = format!("{} | secondary: {}", summary(&d), secondary.join(", "));
+    println!("{line}");
+    assert!(d.significant, "{line}");
+    let Some(primary) = super::named_effect(&d) else {
+        panic!("no primary: {line}");
+    };
+    assert!(world.effects.is_enabled(primary), "{line}");
+    for s in &d.secondary {
+        assert!(world.effects.is_enabled(s.effect), "{line}");
+    }
+    let mut model: Vec<EffectId> = vec![primary];
+    model.extend(d.secondary.iter().map(|s| s.effect));
+    let (baseline, fitted) = super::fit_model(
+        &HUSKY,
+        &rows,
+        &model,
+        super::calibration::Calibration::FromRuns,
+    )
+    .expect("fits");
+    let at = super::model_file::Conditions {
+        v_c_mps: 0.3,
+        turn_rad: 1.0,
+        bus_v: 24.0,
+        t_start_s: 0.0,
+    };
+    let turn = super::model_file::synthetic_row(&HUSKY, &baseline, 2.0 / 3.0, &at);
+    let extra = super::extra_power_w(&HUSKY, &baseline, &fitted, &turn);
+    println!("extra at 2R'/3: {extra:?}");
+    assert!(extra.iter().all(|w| w.is_finite()));
 }
