@@ -22,6 +22,7 @@
 use super::baseline::{Baseline, BaselineError};
 use super::effects::{fitted_params, Context, FittedEffect};
 use super::features::TurnRow;
+use super::observe::Residuals;
 use crate::sim::world::EffectId;
 use model_core::Rover;
 use serde::Serialize;
@@ -65,8 +66,9 @@ impl Scheme {
     }
 }
 
-/// Held-out residuals: (row index, [inner/left, outer/right] residual [W]), in row order.
-pub type HeldOut = Vec<(usize, [f64; 2])>;
+/// Held-out residuals: (row index, residual of each observation [W]: inner/left and
+/// outer/right, or the total of a total-only row), in row order.
+pub type HeldOut = Vec<(usize, Residuals)>;
 
 /// Held-out residuals of every row and side, before (baseline) and after adding `effect`
 /// (`None`: the baseline alone), pooled over the folds of `scheme`. `Ok(None)` when the scheme
@@ -102,11 +104,9 @@ pub fn heldout_residuals(
             .enumerate()
             .filter(|(_, r)| scheme.group(r) == g)
         {
-            let mut res = baseline.residual_w(row);
+            let mut res = baseline.observed_residuals_w(row);
             if let Some(f) = &fitted {
-                for (side, r) in res.iter_mut().enumerate() {
-                    *r -= f.extra_w(row, side, &ctx);
-                }
+                res.subtract(|side| f.extra_w(row, side, &ctx));
             }
             out.push((i, res));
         }
@@ -116,7 +116,7 @@ pub fn heldout_residuals(
 }
 
 /// Mean square of the residuals of the rows `keep` selects [W²]; `None` if none.
-pub fn mean_square(res: &[(usize, [f64; 2])], keep: impl Fn(usize) -> bool) -> Option<f64> {
+pub fn mean_square(res: &[(usize, Residuals)], keep: impl Fn(usize) -> bool) -> Option<f64> {
     let (sum, n) = res
         .iter()
         .filter(|(i, _)| keep(*i))
@@ -159,7 +159,7 @@ pub fn score_all(
         return Ok(None);
     };
     let rms_before = mean_square(&before, |_| true).unwrap_or(0.0).sqrt();
-    let n = before.len() * 2;
+    let n = before.iter().map(|(_, r)| r.len()).sum();
     let mut out = Vec::new();
     for effect in EffectId::ALL {
         let Some(after) = heldout_residuals(rover, rows, scheme, Some(effect))? else {

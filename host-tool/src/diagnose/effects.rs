@@ -196,10 +196,13 @@ impl FittedEffect {
         let mut alone2 = LinearFit::<2>::new();
         let mut with_g = LinearFit::<2>::new();
         for row in train {
-            let res = ctx.baseline.residual_w(row);
-            for (side, &r) in res.iter().enumerate() {
-                let x = regressors(effect, row, side, ctx).unwrap_or([0.0; MAX_PARAMS]);
-                let v = row.sides[side].cmd_mps.abs();
+            // One observation per side, or one per total-only row on the summed regressors.
+            let res = ctx.baseline.observed_residuals_w(row);
+            for (sides, &r) in super::observe::observations(row).iter().zip(res.iter()) {
+                let x = super::observe::sum_sides(sides, |side| {
+                    regressors(effect, row, side, ctx).unwrap_or([0.0; MAX_PARAMS])
+                });
+                let [v] = super::observe::sum_sides(sides, |side| [row.sides[side].cmd_mps.abs()]);
                 match (corrects_g(effect), param_count(effect)) {
                     (true, _) => with_g.add([x[0], v], r),
                     (false, 1) => alone1.add([x[0]], r),

@@ -11,6 +11,8 @@ pub mod baseline;
 pub mod cv;
 pub mod effects;
 pub mod features;
+pub mod gaps;
+pub mod observe;
 
 #[cfg(test)]
 mod tests;
@@ -18,7 +20,8 @@ mod tests;
 use crate::sim::world::EffectId;
 use baseline::{Baseline, BaselineError};
 use cv::{CandidateScore, Scheme};
-use features::{SideRole, TurnRow};
+use features::TurnRow;
+pub use gaps::{Gap, Part, WhereAnalysis};
 use model_core::kinematics::Regime;
 use model_core::Rover;
 use serde::Serialize;
@@ -37,23 +40,6 @@ pub enum DiagnoseError {
     NothingToHoldOut,
 }
 
-/// The mean baseline residual of one (regime, side) group.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Gap {
-    /// The regime.
-    pub regime: Regime,
-    /// Inner or outer (straights: both sides under `outer`/`inner` by convention).
-    pub side: SideRole,
-    /// Side observations.
-    pub n: usize,
-    /// Mean effective-power residual [W].
-    pub mean_w: f64,
-    /// 95 % bootstrap interval [W].
-    pub ci_w: (f64, f64),
-    /// Beyond the repeat noise and [`cv::PRACTICAL_FLOOR_W`].
-    pub significant: bool,
-}
-
 /// What the diagnosis concluded.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Diagnosis {
@@ -65,8 +51,11 @@ pub struct Diagnosis {
     pub significant: bool,
     /// The baseline on all calibration rows.
     pub baseline: Baseline,
-    /// Gaps per regime and side.
+    /// Effective-power gaps per regime and side (the selection's input).
     pub gaps: Vec<Gap>,
+    /// Where the model departs: every metric, side, phase and run-time group.
+    #[serde(rename = "where")]
+    pub where_: WhereAnalysis,
     /// The scheme the selection used.
     pub scheme: Scheme,
     /// Every candidate under `scheme`, best first.
@@ -123,6 +112,7 @@ impl Diagnosis {
             "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all").collect::<Vec<_>>(),
             "baseline": self.baseline,
             "gaps": self.gaps,
+            "where": self.where_,
         })
     }
 }
@@ -143,28 +133,8 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
     let cal: Vec<&TurnRow> = rows.iter().filter(|r| r.calibration_kind).collect();
     let baseline = Baseline::fit(rover, &cal)?;
 
-    let mut gaps = Vec::new();
-    for regime in Regime::ALL {
-        for (k, side) in [(0usize, SideRole::Inner), (1, SideRole::Outer)] {
-            let of: Vec<&TurnRow> = rows.iter().filter(|r| r.regime == regime).collect();
-            if of.is_empty() {
-                continue;
-            }
-            let values: Vec<f64> = of.iter().map(|r| baseline.residual_w(r)[k]).collect();
-            let groups: Vec<usize> = of.iter().map(|r| r.run_index).collect();
-            let seed = 0x5EED ^ ((regime as u64) << 8) ^ k as u64;
-            if let Some((mean_w, lo, hi)) = cv::bootstrap_mean(&values, &groups, seed) {
-                gaps.push(Gap {
-                    regime,
-                    side,
-                    n: values.len(),
-                    mean_w,
-                    ci_w: (lo, hi),
-                    significant: (lo > 0.0 || hi < 0.0) && mean_w.abs() > cv::PRACTICAL_FLOOR_W,
-                });
-            }
-        }
-    }
+    let gaps = gaps::effective_gaps(&baseline, rows);
+    let where_ = gaps::analyse(&baseline, rows);
     let significant = gaps.iter().any(|g| g.significant);
     let regime = gaps
         .iter()
@@ -230,6 +200,7 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
         significant,
         baseline,
         gaps,
+        where_,
         scheme: primary,
         candidates,
         other_scheme,
