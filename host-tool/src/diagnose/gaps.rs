@@ -93,6 +93,38 @@ pub struct Gap {
     pub significant: bool,
 }
 
+/// Key of "the same manoeuvre" for repeats within one run: R/R' to 0.01 (straights one key).
+fn repeat_key(r_over_r_prime: f64) -> i64 {
+    if r_over_r_prime.is_finite() {
+        (r_over_r_prime * 100.0).round() as i64
+    } else {
+        i64::MAX
+    }
+}
+
+/// Whether a group's values carry a noise estimate: ≥ 2 runs, or, in one run, at least one
+/// manoeuvre repeated at the same R/R'. Otherwise the spread of a group is the spread between
+/// different radii (model misfit, e.g. a summary table's one row per radius), not repeat noise.
+fn has_repeats(runs_and_keys: &[(usize, i64)]) -> bool {
+    let mut runs: Vec<usize> = runs_and_keys.iter().map(|x| x.0).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    let mut keys: Vec<i64> = runs_and_keys.iter().map(|x| x.1).collect();
+    keys.sort_unstable();
+    runs.len() >= 2 || keys.windows(2).any(|w| w[0] == w[1])
+}
+
+/// [`cv::bootstrap_mean`], with an unbounded interval when [`has_repeats`] fails.
+fn bootstrap(values: &[f64], runs: &[usize], keys: &[i64], seed: u64) -> Option<(f64, f64, f64)> {
+    let (mean, lo, hi) = cv::bootstrap_mean(values, runs, seed)?;
+    let pairs: Vec<(usize, i64)> = runs.iter().copied().zip(keys.iter().copied()).collect();
+    Some(if has_repeats(&pairs) {
+        (mean, lo, hi)
+    } else {
+        (mean, f64::NEG_INFINITY, f64::INFINITY)
+    })
+}
+
 fn is_significant(mean: f64, lo: f64, hi: f64, floor: f64) -> bool {
     (lo > 0.0 || hi < 0.0) && mean.abs() > floor
 }
@@ -112,22 +144,26 @@ fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64)> {
 }
 
 /// Effective-power gaps per (regime, side) with bootstrap significance (the selection's input).
+/// A group without repeats (see [`has_repeats`]) gets an unbounded interval.
 pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow]) -> Vec<Gap> {
     let mut gaps = Vec::new();
     for regime in Regime::ALL {
         for (k, part) in [(0u64, Part::Inner), (1, Part::Outer), (2, Part::Total)] {
-            let (values, groups): (Vec<f64>, Vec<usize>) = rows
+            let picked: Vec<(f64, usize, i64)> = rows
                 .iter()
                 .filter(|r| r.regime == regime)
                 .flat_map(|r| {
                     effective_parts(baseline, r)
                         .into_iter()
                         .filter(|(p, _)| *p == part)
-                        .map(|(_, v)| (v, r.run_index))
+                        .map(|(_, v)| (v, r.run_index, repeat_key(r.r_over_r_prime)))
                 })
-                .unzip();
+                .collect();
+            let values: Vec<f64> = picked.iter().map(|x| x.0).collect();
+            let groups: Vec<usize> = picked.iter().map(|x| x.1).collect();
+            let keys: Vec<i64> = picked.iter().map(|x| x.2).collect();
             let seed = 0x5EED ^ ((regime as u64) << 8) ^ k;
-            if let Some((mean_w, lo, hi)) = cv::bootstrap_mean(&values, &groups, seed) {
+            if let Some((mean_w, lo, hi)) = bootstrap(&values, &groups, &keys, seed) {
                 gaps.push(Gap {
                     regime,
                     side: part,
@@ -286,13 +322,15 @@ pub struct GroupStat {
     pub significant: bool,
 }
 
-/// A group's values: (value, run index, expected duration [s] for the energy floor).
-type Values = Vec<(f64, usize, f64)>;
+/// A group's values: (value, run index, expected duration [s] for the energy floor,
+/// [`repeat_key`]).
+type Values = Vec<(f64, usize, f64, i64)>;
 
 fn stat(group: String, values: &Values, per_second_floor: bool, seed: u64) -> Option<GroupStat> {
     let v: Vec<f64> = values.iter().map(|x| x.0).collect();
     let g: Vec<usize> = values.iter().map(|x| x.1).collect();
-    let (mean, lo, hi) = cv::bootstrap_mean(&v, &g, seed)?;
+    let k: Vec<i64> = values.iter().map(|x| x.3).collect();
+    let (mean, lo, hi) = bootstrap(&v, &g, &k, seed)?;
     let floor = if per_second_floor {
         cv::PRACTICAL_FLOOR_W * values.iter().map(|x| x.2).sum::<f64>() / values.len() as f64
     } else {
@@ -324,7 +362,7 @@ fn grouped(
     let mut by_regime: BTreeMap<(Regime, Part), Values> = BTreeMap::new();
     let mut by_side: BTreeMap<Part, Values> = BTreeMap::new();
     for (t, v, dur) in items {
-        let x = (*v, t.run_index, *dur);
+        let x = (*v, t.run_index, *dur, repeat_key(t.r_over_r_prime));
         by_regime.entry((t.regime, t.part)).or_default().push(x);
         if t.regime != Regime::Straight {
             by_side.entry(t.part).or_default().push(x);
@@ -442,7 +480,7 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         } else {
             0
         };
-        thirds_values[k].push((centred(t), t.run_index, 0.0));
+        thirds_values[k].push((centred(t), t.run_index, 0.0, repeat_key(t.r_over_r_prime)));
     }
     let thirds = ["first-third", "middle-third", "last-third"]
         .iter()
@@ -657,7 +695,9 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
     } else if any_finite {
         "no gap beyond the repeat noise".to_owned()
     } else {
-        "no gap can be judged: no group has two repeats to estimate the noise from".to_owned()
+        "no gap can be judged: no group has repeats (two runs, or the same radius twice) to \
+         estimate the noise from"
+            .to_owned()
     };
 
     let mut notes = Vec::new();
@@ -668,8 +708,8 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         .len();
     if n_runs < 2 {
         notes.push(
-            "one run: intervals resample the manoeuvres within a group, so different radii of \
-             a regime stand in for repeats"
+            "one run: intervals resample the repeated manoeuvres within a group; a group \
+             without a radius driven twice has no noise estimate and is never significant"
                 .to_owned(),
         );
     }

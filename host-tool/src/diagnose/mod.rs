@@ -13,6 +13,7 @@ pub mod effects;
 pub mod features;
 pub mod gaps;
 pub mod observe;
+pub mod summary;
 
 #[cfg(test)]
 mod tests;
