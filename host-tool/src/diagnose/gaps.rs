@@ -433,8 +433,11 @@ pub struct RunTimeWhere {
 /// Within-group spread of run time below which the trend is not identifiable [s].
 pub const MIN_TREND_SPREAD_S: f64 = 30.0;
 
+/// One observation of the trend fit: ((regime, side), run time [s], residual [W]).
+type TimedObs = ((Regime, Part), f64, f64);
+
 /// Within-(regime, side) slope of `y` on `t` [W/s]; `None` when the spread of t is too small.
-fn within_slope(obs: &[((Regime, Part), f64, f64)]) -> Option<f64> {
+fn within_slope(obs: &[TimedObs]) -> Option<f64> {
     let mut sums: BTreeMap<(Regime, Part), (f64, f64, f64)> = BTreeMap::new();
     for (k, t, y) in obs {
         let e = sums.entry(*k).or_default();
@@ -488,7 +491,7 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         .filter_map(|(label, v)| stat((*label).to_owned(), v, false, seed_of(label)))
         .collect();
 
-    let obs: Vec<(usize, ((Regime, Part), f64, f64))> = timed
+    let obs: Vec<(usize, TimedObs)> = timed
         .iter()
         .map(|t| {
             (
