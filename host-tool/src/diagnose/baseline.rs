@@ -16,6 +16,7 @@
 //! [`features`]: super::features
 
 use super::features::{SideRole, TurnRow};
+use super::observe::{self, Residuals};
 use model_core::fit::LinearFit;
 use model_core::power::{IcrHardGround, GRAVITY_M_S2};
 use model_core::Rover;
@@ -68,7 +69,8 @@ pub fn skid_feature_mps(row: &TurnRow, side: usize) -> f64 {
 }
 
 impl Baseline {
-    /// Fits a and G on the `calibration` rows' average power per side.
+    /// Fits a and G on the `calibration` rows' average power per side (a total-only row is one
+    /// observation: its total on the sum of both sides' features).
     pub fn fit(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
         let mut fit = LinearFit::<2>::new();
         let err = |reason: String| BaselineError::Fit {
@@ -76,9 +78,11 @@ impl Baseline {
             rows: calibration.len(),
         };
         for row in calibration {
-            for side in 0..2 {
-                let x = [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()];
-                fit.add(x, row.sides[side].avg_power_w)
+            for sides in observe::observations(row) {
+                let x = observe::sum_sides(sides, |side| {
+                    [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()]
+                });
+                fit.add(x, observe::measured_avg_w(row, sides))
                     .map_err(|e| err(e.to_string()))?;
             }
         }
@@ -111,9 +115,20 @@ impl Baseline {
         self.side_power_w(row, 0) + self.side_power_w(row, 1)
     }
 
-    /// Measured effective minus model power, per side (inner/outer order of the row) [W].
+    /// Measured effective minus model power, per side (inner/outer order of the row) [W]; NaN
+    /// for a total-only row (see [`Baseline::observed_residuals_w`]).
     pub fn residual_w(&self, row: &TurnRow) -> [f64; 2] {
         [0, 1].map(|s| row.sides[s].effective_power_w - self.side_power_w(row, s))
+    }
+
+    /// Measured effective minus model power of each observation of `row`: per side, or the
+    /// total of a total-only row [W].
+    pub fn observed_residuals_w(&self, row: &TurnRow) -> Residuals {
+        if row.is_total_only() {
+            Residuals::total(row.effective_power_w() - self.power_w(row))
+        } else {
+            Residuals::sides(self.residual_w(row))
+        }
     }
 
     /// As the paper's model (for the model file of `plan --model`), with the rover's geometry.

@@ -165,7 +165,7 @@ mod tests {
         assert_eq!(indices, (0..runs.len()).collect::<Vec<_>>());
         // The baseline is the same in every fold: held-out residuals are the plain residuals.
         for r in &held {
-            assert_eq!(r.effective_w, with_cal.baseline.residual_w(&runs[r.row]));
+            assert_eq!(*r.effective_w, with_cal.baseline.residual_w(&runs[r.row]));
         }
     }
 

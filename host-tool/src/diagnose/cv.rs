@@ -25,6 +25,7 @@ use super::baseline::{Baseline, BaselineError};
 use super::calibration::Calibration;
 use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
+use super::observe::Residuals;
 use crate::sim::world::EffectId;
 use model_core::Rover;
 use serde::Serialize;
@@ -74,8 +75,9 @@ impl Scheme {
 pub struct RowResidual {
     /// Index into the rows.
     pub row: usize,
-    /// Effective-power residual per side [W].
-    pub effective_w: [f64; 2],
+    /// Effective-power residual of each observation: per side, or the total of a total-only
+    /// row [W].
+    pub effective_w: Residuals,
     /// Growth residual per side [W].
     pub growth_w: [Option<f64>; 2],
 }
@@ -136,10 +138,10 @@ pub fn heldout_residuals(
             .enumerate()
             .filter(|(_, r)| scheme.group(r) == g)
         {
-            let mut effective_w = baseline.residual_w(row);
+            let mut effective_w = baseline.observed_residuals_w(row);
+            effective_w.subtract(|side| fitted.extra_w(row, side, &ctx));
             let mut growth_w = [row.sides[0].growth_w, row.sides[1].growth_w];
             for side in 0..2 {
-                effective_w[side] -= fitted.extra_w(row, side, &ctx);
                 if let Some(gw) = &mut growth_w[side] {
                     *gw -= fitted.growth_w(row, side, &ctx);
                 }
@@ -164,6 +166,11 @@ pub fn mean_square(res: &[RowResidual], keep: impl Fn(usize) -> bool) -> Option<
         .flat_map(|r| r.effective_w.iter())
         .fold((0.0, 0usize), |(s, n), r| (s + r * r, n + 1));
     (n > 0).then(|| sum / n as f64)
+}
+
+/// Number of observations in held-out residuals (2 per per-side row, 1 per total-only row).
+pub fn observations(res: &[RowResidual]) -> usize {
+    res.iter().map(|r| r.effective_w.len()).sum()
 }
 
 /// Sum of squares and count of the growth residuals [W², –].
@@ -203,7 +210,7 @@ pub struct CandidateScore {
 /// The second selection score of held-out residuals: FPE of the pooled mean square of the
 /// effective-power and growth residuals with `k` parameters [W²].
 pub fn score_with_growth(res: &[RowResidual], k: usize) -> f64 {
-    let n_eff = res.len() * 2;
+    let n_eff = observations(res);
     let eff = mean_square(res, |_| true).unwrap_or(0.0) * n_eff as f64;
     let (growth, n_growth) = growth_sum_squares(res);
     let n = n_eff + n_growth;
@@ -238,7 +245,7 @@ pub fn score_model(
         },
         penalised_mse: penalised(
             rms_after * rms_after,
-            after.len() * 2,
+            observations(&after),
             model_params(effects),
         ),
         penalised_mse_with_growth: score_with_growth(&after, model_params(effects)),

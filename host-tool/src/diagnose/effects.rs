@@ -24,6 +24,7 @@
 
 use super::baseline::Baseline;
 use super::features::{SideRole, TurnRow};
+use super::observe;
 use crate::sim::world::EffectId;
 use model_core::power::GRAVITY_M_S2;
 use model_core::Rover;
@@ -356,10 +357,16 @@ impl FittedModel {
                             .iter()
                             .filter(|r| r.calibration_kind)
                             .flat_map(|r| {
-                                (0..2).map(move |side| {
-                                    let z =
-                                        regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS]);
-                                    (features(r, side).to_vec(), z[p])
+                                observe::observations(r).iter().map(move |sides| {
+                                    let [z] = observe::sum_sides(sides, |side| {
+                                        [regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS])
+                                            [p]]
+                                    });
+                                    (
+                                        observe::sum_sides(sides, |side| features(r, side))
+                                            .to_vec(),
+                                        z,
+                                    )
                                 })
                             })
                             .collect();
@@ -371,13 +378,16 @@ impl FittedModel {
                 })
                 .collect();
             let mut design = Vec::new();
+            // One observation per side, or one per total-only row on the summed regressors.
             for row in train {
-                let res = ctx.baseline.residual_w(row);
-                for (side, &y) in res.iter().enumerate() {
-                    let f = features(row, side);
+                let res = ctx.baseline.observed_residuals_w(row);
+                for (sides, &y) in observe::observations(row).iter().zip(res.iter()) {
+                    let f = observe::sum_sides(sides, |side| features(row, side));
                     let mut x = Vec::new();
                     for (&e, proj) in effects.iter().zip(&projections) {
-                        let r = regressors(e, row, side, &ctx).unwrap_or([0.0; MAX_PARAMS]);
+                        let r = observe::sum_sides(sides, |side| {
+                            regressors(e, row, side, &ctx).unwrap_or([0.0; MAX_PARAMS])
+                        });
                         for p in 0..param_count(e) {
                             x.push(r[p] - proj[p][0] * f[0] - proj[p][1] * f[1]);
                         }

@@ -46,12 +46,30 @@ pub struct SideObs {
     pub cmd_mps: f64,
     /// Average power over the steady part [W].
     pub avg_power_w: f64,
+    /// Largest power at one sample of the steady part [W] (noise included).
+    pub max_power_w: f64,
     /// Energy over the whole manoeuvre [J].
     pub energy_j: f64,
     /// Energy over the expected duration, E / T_expected [W] (the diagnosis' measured value).
     pub effective_power_w: f64,
     /// Second minus first half of the steady part, average power [W]; `None` if too short.
     pub growth_w: Option<f64>,
+}
+
+/// What was measured of a manoeuvre.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum Observed {
+    /// Both sides (run CSVs): the `sides` hold the measured powers and energies.
+    #[default]
+    Sides,
+    /// Only the total average power (per-turn summaries, [`summary`](super::summary)): the
+    /// `sides` hold the commanded speeds, and their measured fields are NaN (not observed).
+    /// With no duration, the effective power is the average power.
+    Total {
+        /// Total average power [W].
+        avg_power_w: f64,
+    },
 }
 
 /// One manoeuvre (turn or straight) as the diagnosis sees it.
@@ -96,6 +114,8 @@ pub struct TurnRow {
     /// Whether the manoeuvre is of a kind the hard-ground model is trusted on (straights, point
     /// turns, turns with R ≥ 2R').
     pub calibration_kind: bool,
+    /// Per side or the total only.
+    pub observed: Observed,
 }
 
 impl TurnRow {
@@ -104,9 +124,17 @@ impl TurnRow {
         self.regime == Regime::Straight
     }
 
-    /// Total effective power [W].
+    /// Total effective power [W] (the average power of a total-only row).
     pub fn effective_power_w(&self) -> f64 {
-        self.sides[0].effective_power_w + self.sides[1].effective_power_w
+        match self.observed {
+            Observed::Sides => self.sides[0].effective_power_w + self.sides[1].effective_power_w,
+            Observed::Total { avg_power_w } => avg_power_w,
+        }
+    }
+
+    /// Whether only the total is observed.
+    pub fn is_total_only(&self) -> bool {
+        matches!(self.observed, Observed::Total { .. })
     }
 }
 
@@ -171,6 +199,7 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
                 role,
                 cmd_mps: pick(m.cmd_mps.left, m.cmd_mps.right),
                 avg_power_w: pick(s.avg_power_w.left, s.avg_power_w.right),
+                max_power_w: pick(s.max_power_w.left, s.max_power_w.right),
                 energy_j,
                 effective_power_w: energy_j / expected_duration_s,
                 growth_w: s.phases.map(|p| {
@@ -217,6 +246,7 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
             calibration_kind: straight
                 || regime == Regime::Point
                 || r_over_r_prime >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
+            observed: Observed::Sides,
         });
     }
     out

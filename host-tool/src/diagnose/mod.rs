@@ -13,8 +13,11 @@ pub mod cv;
 pub mod effects;
 pub mod features;
 pub mod figures;
+pub mod gaps;
 pub mod model_file;
+pub mod observe;
 pub mod report;
+pub mod summary;
 
 #[cfg(test)]
 mod tests;
@@ -24,7 +27,8 @@ use baseline::{Baseline, BaselineError};
 use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};
 use effects::{Context, EffectFitError, FittedModel, HEATING_TAU_GRID_S};
-use features::{SideRole, TurnRow};
+use features::TurnRow;
+pub use gaps::{Gap, Part, WhereAnalysis};
 use model_core::kinematics::Regime;
 use model_core::Rover;
 use serde::Serialize;
@@ -46,23 +50,6 @@ pub enum DiagnoseError {
     EffectFit(#[from] EffectFitError),
 }
 
-/// The mean baseline residual of one (regime, side) group.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Gap {
-    /// The regime.
-    pub regime: Regime,
-    /// Inner or outer (straights: both sides under `outer`/`inner` by convention).
-    pub side: SideRole,
-    /// Side observations.
-    pub n: usize,
-    /// Mean effective-power residual [W].
-    pub mean_w: f64,
-    /// 95 % bootstrap interval [W].
-    pub ci_w: (f64, f64),
-    /// Beyond the repeat noise and [`cv::PRACTICAL_FLOOR_W`].
-    pub significant: bool,
-}
-
 /// What the diagnosis concluded.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Diagnosis {
@@ -74,8 +61,11 @@ pub struct Diagnosis {
     pub significant: bool,
     /// The baseline on all calibration rows.
     pub baseline: Baseline,
-    /// Gaps per regime and side.
+    /// Effective-power gaps per regime and side (the selection's input).
     pub gaps: Vec<Gap>,
+    /// Where the model departs: every metric, side, phase and run-time group.
+    #[serde(rename = "where")]
+    pub where_: WhereAnalysis,
     /// The scheme the selection used.
     pub scheme: Scheme,
     /// Every candidate under `scheme`, best first.
@@ -166,6 +156,7 @@ impl Diagnosis {
             "secondary": self.secondary,
             "baseline": self.baseline,
             "gaps": self.gaps,
+            "where": self.where_,
             "calibration": self.calibration,
         })
     }
@@ -196,28 +187,8 @@ pub fn diagnose_with(
     }
     let baseline = calibration.baseline(rover, rows)?;
 
-    let mut gaps = Vec::new();
-    for regime in Regime::ALL {
-        for (k, side) in [(0usize, SideRole::Inner), (1, SideRole::Outer)] {
-            let of: Vec<&TurnRow> = rows.iter().filter(|r| r.regime == regime).collect();
-            if of.is_empty() {
-                continue;
-            }
-            let values: Vec<f64> = of.iter().map(|r| baseline.residual_w(r)[k]).collect();
-            let groups: Vec<usize> = of.iter().map(|r| r.run_index).collect();
-            let seed = 0x5EED ^ ((regime as u64) << 8) ^ k as u64;
-            if let Some((mean_w, lo, hi)) = cv::bootstrap_mean(&values, &groups, seed) {
-                gaps.push(Gap {
-                    regime,
-                    side,
-                    n: values.len(),
-                    mean_w,
-                    ci_w: (lo, hi),
-                    significant: (lo > 0.0 || hi < 0.0) && mean_w.abs() > cv::PRACTICAL_FLOOR_W,
-                });
-            }
-        }
-    }
+    let gaps = gaps::effective_gaps(&baseline, rows);
+    let where_ = gaps::analyse(&baseline, rows);
     let significant = gaps.iter().any(|g| g.significant);
     let mut gap_regimes: Vec<Regime> = gaps
         .iter()
@@ -309,6 +280,7 @@ pub fn diagnose_with(
         significant,
         baseline,
         gaps,
+        where_,
         scheme: primary,
         candidates,
         other_scheme,

@@ -24,7 +24,7 @@
 use super::baseline::Baseline;
 use super::calibration::Calibration;
 use super::effects::{Context, FittedEffect, FittedModel};
-use super::features::{SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
+use super::features::{Observed, SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
 use super::{fit_model, DiagnoseError, Diagnosis};
 use crate::plan::{self, EffectTerm, EnergyModel, HardGroundBase, ModelError};
 use crate::rover::decimal_f64;
@@ -155,6 +155,7 @@ pub fn synthetic_row(
         role,
         cmd_mps,
         avg_power_w: 0.0,
+        max_power_w: 0.0,
         energy_j: 0.0,
         effective_power_w: 0.0,
         growth_w: None,
@@ -187,6 +188,7 @@ pub fn synthetic_row(
         calibration_kind: straight
             || regime == Regime::Point
             || r_over_r_prime >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
+        observed: Observed::Sides,
     };
     for k in 0..2 {
         let p = baseline.side_power_w(&row, k);

@@ -57,7 +57,7 @@ pub(super) fn rows_of(runs: &[Vec<RunSample>]) -> Vec<TurnRow> {
 }
 
 /// The seed's turn set plus a wide turn (2R' and 4R') so the calibration has wide arcs.
-fn scenario() -> Scenario {
+pub(super) fn scenario() -> Scenario {
     let mut s = Scenario::seed_turns(0.3, 1);
     if let Some(crate::sim::world::Manoeuvre::Turn {
         r_over_r_prime: Some(k),
