@@ -141,8 +141,8 @@ pub fn heldout_residuals(
             let mut effective_w = baseline.observed_residuals_w(row);
             effective_w.subtract(|side| fitted.extra_w(row, side, &ctx));
             let mut growth_w = [row.sides[0].growth_w, row.sides[1].growth_w];
-            for side in 0..2 {
-                if let Some(gw) = &mut growth_w[side] {
+            for (side, growth) in growth_w.iter_mut().enumerate() {
+                if let Some(gw) = growth {
                     *gw -= fitted.growth_w(row, side, &ctx);
                 }
             }

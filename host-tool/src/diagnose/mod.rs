@@ -8,6 +8,7 @@
 //! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection.
 
 pub mod baseline;
+pub mod bench;
 pub mod calibration;
 pub mod cv;
 pub mod effects;

@@ -2,22 +2,22 @@
 //! samples (no pty; noise is in `Timeline::load_at`).
 
 use super::baseline::Baseline;
-use super::features::{self, SideRole, TurnRow};
+use super::features::{SideRole, TurnRow};
 use crate::log::run_csv::RunSample;
 use crate::sim::world::{EffectId, Scenario, WorldConfig};
-use crate::validate::{self, RunInput, ValidateOptions};
 use model_core::kinematics::Regime;
 use model_core::power::IcrHardGround;
-use model_core::{Rover, Sides};
+use model_core::Rover;
 
 const HUSKY: Rover = Rover::HUSKY_A200;
 
 /// One simulated run of `world` over `scenario`, sampled at 200 Hz.
 pub(super) fn simulate_run(world: &WorldConfig, scenario: &Scenario, seed: u64) -> Vec<RunSample> {
-    simulate_run_every(world, scenario, seed, 5_000)
+    let timeline = world.simulate(scenario, seed).expect("scenario runs");
+    super::bench::sample_run(&timeline, 200)
 }
 
-/// [`simulate_run`] sampled every `step_us` (coarser for long runs).
+/// One simulated run sampled every `step_us` (coarser sampling keeps long runs cheap).
 pub(super) fn simulate_run_every(
     world: &WorldConfig,
     scenario: &Scenario,
@@ -25,35 +25,12 @@ pub(super) fn simulate_run_every(
     step_us: u64,
 ) -> Vec<RunSample> {
     let timeline = world.simulate(scenario, seed).expect("scenario runs");
-    (0..=timeline.duration_us() / step_us)
-        .map(|k| {
-            let t_us = k * step_us;
-            let load = timeline.load_at(t_us);
-            let (yaw_rad, pitch_deg) = timeline.pose_at(t_us);
-            RunSample {
-                t_s: t_us as f64 * 1e-6,
-                bus_v: Sides::new(load.left.bus_v, load.right.bus_v),
-                current_a: Sides::new(load.left.current_a, load.right.current_a),
-                cmd_mps: timeline.command_at(t_us),
-                yaw_rad: Some(yaw_rad),
-                pitch_deg: Some(pitch_deg),
-            }
-        })
-        .collect()
+    super::bench::sample_run(&timeline, 1_000_000 / step_us)
 }
 
 /// Rows of `runs` (each a run's samples) through `validate` and `features::rows`.
 pub(super) fn rows_of(runs: &[Vec<RunSample>]) -> Vec<TurnRow> {
-    let names: Vec<String> = (0..runs.len()).map(|k| format!("run-{k}")).collect();
-    let inputs: Vec<RunInput<'_>> = runs
-        .iter()
-        .zip(&names)
-        .map(|(s, n)| RunInput::from_samples(n, s))
-        .collect();
-    let report =
-        validate::validate(&HUSKY, &inputs, &ValidateOptions::default()).expect("validates");
-    let slices: Vec<&[RunSample]> = runs.iter().map(Vec::as_slice).collect();
-    features::rows(&report, &slices)
+    super::bench::rows_of(runs).expect("validates")
 }
 
 /// The seed's turn set plus a wide turn (2R' and 4R') so the calibration has wide arcs.

@@ -4,7 +4,9 @@
 
 use super::effects::EffectId;
 use super::scenario::{ManoeuvreKind, Segment, Until};
-use super::timeline::{ManoeuvreTruth, Sample, SegmentSpan, Timeline};
+use super::timeline::{
+    gaussian, ManoeuvreTruth, Sample, SegmentSpan, Timeline, MANOEUVRE_SCALE, RUN_SCALE,
+};
 use super::{WorldConfig, WorldError, STEP_S};
 use model_core::kinematics::{Regime, RegimeBounds, TurnDirection};
 use model_core::power::GRAVITY_M_S2;
@@ -131,6 +133,21 @@ impl Plant {
     }
 }
 
+/// The constant motion of a segment.
+#[derive(Debug, Clone, Copy)]
+struct Motion {
+    /// Commanded side speeds [m/s].
+    v: Io,
+    /// v_c [m/s].
+    v_c: f64,
+    /// True yaw rate (left-turn frame) [rad/s].
+    w_true: f64,
+    /// Forward speed [m/s].
+    v_y: f64,
+    /// Factor on the terrain resistance (μ, G) of this manoeuvre.
+    resistance_scale: f64,
+}
+
 /// Per-manoeuvre soil state of one inner and one outer wheel.
 struct Soil {
     sinkage: [SlipSinkage2d; 2],
@@ -197,8 +214,18 @@ pub(crate) fn run(
     let mut samples: Vec<Sample> = Vec::new();
     let mut spans = Vec::with_capacity(segments.len());
     let mut truths = Vec::new();
+    // One terrain factor per run, one per manoeuvre (its index among the manoeuvres).
+    let noise = world.noise;
+    let run_scale = 1.0 + noise.run_power_std * gaussian(seed, RUN_SCALE, 0);
     for seg in segments {
         let start_s = state.t_s;
+        let resistance_scale = if seg.scenario_index.is_some() {
+            let index = truths.len() as u64;
+            (run_scale * (1.0 + noise.manoeuvre_power_std * gaussian(seed, MANOEUVRE_SCALE, index)))
+                .max(0.0)
+        } else {
+            1.0
+        };
         let mut soil = new_soil()?;
         let mut tally = Tally::default();
         let v = Io::from_sides(seg.cmd_mps, seg.direction);
@@ -252,7 +279,19 @@ pub(crate) fn run(
                 break;
             }
             let (sample, step_effects) = step(
-                &plant, &mut state, &mut soil, seg, v, v_c, w_true, v_y, t_in, dt,
+                &plant,
+                &mut state,
+                &mut soil,
+                seg,
+                Motion {
+                    v,
+                    v_c,
+                    w_true,
+                    v_y,
+                    resistance_scale,
+                },
+                t_in,
+                dt,
             )?;
             for side in [0, 1] {
                 let p = if side == 0 {
@@ -347,6 +386,7 @@ pub(crate) fn run(
                     tally.energy_j.right / duration_s,
                 ),
                 mean_pitch_deg: tally.pitch_deg_s / duration_s,
+                resistance_scale,
                 effect_energy_j,
             });
         }
@@ -356,24 +396,34 @@ pub(crate) fn run(
 
 /// One step: the electrical state at the start of the step (returned as a sample, with each
 /// effect's electrical power [W]), then the soil and the windings advance by `dt`.
-#[allow(clippy::too_many_arguments)]
 fn step(
     plant: &Plant,
     state: &mut State,
     soil: &mut Soil,
     seg: &Segment,
-    v: Io,
-    v_c: f64,
-    w_true: f64,
-    v_y: f64,
+    motion: Motion,
     t_in: f64,
     dt: f64,
 ) -> Result<(Sample, [f64; 8]), WorldError> {
+    let Motion {
+        v,
+        v_c,
+        w_true,
+        v_y,
+        resistance_scale,
+    } = motion;
     let world = &plant.world;
     let r = plant.wheel_radius_m;
     let moving = v.inner != 0.0 || v.outer != 0.0;
     let mut effect_w = [0.0f64; 8];
-    let base = plant.icr_side_power_w(v);
+    // Every term of Eq 21 is ∝ μ or G: the terrain factor scales the whole baseline.
+    let base = {
+        let b = plant.icr_side_power_w(v);
+        Io {
+            inner: b.inner * resistance_scale,
+            outer: b.outer * resistance_scale,
+        }
+    };
     let rate = Io {
         inner: v.inner / r,
         outer: v.outer / r,

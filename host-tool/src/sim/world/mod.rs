@@ -279,7 +279,8 @@ impl Motor {
 }
 
 /// `[noise]`: measurement noise (Gaussian, from a counter-based hash of the seed and the time,
-/// so a timeline is reproducible and cheap to query).
+/// so a timeline is reproducible and cheap to query), and the variation of the terrain between
+/// repeats and runs (from the same hash of the seed and the manoeuvre's index).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Noise {
@@ -293,10 +294,18 @@ pub struct Noise {
     pub yaw_std_rad: f64,
     /// Tracker pitch noise [deg, std].
     pub pitch_std_deg: f64,
+    /// Repeat-to-repeat variation: each manoeuvre's terrain resistance (the skid friction μ and
+    /// the rolling resistance G of the baseline, so its whole Eq 21 power) is scaled by
+    /// 1 + this × N(0, 1), drawn from the seed and the manoeuvre's index (real turns vary from
+    /// one repeat to the next) [relative std, in [0, 0.5]; default 0].
+    pub manoeuvre_power_std: f64,
+    /// Run-to-run variation: one more such factor per run (drawn from the seed alone), for the
+    /// ground and battery state that changes between runs [relative std, in [0, 0.5]; default 0].
+    pub run_power_std: f64,
 }
 
 impl Default for Noise {
-    /// 30 mA, 5 mV, 0.1°, 0.05° (not in the seed).
+    /// 30 mA, 5 mV, 0.1°, 0.05° (not in the seed); no repeat-to-repeat or run-to-run variation.
     fn default() -> Self {
         Self {
             left_current_std_a: 0.03,
@@ -304,6 +313,8 @@ impl Default for Noise {
             bus_std_v: 0.005,
             yaw_std_rad: 0.1f64.to_radians(),
             pitch_std_deg: 0.05,
+            manoeuvre_power_std: 0.0,
+            run_power_std: 0.0,
         }
     }
 }
@@ -354,7 +365,8 @@ impl Effects {
 /// [battery]                        # nominal_v 24, internal_resistance_ohm 0.05
 /// [driver]                         # quiescent_current_a 0.05
 /// [motor]                          # torque_constant_nm_per_a, gear_ratio, efficiency, winding_resistance_ohm
-/// [noise]                          # left/right_current_std_a, bus_std_v, yaw_std_rad, pitch_std_deg
+/// [noise]                          # left/right_current_std_a, bus_std_v, yaw_std_rad, pitch_std_deg,
+///                                  # manoeuvre_power_std, run_power_std (repeat/run variation, 0)
 /// [inner-drag]                     # every effect: enabled (ground default) + its parameters
 /// enabled = true
 /// torque_nm = 16.0
@@ -425,6 +437,8 @@ impl WorldConfig {
             bus_std_v: 0.0,
             yaw_std_rad: 0.0,
             pitch_std_deg: 0.0,
+            manoeuvre_power_std: 0.0,
+            run_power_std: 0.0,
         };
         self
     }
@@ -516,6 +530,14 @@ impl WorldConfig {
         nonneg("noise.bus_std_v", n.bus_std_v)?;
         nonneg("noise.yaw_std_rad", n.yaw_std_rad)?;
         nonneg("noise.pitch_std_deg", n.pitch_std_deg)?;
+        for (key, v) in [
+            ("noise.manoeuvre_power_std", n.manoeuvre_power_std),
+            ("noise.run_power_std", n.run_power_std),
+        ] {
+            if !(0.0..=0.5).contains(&v) {
+                bad(key, v, "in [0, 0.5]")?;
+            }
+        }
         let e = &self.effects;
         nonneg("inner-drag.torque_nm", e.inner_drag.torque_nm)?;
         pos("inner-drag.ramp_s", e.inner_drag.ramp_s)?;

@@ -376,6 +376,50 @@ fn same_seed_same_timeline_other_seed_other_noise() {
     assert_ne!(a.commands(5.0), c.commands(5.0));
 }
 
+/// `manoeuvre_power_std` and `run_power_std`: each repeat's baseline power scaled by its own
+/// factor (recorded in the truth), reproducible from the seed; 0 (the default) changes nothing.
+#[test]
+fn terrain_varies_from_repeat_to_repeat_and_run_to_run() {
+    let sc = turns(&[0.0], Side::Left, 200);
+    let plain = no_quiescent(WorldConfig::hard_ground().without_noise());
+    let base = plain.simulate(&sc, 5).expect("simulates");
+    assert!(base.manoeuvres().iter().all(|m| m.resistance_scale == 1.0));
+    let mut varied = plain;
+    varied.noise.manoeuvre_power_std = 0.05;
+    let a = varied.simulate(&sc, 5).expect("simulates");
+    assert_eq!(a, varied.simulate(&sc, 5).expect("simulates"));
+    let scales: Vec<f64> = a.manoeuvres().iter().map(|m| m.resistance_scale).collect();
+    let n = scales.len() as f64;
+    let mean = scales.iter().sum::<f64>() / n;
+    let std = (scales.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    assert!((mean - 1.0).abs() < 0.015, "{mean}");
+    assert!((std - 0.05).abs() < 0.01, "{std}");
+    // The whole Eq 21 power (both sides) scales; the duration does not.
+    for (m, b) in a.manoeuvres().iter().zip(base.manoeuvres()) {
+        assert_eq!(m.end_us - m.start_us, b.end_us - b.start_us);
+        let (pm, pb) = (motion_power_w(&varied, m), motion_power_w(&plain, b));
+        assert!(
+            (pm / pb - m.resistance_scale).abs() < 1e-9,
+            "{pm} vs {pb} × {}",
+            m.resistance_scale
+        );
+    }
+    // One factor for the whole run, another for another seed.
+    let mut per_run = plain;
+    per_run.noise.run_power_std = 0.05;
+    let run_scale = |seed| {
+        let t = per_run.simulate(&sc, seed).expect("simulates");
+        let s: Vec<f64> = t.manoeuvres().iter().map(|m| m.resistance_scale).collect();
+        assert!(s.iter().all(|x| *x == s[0]), "{s:?}");
+        s[0]
+    };
+    assert_ne!(run_scale(5), run_scale(6));
+    let e = parse_world("[noise]\nmanoeuvre_power_std = 0.7\n").expect_err("too large");
+    assert!(e.to_string().contains("noise.manoeuvre_power_std"), "{e}");
+    let w = parse_world("[noise]\nrun_power_std = 0.02\n").expect("valid");
+    assert_eq!(w.noise.run_power_std, 0.02);
+}
+
 #[test]
 fn left_and_right_turns_mirror() {
     let w = WorldConfig::sand().with_effect(EffectId::Slope, true);

@@ -73,6 +73,9 @@ pub struct ManoeuvreTruth {
     pub avg_power_w: Sides<f64>,
     /// Mean true pitch [deg].
     pub mean_pitch_deg: f64,
+    /// The factor on the terrain resistance (μ and G) in this manoeuvre: 1 unless `[noise]`
+    /// has `manoeuvre_power_std` or `run_power_std`.
+    pub resistance_scale: f64,
     /// Each enabled effect's contribution to the energy [J]: the integral of its electrical
     /// power for power terms; for `angular-slip` and `slip-track` the energy of the extra time
     /// they cause at the manoeuvre's average power; for `current-offset` what the sensors count
@@ -119,6 +122,9 @@ const LEFT_BUS: u64 = 3;
 const RIGHT_BUS: u64 = 4;
 const YAW: u64 = 5;
 const PITCH: u64 = 6;
+/// Streams of the terrain variation (`[noise]` run_power_std, manoeuvre_power_std).
+pub(super) const RUN_SCALE: u64 = 7;
+pub(super) const MANOEUVRE_SCALE: u64 = 8;
 
 fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -129,7 +135,7 @@ fn splitmix64(mut z: u64) -> u64 {
 
 /// A standard normal deviate from (seed, stream, t_us) alone: counter-based, so any instant can
 /// be queried in any order (Box–Muller on two splitmix64 outputs).
-fn gaussian(seed: u64, stream: u64, t_us: u64) -> f64 {
+pub(super) fn gaussian(seed: u64, stream: u64, t_us: u64) -> f64 {
     let h1 = splitmix64(
         seed ^ splitmix64(stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ splitmix64(t_us)),
     );
