@@ -173,6 +173,10 @@ enum Command {
     /// closes. Table on the terminal; JSON with --json; report, figures and a `plan --model`
     /// file with --out.
     Diagnose(DiagnoseArgs),
+    /// Checks `diagnose` on simulated datasets whose effect it is not told: each carries one
+    /// catalogue effect (random strength, noise, speed, repeat variation, perturbed terrain) or
+    /// none; prints the confusion matrix, the regime hit rate and the median held-out shrink.
+    DiagnoseBench(DiagnoseBenchArgs),
     /// Energy of the optimal CLC path (arc – line – arc) against the PLP path (point turn –
     /// line – point turn) between two poses (paper Eq 23–50). Headings are in the path frame:
     /// from the start-to-end line, counter-clockwise positive, both in (0, 90] or both in
@@ -198,6 +202,22 @@ struct DiagnoseArgs {
     /// Output directory: diagnosis.md, figures (PNG, SVG) and model.toml for `plan --model`.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct DiagnoseBenchArgs {
+    /// Number of datasets (one in nine is a control without an effect).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    datasets: u64,
+    /// Bench seed: the same seed gives the same datasets.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=256))]
+    threads: u64,
+    /// Write every dataset's result as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -568,7 +588,42 @@ fn plot_cmd(rover: &Path, runs: &[PathBuf], out: &Path, format: FigureFormat) ->
 }
 
 /// The diagnosis' rows of run logs (validated with the rover's default options).
+/// The diagnosis rows of `paths`: run logs through `validate`, and per-turn summary CSVs
+/// (header with `radius_m` and `avg_power_w`, see `diagnose::summary`) as total-only rows, each
+/// file its own run; plus the summaries' caveats.
 fn diagnosis_rows(
+    rover: &model_core::Rover,
+    paths: &[PathBuf],
+    what: &str,
+) -> Result<(Vec<diagnose::features::TurnRow>, Vec<String>)> {
+    let (summaries, runs): (Vec<&PathBuf>, Vec<&PathBuf>) = paths
+        .iter()
+        .partition(|p| diagnose::summary::is_summary_file(p));
+    let mut rows = if runs.is_empty() {
+        Vec::new()
+    } else {
+        let runs: Vec<PathBuf> = runs.into_iter().cloned().collect();
+        run_rows(rover, &runs, what)?
+    };
+    let mut notes = Vec::new();
+    for path in summaries {
+        let summary = diagnose::summary::load_summary(path)?;
+        let run_index = rows.iter().map(|r| r.run_index + 1).max().unwrap_or(0);
+        let mut of = diagnose::summary::summary_rows(rover, &summary, &path.display().to_string());
+        for row in &mut of {
+            row.run_index = run_index;
+        }
+        rows.extend(of);
+        notes.extend(
+            diagnose::summary::summary_notes(&summary)
+                .into_iter()
+                .map(|n| format!("{}: {n}", path.display())),
+        );
+    }
+    Ok((rows, notes))
+}
+
+fn run_rows(
     rover: &model_core::Rover,
     paths: &[PathBuf],
     what: &str,
@@ -588,18 +643,19 @@ fn diagnosis_rows(
 
 fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
     let rover = load_rover(&args.rover)?;
-    let rows = diagnosis_rows(&rover, &args.runs, "diagnosed")?;
+    let (rows, notes) = diagnosis_rows(&rover, &args.runs, "diagnosed")?;
     let cal_rows = if args.calibration.is_empty() {
         None
     } else {
-        Some(diagnosis_rows(&rover, &args.calibration, "calibration")?)
+        Some(diagnosis_rows(&rover, &args.calibration, "calibration")?.0)
     };
     let calibration = match &cal_rows {
         Some(rows) => Calibration::Rows(rows),
         None => Calibration::FromRuns,
     };
-    let diagnosis =
+    let mut diagnosis =
         diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;
+    diagnosis.notes = notes;
     // Files first: a closed stdout (`| head`) must not lose them.
     let files = match &args.out {
         Some(dir) => report::write_out_dir(dir, &rover, &diagnosis, &rows, calibration)?,
@@ -626,6 +682,22 @@ fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
             writeln!(stdout, "{}", file.display())?;
         }
     }
+    Ok(())
+}
+
+fn diagnose_bench_cmd(args: DiagnoseBenchArgs) -> Result<()> {
+    let options = diagnose::bench::BenchOptions {
+        datasets: args.datasets as usize,
+        seed: args.seed,
+        threads: args.threads as usize,
+    };
+    let report = diagnose::bench::run_bench(&options);
+    if let Some(path) = &args.json {
+        let text = serde_json::to_vec_pretty(&report).context("serialising the bench")?;
+        write_file(path, &text)?;
+    }
+    let mut stdout = std::io::stdout().lock();
+    write!(stdout, "{report}")?;
     Ok(())
 }
 
@@ -813,6 +885,7 @@ fn main() -> Result<()> {
         Command::Record(args) => record_cmd(args)?,
         Command::Plan(args) => plan_cmd(args)?,
         Command::Diagnose(args) => diagnose_cmd(args)?,
+        Command::DiagnoseBench(args) => diagnose_bench_cmd(args)?,
     }
     Ok(())
 }

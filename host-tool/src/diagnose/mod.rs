@@ -79,6 +79,8 @@ pub struct Diagnosis {
     pub heldout: Vec<HeldOutError>,
     /// What the baseline was fitted on.
     pub calibration: CalibrationNote,
+    /// Caveats of the input the caller adds (e.g. a per-turn summary's missing quantities).
+    pub notes: Vec<String>,
     /// The regimes with a significant gap on either side (the rows of `heldout`'s `gap`).
     pub gap_regimes: Vec<Regime>,
     /// Further effects added by forward stepwise selection after the named one, in order, each
@@ -159,6 +161,7 @@ impl Diagnosis {
             "gaps": self.gaps,
             "where": self.where_,
             "calibration": self.calibration,
+            "notes": self.notes,
         })
     }
 }
@@ -288,6 +291,7 @@ pub fn diagnose_with(
         gap_regimes,
         secondary: secondary_steps,
         calibration: calibration.note(rows),
+        notes: Vec::new(),
     })
 }
 

@@ -107,6 +107,35 @@ fn markdown_table(rows: &[Vec<String>]) -> String {
     out
 }
 
+/// What backs the conclusion, one line each: the shrink where the gap is, the stepwise
+/// secondary effects, where the model departs (the "where" analysis) and the data's caveats.
+pub fn findings(d: &Diagnosis) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(h) = d.heldout.iter().find(|h| h.regime == "gap") {
+        let regimes: Vec<&str> = d.gap_regimes.iter().map(|r| r.id()).collect();
+        out.push(format!(
+            "where the gap is ({}): held-out error {:.2} → {:.2} W with {} ({:.0} % closed)",
+            regimes.join(", "),
+            h.error_before,
+            h.error_after,
+            h.effect,
+            h.shrink_pct
+        ));
+    }
+    for s in &d.secondary {
+        out.push(format!(
+            "also: + {} → held-out error {:.2} W ({:.0} % of the baseline's closed; penalised \
+             {:.3} → {:.3} W²)",
+            s.effect, s.heldout_error_after, s.shrink_pct, s.penalised_mse_before, s.penalised_mse
+        ));
+    }
+    out.push(format!("where: {}", d.where_.statement));
+    out.extend(d.where_.findings.iter().map(|f| format!("  {f}")));
+    out.extend(d.where_.notes.iter().map(|n| format!("note: {n}")));
+    out.extend(d.notes.iter().map(|n| format!("note: {n}")));
+    out
+}
+
 /// The one-line conclusion.
 pub fn conclusion(d: &Diagnosis) -> String {
     let all = d.heldout.iter().find(|h| h.regime == "all");
@@ -136,6 +165,22 @@ pub fn conclusion(d: &Diagnosis) -> String {
             best.join(", "),
             cv::MIN_SHRINK_PCT,
             cv::CLEAR_MARGIN
+        )
+    } else if d.gaps.iter().all(|g| !(g.ci_w.0.is_finite() && g.ci_w.1.is_finite())) {
+        // No group has repeats: "none" means "not judged", not "the model fits".
+        let best = d.candidates.first().map_or(String::new(), |c| {
+            format!(
+                "; held-out error of the model {:.2} W ({}), the best candidate {} closes {:.0} %",
+                c.heldout_error_before,
+                d.scheme.id(),
+                c.effect,
+                c.shrink_pct
+            )
+        });
+        format!(
+            "diagnosis: none: no gap can be called significant because nothing was repeated \
+             (no second run, no radius driven twice) to measure the noise against{best}; \
+             repeat the manoeuvres to get a verdict"
         )
     } else {
         format!(
@@ -262,6 +307,9 @@ const METRIC: &str = "metric: RMS over held-out manoeuvres and both sides of the
 pub fn table(d: &Diagnosis) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "{}", conclusion(d));
+    for line in findings(d) {
+        let _ = writeln!(out, "  {line}");
+    }
     let _ = writeln!(out, "{}", calibration_line(d));
     let _ = writeln!(out, "{}", baseline_line(d));
     let _ = writeln!(out, "{METRIC}");
@@ -303,6 +351,9 @@ pub fn markdown(
         d.significant,
         d.scheme.id()
     );
+    for line in findings(d) {
+        let _ = writeln!(out, "- {line}");
+    }
     let _ = writeln!(out, "- {}", calibration_line(d));
     let _ = writeln!(out, "- {}", baseline_line(d));
     let _ = writeln!(out, "- {METRIC}\n");

@@ -255,6 +255,35 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
     Ok(rows)
 }
 
+/// Whether `path` is a per-turn summary CSV rather than a run log: a `.csv` whose first line
+/// that is neither blank nor a `#` comment names both `radius_m` and `avg_power_w`. Unreadable
+/// files are not summaries (loading them as runs reports the error).
+pub fn is_summary_file(path: &Path) -> bool {
+    use std::io::BufRead;
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+    {
+        return false;
+    }
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let header = std::io::BufReader::new(file)
+        .lines()
+        .take(64)
+        .map_while(Result::ok)
+        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    header.is_some_and(|h| {
+        let columns: Vec<&str> = h
+            .trim_start_matches('\u{feff}')
+            .split(',')
+            .map(str::trim)
+            .collect();
+        columns.contains(&"radius_m") && columns.contains(&"avg_power_w")
+    })
+}
+
 /// Caveats a report shows with a summary's diagnosis.
 pub fn summary_notes(rows: &[SummaryRow]) -> Vec<String> {
     let mut notes = vec![
