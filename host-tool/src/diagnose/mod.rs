@@ -1,6 +1,6 @@
 //! `diagnose`: where the hard-ground ICR model (paper Eq 21, fitted on calibration manoeuvres)
 //! departs from measured power, which catalogued unmodelled effect explains it, and how much of
-//! the held-out gap it closes. Work in progress: see `NOTES.md` in this directory.
+//! the held-out gap it closes. Design notes and measured figures: `NOTES.md` in this directory.
 //!
 //! Pipeline: [`features::rows`] (per-turn inner/outer rows from `validate`) →
 //! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → gaps per regime and side
@@ -214,10 +214,28 @@ pub fn diagnose_with(
     };
     let before = cv::heldout_residuals(rover, rows, primary, &[], calibration)?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
+    // Motor heating acts through run time; when every run drives the same manoeuvres in the
+    // same order, run time is confounded with the turn set and a heating term would fit turn
+    // shapes instead. It is only a candidate when the "where" analysis can identify a run-time
+    // trend (the same kind of manoeuvre recurring at run times spread apart).
+    let mut notes = Vec::new();
+    let heating_identifiable = where_.run_time.trend.is_some();
+    if !heating_identifiable {
+        notes.push(
+            "motor-heating not scored: run time is not identifiable apart from the turn order \
+             (repeat manoeuvres within longer runs to test it)"
+                .to_owned(),
+        );
+    }
+    let allowed = |e: EffectId| heating_identifiable || e != EffectId::MotorHeating;
     let mut candidates =
         cv::score_all(rover, rows, primary, calibration)?.ok_or(DiagnoseError::NothingToHoldOut)?;
+    candidates.retain(|c| allowed(c.effect));
     candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
-    let other_scheme = cv::score_all(rover, rows, secondary, calibration)?.map(|c| (secondary, c));
+    let other_scheme = cv::score_all(rover, rows, secondary, calibration)?.map(|mut c| {
+        c.retain(|c| allowed(c.effect));
+        (secondary, c)
+    });
 
     let effect = if !significant {
         "none".to_owned()
@@ -254,11 +272,11 @@ pub fn diagnose_with(
         }
     }
 
-    let secondary_steps = match (named, candidates.first()) {
-        (Some(first), Some(score)) => {
-            stepwise(rover, rows, primary, calibration, &before, first, score)?
-        }
-        _ => Vec::new(),
+    // The stepwise selection starts from the named effect's own score (the selection may have
+    // named it on the growth score, ahead of the best on effective power alone).
+    let secondary_steps = match named.and_then(|e| candidates.iter().find(|c| c.effect == e)) {
+        Some(score) => stepwise(rover, rows, primary, calibration, &before, score, &allowed)?,
+        None => Vec::new(),
     };
 
     let regime = match named {
@@ -291,7 +309,7 @@ pub fn diagnose_with(
         gap_regimes,
         secondary: secondary_steps,
         calibration: calibration.note(rows),
-        notes: Vec::new(),
+        notes,
     })
 }
 
@@ -321,7 +339,7 @@ fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
         .or_else(|| clear(&by_growth, |c| c.penalised_mse_with_growth))
 }
 
-/// Forward stepwise selection after `first`: adds, one at a time, the effect whose joint model
+/// Forward stepwise selection after the named effect (`first_score`): adds, one at a time, the effect whose joint model
 /// has the lowest score while that score beats the current one by [`cv::CLEAR_MARGIN`] and the
 /// held-out RMS it removes is at least [`cv::PRACTICAL_FLOOR_W`].
 fn stepwise(
@@ -330,15 +348,18 @@ fn stepwise(
     scheme: Scheme,
     calibration: Calibration<'_>,
     before: &[cv::RowResidual],
-    first: EffectId,
     first_score: &CandidateScore,
+    allowed: &dyn Fn(EffectId) -> bool,
 ) -> Result<Vec<StepwiseStep>, DiagnoseError> {
-    let mut chosen = vec![first];
+    let mut chosen = vec![first_score.effect];
     let mut current = first_score.penalised_mse;
     let mut steps = Vec::new();
     loop {
         let mut best: Option<CandidateScore> = None;
-        for e in EffectId::ALL.into_iter().filter(|e| !chosen.contains(e)) {
+        for e in EffectId::ALL
+            .into_iter()
+            .filter(|e| !chosen.contains(e) && allowed(*e))
+        {
             let mut model = chosen.clone();
             model.push(e);
             if let Some(c) = cv::score_model(rover, rows, scheme, calibration, before, &model)? {

@@ -130,7 +130,20 @@ pub fn findings(d: &Diagnosis) -> Vec<String> {
         ));
     }
     out.push(format!("where: {}", d.where_.statement));
-    out.extend(d.where_.findings.iter().map(|f| format!("  {f}")));
+    const SHOWN: usize = 6;
+    out.extend(
+        d.where_
+            .findings
+            .iter()
+            .take(SHOWN)
+            .map(|f| format!("  {f}")),
+    );
+    if d.where_.findings.len() > SHOWN {
+        out.push(format!(
+            "  … {} more significant groups in the JSON (`where`)",
+            d.where_.findings.len() - SHOWN
+        ));
+    }
     out.extend(d.where_.notes.iter().map(|n| format!("note: {n}")));
     out.extend(d.notes.iter().map(|n| format!("note: {n}")));
     out
@@ -166,7 +179,11 @@ pub fn conclusion(d: &Diagnosis) -> String {
             cv::MIN_SHRINK_PCT,
             cv::CLEAR_MARGIN
         )
-    } else if d.gaps.iter().all(|g| !(g.ci_w.0.is_finite() && g.ci_w.1.is_finite())) {
+    } else if d
+        .gaps
+        .iter()
+        .all(|g| !(g.ci_w.0.is_finite() && g.ci_w.1.is_finite()))
+    {
         // No group has repeats: "none" means "not judged", not "the model fits".
         let best = d.candidates.first().map_or(String::new(), |c| {
             format!(
