@@ -5,8 +5,14 @@
 //! `/dev/ttyACM0`, forwarding the commanded wheel speeds to the board ([`crate::record`]); the
 //! runs are validated against the seed's power models ([`crate::validate`]) and plotted
 //! ([`crate::figures`]). Every run is checked end to end: the energy the host recomputed from the
-//! received samples must equal the board's own total, bit for bit.
+//! received samples must equal the board's own total, bit for bit. Then the runs are diagnosed
+//! against the hard-ground model ([`crate::diagnose`]: where it departs, which unmodelled effect,
+//! how much of the held-out gap it closes), and the diagnosed model plans a CLC path against the
+//! hard-ground model fitted to the same runs ([`crate::plan`]).
 
+use crate::diagnose::calibration::Calibration;
+use crate::diagnose::report::{self as diagnosis_report, ReportError, MODEL_FILE};
+use crate::diagnose::{self, DiagnoseError, Diagnosis};
 use crate::figures::{write_figures, RunSamples};
 use crate::log::commands::write_commands_csv_atomically;
 use crate::log::convert::{convert, ConvertError};
@@ -14,6 +20,7 @@ use crate::log::load::{load_run, LoadError};
 use crate::log::run_csv::RunCsvFileError;
 use crate::log::run_log::RunLog;
 use crate::log::{write_atomically, AtomicWriteError};
+use crate::plan::{self, ModelFileError, ModelSource, PlanError, PlanReport};
 use crate::plot::{Format, PlotError};
 use crate::record::{self, RecordError, RecordOptions, RecordStatus, RecordSummary, SinkError};
 use crate::sim::board::{Pacing, PtyBoard, SimBoard};
@@ -26,6 +33,10 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
+
+/// The path the demo plans (path frame, paper Fig. 5): 90° → 90° over 10 m, the thesis' sand
+/// CLC experiment of Fig. C.3 (start heading, end heading [deg], distance [m]).
+pub const PLAN_PATH: (f64, f64, f64) = (90.0, 90.0, 10.0);
 
 /// Tracker rate of the simulated pose in the commands file [Hz].
 pub const TRACKER_HZ: f64 = 20.0;
@@ -114,6 +125,18 @@ pub enum DemoError {
     /// A report file could not be written.
     #[error(transparent)]
     Report(#[from] AtomicWriteError<io::Error>),
+    /// The diagnosis failed.
+    #[error("diagnosis: {0}")]
+    Diagnose(#[from] DiagnoseError),
+    /// The diagnosis' report, figures or model file could not be written.
+    #[error("diagnosis report: {0}")]
+    DiagnosisReport(#[from] ReportError),
+    /// The diagnosed model file could not be read back.
+    #[error(transparent)]
+    ModelFile(#[from] ModelFileError),
+    /// The plan failed.
+    #[error("plan: {0}")]
+    Plan(#[from] PlanError),
 }
 
 /// One recorded run.
@@ -140,6 +163,12 @@ pub struct DemoOutcome {
     pub runs: Vec<DemoRun>,
     /// The validation of all runs.
     pub report: ValidationReport,
+    /// The diagnosis of all runs.
+    pub diagnosis: Diagnosis,
+    /// [`PLAN_PATH`] under the hard-ground model fitted to the runs (no effects).
+    pub plan_hard_ground: PlanReport,
+    /// [`PLAN_PATH`] under the diagnosed model (the model file `diagnose` wrote).
+    pub plan_diagnosed: PlanReport,
     /// Every file written (logs, reports, figures).
     pub files: Vec<PathBuf>,
 }
@@ -228,9 +257,40 @@ pub fn run(
         out,
         &[Format::Png, Format::Svg],
     )?);
+
+    let slices: Vec<&[crate::log::run_csv::RunSample]> =
+        logs.iter().map(|l| l.samples.as_slice()).collect();
+    let rows = diagnose::features::rows(&report, &slices);
+    let diagnosis = diagnose::diagnose(&rover, &rows)?;
+    let dir = out.join("diagnosis");
+    files.extend(diagnosis_report::write_out_dir(
+        &dir,
+        &rover,
+        &diagnosis,
+        &rows,
+        Calibration::FromRuns,
+    )?);
+    let json = dir.join("diagnosis.json");
+    diagnosis_report::write_json(&json, &diagnosis)?;
+    files.push(json);
+
+    // The model file as `plan --model` reads it, and the same file without its effect terms:
+    // the hard-ground model fitted to these runs.
+    let model_path = dir.join(MODEL_FILE);
+    let diagnosed = plan::load_model(&model_path)?;
+    let mut hard_ground = diagnosed.clone();
+    hard_ground.effects.clear();
+    hard_ground.description = Some("the diagnosed model without its effect terms".into());
+    let (start_deg, end_deg, distance_m) = PLAN_PATH;
+    let source = ModelSource::File(model_path);
+    let plan_diagnosed = plan::plan(&diagnosed, &source, start_deg, end_deg, distance_m)?;
+    let plan_hard_ground = plan::plan(&hard_ground, &source, start_deg, end_deg, distance_m)?;
     Ok(DemoOutcome {
         runs,
         report,
+        diagnosis,
+        plan_hard_ground,
+        plan_diagnosed,
         files,
     })
 }

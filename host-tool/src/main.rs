@@ -552,6 +552,44 @@ fn demo_cmd(
     print!("{}", outcome.report);
     println!();
     println!(
+        "== diagnosis: the hard-ground model (Eq 21 per side) fitted on the runs' straights, point \
+         turns and 2R′ turns; every catalogued effect fitted on training runs and scored on the \
+         withheld run"
+    );
+    print!("{}", report::table(&outcome.diagnosis));
+    println!();
+    let (start_deg, end_deg, distance_m) = demo::PLAN_PATH;
+    println!(
+        "== plan: {start_deg}° → {end_deg}° over {distance_m} m on this terrain (paper Eq 23–50; \
+         model file {}/diagnosis/model.toml)",
+        options.out_dir.display()
+    );
+    let effects = outcome.diagnosis.model_effects();
+    let effects: Vec<&str> = effects.iter().map(|e| e.id()).collect();
+    for (what, p) in [
+        (
+            "hard-ground model fitted to the runs".to_owned(),
+            &outcome.plan_hard_ground,
+        ),
+        (
+            format!("+ diagnosed {}", effects.join(" + ")),
+            &outcome.plan_diagnosed,
+        ),
+    ] {
+        println!(
+            "  {what}: CLC R1 = {:.2} m ({:.2} R′), R2 = {:.2} m ({:.2} R′), {:.0} J vs PLP {:.0} J \
+             ({:+.1} %)",
+            p.clc.r1_m,
+            p.clc.r1_m / p.r_prime_m,
+            p.clc.r2_m,
+            p.clc.r2_m / p.r_prime_m,
+            p.clc.energy_j,
+            p.plp.energy_j,
+            -p.saving_pct
+        );
+    }
+    println!();
+    println!(
         "{} files in {} ({:.1} s):",
         outcome.files.len(),
         options.out_dir.display(),

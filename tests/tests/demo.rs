@@ -26,8 +26,9 @@ impl Drop for TempDir {
     }
 }
 
-/// Three turns and a straight line: enough for every check below and for a fit (R', 2R' and the
-/// straight line), and short (≈ 25 s simulated).
+/// Three turns, a straight line and a point turn: enough for every check below, for a fit (R',
+/// 2R' and the straight line) and for the diagnosis' calibration (point turn, 2R', straight),
+/// and short (≈ 30 s simulated).
 const SHORT_SCENARIO: &str = r#"
 repeats = 1
 pause_s = 1.0
@@ -49,6 +50,9 @@ r_over_r_prime = 2.0
 [[manoeuvres]]
 kind = "straight"
 distance_m = 1.0
+
+[[manoeuvres]]
+kind = "point-turn"
 "#;
 
 #[test]
@@ -97,8 +101,8 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
     }
 
     let report = &outcome.report;
-    // 3 turns + 1 straight per run.
-    assert_eq!(report.manoeuvres.len(), 8, "{report}");
+    // 3 turns, 1 straight and a point turn per run.
+    assert_eq!(report.manoeuvres.len(), 10, "{report}");
     let regimes: Vec<Option<Regime>> = report.manoeuvres[..4].iter().map(|m| m.regime).collect();
     assert_eq!(
         regimes,
@@ -122,6 +126,23 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
         assert!(check.agrees(0.0), "{check:?}");
         assert_eq!(check.definedness_mismatches, 0, "{check:?}");
     }
+    // The diagnosis names a catalogued sand effect (the sand world has five on) and its model
+    // prices the same path differently from the hard-ground model fitted to the same runs,
+    // which plans its arcs at R' (paper Eq 26's kink). Where the diagnosed model moves the arc
+    // on the demo's own runs is checked in host_tool::diagnose::model_file's tests.
+    let d = &outcome.diagnosis;
+    assert!(d.significant, "{}", d.effect);
+    let named = host_tool::diagnose::named_effect(d).expect("an effect is named");
+    assert!(options.world.effects.is_enabled(named), "{named}");
+    let (hard, diagnosed) = (&outcome.plan_hard_ground, &outcome.plan_diagnosed);
+    assert!(
+        (hard.clc.r1_m / hard.r_prime_m - 1.0).abs() < 0.05,
+        "{hard:?}"
+    );
+    assert!(
+        diagnosed.plp.energy_j > hard.plp.energy_j,
+        "{diagnosed:?} vs {hard:?}"
+    );
     // Reports and figures were written.
     for name in [
         "report.txt",
@@ -131,6 +152,11 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
         "power-vs-radius.svg",
         "torque-per-side.png",
         "residuals.svg",
+        "diagnosis/diagnosis.md",
+        "diagnosis/diagnosis.json",
+        "diagnosis/model.toml",
+        "diagnosis/residuals-vs-radius.png",
+        "diagnosis/growth-vs-radius.svg",
     ] {
         let path = dir.0.join(name);
         assert!(outcome.files.contains(&path), "{name} not reported");

@@ -206,8 +206,11 @@ fn micro(x: f64) -> f64 {
 }
 
 /// The R/R′ breakpoints of the table: a uniform grid, the regime edges (B/2, R′ ± the at-R′
-/// tolerance) with a point just outside each, wider turns, and the straight line's position.
-pub fn grid(rover: &Rover) -> Vec<f64> {
+/// tolerance) with a point just outside each, wider turns, and the straight line's position;
+/// turns only up to `widest` R/R′ (the widest turn diagnosed: beyond it a fitted term is an
+/// extrapolation, so the table goes straight from there to the straight line's value, which
+/// was measured, and `plan` interpolates between the two).
+pub fn grid(rover: &Rover, widest: f64) -> Vec<f64> {
     let r_prime = f64::from(rover.r_prime_m());
     let bounds = RegimeBounds::default();
     let tol = f64::from(bounds.r_prime_fraction);
@@ -222,7 +225,7 @@ pub fn grid(rover: &Rover) -> Vec<f64> {
     }
     out.extend(GRID_WIDE);
     let straight = micro(straight);
-    out.retain(|x| *x >= 0.0 && *x < straight);
+    out.retain(|x| *x >= 0.0 && *x < straight && *x <= widest + 1e-9);
     out.push(straight);
     out.sort_by(f64::total_cmp);
     out.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
@@ -230,20 +233,21 @@ pub fn grid(rover: &Rover) -> Vec<f64> {
 }
 
 /// One effect term of a fitted model, tabulated: its total extra power of both sides at each
-/// R/R′ of [`grid`] (the last breakpoint is the straight line).
+/// R/R′ of [`grid`] up to `widest` (the last breakpoint is the straight line).
 pub fn effect_term(
     rover: &Rover,
     baseline: &Baseline,
     model: &FittedModel,
     term: &FittedEffect,
     at: &Conditions,
+    widest: f64,
 ) -> EffectTerm {
     let ctx = Context {
         rover,
         baseline,
         heating_tau_s: model.heating_tau_s,
     };
-    let r_over_r_prime = grid(rover);
+    let r_over_r_prime = grid(rover, widest);
     let extra_power_w = r_over_r_prime
         .iter()
         .map(|&k| {
@@ -271,10 +275,16 @@ pub fn energy_model(
     let at = Conditions::of(rows)?;
     let effects = diagnosis.model_effects();
     let (baseline, model) = fit_model(rover, rows, &effects, calibration)?;
+    // No table beyond the widest diagnosed turn (R/R′ = 0 if there is none).
+    let widest = rows
+        .iter()
+        .map(|r| r.r_over_r_prime)
+        .filter(|k| k.is_finite())
+        .fold(0.0, f64::max);
     let terms: Vec<EffectTerm> = model
         .effects
         .iter()
-        .map(|term| effect_term(rover, &baseline, &model, term, &at))
+        .map(|term| effect_term(rover, &baseline, &model, term, &at, widest))
         .collect();
     let a = baseline.skid_force_n + model.correction_a_n;
     let icr = baseline.as_icr(rover);
@@ -385,6 +395,29 @@ mod tests {
         assert!(base_only > 0.15, "{base_only}");
     }
 
+    /// The demo's sand experiment (the seed's turn set on the sand world, three runs): the
+    /// diagnosed model moves the energy-optimal CLC arc of a 90° – 10 m – 90° path from R′
+    /// (where the hard-ground model fitted to the same runs puts it, paper Eq 26) out to
+    /// 2–3 R′, as the thesis measured on sand (Table 6.1: 2R′ < R < 2.5R′; Fig. C.3).
+    #[test]
+    fn sand_model_moves_the_optimal_arc_out_from_r_prime() {
+        let runs: Vec<_> = (1..=3)
+            .map(|k| simulate_run(&WorldConfig::sand(), &Scenario::seed_turns(0.3, 1), k))
+            .collect();
+        let rows = rows_of(&runs);
+        let d = diagnose(&HUSKY, &rows).expect("diagnoses");
+        let model = energy_model(&HUSKY, &d, &rows, Calibration::FromRuns).expect("model");
+        let mut hard = model.clone();
+        hard.effects.clear();
+        let source = crate::plan::ModelSource::Preset(crate::plan::Preset::HuskyHardGround);
+        let with = crate::plan::plan(&model, &source, 90.0, 90.0, 10.0).expect("plans");
+        let without = crate::plan::plan(&hard, &source, 90.0, 90.0, 10.0).expect("plans");
+        let k = |p: &crate::plan::PlanReport| p.clc.r1_m / p.r_prime_m;
+        assert!((k(&without) - 1.0).abs() < 0.05, "{without:?}");
+        assert!((2.0..=3.0).contains(&k(&with)), "{}: {with:?}", d.effect);
+        assert!(with.saving_pct > 0.0, "{with:?}");
+    }
+
     #[test]
     fn control_runs_give_the_fitted_base_without_effect_terms() {
         let rows = rows_of_world(&WorldConfig::hard_ground());
@@ -437,11 +470,15 @@ mod tests {
                 baseline.side_power_w(&row, 0)
             );
         }
-        let g = grid(&HUSKY);
+        let g = grid(&HUSKY, f64::INFINITY);
         assert!(g.windows(2).all(|w| w[0] < w[1]));
         let last = *g.last().expect("grid");
         assert!((last * 0.55 - 20.0).abs() < 1e-3, "{last}");
         let straight = synthetic_row(&HUSKY, &baseline, last, &at);
         assert!(straight.is_straight());
+        // Turns beyond the widest diagnosed one are not tabulated: straight to the straight line.
+        let clipped = grid(&HUSKY, 2.0);
+        assert_eq!(clipped[clipped.len() - 2], 2.0);
+        assert_eq!(clipped.last(), g.last());
     }
 }
