@@ -33,22 +33,7 @@ fn scenario() -> Scenario {
 /// One run of `world` sampled at 200 Hz, written as a run CSV.
 fn write_run(world: &WorldConfig, seed: u64, path: &Path) {
     let timeline = world.simulate(&scenario(), seed).expect("scenario runs");
-    let step_us = 5_000;
-    let samples: Vec<RunSample> = (0..=timeline.duration_us() / step_us)
-        .map(|k| {
-            let t_us = k * step_us;
-            let load = timeline.load_at(t_us);
-            let (yaw_rad, pitch_deg) = timeline.pose_at(t_us);
-            RunSample {
-                t_s: t_us as f64 * 1e-6,
-                bus_v: Sides::new(load.left.bus_v, load.right.bus_v),
-                current_a: Sides::new(load.left.current_a, load.right.current_a),
-                cmd_mps: timeline.command_at(t_us),
-                yaw_rad: Some(yaw_rad),
-                pitch_deg: Some(pitch_deg),
-            }
-        })
-        .collect();
+    let samples = host_tool::diagnose::bench::sample_run(&timeline, 200);
     write_run_csv_atomically(path, &samples).expect("write run");
 }
 

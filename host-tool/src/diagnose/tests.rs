@@ -254,26 +254,7 @@ pub(super) fn scaled(effect: EffectId, scale: f64, current_std_a: f64) -> WorldC
     let mut w = WorldConfig::hard_ground().with_effect(effect, true);
     w.noise.left_current_std_a = current_std_a;
     w.noise.right_current_std_a = current_std_a;
-    let e = &mut w.effects;
-    match effect {
-        EffectId::InnerDrag => e.inner_drag.torque_nm *= scale,
-        EffectId::SinkageBulldozing => e.sinkage_bulldozing.resistance_n_per_mm *= scale,
-        EffectId::AngularSlip => {
-            e.angular_slip.at_zero *= scale.min(2.0);
-            e.angular_slip.at_r_prime *= scale.min(2.0);
-        }
-        EffectId::SlipTrack => {
-            let b = crate::sim::world::effects::HARD_GROUND_SLIP_TRACK_M;
-            e.slip_track.slip_track_m = Some(1.1 + (b - 1.1) * scale);
-        }
-        EffectId::BrakedInner => e.braked_inner.resistance_n *= scale,
-        EffectId::CurrentOffset => {
-            e.current_offset.left_a *= scale;
-            e.current_offset.right_a *= scale;
-        }
-        EffectId::MotorHeating => e.motor_heating.thermal_resistance_k_per_w *= scale,
-        EffectId::Slope => e.slope.amplitude_deg *= scale,
-    }
+    super::bench::scale_effect(&mut w, effect, scale);
     w
 }
 
