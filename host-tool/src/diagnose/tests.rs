@@ -316,7 +316,10 @@ fn json_has_the_issue_keys_and_per_regime_shrink() {
     // Every catalogue effect but motor-heating: one pass through the turn set per run does not
     // separate run time from the turn order.
     assert_eq!(j["candidates"].as_array().map(Vec::len), Some(7));
-    assert!(d.notes.iter().any(|n| n.contains("motor-heating not scored")));
+    assert!(d
+        .notes
+        .iter()
+        .any(|n| n.contains("motor-heating not scored")));
     let first = &j["candidates"][0];
     assert_eq!(first["effect"], "inner-drag");
     assert_eq!(j["heldout"]["shrink_pct"], first["shrink_pct"]);
