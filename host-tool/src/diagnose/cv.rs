@@ -426,3 +426,44 @@ pub fn bootstrap_mean(values: &[f64], groups: &[usize], seed: u64) -> Option<(f6
     let hi = means[(0.975 * BOOTSTRAP_RESAMPLES as f64) as usize - 1];
     Some((mean, lo, hi))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t_quantiles_match_the_table_and_approach_the_normal() {
+        assert!((t_quantile_975(1) - 12.706).abs() < 1e-3);
+        assert!((t_quantile_975(3) - 3.182).abs() < 1e-3);
+        // Beyond the table: t(40) = 2.021, t(120) = 1.980.
+        assert!((t_quantile_975(40) - 2.021).abs() < 2e-3);
+        assert!((t_quantile_975(120) - 1.980).abs() < 2e-3);
+        assert!(t_quantile_975(0).is_infinite());
+    }
+
+    #[test]
+    fn few_runs_give_a_t_interval_over_the_manoeuvres() {
+        // Two runs of two repeats: a bootstrap over the two runs would span only the two run
+        // means (4.0 and 6.0); Student's t over the four values is much wider.
+        let values = [3.0, 5.0, 5.0, 7.0];
+        let runs = [0, 0, 1, 1];
+        let (mean, lo, hi) = bootstrap_mean(&values, &runs, 1).expect("values");
+        assert_eq!(mean, 5.0);
+        let half = 3.182 * (8.0f64 / 3.0 / 4.0).sqrt();
+        assert!((lo - (5.0 - half)).abs() < 1e-3 && (hi - (5.0 + half)).abs() < 1e-3);
+        assert!(lo < 4.0 && hi > 6.0);
+        // One value: no interval.
+        let (_, lo, hi) = bootstrap_mean(&[1.0], &[0], 1).expect("value");
+        assert!(lo.is_infinite() && hi.is_infinite());
+    }
+
+    #[test]
+    fn many_runs_are_bootstrapped_as_units() {
+        let values: Vec<f64> = (0..8).map(|i| f64::from(i % 4)).collect();
+        let runs: Vec<usize> = (0..8).map(|i| i % 4).collect();
+        let (mean, lo, hi) = bootstrap_mean(&values, &runs, 7).expect("values");
+        assert_eq!(mean, 1.5);
+        // Resampled run means lie within the runs' range.
+        assert!(lo >= 0.0 && hi <= 3.0 && lo < mean && hi > mean);
+    }
+}
