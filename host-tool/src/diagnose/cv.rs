@@ -14,12 +14,15 @@
 //!   coefficients, τ of `motor-heating`) and n held-out side observations. A second score pools
 //!   the growth residuals (second minus first half of each turn) with the effective power.
 //! - **Significance**: the mean baseline residual of a (regime, side) group is significant when
-//!   its 95 % bootstrap interval (resampling runs, or manoeuvres within the group for one run)
-//!   excludes 0 and its size exceeds [`PRACTICAL_FLOOR_W`].
+//!   its 95 % interval excludes 0 and its size exceeds the group's practical floor, the larger
+//!   of [`PRACTICAL_FLOOR_W`] and [`RELATIVE_FLOOR`] of the group's mean |model power|. The
+//!   interval is a bootstrap resampling whole runs when there are at least
+//!   [`MIN_BOOTSTRAP_RUNS`], else Student's t over the manoeuvres ([`bootstrap_mean`]).
 //! - **Selection**: the effect with the lowest penalised error is named when the gap is
 //!   significant, it closes at least [`MIN_SHRINK_PCT`] of the held-out gap, and the runner-up's
 //!   penalised MSE is at least [`CLEAR_MARGIN`] times its own; failing that, the same rule on the
-//!   score with growth; otherwise `ambiguous`.
+//!   score with growth, then on the score with average power, then on the rows of the regimes
+//!   with a significant gap only; otherwise `ambiguous`.
 
 use super::baseline::{Baseline, BaselineError};
 use super::calibration::Calibration;
@@ -32,6 +35,17 @@ use serde::Serialize;
 
 /// Smallest mean gap that counts, per side [W] (below it a gap is not worth a term).
 pub const PRACTICAL_FLOOR_W: f64 = 1.5;
+/// Smallest mean gap that counts relative to the power the model predicts for the group, as a
+/// fraction of its mean |model power| per side (the floor is the larger of this and
+/// [`PRACTICAL_FLOOR_W`]). A two-parameter steady power model (Eq 21) is not expected to hold
+/// a large side power to better than a few per cent: a 2 W gap on a 200 W side is model
+/// tolerance, not a missing term, whereas the same 2 W on a side the model says draws nothing is
+/// not.
+pub const RELATIVE_FLOOR: f64 = 0.05;
+/// Fewest runs for which the runs themselves are the resampling units of [`bootstrap_mean`];
+/// with fewer, a percentile bootstrap over 2–3 units spans little more than their range, so the
+/// interval is Student's t over the individual manoeuvres ([`t_interval`]).
+pub const MIN_BOOTSTRAP_RUNS: usize = 4;
 /// Bootstrap resamples.
 pub const BOOTSTRAP_RESAMPLES: usize = 2000;
 /// Fraction of the held-out gap the named effect must close [%].
@@ -80,6 +94,9 @@ pub struct RowResidual {
     pub effective_w: Residuals,
     /// Growth residual per side [W].
     pub growth_w: [Option<f64>; 2],
+    /// Average-power residual per side: measured average power − baseline − the model's extra
+    /// average power ([`FittedModel::extra_avg_power_w`]) [W]; `None` for total-only rows.
+    pub avg_w: [Option<f64>; 2],
 }
 
 /// Held-out residuals, in row order.
@@ -146,10 +163,22 @@ pub fn heldout_residuals(
                     *gw -= fitted.growth_w(row, side, &ctx);
                 }
             }
+            let avg_w = if row.is_total_only() {
+                [None, None]
+            } else {
+                [0, 1].map(|side| {
+                    Some(
+                        row.sides[side].avg_power_w
+                            - baseline.side_power_w(row, side)
+                            - fitted.extra_avg_power_w(row, side, &ctx),
+                    )
+                })
+            };
             out.push(RowResidual {
                 row: i,
                 effective_w,
                 growth_w,
+                avg_w,
             });
         }
     }
@@ -205,6 +234,24 @@ pub struct CandidateScore {
     /// FPE-penalised MSE of the effective power and the growth through the turn pooled (the
     /// selection's second target, used when the first leaves the choice ambiguous) [W²].
     pub penalised_mse_with_growth: f64,
+    /// FPE-penalised MSE of the effective and the average power pooled (the third target: it
+    /// separates terms that lengthen the turn from terms that draw more power, which the
+    /// effective power alone cannot when their shapes agree, e.g. angular slip and a braked inner
+    /// side at R') [W²].
+    pub penalised_mse_with_avg_power: f64,
+}
+
+/// The third selection score of held-out residuals: FPE of the pooled mean square of the
+/// effective-power and average-power residuals with `k` parameters [W²].
+pub fn score_with_avg_power(res: &[RowResidual], k: usize) -> f64 {
+    let n_eff = observations(res);
+    let eff = mean_square(res, |_| true).unwrap_or(0.0) * n_eff as f64;
+    let (avg, n_avg) = res
+        .iter()
+        .flat_map(|r| r.avg_w.iter().flatten())
+        .fold((0.0, 0usize), |(s, n), a| (s + a * a, n + 1));
+    let n = n_eff + n_avg;
+    penalised((eff + avg) / n.max(1) as f64, n, k)
 }
 
 /// The second selection score of held-out residuals: FPE of the pooled mean square of the
@@ -249,6 +296,7 @@ pub fn score_model(
             model_params(effects),
         ),
         penalised_mse_with_growth: score_with_growth(&after, model_params(effects)),
+        penalised_mse_with_avg_power: score_with_avg_power(&after, model_params(effects)),
     }))
 }
 
@@ -293,8 +341,46 @@ impl SplitMix64 {
     }
 }
 
-/// Mean and 95 % percentile-bootstrap interval of `values` grouped by `groups` (whole groups
-/// are resampled: the repeats are the unit of noise); `None` for no values.
+/// Two-sided 97.5 % quantile of Student's t with `df` degrees of freedom (exact table to 30,
+/// then the Cornish–Fisher expansion, < 0.1 % off).
+pub fn t_quantile_975(df: usize) -> f64 {
+    const TABLE: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    match df {
+        0 => f64::INFINITY,
+        1..=30 => TABLE[df - 1],
+        _ => {
+            let z: f64 = 1.959_964;
+            let v = df as f64;
+            z + (z.powi(3) + z) / (4.0 * v)
+                + (5.0 * z.powi(5) + 16.0 * z.powi(3) + 3.0 * z) / (96.0 * v * v)
+        }
+    }
+}
+
+/// Mean and 95 % Student-t interval of `values` taken as independent repeats; `None` for no
+/// values, an unbounded interval for one.
+pub fn t_interval(values: &[f64]) -> Option<(f64, f64, f64)> {
+    if values.is_empty() {
+        return None;
+    }
+    let n = values.len();
+    let mean = values.iter().sum::<f64>() / n as f64;
+    if n < 2 {
+        return Some((mean, f64::NEG_INFINITY, f64::INFINITY));
+    }
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let half = t_quantile_975(n - 1) * (var / n as f64).sqrt();
+    Some((mean, mean - half, mean + half))
+}
+
+/// Mean and 95 % interval of `values` grouped by `groups` (runs): a percentile bootstrap
+/// resampling whole groups (the repeats are the unit of noise) when there are at least
+/// [`MIN_BOOTSTRAP_RUNS`] groups, else Student's t over the values ([`t_interval`]); `None` for
+/// no values.
 pub fn bootstrap_mean(values: &[f64], groups: &[usize], seed: u64) -> Option<(f64, f64, f64)> {
     if values.is_empty() || values.len() != groups.len() {
         return None;
@@ -303,7 +389,9 @@ pub fn bootstrap_mean(values: &[f64], groups: &[usize], seed: u64) -> Option<(f6
     let mut ids: Vec<usize> = groups.to_vec();
     ids.sort_unstable();
     ids.dedup();
-    // One group: resample the values themselves.
+    if ids.len() < MIN_BOOTSTRAP_RUNS {
+        return t_interval(values);
+    }
     let units: Vec<Vec<f64>> = if ids.len() >= 2 {
         ids.iter()
             .map(|g| {
@@ -337,4 +425,45 @@ pub fn bootstrap_mean(values: &[f64], groups: &[usize], seed: u64) -> Option<(f6
     let lo = means[(0.025 * BOOTSTRAP_RESAMPLES as f64) as usize];
     let hi = means[(0.975 * BOOTSTRAP_RESAMPLES as f64) as usize - 1];
     Some((mean, lo, hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t_quantiles_match_the_table_and_approach_the_normal() {
+        assert!((t_quantile_975(1) - 12.706).abs() < 1e-3);
+        assert!((t_quantile_975(3) - 3.182).abs() < 1e-3);
+        // Beyond the table: t(40) = 2.021, t(120) = 1.980.
+        assert!((t_quantile_975(40) - 2.021).abs() < 2e-3);
+        assert!((t_quantile_975(120) - 1.980).abs() < 2e-3);
+        assert!(t_quantile_975(0).is_infinite());
+    }
+
+    #[test]
+    fn few_runs_give_a_t_interval_over_the_manoeuvres() {
+        // Two runs of two repeats: a bootstrap over the two runs would span only the two run
+        // means (4.0 and 6.0); Student's t over the four values is much wider.
+        let values = [3.0, 5.0, 5.0, 7.0];
+        let runs = [0, 0, 1, 1];
+        let (mean, lo, hi) = bootstrap_mean(&values, &runs, 1).expect("values");
+        assert_eq!(mean, 5.0);
+        let half = 3.182 * (8.0f64 / 3.0 / 4.0).sqrt();
+        assert!((lo - (5.0 - half)).abs() < 1e-3 && (hi - (5.0 + half)).abs() < 1e-3);
+        assert!(lo < 4.0 && hi > 6.0);
+        // One value: no interval.
+        let (_, lo, hi) = bootstrap_mean(&[1.0], &[0], 1).expect("value");
+        assert!(lo.is_infinite() && hi.is_infinite());
+    }
+
+    #[test]
+    fn many_runs_are_bootstrapped_as_units() {
+        let values: Vec<f64> = (0..8).map(|i| f64::from(i % 4)).collect();
+        let runs: Vec<usize> = (0..8).map(|i| i % 4).collect();
+        let (mean, lo, hi) = bootstrap_mean(&values, &runs, 7).expect("values");
+        assert_eq!(mean, 1.5);
+        // Resampled run means lie within the runs' range.
+        assert!(lo >= 0.0 && hi <= 3.0 && lo < mean && hi > mean);
+    }
 }

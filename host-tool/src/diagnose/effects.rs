@@ -475,6 +475,20 @@ impl FittedModel {
                 .sum::<f64>()
     }
 
+    /// The model's extra **average** power for side `side` of `row` [W]: the corrections and
+    /// the power-type terms ([`is_power_type`]); the time-type terms lengthen the turn and leave
+    /// the average power as it is.
+    pub fn extra_avg_power_w(&self, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
+        let ctx = self.ctx(ctx);
+        self.correction_w(row, side)
+            + self
+                .effects
+                .iter()
+                .filter(|f| is_power_type(f.effect))
+                .map(|f| f.term_w(row, side, &ctx))
+                .sum::<f64>()
+    }
+
     /// The baseline corrections' share of [`FittedModel::extra_w`] [W].
     pub fn correction_w(&self, row: &TurnRow, side: usize) -> f64 {
         self.correction_a_n * super::baseline::skid_feature_mps(row, side)

@@ -24,7 +24,9 @@
 //!   time. The slope needs each group to recur at different times (long runs with repeats);
 //!   otherwise it is reported as not identifiable.
 //! - **Significant**: the interval excludes 0 and the mean exceeds the practical floor
-//!   ([`cv::PRACTICAL_FLOOR_W`]; for energy, that power over the group's mean expected duration;
+//!   ([`cv::PRACTICAL_FLOOR_W`]; for the effective-power gaps the selection uses, the larger of
+//!   that and [`cv::RELATIVE_FLOOR`] of the group's mean |model power| ([`practical_floor_w`]);
+//!   for energy, that power over the group's mean expected duration;
 //!   for the trend, that power as the change over the median run length).
 //!
 //! Straights' sides are labelled inner/outer by convention only, so the by-side groups hold turns
@@ -129,18 +131,30 @@ fn is_significant(mean: f64, lo: f64, hi: f64, floor: f64) -> bool {
     (lo > 0.0 || hi < 0.0) && mean.abs() > floor
 }
 
-/// The observations of `row` with their part and effective-power residual.
-fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64)> {
+/// The observations of `row` with their part, effective-power residual and model power [W].
+fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64)> {
     let res = baseline.observed_residuals_w(row);
     if res.is_total() {
-        vec![(Part::Total, res[0])]
+        vec![(Part::Total, res[0], baseline.power_w(row))]
     } else {
         row.sides
             .iter()
             .zip(res.iter())
-            .map(|(s, r)| (Part::from(s.role), *r))
+            .enumerate()
+            .map(|(k, (s, r))| (Part::from(s.role), *r, baseline.side_power_w(row, k)))
             .collect()
     }
+}
+
+/// The practical floor of a group whose observations have model powers `model_w`: the larger of
+/// [`cv::PRACTICAL_FLOOR_W`] and [`cv::RELATIVE_FLOOR`] of their mean |model power| [W].
+pub fn practical_floor_w(model_w: &[f64]) -> f64 {
+    let mean_abs = if model_w.is_empty() {
+        0.0
+    } else {
+        model_w.iter().map(|p| p.abs()).sum::<f64>() / model_w.len() as f64
+    };
+    cv::PRACTICAL_FLOOR_W.max(cv::RELATIVE_FLOOR * mean_abs)
 }
 
 /// Effective-power gaps per (regime, side) with bootstrap significance (the selection's input).
@@ -149,16 +163,17 @@ pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow]) -> Vec<Gap> {
     let mut gaps = Vec::new();
     for regime in Regime::ALL {
         for (k, part) in [(0u64, Part::Inner), (1, Part::Outer), (2, Part::Total)] {
-            let picked: Vec<(f64, usize, i64)> = rows
+            let picked: Vec<(f64, usize, i64, f64)> = rows
                 .iter()
                 .filter(|r| r.regime == regime)
                 .flat_map(|r| {
                     effective_parts(baseline, r)
                         .into_iter()
-                        .filter(|(p, _)| *p == part)
-                        .map(|(_, v)| (v, r.run_index, repeat_key(r.r_over_r_prime)))
+                        .filter(|(p, _, _)| *p == part)
+                        .map(|(_, v, m)| (v, r.run_index, repeat_key(r.r_over_r_prime), m))
                 })
                 .collect();
+            let model_w: Vec<f64> = picked.iter().map(|x| x.3).collect();
             let values: Vec<f64> = picked.iter().map(|x| x.0).collect();
             let groups: Vec<usize> = picked.iter().map(|x| x.1).collect();
             let keys: Vec<i64> = picked.iter().map(|x| x.2).collect();
@@ -170,7 +185,7 @@ pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow]) -> Vec<Gap> {
                     n: values.len(),
                     mean_w,
                     ci_w: (lo, hi),
-                    significant: is_significant(mean_w, lo, hi, cv::PRACTICAL_FLOOR_W),
+                    significant: is_significant(mean_w, lo, hi, practical_floor_w(&model_w)),
                 });
             }
         }
@@ -749,6 +764,17 @@ mod tests {
     use model_core::Rover;
 
     const HUSKY: Rover = Rover::HUSKY_A200;
+
+    #[test]
+    fn practical_floor_scales_with_the_model_power() {
+        // Small or zero model power: the absolute floor.
+        assert_eq!(practical_floor_w(&[]), cv::PRACTICAL_FLOOR_W);
+        assert_eq!(practical_floor_w(&[0.0, 10.0]), cv::PRACTICAL_FLOOR_W);
+        // A 200 W side (either sign): 5 % of it.
+        let floor = practical_floor_w(&[200.0, -200.0]);
+        assert!((floor - cv::RELATIVE_FLOOR * 200.0).abs() < 1e-9);
+        assert!(floor > cv::PRACTICAL_FLOOR_W);
+    }
 
     fn analyse_world(world: &WorldConfig, scenario: &Scenario, runs: u64) -> WhereAnalysis {
         let runs: Vec<Vec<RunSample>> = (0..runs)

@@ -58,7 +58,8 @@ pub struct Diagnosis {
     pub effect: String,
     /// The regime of the largest significant gap, or `all`.
     pub regime: String,
-    /// Whether any gap is significant.
+    /// Whether the model departs significantly: a gap is significant, or the named effect
+    /// removes at least the practical floor of held-out RMS (a departure seen as spread).
     pub significant: bool,
     /// The baseline on all calibration rows.
     pub baseline: Baseline,
@@ -166,6 +167,11 @@ impl Diagnosis {
     }
 }
 
+/// The held-out RMS a model removes: √(before² − after²), 0 when it makes things worse [W].
+fn removed_rms_w(before: f64, after: f64) -> f64 {
+    (before * before - after * after).max(0.0).sqrt()
+}
+
 fn shrink_pct(before: f64, after: f64) -> f64 {
     if before > 0.0 {
         100.0 * (1.0 - after / before)
@@ -193,7 +199,7 @@ pub fn diagnose_with(
 
     let gaps = gaps::effective_gaps(&baseline, rows);
     let where_ = gaps::analyse(&baseline, rows);
-    let significant = gaps.iter().any(|g| g.significant);
+    let gap_significant = gaps.iter().any(|g| g.significant);
     let mut gap_regimes: Vec<Regime> = gaps
         .iter()
         .filter(|g| g.significant)
@@ -237,12 +243,34 @@ pub fn diagnose_with(
         (secondary, c)
     });
 
+    // A departure is significant when a mean gap is (beyond the repeat noise and the floor), or
+    // when a catalogue term is the clear winner of the held-out selection and removes a
+    // practically relevant RMS, √(MSE_before − MSE_after) ≥ the practical floor: an effect whose
+    // power changes sign along the path (a slope) has mean gaps near 0 per regime but explains
+    // the residuals' spread out of sample, which cross-validation itself tests.
+    let selected = match select(&candidates) {
+        Some(e) => Some(e),
+        None if !gap_regimes.is_empty() => select_where_the_gap_is(
+            rover,
+            rows,
+            primary,
+            calibration,
+            &before,
+            &candidates,
+            &gap_regimes,
+        )?,
+        None => None,
+    };
+    let explains_spread = selected
+        .and_then(|e| candidates.iter().find(|c| c.effect == e))
+        .is_some_and(|c| {
+            removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= cv::PRACTICAL_FLOOR_W
+        });
+    let significant = gap_significant || explains_spread;
     let effect = if !significant {
         "none".to_owned()
     } else {
-        select(&candidates)
-            .map_or("ambiguous", |e| e.id())
-            .to_owned()
+        selected.map_or("ambiguous", |e| e.id()).to_owned()
     };
     let named = named_id(&effect);
     let added = named.unwrap_or(candidates[0].effect);
@@ -316,7 +344,9 @@ pub fn diagnose_with(
 /// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
 /// power if it beats the runner-up by [`cv::CLEAR_MARGIN`]; else the best on effective power
 /// and growth pooled if that beats its runner-up by the margin (the growth through the turn
-/// separates terms of similar average shape, e.g. sinkage from angular slip). Either way it must
+/// separates terms of similar average shape, e.g. sinkage from angular slip); else the best on
+/// effective and average power pooled by the same margin (terms that lengthen the turn against
+/// terms that draw more power). Either way it must
 /// close [`cv::MIN_SHRINK_PCT`] of the held-out gap.
 fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
     let clear = |sorted: &[&CandidateScore], key: fn(&CandidateScore) -> f64| match sorted {
@@ -335,8 +365,63 @@ fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
         a.penalised_mse_with_growth
             .total_cmp(&b.penalised_mse_with_growth)
     });
+    let mut by_avg = by_power.clone();
+    by_avg.sort_by(|a, b| {
+        a.penalised_mse_with_avg_power
+            .total_cmp(&b.penalised_mse_with_avg_power)
+    });
     clear(&by_power, |c| c.penalised_mse)
         .or_else(|| clear(&by_growth, |c| c.penalised_mse_with_growth))
+        .or_else(|| clear(&by_avg, |c| c.penalised_mse_with_avg_power))
+}
+
+/// The clear winner on the rows where the gap is (the regimes of `gap_regimes`), for effects
+/// confined to a few regimes: over all rows their improvement is diluted by the baseline's
+/// mismatch elsewhere, which no catalogue term should explain. The best candidate by FPE over
+/// those rows' held-out residuals is named when it closes [`cv::MIN_SHRINK_PCT`] of their
+/// held-out RMS, the runner-up's FPE there is at least [`cv::CLEAR_MARGIN`] times its own, and
+/// over all rows it does no harm out of sample (held-out RMS after ≤ before).
+fn select_where_the_gap_is(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    calibration: Calibration<'_>,
+    before: &[cv::RowResidual],
+    candidates: &[CandidateScore],
+    gap_regimes: &[Regime],
+) -> Result<Option<EffectId>, DiagnoseError> {
+    let in_gap = |i: usize| gap_regimes.contains(&rows[i].regime);
+    let Some(ms_before) = cv::mean_square(before, in_gap) else {
+        return Ok(None);
+    };
+    let mut scored: Vec<(f64, f64, &CandidateScore)> = Vec::new();
+    for c in candidates {
+        let Some(after) = cv::heldout_residuals(rover, rows, scheme, &[c.effect], calibration)?
+        else {
+            return Ok(None);
+        };
+        let gap_rows: Vec<cv::RowResidual> = after.into_iter().filter(|r| in_gap(r.row)).collect();
+        let Some(ms_after) = cv::mean_square(&gap_rows, |_| true) else {
+            return Ok(None);
+        };
+        let fpe = cv::penalised(
+            ms_after,
+            cv::observations(&gap_rows),
+            effects::model_params(&[c.effect]),
+        );
+        scored.push((fpe, shrink_pct(ms_before.sqrt(), ms_after.sqrt()), c));
+    }
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(match scored.as_slice() {
+        [(best, shrink, c), (runner_up, ..), ..]
+            if *shrink >= cv::MIN_SHRINK_PCT
+                && *runner_up >= cv::CLEAR_MARGIN * best
+                && c.heldout_error_after <= c.heldout_error_before =>
+        {
+            Some(c.effect)
+        }
+        _ => None,
+    })
 }
 
 /// Forward stepwise selection after the named effect (`first_score`): adds, one at a time, the effect whose joint model
@@ -378,10 +463,7 @@ fn stepwise(
         match best {
             Some(b)
                 if current >= cv::CLEAR_MARGIN * b.penalised_mse
-                    && (rms_now * rms_now - b.heldout_error_after * b.heldout_error_after)
-                        .max(0.0)
-                        .sqrt()
-                        >= cv::PRACTICAL_FLOOR_W =>
+                    && removed_rms_w(rms_now, b.heldout_error_after) >= cv::PRACTICAL_FLOOR_W =>
             {
                 chosen.push(b.effect);
                 steps.push(StepwiseStep {
