@@ -193,7 +193,8 @@ struct DiagnoseArgs {
     /// the hard-ground baseline and are not scored (default: those manoeuvres of --runs).
     #[arg(long, num_args = 1..)]
     calibration: Vec<PathBuf>,
-    /// Runs to diagnose, .csv or .mcap.
+    /// Runs to diagnose: run CSVs or MCAP logs, or per-turn summary CSVs (header with
+    /// radius_m,avg_power_w and optional v_c_mps, pitch_deg; e.g. a published table).
     #[arg(long, num_args = 1.., required = true)]
     runs: Vec<PathBuf>,
     /// Write the diagnosis as JSON to FILE (`-` for stdout, then no table is printed).
