@@ -365,22 +365,15 @@ fn record_run(
             summary.samples, summary.stream.lost_samples, summary.stream.bad_frames
         )));
     }
-    let board_energy = board_run
-        .board
-        .board()
-        .sampler()
-        .measurements()
-        .snapshot()
-        .energy_lsb_us;
+    let board_energy = board_run.board_energy_lsb_us();
     let host_energy = summary
         .segments
         .last()
         .map(|s| s.host_energy_lsb_us)
         .unwrap_or_default();
-    if host_energy != [board_energy.left, board_energy.right] {
+    if host_energy != board_energy {
         return Err(check(format!(
-            "host energy {host_energy:?} LSB·µs differs from the board's {:?}",
-            [board_energy.left, board_energy.right]
+            "host energy {host_energy:?} LSB·µs differs from the board's {board_energy:?}"
         )));
     }
     convert(&mcap, &csv)?;

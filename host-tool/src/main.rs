@@ -216,7 +216,7 @@ struct DiagnoseBenchArgs {
     /// Worker threads.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=256))]
     threads: u64,
-    /// Write every dataset's result as JSON to FILE.
+    /// Write every dataset's result as JSON to FILE (`-` for stdout, then no table is printed).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
 }
@@ -278,6 +278,25 @@ fn parse_hard_ground(text: &str) -> Result<[f64; 3], String> {
 fn write_file(path: &Path, text: &[u8]) -> Result<()> {
     write_atomically(path, |w| w.write_all(text))
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Writes `value` as pretty JSON to `path` (atomically), or to stdout when `path` is `-`.
+/// Returns whether it went to stdout: the command then prints nothing else there.
+fn emit_json(path: Option<&Path>, value: &impl serde::Serialize, what: &str) -> Result<bool> {
+    let Some(path) = path else {
+        return Ok(false);
+    };
+    let mut text =
+        serde_json::to_vec_pretty(value).with_context(|| format!("serialising the {what}"))?;
+    text.push(b'\n');
+    if path.as_os_str() == "-" {
+        // Written, not print!ed: a closed stdout is an error, not a panic.
+        std::io::stdout().lock().write_all(&text)?;
+        Ok(true)
+    } else {
+        write_file(path, &text)?;
+        Ok(false)
+    }
 }
 
 fn positive_speed(text: &str) -> Result<f64, String> {
@@ -700,19 +719,9 @@ fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
         Some(dir) => report::write_out_dir(dir, &rover, &diagnosis, &rows, calibration)?,
         None => Vec::new(),
     };
-    let json_to_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
-    if let Some(path) = &args.json {
-        if !json_to_stdout {
-            report::write_json(path, &diagnosis)?;
-        }
-    }
-    // Written, not print!ed: a closed stdout is an error, not a panic.
-    let mut stdout = std::io::stdout().lock();
-    if json_to_stdout {
-        serde_json::to_writer_pretty(&mut stdout, &diagnosis.to_json())
-            .context("writing the JSON")?;
-        writeln!(stdout)?;
-    } else {
+    if !emit_json(args.json.as_deref(), &diagnosis.to_json(), "diagnosis")? {
+        // Written, not print!ed: a closed stdout is an error, not a panic.
+        let mut stdout = std::io::stdout().lock();
         write!(stdout, "{}", report::table(&diagnosis))?;
         if !files.is_empty() {
             writeln!(stdout)?;
@@ -731,12 +740,9 @@ fn diagnose_bench_cmd(args: DiagnoseBenchArgs) -> Result<()> {
         threads: args.threads as usize,
     };
     let report = diagnose::bench::run_bench(&options);
-    if let Some(path) = &args.json {
-        let text = serde_json::to_vec_pretty(&report).context("serialising the bench")?;
-        write_file(path, &text)?;
+    if !emit_json(args.json.as_deref(), &report, "bench")? {
+        write!(std::io::stdout().lock(), "{report}")?;
     }
-    let mut stdout = std::io::stdout().lock();
-    write!(stdout, "{report}")?;
     Ok(())
 }
 
@@ -755,18 +761,7 @@ fn plan_cmd(args: PlanArgs) -> Result<()> {
         args.end_deg,
         args.distance_m,
     )?;
-    let json_to_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
-    if let Some(path) = &args.json {
-        let text = serde_json::to_vec_pretty(&report).context("serialising the plan")?;
-        if json_to_stdout {
-            let mut out = std::io::stdout().lock();
-            out.write_all(&text)?;
-            writeln!(out)?;
-        } else {
-            write_file(path, &text)?;
-        }
-    }
-    if !json_to_stdout {
+    if !emit_json(args.json.as_deref(), &report, "plan")? {
         print!("{report}");
     }
     Ok(())
@@ -830,17 +825,7 @@ fn main() -> Result<()> {
                 .map(|(name, log)| RunInput::from_log(name, log))
                 .collect();
             let report = validate::validate(&rover, &inputs, &options)?;
-            let json_to_stdout = json.as_deref().is_some_and(|p| p.as_os_str() == "-");
-            if let Some(path) = &json {
-                let text = serde_json::to_vec_pretty(&report).context("serialising the report")?;
-                if json_to_stdout {
-                    let mut out = std::io::stdout().lock();
-                    out.write_all(&text)?;
-                    writeln!(out)?;
-                } else {
-                    write_file(path, &text)?;
-                }
-            }
+            let json_to_stdout = emit_json(json.as_deref(), &report, "report")?;
             if let Some(path) = &csv {
                 let mut text = Vec::new();
                 report.write_csv(&mut text)?;

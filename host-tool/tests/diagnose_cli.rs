@@ -2,20 +2,16 @@
 //! sampled at 200 Hz), table, JSON, report, figures and a plan model out; clear errors on bad
 //! input.
 
+mod common;
+use common::{host_tool, rover_toml, temp_dir};
+
 use host_tool::log::run_csv::{write_run_csv_atomically, RunSample};
 use host_tool::plan::load_model;
 use host_tool::sim::world::{EffectId, Manoeuvre, Scenario, WorldConfig};
 use model_core::Sides;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("diagnose-cli-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+use std::process::Output;
 
 /// The seed's turn set with 4R′ in place of 4R′/3, so the runs hold wide calibration turns.
 fn scenario() -> Scenario {
@@ -54,17 +50,6 @@ fn os(s: &str) -> &OsStr {
     OsStr::new(s)
 }
 
-fn host_tool() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
-    c.env_remove("RUST_BACKTRACE")
-        .env_remove("RUST_LIB_BACKTRACE");
-    c
-}
-
-fn rover_toml() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../rovers/husky-a200.toml")
-}
-
 fn diagnose(args: &[&OsStr]) -> Output {
     host_tool()
         .arg("diagnose")
@@ -94,7 +79,7 @@ fn failed(out: &Output) -> String {
 
 #[test]
 fn diagnose_names_inner_drag_and_writes_json_report_figures_and_a_plan_model() {
-    let dir = temp_dir("ok");
+    let dir = temp_dir("diagnose-cli-ok");
     let runs = inner_drag_runs(&dir);
     let (json, out_dir) = (dir.join("diagnosis.json"), dir.join("out"));
     let mut args: Vec<&OsStr> = vec![os("--runs")];
@@ -192,7 +177,7 @@ fn diagnose_names_inner_drag_and_writes_json_report_figures_and_a_plan_model() {
 
 #[test]
 fn diagnose_with_calibration_runs_says_so() {
-    let dir = temp_dir("cal");
+    let dir = temp_dir("diagnose-cli-cal");
     let runs = inner_drag_runs(&dir);
     let cal = dir.join("cal.csv");
     write_run(
@@ -215,7 +200,7 @@ fn diagnose_with_calibration_runs_says_so() {
 
 #[test]
 fn diagnose_fails_clearly_on_bad_input() {
-    let dir = temp_dir("bad");
+    let dir = temp_dir("diagnose-cli-bad");
     let missing = dir.join("nope.csv");
     let stderr = failed(&diagnose(&[os("--runs"), missing.as_os_str()]));
     assert!(stderr.contains("nope.csv"), "{stderr}");

@@ -1,19 +1,13 @@
 //! `host-tool plan` from the command line: the preset's table and JSON (paper Table 3), a model
 //! file equal to the preset, clear errors.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
+use common::temp_dir;
 
-fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("plan-cli-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+use std::process::Output;
 
-fn host_tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .env_remove("RUST_BACKTRACE")
-        .env_remove("RUST_LIB_BACKTRACE")
+fn plan(args: &[&str]) -> Output {
+    common::host_tool()
         .arg("plan")
         .args(args)
         .output()
@@ -21,7 +15,7 @@ fn host_tool(args: &[&str]) -> Output {
 }
 
 fn json_of(args: &[&str]) -> serde_json::Value {
-    let out = host_tool(&[args, &["--json", "-"]].concat());
+    let out = plan(&[args, &["--json", "-"]].concat());
     assert!(
         out.status.success(),
         "{}",
@@ -64,9 +58,9 @@ fn preset_json_has_table_3() {
 
 #[test]
 fn table_and_json_file() {
-    let dir = temp_dir("table");
+    let dir = temp_dir("plan-cli-table");
     let json = dir.join("plan.json");
-    let out = host_tool(&[
+    let out = plan(&[
         "--start-deg",
         "-60",
         "--end-deg",
@@ -94,7 +88,7 @@ fn table_and_json_file() {
 
 #[test]
 fn model_file_without_effects_matches_the_preset() {
-    let dir = temp_dir("model");
+    let dir = temp_dir("plan-cli-model");
     let model = dir.join("hard-ground.toml");
     std::fs::write(
         &model,
@@ -157,7 +151,7 @@ fn bad_input_is_a_clear_error() {
         ),
     ];
     for (args, needle) in cases {
-        let out = host_tool(args);
+        let out = plan(args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{args:?} succeeded");
         assert!(stderr.contains(needle), "{needle:?} not in {stderr}");

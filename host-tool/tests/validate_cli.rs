@@ -1,18 +1,14 @@
 //! `host-tool validate` from the command line: run CSVs in, table out, JSON and CSV exports,
 //! clear errors.
 
+mod common;
+use common::{host_tool, rover_toml, temp_dir};
+
 use host_tool::log::run_csv::{write_run_csv_atomically, RunSample};
 use model_core::kinematics::{side_speeds_for, TurnDirection};
 use model_core::power::IcrHardGround;
 use model_core::{Rover, Sides};
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("validate-cli-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+use std::path::Path;
 
 /// Turns at R', 4R'/3 and 2R' (both directions) drawing the hard-ground model's power, each
 /// after 1.5 s of standstill; or only standstill.
@@ -51,20 +47,9 @@ fn write_run(path: &Path, standstill_only: bool) {
     write_run_csv_atomically(path, &samples).expect("write run");
 }
 
-fn host_tool() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
-    c.env_remove("RUST_BACKTRACE")
-        .env_remove("RUST_LIB_BACKTRACE");
-    c
-}
-
-fn rover_toml() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../rovers/husky-a200.toml")
-}
-
 #[test]
 fn validate_prints_the_table_and_writes_json_and_csv() {
-    let dir = temp_dir("ok");
+    let dir = temp_dir("validate-cli-ok");
     let run = dir.join("run.csv");
     write_run(&run, false);
     let (json, csv) = (dir.join("report.json"), dir.join("turns.csv"));
@@ -119,7 +104,7 @@ fn validate_prints_the_table_and_writes_json_and_csv() {
 
 #[test]
 fn validate_fails_clearly_on_standstill_only_runs() {
-    let dir = temp_dir("still");
+    let dir = temp_dir("validate-cli-still");
     let run = dir.join("still.csv");
     write_run(&run, true);
     let out = host_tool()

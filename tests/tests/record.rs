@@ -10,7 +10,7 @@ use host_tool::log::csv_sink::{events_path, read_events, CsvRunSink};
 use host_tool::log::run_csv::{read_run_csv, RunSample};
 use host_tool::log::run_log::LogEvent;
 use host_tool::record::{self, RecordOptions, RecordStatus, RecordSummary, StopReason};
-use host_tool::sim::board::{Pacing, PtyBoard, PtyHooks, PtyRun, SimBoard};
+use host_tool::sim::board::{Pacing, PtyBoard, PtyHooks, SimBoard};
 use model_core::ina226::Scale;
 use model_core::wire::{self, BoardFrame};
 use model_core::Sides;
@@ -70,18 +70,6 @@ fn record_to_csv(
     let mut sink = CsvRunSink::create(out, false).expect("create the log");
     let mut open = record::serial_opener(options.read_timeout);
     record::record(options, &mut open, &mut sink, stop, &mut on_status).expect("recorded")
-}
-
-/// The board's own energy per side at its last sample [power LSB × µs].
-fn board_energy(run: &PtyRun) -> [i64; 2] {
-    let e = run
-        .board
-        .board()
-        .sampler()
-        .measurements()
-        .snapshot()
-        .energy_lsb_us;
-    [e.left, e.right]
 }
 
 /// ∫ V·I dt per side from run CSV rows [J], each row's power covering the interval since the
@@ -146,7 +134,7 @@ fn every_sample_arrives_in_order_and_the_energy_equals_the_boards() {
 
     // The host's energy equals the board's own total, bit for bit, per side.
     assert_eq!(summary.segments.len(), 1);
-    let board = board_energy(&run);
+    let board = run.board_energy_lsb_us();
     assert_ne!(board, [0, 0]);
     assert_eq!(summary.segments[0].host_energy_lsb_us, board);
     assert_eq!(s.model_mismatches, 0);
@@ -222,11 +210,11 @@ fn unplug_and_replug_through_a_by_id_link_loses_nothing_and_marks_the_gap() {
     assert_eq!(summary.segments[1].samples, second_run.steps);
     assert_eq!(
         summary.segments[0].host_energy_lsb_us,
-        board_energy(&first_run)
+        first_run.board_energy_lsb_us()
     );
     assert_eq!(
         summary.segments[1].host_energy_lsb_us,
-        board_energy(&second_run)
+        second_run.board_energy_lsb_us()
     );
 
     let rows = read_run_csv(&out).expect("valid run CSV");
@@ -434,7 +422,10 @@ fn a_chip_that_nacks_mid_run_is_named_and_the_stream_goes_on() {
     // 300 NACKed periods, then the chip is set up again before it reports.
     assert!(summary.incomplete_samples > 300 && summary.incomplete_samples < 320);
     assert_eq!(summary.rows, STEPS - summary.incomplete_samples);
-    assert_eq!(summary.segments[0].host_energy_lsb_us, board_energy(&run));
+    assert_eq!(
+        summary.segments[0].host_energy_lsb_us,
+        run.board_energy_lsb_us()
+    );
     let status = run
         .board
         .board()
@@ -492,7 +483,10 @@ fn forwarded_commands_are_acked_and_the_host_tau_equals_the_boards() {
         run.board.board().sampler().measurements().wheel_rates(),
         Some(rates)
     );
-    assert_eq!(summary.segments[0].host_energy_lsb_us, board_energy(&run));
+    assert_eq!(
+        summary.segments[0].host_energy_lsb_us,
+        run.board_energy_lsb_us()
+    );
 
     // The file's cmd and pose columns follow the commands file.
     let csv = read_run_csv(&out).expect("valid run CSV");

@@ -241,6 +241,21 @@ pub struct PtyRun {
     pub bytes: u64,
 }
 
+impl PtyRun {
+    /// The board's own energy per side at its last sample [power LSB × µs]: what the host's
+    /// recomputation must equal.
+    pub fn board_energy_lsb_us(&self) -> [i64; 2] {
+        let e = self
+            .board
+            .board()
+            .sampler()
+            .measurements()
+            .snapshot()
+            .energy_lsb_us;
+        [e.left, e.right]
+    }
+}
+
 /// A simulated board writing into a pseudo-terminal from its own thread. The host opens
 /// [`PtyBoard::path`] with [`crate::serial::open`] — the same code as for `/dev/ttyACM0`.
 ///
