@@ -96,14 +96,7 @@ impl Link {
         for &b in bytes {
             match self.rx.push::<HostFrame>(b) {
                 None => {}
-                Some(Ok(frame)) => {
-                    if self.commands.push_back(frame).is_err() {
-                        self.send(&BoardFrame::Rejected {
-                            id: Some(frame.id),
-                            reason: Rejection::OutOfRange,
-                        });
-                    }
-                }
+                Some(Ok(frame)) => self.queue_command(frame),
                 Some(Err(_)) => {
                     self.rx_errors = self.rx_errors.saturating_add(1);
                     self.send(&BoardFrame::Rejected {
@@ -112,6 +105,16 @@ impl Link {
                     });
                 }
             }
+        }
+    }
+
+    /// Queues a decoded command; a full queue rejects it by its id.
+    fn queue_command(&mut self, frame: HostFrame) {
+        if self.commands.push_back(frame).is_err() {
+            self.send(&BoardFrame::Rejected {
+                id: Some(frame.id),
+                reason: Rejection::OutOfRange,
+            });
         }
     }
 
