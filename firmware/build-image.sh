@@ -4,7 +4,7 @@
 # `target/thumbv7em-none-eabihf/firmware/firmware.bin` for the ROM DFU bootloader
 # (profile `firmware`: release, optimised for size).
 #
-# The toolchain that can build for the board is chosen by firmware/cross-cargo.sh (stable where
+# The toolchain that can build for the board is chosen by firmware/cross-cargo.sh (the pinned one where
 # rustup offers the thumbv7em target, else nightly; $CARGO_FW overrides). With CHECK_LINTS=1 the
 # firmware is also linted for the target (the RTIC app only compiles there).
 set -euo pipefail
@@ -23,7 +23,7 @@ if [[ "${CHECK_LINTS:-0}" == 1 ]]; then
 fi
 "${CARGO[@]}" build -p firmware --bin firmware --profile firmware --target "$TARGET"
 
-# llvm-size / llvm-objcopy from the stable toolchain's llvm-tools component.
+# llvm-size / llvm-objcopy from the pinned toolchain's llvm-tools component.
 rustup component list --installed 2>/dev/null | grep -q '^llvm-tools' || rustup component add llvm-tools >/dev/null
 LLVM_BIN="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin"
 ELF="target/$TARGET/firmware/firmware"
