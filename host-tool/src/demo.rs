@@ -13,6 +13,7 @@
 use crate::diagnose::calibration::Calibration;
 use crate::diagnose::report::{self as diagnosis_report, ReportError, MODEL_FILE};
 use crate::diagnose::{self, DiagnoseError, Diagnosis};
+use crate::effect_id::EffectId;
 use crate::figures::{write_figures, RunSamples};
 use crate::log::commands::write_commands_csv_atomically;
 use crate::log::convert::{convert, ConvertError};
@@ -24,7 +25,6 @@ use crate::plan::{self, ModelFileError, ModelSource, PlanError, PlanReport};
 use crate::plot::{Format, PlotError};
 use crate::record::{self, RecordError, RecordOptions, RecordStatus, RecordSummary, SinkError};
 use crate::sim::board::{Pacing, PtyBoard, SimBoard};
-use crate::sim::world::effects::EffectId;
 use crate::sim::world::{Ground, ManoeuvreTruth, Scenario, WorldConfig, WorldError};
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions, ValidationReport};
 use firmware::sampler::SamplerConfig;

@@ -3,6 +3,7 @@
 pub mod decode;
 pub mod demo;
 pub mod diagnose;
+pub mod effect_id;
 pub mod figures;
 pub mod log;
 pub mod plan;

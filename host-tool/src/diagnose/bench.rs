@@ -948,9 +948,12 @@ pub fn tabulate(options: BenchOptions, datasets: Vec<DatasetResult>, wall_s: f64
 }
 
 /// Short column heads of the confusion matrix, in its column order.
-const SHORT: [&str; 11] = [
-    "drag", "sink", "aslip", "strk", "brake", "offs", "heat", "slope", "none", "ambig", "err",
-];
+fn short_heads() -> impl Iterator<Item = &'static str> {
+    EffectId::ALL
+        .into_iter()
+        .map(EffectId::short)
+        .chain(["none", "ambig", "err"])
+}
 
 fn opt(v: Option<f64>, unit: &str) -> String {
     v.map_or_else(|| "–".into(), |v| format!("{v:.0}{unit}"))
@@ -989,7 +992,7 @@ impl fmt::Display for BenchReport {
             "confusion matrix (rows: true effect; columns: diagnosed)"
         )?;
         write!(f, "{:<20}", "")?;
-        for head in SHORT {
+        for head in short_heads() {
             write!(f, "{head:>6}")?;
         }
         writeln!(f)?;

@@ -100,7 +100,7 @@ mod tests {
     use crate::diagnose::cv::{self, Scheme};
     use crate::diagnose::tests::{rows_of, simulate_run};
     use crate::diagnose::{diagnose, diagnose_with};
-    use crate::sim::world::EffectId;
+    use crate::effect_id::EffectId;
     use crate::sim::world::{Scenario, WorldConfig};
     use model_core::kinematics::Regime;
 

@@ -29,7 +29,7 @@ use super::calibration::Calibration;
 use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
 use super::observe::Residuals;
-use crate::sim::world::EffectId;
+use crate::effect_id::EffectId;
 use model_core::Rover;
 use serde::Serialize;
 

@@ -25,7 +25,7 @@
 use super::baseline::Baseline;
 use super::features::{SideRole, TurnRow};
 use super::observe;
-use crate::sim::world::EffectId;
+use crate::effect_id::EffectId;
 use model_core::power::GRAVITY_M_S2;
 use model_core::Rover;
 use serde::Serialize;

@@ -759,8 +759,9 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
 mod tests {
     use super::super::tests::{rows_of, scenario, simulate_run};
     use super::*;
+    use crate::effect_id::EffectId;
     use crate::log::run_csv::RunSample;
-    use crate::sim::world::{EffectId, Scenario, WorldConfig};
+    use crate::sim::world::{Scenario, WorldConfig};
     use model_core::Rover;
 
     const HUSKY: Rover = Rover::HUSKY_A200;

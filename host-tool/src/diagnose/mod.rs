@@ -23,7 +23,7 @@ pub mod summary;
 #[cfg(test)]
 mod tests;
 
-use crate::sim::world::EffectId;
+use crate::effect_id::EffectId;
 use baseline::{Baseline, BaselineError};
 use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};

@@ -327,8 +327,9 @@ mod tests {
     use super::*;
     use crate::diagnose::tests::{rows_of, simulate_run};
     use crate::diagnose::{diagnose, features::TurnRow};
+    use crate::effect_id::EffectId;
     use crate::plan::parse_model;
-    use crate::sim::world::{EffectId, Manoeuvre, Scenario, WorldConfig};
+    use crate::sim::world::{Manoeuvre, Scenario, WorldConfig};
     use model_core::paths::SegmentEnergy;
 
     const HUSKY: Rover = Rover::HUSKY_A200;

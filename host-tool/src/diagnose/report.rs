@@ -514,7 +514,8 @@ mod tests {
     use super::*;
     use crate::diagnose::diagnose;
     use crate::diagnose::tests::{rows_of, simulate_run};
-    use crate::sim::world::{EffectId, Scenario, WorldConfig};
+    use crate::effect_id::EffectId;
+    use crate::sim::world::{Scenario, WorldConfig};
 
     fn diagnosis_of(world: &WorldConfig) -> (Diagnosis, Vec<TurnRow>) {
         let runs: Vec<_> = (0..2)

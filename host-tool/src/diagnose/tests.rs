@@ -3,8 +3,9 @@
 
 use super::baseline::Baseline;
 use super::features::{SideRole, TurnRow};
+use crate::effect_id::EffectId;
 use crate::log::run_csv::RunSample;
-use crate::sim::world::{EffectId, Scenario, WorldConfig};
+use crate::sim::world::{Scenario, WorldConfig};
 use model_core::kinematics::Regime;
 use model_core::power::IcrHardGround;
 use model_core::Rover;

@@ -2,88 +2,12 @@
 //! parameterised term on top of the hard-ground ICR baseline (see the [module docs](super) for
 //! the model and the seed figure each default reproduces).
 //!
-//! Every effect has a TOML table named by its [`EffectId`] (`[inner-drag]`, …) with an
+//! Every effect has a TOML table named by its [`EffectId`] (the registry in [`crate::effect_id`]) (`[inner-drag]`, …) with an
 //! `enabled` key (default: on for `ground = "sand"` for the terrain effects, off otherwise) and
 //! the parameters below, each defaulted.
 
+pub use crate::effect_id::EffectId;
 use serde::{Deserialize, Serialize};
-
-/// The effects a world can switch on, by their stable TOML/report id.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum EffectId {
-    /// Section 5.2, Fig 5.6: extra inner-side torque while the inner wheels counter-rotate but
-    /// are dragged forward (B/2 < R < R').
-    InnerDrag,
-    /// Section 5.3–5.4: 2D slip-sinkage growth (Eq 5.15–5.28), the resistance it adds, and sand
-    /// bulldozing (Eq 5.35–5.39).
-    SinkageBulldozing,
-    /// Section 6.2, Eq 6.3: the rover yaws slower than commanded, most at R'.
-    AngularSlip,
-    /// Appendix D, Table D.1: the terrain's slip track differs from the controller's.
-    SlipTrack,
-    /// Section 6.2, Fig 6.10–6.11: at R' the inner wheels are held still (braked) and dragged.
-    BrakedInner,
-    /// Section 3.2, Fig 3.3: a constant offset in the current each sensor reports.
-    CurrentOffset,
-    /// Section 1.1.3 (Dogru's temperature-dependent motor constants): winding resistance rises
-    /// as the motors heat.
-    MotorHeating,
-    /// Eq 1.16 / 2.12: the Φ m g v_y sin θ term of driving on a slope.
-    Slope,
-}
-
-impl EffectId {
-    /// Every effect, in report order.
-    pub const ALL: [EffectId; 8] = [
-        EffectId::InnerDrag,
-        EffectId::SinkageBulldozing,
-        EffectId::AngularSlip,
-        EffectId::SlipTrack,
-        EffectId::BrakedInner,
-        EffectId::CurrentOffset,
-        EffectId::MotorHeating,
-        EffectId::Slope,
-    ];
-
-    /// The TOML table name and report id (`inner-drag`, …).
-    pub const fn id(self) -> &'static str {
-        match self {
-            EffectId::InnerDrag => "inner-drag",
-            EffectId::SinkageBulldozing => "sinkage-bulldozing",
-            EffectId::AngularSlip => "angular-slip",
-            EffectId::SlipTrack => "slip-track",
-            EffectId::BrakedInner => "braked-inner",
-            EffectId::CurrentOffset => "current-offset",
-            EffectId::MotorHeating => "motor-heating",
-            EffectId::Slope => "slope",
-        }
-    }
-
-    /// Inverse of [`EffectId::id`].
-    pub fn from_id(id: &str) -> Option<EffectId> {
-        EffectId::ALL.into_iter().find(|e| e.id() == id)
-    }
-
-    /// Whether `ground = "sand"` turns the effect on by default (the terrain effects do; the
-    /// sensor, motor and slope terms never do by default).
-    pub const fn on_by_default_on_sand(self) -> bool {
-        matches!(
-            self,
-            EffectId::InnerDrag
-                | EffectId::SinkageBulldozing
-                | EffectId::AngularSlip
-                | EffectId::SlipTrack
-                | EffectId::BrakedInner
-        )
-    }
-}
-
-impl std::fmt::Display for EffectId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.id())
-    }
-}
 
 /// `[inner-drag]`: Section 5.2. While the inner wheels turn backwards but are dragged forwards
 /// (B/2 < R < R', β_i > 90°, Fig 2.2), their grousers dig into the sand they are being pushed

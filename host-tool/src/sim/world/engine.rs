@@ -158,7 +158,7 @@ struct Soil {
 #[derive(Default)]
 struct Tally {
     energy_j: Sides<f64>,
-    effect_j: [f64; 8],
+    effect_j: [f64; EffectId::COUNT],
     bus_v_s: f64,
     pitch_deg_s: f64,
 }
@@ -404,7 +404,7 @@ fn step(
     motion: Motion,
     t_in: f64,
     dt: f64,
-) -> Result<(Sample, [f64; 8]), WorldError> {
+) -> Result<(Sample, [f64; EffectId::COUNT]), WorldError> {
     let Motion {
         v,
         v_c,
@@ -415,7 +415,7 @@ fn step(
     let world = &plant.world;
     let r = plant.wheel_radius_m;
     let moving = v.inner != 0.0 || v.outer != 0.0;
-    let mut effect_w = [0.0f64; 8];
+    let mut effect_w = [0.0f64; EffectId::COUNT];
     // Every term of Eq 21 is ∝ μ or G: the terrain factor scales the whole baseline.
     let base = {
         let b = plant.icr_side_power_w(v);
@@ -454,8 +454,8 @@ fn step(
         vx.abs().atan2(along)
     };
     // Extra wheel torque per effect and side: [effect][inner, outer].
-    let mut dtau = [[0.0f64; 2]; 8];
-    let supply = |id: EffectId, power_w: f64, dtau: &mut [[f64; 2]; 8]| {
+    let mut dtau = [[0.0f64; 2]; EffectId::COUNT];
+    let supply = |id: EffectId, power_w: f64, dtau: &mut [[f64; 2]; EffectId::COUNT]| {
         // Both sides supply a resistance power in proportion to |V_side|.
         let sum = v.inner.abs() + v.outer.abs();
         if sum == 0.0 {
