@@ -244,7 +244,9 @@ proptest! {
         } else {
             prop_assert_eq!(regs.bus.0, 0x7FFF);
         }
-        if current_a.abs() <= 16.38 {
+        // The current register spans −32768 … 32767 LSB of 0.5 mA: −16.384 A … 16.3835 A.
+        let lsb = (current_a / 0.5e-3).round();
+        if (f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&lsb) {
             prop_assert!((scale.current_a(regs.current) - current_a).abs() <= HALF_CURRENT_LSB_A);
             // 5 mΩ / 2.5 µV = 0.5 mA: on our board the shunt and current registers agree.
             prop_assert_eq!(regs.shunt.0, regs.current.0);
