@@ -34,8 +34,11 @@
 //! effective power only.
 
 use super::baseline::Baseline;
+use super::calibration::Calibration;
 use super::cv::{self, SplitMix64};
 use super::features::{SideRole, TurnRow};
+use super::loo::{self, LooTest, Measure};
+use super::observe;
 use model_core::kinematics::Regime;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -79,7 +82,9 @@ impl PartialEq<SideRole> for Part {
 }
 
 /// The mean effective-power residual of one (regime, side) group: the gaps the selection uses.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// It is the `effective-power` group of the same name in [`WhereAnalysis`], judged by the same
+/// rule ([`judge`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Gap {
     /// The regime.
     pub regime: Regime,
@@ -87,12 +92,16 @@ pub struct Gap {
     pub side: Part,
     /// Observations.
     pub n: usize,
-    /// Mean effective-power residual [W].
+    /// Mean effective-power residual [W] (without repeats: of the leave-one-out residuals).
     pub mean_w: f64,
-    /// 95 % bootstrap interval [W].
+    /// 95 % interval [W]: over repeats, or without repeats from the leave-one-out prediction
+    /// intervals (unadjusted; ±∞ when neither exists).
     pub ci_w: (f64, f64),
-    /// Beyond the repeat noise and [`cv::PRACTICAL_FLOOR_W`].
+    /// Beyond the noise and the practical floor ([`judge`]).
     pub significant: bool,
+    /// Without repeats: the leave-one-out test of each observation (empty with repeats).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub loo: Vec<LooTest>,
 }
 
 /// Key of "the same manoeuvre" for repeats within one run: R/R' to 0.01 (straights one key).
@@ -116,19 +125,154 @@ fn has_repeats(runs_and_keys: &[(usize, i64)]) -> bool {
     runs.len() >= 2 || keys.windows(2).any(|w| w[0] == w[1])
 }
 
-/// [`cv::bootstrap_mean`], with an unbounded interval when [`has_repeats`] fails.
-fn bootstrap(values: &[f64], runs: &[usize], keys: &[i64], seed: u64) -> Option<(f64, f64, f64)> {
-    let (mean, lo, hi) = cv::bootstrap_mean(values, runs, seed)?;
-    let pairs: Vec<(usize, i64)> = runs.iter().copied().zip(keys.iter().copied()).collect();
-    Some(if has_repeats(&pairs) {
-        (mean, lo, hi)
-    } else {
-        (mean, f64::NEG_INFINITY, f64::INFINITY)
+/// One observation of a group.
+#[derive(Debug, Clone, Copy)]
+struct Obs {
+    /// The residual (the metric's unit).
+    value: f64,
+    run: usize,
+    key: i64,
+    row: usize,
+    part: Part,
+    /// The baseline's power of the observation [W] (the relative floor).
+    model_w: f64,
+    /// Expected duration [s] (the energy floor).
+    duration_s: f64,
+}
+
+/// Which practical floor a group's mean must exceed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Floor {
+    /// [`practical_floor_w`] of the observations' model power (power metrics) [W].
+    Power,
+    /// That power floor over the mean expected duration (energy) [J].
+    Energy,
+    /// [`cv::PRACTICAL_FLOOR_W`] (growth, run-time groups) [W].
+    Fixed,
+}
+
+/// A group's verdict: mean, 95 % interval, practical floor, significance and, without repeats,
+/// the leave-one-out tests behind it.
+struct Judgement {
+    mean: f64,
+    ci: (f64, f64),
+    floor: f64,
+    significant: bool,
+    loo: Vec<LooTest>,
+}
+
+/// **The one significance rule** of the diagnosis, for the selection's gaps and every group of
+/// the "where" analysis alike:
+/// - with repeats ([`has_repeats`]): the mean's 95 % interval over them
+///   ([`cv::bootstrap_mean`]) excludes 0 and |mean| > the floor;
+/// - without repeats, when the observations have leave-one-out tests ([`loo`], power metrics):
+///   some observation lies outside its prediction interval after the multiple-testing
+///   adjustment and its leave-one-out residual exceeds the floor;
+/// - otherwise: no verdict (interval ±∞, not significant).
+fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> Option<Judgement> {
+    if obs.is_empty() {
+        return None;
+    }
+    let model_w: Vec<f64> = obs.iter().map(|o| o.model_w).collect();
+    let floor = match floor {
+        Floor::Power => practical_floor_w(&model_w),
+        Floor::Energy => {
+            practical_floor_w(&model_w) * obs.iter().map(|o| o.duration_s).sum::<f64>()
+                / obs.len() as f64
+        }
+        Floor::Fixed => cv::PRACTICAL_FLOOR_W,
+    };
+    let pairs: Vec<(usize, i64)> = obs.iter().map(|o| (o.run, o.key)).collect();
+    let values: Vec<f64> = obs.iter().map(|o| o.value).collect();
+    if has_repeats(&pairs) {
+        let runs: Vec<usize> = obs.iter().map(|o| o.run).collect();
+        let (mean, lo, hi) = cv::bootstrap_mean(&values, &runs, seed)?;
+        return Some(Judgement {
+            mean,
+            ci: (lo, hi),
+            floor,
+            significant: (lo > 0.0 || hi < 0.0) && mean.abs() > floor,
+            loo: Vec::new(),
+        });
+    }
+    let loo: Vec<LooTest> = obs
+        .iter()
+        .filter_map(|o| {
+            tests
+                .iter()
+                .find(|t| t.row == o.row && t.part == o.part)
+                .copied()
+        })
+        .collect();
+    if loo.len() < obs.len() {
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        return Some(Judgement {
+            mean,
+            ci: (f64::NEG_INFINITY, f64::INFINITY),
+            floor,
+            significant: false,
+            loo: Vec::new(),
+        });
+    }
+    let k = loo.len() as f64;
+    let mean = loo.iter().map(|t| t.residual_w).sum::<f64>() / k;
+    // The interval of the mean leave-one-out residual, treating the rows as independent (exact
+    // for one row; the verdict itself is per row).
+    let df = loo.iter().map(|t| t.df).min().unwrap_or(0);
+    let half = cv::t_quantile_975(df) * loo.iter().map(|t| t.se_w * t.se_w).sum::<f64>().sqrt() / k;
+    let significant = loo
+        .iter()
+        .any(|t| t.beyond_noise && t.residual_w.abs() > floor);
+    Some(Judgement {
+        mean,
+        ci: (mean - half, mean + half),
+        floor,
+        significant,
+        loo,
     })
 }
 
-fn is_significant(mean: f64, lo: f64, hi: f64, floor: f64) -> bool {
-    (lo > 0.0 || hi < 0.0) && mean.abs() > floor
+/// The leave-one-out tests of the observations whose (regime, side) group has no repeats, for
+/// the two power metrics the baseline predicts (see [`loo`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RowVerdicts {
+    /// On effective power (the selection's metric).
+    pub effective: Vec<LooTest>,
+    /// On average power.
+    pub average: Vec<LooTest>,
+}
+
+impl RowVerdicts {
+    /// Tests every observation of `rows` in a (regime, side) group without repeats.
+    pub fn of(rows: &[TurnRow], calibration: Calibration<'_>) -> Self {
+        let part_of = |row: &TurnRow, sides: &[usize]| match sides {
+            [side] => Part::from(row.sides[*side].role),
+            _ => Part::Total,
+        };
+        let mut groups: BTreeMap<(Regime, Part), Vec<(usize, i64)>> = BTreeMap::new();
+        for row in rows {
+            for sides in observe::observations(row) {
+                groups
+                    .entry((row.regime, part_of(row, sides)))
+                    .or_default()
+                    .push((row.run_index, repeat_key(row.r_over_r_prime)));
+            }
+        }
+        let wanted = |i: usize, part: Part| {
+            groups
+                .get(&(rows[i].regime, part))
+                .is_some_and(|g| !has_repeats(g))
+        };
+        Self {
+            effective: loo::tests(rows, calibration, Measure::Effective, wanted),
+            average: loo::tests(rows, calibration, Measure::Average, wanted),
+        }
+    }
+
+    /// No tests (every group has repeats, or the caller judges repeats only).
+    pub fn none() -> Self {
+        Self::default()
+    }
 }
 
 /// The observations of `row` with their part, effective-power residual and model power [W].
@@ -157,40 +301,52 @@ pub fn practical_floor_w(model_w: &[f64]) -> f64 {
     cv::PRACTICAL_FLOOR_W.max(cv::RELATIVE_FLOOR * mean_abs)
 }
 
-/// Effective-power gaps per (regime, side) with bootstrap significance (the selection's input).
-/// A group without repeats (see [`has_repeats`]) gets an unbounded interval.
-pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow]) -> Vec<Gap> {
+/// Effective-power gaps per (regime, side), judged by [`judge`] (the selection's input): the
+/// same numbers as the `effective-power` groups of [`analyse`].
+pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> Vec<Gap> {
     let mut gaps = Vec::new();
     for regime in Regime::ALL {
-        for (k, part) in [(0u64, Part::Inner), (1, Part::Outer), (2, Part::Total)] {
-            let picked: Vec<(f64, usize, i64, f64)> = rows
+        for part in [Part::Inner, Part::Outer, Part::Total] {
+            let picked: Vec<Obs> = rows
                 .iter()
-                .filter(|r| r.regime == regime)
-                .flat_map(|r| {
+                .enumerate()
+                .filter(|(_, r)| r.regime == regime)
+                .flat_map(|(i, r)| {
                     effective_parts(baseline, r)
                         .into_iter()
                         .filter(|(p, _, _)| *p == part)
-                        .map(|(_, v, m)| (v, r.run_index, repeat_key(r.r_over_r_prime), m))
+                        .map(move |(_, value, model_w)| Obs {
+                            value,
+                            run: r.run_index,
+                            key: repeat_key(r.r_over_r_prime),
+                            row: i,
+                            part,
+                            model_w,
+                            duration_s: r.expected_duration_s,
+                        })
                 })
                 .collect();
-            let model_w: Vec<f64> = picked.iter().map(|x| x.3).collect();
-            let values: Vec<f64> = picked.iter().map(|x| x.0).collect();
-            let groups: Vec<usize> = picked.iter().map(|x| x.1).collect();
-            let keys: Vec<i64> = picked.iter().map(|x| x.2).collect();
-            let seed = 0x5EED ^ ((regime as u64) << 8) ^ k;
-            if let Some((mean_w, lo, hi)) = bootstrap(&values, &groups, &keys, seed) {
+            let seed = group_seed(Metric::EffectivePower.id(), regime, part);
+            if let Some(j) = judge(&picked, Floor::Power, seed, &verdicts.effective) {
                 gaps.push(Gap {
                     regime,
                     side: part,
-                    n: values.len(),
-                    mean_w,
-                    ci_w: (lo, hi),
-                    significant: is_significant(mean_w, lo, hi, practical_floor_w(&model_w)),
+                    n: picked.len(),
+                    mean_w: j.mean,
+                    ci_w: j.ci,
+                    significant: j.significant,
+                    loo: j.loo,
                 });
             }
         }
     }
     gaps
+}
+
+/// The resampling seed of a `metric`'s (regime, side) group: the same for the gaps and the
+/// "where" groups, so both draw the same interval.
+fn group_seed(metric: &str, regime: Regime, part: Part) -> u64 {
+    seed_of(&format!("{metric}:{}/{}", regime.id(), part.id()))
 }
 
 /// A residual metric of the "where" analysis (see the module's table).
@@ -263,6 +419,8 @@ pub struct TurnResidual {
     pub part: Part,
     /// Whether the row is a calibration manoeuvre.
     pub calibration_kind: bool,
+    /// The baseline's power of this observation [W] (the relative practical floor's base).
+    pub model_w: f64,
     /// Run time at the middle of the manoeuvre [s]; `None` for total-only rows.
     pub t_mid_s: Option<f64>,
     /// Average power minus model [W].
@@ -288,6 +446,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             r_over_r_prime: row.r_over_r_prime,
             part,
             calibration_kind: row.calibration_kind,
+            model_w: 0.0,
             t_mid_s: None,
             avg_power_w: 0.0,
             peak_over_model_w: None,
@@ -296,8 +455,10 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             growth_w: None,
         };
         if row.is_total_only() {
-            let r = row.effective_power_w() - baseline.power_w(row);
+            let model_w = baseline.power_w(row);
+            let r = row.effective_power_w() - model_w;
             out.push(TurnResidual {
+                model_w,
                 avg_power_w: r,
                 effective_power_w: r,
                 ..base(Part::Total)
@@ -307,6 +468,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
         for (k, s) in row.sides.iter().enumerate() {
             let model_w = baseline.side_power_w(row, k);
             out.push(TurnResidual {
+                model_w,
                 t_mid_s: Some(row.t_start_s + 0.5 * row.duration_s),
                 avg_power_w: s.avg_power_w - model_w,
                 peak_over_model_w: Some(s.max_power_w - model_w),
@@ -333,32 +495,45 @@ pub struct GroupStat {
     pub ci: (f64, f64),
     /// Practical floor the mean must exceed (the metric's unit).
     pub floor: f64,
-    /// Beyond the repeat noise and the floor.
+    /// Beyond the noise and the floor ([`judge`]).
     pub significant: bool,
+    /// Without repeats: the leave-one-out test of each observation (power metrics only).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub loo: Vec<LooTest>,
 }
 
-/// A group's values: (value, run index, expected duration [s] for the energy floor,
-/// [`repeat_key`]).
-type Values = Vec<(f64, usize, f64, i64)>;
+/// A group's observations.
+type Values = Vec<Obs>;
 
-fn stat(group: String, values: &Values, per_second_floor: bool, seed: u64) -> Option<GroupStat> {
-    let v: Vec<f64> = values.iter().map(|x| x.0).collect();
-    let g: Vec<usize> = values.iter().map(|x| x.1).collect();
-    let k: Vec<i64> = values.iter().map(|x| x.3).collect();
-    let (mean, lo, hi) = bootstrap(&v, &g, &k, seed)?;
-    let floor = if per_second_floor {
-        cv::PRACTICAL_FLOOR_W * values.iter().map(|x| x.2).sum::<f64>() / values.len() as f64
-    } else {
-        cv::PRACTICAL_FLOOR_W
-    };
+fn stat(
+    group: String,
+    values: &Values,
+    floor: Floor,
+    seed: u64,
+    tests: &[LooTest],
+) -> Option<GroupStat> {
+    let j = judge(values, floor, seed, tests)?;
     Some(GroupStat {
         group,
-        n: v.len(),
-        mean,
-        ci: (lo, hi),
-        floor,
-        significant: is_significant(mean, lo, hi, floor),
+        n: values.len(),
+        mean: j.mean,
+        ci: j.ci,
+        floor: j.floor,
+        significant: j.significant,
+        loo: j.loo,
     })
+}
+
+fn obs_of(t: &TurnResidual, value: f64, duration_s: f64) -> Obs {
+    Obs {
+        value,
+        run: t.run_index,
+        key: repeat_key(t.r_over_r_prime),
+        row: t.row,
+        part: t.part,
+        model_w: t.model_w,
+        duration_s,
+    }
 }
 
 /// Stable seed of a group label (FNV-1a), so every group has its own resampling stream.
@@ -372,12 +547,13 @@ fn seed_of(label: &str) -> u64 {
 fn grouped(
     prefix: &str,
     items: &[(&TurnResidual, f64, f64)],
-    per_second_floor: bool,
+    floor: Floor,
+    tests: &[LooTest],
 ) -> (Vec<GroupStat>, Vec<GroupStat>) {
     let mut by_regime: BTreeMap<(Regime, Part), Values> = BTreeMap::new();
     let mut by_side: BTreeMap<Part, Values> = BTreeMap::new();
     for (t, v, dur) in items {
-        let x = (*v, t.run_index, *dur, repeat_key(t.r_over_r_prime));
+        let x = obs_of(t, *v, *dur);
         by_regime.entry((t.regime, t.part)).or_default().push(x);
         if t.regime != Regime::Straight {
             by_side.entry(t.part).or_default().push(x);
@@ -387,8 +563,7 @@ fn grouped(
         .into_iter()
         .filter_map(|((regime, part), v)| {
             let label = format!("{}/{}", regime.id(), part.id());
-            let seed = seed_of(&format!("{prefix}:{label}"));
-            stat(label, &v, per_second_floor, seed)
+            stat(label, &v, floor, group_seed(prefix, regime, part), tests)
         })
         .collect();
     let side_stats = by_side
@@ -396,7 +571,8 @@ fn grouped(
         .filter_map(|(part, v)| {
             let label = part.id().to_owned();
             let seed = seed_of(&format!("{prefix}:{label}"));
-            stat(label, &v, per_second_floor, seed)
+            // A side pools different regimes: its rows are judged in their regime's group.
+            stat(label, &v, floor, seed, &[])
         })
         .collect();
     (regime_stats, side_stats)
@@ -498,12 +674,12 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         } else {
             0
         };
-        thirds_values[k].push((centred(t), t.run_index, 0.0, repeat_key(t.r_over_r_prime)));
+        thirds_values[k].push(obs_of(t, centred(t), 0.0));
     }
     let thirds = ["first-third", "middle-third", "last-third"]
         .iter()
         .zip(&thirds_values)
-        .filter_map(|(label, v)| stat((*label).to_owned(), v, false, seed_of(label)))
+        .filter_map(|(label, v)| stat((*label).to_owned(), v, Floor::Fixed, seed_of(label), &[]))
         .collect();
 
     let obs: Vec<(usize, TimedObs)> = timed
@@ -575,6 +751,41 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
     }
 }
 
+/// The significant leave-one-out test with the largest |t| among `loo` whose residual exceeds
+/// `floor`.
+fn strongest(loo: &[LooTest], floor: f64) -> Option<&LooTest> {
+    loo.iter()
+        .filter(|t| t.beyond_noise && t.residual_w.abs() > floor)
+        .max_by(|a, b| a.t.abs().total_cmp(&b.t.abs()))
+}
+
+impl LooTest {
+    /// One line: the row, its leave-one-out residual and the significance statement.
+    pub fn statement(&self, rows: &[TurnRow]) -> String {
+        let what = rows.get(self.row).map_or_else(String::new, |r| {
+            if r.radius_cmd_m.is_finite() {
+                format!("R = {:.2} m ", r.radius_cmd_m)
+            } else {
+                "straight ".to_owned()
+            }
+        });
+        format!(
+            "{what}{:+.1} W against the baseline refitted without it ({:.1} W, 95 % prediction \
+             interval [{:.1}, {:.1}]): t = {:.2}, df = {}, p = {:.3} (adjusted {:.3}; plain Holm \
+             over all tested rows {:.3})",
+            self.residual_w,
+            self.prediction_w,
+            self.interval_w.0,
+            self.interval_w.1,
+            self.t,
+            self.df,
+            self.p,
+            self.p_adjusted,
+            self.p_holm_all
+        )
+    }
+}
+
 /// Where the model departs: per-turn residuals and their groups.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WhereAnalysis {
@@ -599,8 +810,37 @@ pub struct WhereAnalysis {
     pub turns: Vec<TurnResidual>,
 }
 
-/// The "where" analysis of `rows` against `baseline`.
-pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
+impl WhereAnalysis {
+    /// Records a departure that no group shows but cross-validation does: the selection's clear
+    /// winner `c` removes at least the practical floor of held-out RMS (e.g. a slope, whose power
+    /// changes sign along the path, so its group means are ~0). The diagnosis' `significant`
+    /// counts it, so the "where" analysis must too.
+    pub fn add_heldout_departure(&mut self, c: &cv::CandidateScore, scheme: cv::Scheme) {
+        let removed = (c.heldout_error_before.powi(2) - c.heldout_error_after.powi(2))
+            .max(0.0)
+            .sqrt();
+        let finding = format!(
+            "held out ({}): {} removes {removed:.1} W RMS ({:.2} → {:.2} W), more than the \
+             {} W floor, although no group's mean departs on its own",
+            scheme.id(),
+            c.effect,
+            c.heldout_error_before,
+            c.heldout_error_after,
+            cv::PRACTICAL_FLOOR_W
+        );
+        self.statement = if self.significant {
+            format!("{}; {finding}", self.statement)
+        } else {
+            format!("departure beyond the noise out of sample: {finding}")
+        };
+        self.findings.push(finding);
+        self.significant = true;
+    }
+}
+
+/// The "where" analysis of `rows` against `baseline`; groups without repeats are judged by
+/// `verdicts` (see [`judge`]).
+pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> WhereAnalysis {
     let turns = turn_residuals(baseline, rows);
     let mut metrics = Vec::new();
     // The max metric's reference: each run's mean peak over steady model on its calibration
@@ -639,7 +879,13 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         if items.is_empty() {
             continue;
         }
-        let (by_regime_side, by_side) = grouped(metric.id(), &items, metric == Metric::Energy);
+        let (floor, tests): (Floor, &[LooTest]) = match metric {
+            Metric::AvgPower => (Floor::Power, &verdicts.average),
+            Metric::MaxPower => (Floor::Power, &[]),
+            Metric::Energy => (Floor::Energy, &[]),
+            Metric::EffectivePower => (Floor::Power, &verdicts.effective),
+        };
+        let (by_regime_side, by_side) = grouped(metric.id(), &items, floor, tests);
         metrics.push(MetricWhere {
             metric,
             unit: metric.unit(),
@@ -652,7 +898,7 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         .iter()
         .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0)))
         .collect();
-    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, false);
+    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
     let run_time = run_time(&turns);
 
     let mut scored: Vec<(f64, String)> = Vec::new();
@@ -660,13 +906,14 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
     let mut note_group = |label: &str, unit: &str, g: &GroupStat| {
         any_finite |= g.ci.0.is_finite() && g.ci.1.is_finite();
         if g.significant {
-            scored.push((
-                g.mean.abs() / g.floor.max(f64::MIN_POSITIVE),
-                format!(
+            let text = match strongest(&g.loo, g.floor) {
+                Some(t) => format!("{label} {}: {}", g.group, t.statement(rows)),
+                None => format!(
                     "{label} {}: {:+.1} {unit} [{:.1}, {:.1}] (n = {})",
                     g.group, g.mean, g.ci.0, g.ci.1, g.n
                 ),
-            ));
+            };
+            scored.push((g.mean.abs() / g.floor.max(f64::MIN_POSITIVE), text));
         }
     };
     for m in &metrics {
@@ -706,12 +953,12 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
     let statement = if significant {
         let shown: Vec<&str> = findings.iter().take(3).map(String::as_str).collect();
         format!(
-            "gap beyond the repeat noise in {} group(s); largest: {}",
+            "gap beyond the noise in {} group(s); largest: {}",
             findings.len(),
             shown.join("; ")
         )
     } else if any_finite {
-        "no gap beyond the repeat noise".to_owned()
+        "no gap beyond the noise".to_owned()
     } else {
         "no gap can be judged: no group has repeats (two runs, or the same radius twice) to \
          estimate the noise from"
@@ -726,8 +973,10 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         .len();
     if n_runs < 2 {
         notes.push(
-            "one run: intervals resample the repeated manoeuvres within a group; a group \
-             without a radius driven twice has no noise estimate and is never significant"
+            "one run: intervals resample the repeated manoeuvres within a group; a power group \
+             without a radius driven twice is judged row by row against the leave-one-out \
+             prediction interval of the baseline refitted without the row (Holm, R ≤ R′ first); \
+             other groups without repeats have no verdict"
                 .to_owned(),
         );
     }
