@@ -151,6 +151,12 @@ enum Floor {
     Fixed,
 }
 
+/// [`judge`]'s rule in words, for reports.
+pub const SIGNIFICANCE_RULE: &str = "with repeats, the 95 % interval over them excludes 0; \
+     without, a row lies outside its leave-one-out 95 % prediction interval (externally \
+     studentised t, Holm-adjusted, turns with R ≤ R′ first); and |mean| above the practical \
+     floor, max(1.5 W, 5 % of the model power)";
+
 /// A group's verdict: mean, 95 % interval, practical floor, significance and, without repeats,
 /// the leave-one-out tests behind it.
 struct Judgement {
@@ -1069,7 +1075,11 @@ mod tests {
         let rows = rows_of(&[run]);
         let d = super::super::diagnose(&HUSKY, &rows).expect("diagnoses");
         assert!(d.significant);
-        assert_eq!(d.significant, d.where_.significant, "{}", d.where_.statement);
+        assert_eq!(
+            d.significant, d.where_.significant,
+            "{}",
+            d.where_.statement
+        );
         assert!(d.gaps.iter().any(|g| g.significant), "{:?}", d.gaps);
         assert_gaps_are_where_groups(&d);
         // Each judged row states its test.
@@ -1105,11 +1115,7 @@ mod tests {
     #[test]
     fn control_world_has_nothing_significant() {
         let a = analyse_world(&WorldConfig::hard_ground(), &scenario(), 3);
-        assert_eq!(
-            a.statement, "no gap beyond the noise",
-            "{:?}",
-            a.findings
-        );
+        assert_eq!(a.statement, "no gap beyond the noise", "{:?}", a.findings);
         assert!(!a.significant);
         // One manoeuvre per regime per run at the same run time: no trend can be separated
         // from the regime pattern, and the analysis says so.

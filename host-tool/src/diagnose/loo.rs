@@ -118,7 +118,9 @@ impl Normal {
     fn predict(&self, x: [f64; 2]) -> Option<(f64, f64, usize)> {
         let det = self.xx[0][0] * self.xx[1][1] - self.xx[0][1] * self.xx[1][0];
         let scale = self.xx[0][0].abs() * self.xx[1][1].abs();
-        if self.n < 3 || !(det.abs() > 1e-12 * scale.max(f64::MIN_POSITIVE)) {
+        // NaN-safe: a NaN determinant is singular too.
+        let regular = det.abs() > 1e-12 * scale.max(f64::MIN_POSITIVE);
+        if self.n < 3 || !regular {
             return None;
         }
         let inv = [
@@ -172,7 +174,11 @@ pub fn tests(
     };
     for row in &reference_rows {
         for sides in observe::observations(row) {
-            reference.add(features(row, sides), observe::measured_avg_w(row, sides), 1.0);
+            reference.add(
+                features(row, sides),
+                observe::measured_avg_w(row, sides),
+                1.0,
+            );
         }
         if let Some(i) = rows.iter().position(|r| std::ptr::eq(r, *row)) {
             in_reference[i] = true;
@@ -183,7 +189,11 @@ pub fn tests(
         let mut fit = reference;
         if in_reference[i] {
             for sides in observe::observations(row) {
-                fit.add(features(row, sides), observe::measured_avg_w(row, sides), -1.0);
+                fit.add(
+                    features(row, sides),
+                    observe::measured_avg_w(row, sides),
+                    -1.0,
+                );
             }
         }
         for sides in observe::observations(row) {
