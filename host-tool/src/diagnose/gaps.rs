@@ -1065,6 +1065,27 @@ mod tests {
         }
     }
 
+    /// A departure only cross-validation sees (the selection's clear winner removes more than
+    /// the floor of held-out RMS) makes the "where" analysis significant too.
+    #[test]
+    fn a_heldout_departure_is_recorded_in_where() {
+        let mut a = analyse_world(&WorldConfig::hard_ground(), &scenario(), 3);
+        assert!(!a.significant);
+        let c = cv::CandidateScore {
+            effect: EffectId::Slope,
+            heldout_error_before: 5.0,
+            heldout_error_after: 3.0,
+            shrink_pct: 40.0,
+            penalised_mse: 9.0,
+            penalised_mse_with_growth: 9.0,
+            penalised_mse_with_avg_power: 9.0,
+        };
+        a.add_heldout_departure(&c, cv::Scheme::LeaveOneRunOut);
+        assert!(a.significant);
+        assert!(a.statement.contains("slope removes 4.0 W RMS"), "{}", a.statement);
+        assert_eq!(a.findings.len(), 1);
+    }
+
     /// Issue 10, part 6: one run of the seed's turn set on sand (like the demo's run-1), every
     /// radius once. Before, the headline said "significant gap" (from the held-out winner) while
     /// every group had no repeats and so no verdict; now the groups are judged by leave-one-out
