@@ -33,9 +33,14 @@
 //! only. Total-only rows (per-turn summaries) form their own `total` side and have average and
 //! effective power only.
 
+mod judge;
+
 use super::baseline::Baseline;
 use super::cv::{self, SplitMix64};
 use super::features::{SideRole, TurnRow};
+use super::loo::LooTest;
+use judge::{judge, repeat_key, Floor, Obs};
+pub use judge::{practical_floor_w, RowVerdicts, SIGNIFICANCE_RULE};
 use model_core::kinematics::Regime;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -79,7 +84,9 @@ impl PartialEq<SideRole> for Part {
 }
 
 /// The mean effective-power residual of one (regime, side) group: the gaps the selection uses.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// It is the `effective-power` group of the same name in [`WhereAnalysis`], judged by the same
+/// rule ([`judge`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Gap {
     /// The regime.
     pub regime: Regime,
@@ -87,48 +94,16 @@ pub struct Gap {
     pub side: Part,
     /// Observations.
     pub n: usize,
-    /// Mean effective-power residual [W].
+    /// Mean effective-power residual [W] (without repeats: of the leave-one-out residuals).
     pub mean_w: f64,
-    /// 95 % bootstrap interval [W].
+    /// 95 % interval [W]: over repeats, or without repeats from the leave-one-out prediction
+    /// intervals (unadjusted; ±∞ when neither exists).
     pub ci_w: (f64, f64),
-    /// Beyond the repeat noise and [`cv::PRACTICAL_FLOOR_W`].
+    /// Beyond the noise and the practical floor ([`judge`]).
     pub significant: bool,
-}
-
-/// Key of "the same manoeuvre" for repeats within one run: R/R' to 0.01 (straights one key).
-fn repeat_key(r_over_r_prime: f64) -> i64 {
-    if r_over_r_prime.is_finite() {
-        (r_over_r_prime * 100.0).round() as i64
-    } else {
-        i64::MAX
-    }
-}
-
-/// Whether a group's values carry a noise estimate: ≥ 2 runs, or, in one run, at least one
-/// manoeuvre repeated at the same R/R'. Otherwise the spread of a group is the spread between
-/// different radii (model misfit, e.g. a summary table's one row per radius), not repeat noise.
-fn has_repeats(runs_and_keys: &[(usize, i64)]) -> bool {
-    let mut runs: Vec<usize> = runs_and_keys.iter().map(|x| x.0).collect();
-    runs.sort_unstable();
-    runs.dedup();
-    let mut keys: Vec<i64> = runs_and_keys.iter().map(|x| x.1).collect();
-    keys.sort_unstable();
-    runs.len() >= 2 || keys.windows(2).any(|w| w[0] == w[1])
-}
-
-/// [`cv::bootstrap_mean`], with an unbounded interval when [`has_repeats`] fails.
-fn bootstrap(values: &[f64], runs: &[usize], keys: &[i64], seed: u64) -> Option<(f64, f64, f64)> {
-    let (mean, lo, hi) = cv::bootstrap_mean(values, runs, seed)?;
-    let pairs: Vec<(usize, i64)> = runs.iter().copied().zip(keys.iter().copied()).collect();
-    Some(if has_repeats(&pairs) {
-        (mean, lo, hi)
-    } else {
-        (mean, f64::NEG_INFINITY, f64::INFINITY)
-    })
-}
-
-fn is_significant(mean: f64, lo: f64, hi: f64, floor: f64) -> bool {
-    (lo > 0.0 || hi < 0.0) && mean.abs() > floor
+    /// Without repeats: the leave-one-out test of each observation (empty with repeats).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub loo: Vec<LooTest>,
 }
 
 /// The observations of `row` with their part, effective-power residual and model power [W].
@@ -146,51 +121,52 @@ fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64)> 
     }
 }
 
-/// The practical floor of a group whose observations have model powers `model_w`: the larger of
-/// [`cv::PRACTICAL_FLOOR_W`] and [`cv::RELATIVE_FLOOR`] of their mean |model power| [W].
-pub fn practical_floor_w(model_w: &[f64]) -> f64 {
-    let mean_abs = if model_w.is_empty() {
-        0.0
-    } else {
-        model_w.iter().map(|p| p.abs()).sum::<f64>() / model_w.len() as f64
-    };
-    cv::PRACTICAL_FLOOR_W.max(cv::RELATIVE_FLOOR * mean_abs)
-}
-
-/// Effective-power gaps per (regime, side) with bootstrap significance (the selection's input).
-/// A group without repeats (see [`has_repeats`]) gets an unbounded interval.
-pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow]) -> Vec<Gap> {
+/// Effective-power gaps per (regime, side), judged by [`judge`] (the selection's input): the
+/// same numbers as the `effective-power` groups of [`analyse`].
+pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> Vec<Gap> {
     let mut gaps = Vec::new();
     for regime in Regime::ALL {
-        for (k, part) in [(0u64, Part::Inner), (1, Part::Outer), (2, Part::Total)] {
-            let picked: Vec<(f64, usize, i64, f64)> = rows
+        for part in [Part::Inner, Part::Outer, Part::Total] {
+            let picked: Vec<Obs> = rows
                 .iter()
-                .filter(|r| r.regime == regime)
-                .flat_map(|r| {
+                .enumerate()
+                .filter(|(_, r)| r.regime == regime)
+                .flat_map(|(i, r)| {
                     effective_parts(baseline, r)
                         .into_iter()
                         .filter(|(p, _, _)| *p == part)
-                        .map(|(_, v, m)| (v, r.run_index, repeat_key(r.r_over_r_prime), m))
+                        .map(move |(_, value, model_w)| Obs {
+                            value,
+                            run: r.run_index,
+                            key: repeat_key(r.r_over_r_prime),
+                            row: i,
+                            part,
+                            model_w,
+                            duration_s: r.expected_duration_s,
+                        })
                 })
                 .collect();
-            let model_w: Vec<f64> = picked.iter().map(|x| x.3).collect();
-            let values: Vec<f64> = picked.iter().map(|x| x.0).collect();
-            let groups: Vec<usize> = picked.iter().map(|x| x.1).collect();
-            let keys: Vec<i64> = picked.iter().map(|x| x.2).collect();
-            let seed = 0x5EED ^ ((regime as u64) << 8) ^ k;
-            if let Some((mean_w, lo, hi)) = bootstrap(&values, &groups, &keys, seed) {
+            let seed = group_seed(Metric::EffectivePower.id(), regime, part);
+            if let Some(j) = judge(&picked, Floor::Power, seed, &verdicts.effective) {
                 gaps.push(Gap {
                     regime,
                     side: part,
-                    n: values.len(),
-                    mean_w,
-                    ci_w: (lo, hi),
-                    significant: is_significant(mean_w, lo, hi, practical_floor_w(&model_w)),
+                    n: picked.len(),
+                    mean_w: j.mean,
+                    ci_w: j.ci,
+                    significant: j.significant,
+                    loo: j.loo,
                 });
             }
         }
     }
     gaps
+}
+
+/// The resampling seed of a `metric`'s (regime, side) group: the same for the gaps and the
+/// "where" groups, so both draw the same interval.
+fn group_seed(metric: &str, regime: Regime, part: Part) -> u64 {
+    seed_of(&format!("{metric}:{}/{}", regime.id(), part.id()))
 }
 
 /// A residual metric of the "where" analysis (see the module's table).
@@ -263,6 +239,8 @@ pub struct TurnResidual {
     pub part: Part,
     /// Whether the row is a calibration manoeuvre.
     pub calibration_kind: bool,
+    /// The baseline's power of this observation [W] (the relative practical floor's base).
+    pub model_w: f64,
     /// Run time at the middle of the manoeuvre [s]; `None` for total-only rows.
     pub t_mid_s: Option<f64>,
     /// Average power minus model [W].
@@ -288,6 +266,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             r_over_r_prime: row.r_over_r_prime,
             part,
             calibration_kind: row.calibration_kind,
+            model_w: 0.0,
             t_mid_s: None,
             avg_power_w: 0.0,
             peak_over_model_w: None,
@@ -296,8 +275,10 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             growth_w: None,
         };
         if row.is_total_only() {
-            let r = row.effective_power_w() - baseline.power_w(row);
+            let model_w = baseline.power_w(row);
+            let r = row.effective_power_w() - model_w;
             out.push(TurnResidual {
+                model_w,
                 avg_power_w: r,
                 effective_power_w: r,
                 ..base(Part::Total)
@@ -307,6 +288,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
         for (k, s) in row.sides.iter().enumerate() {
             let model_w = baseline.side_power_w(row, k);
             out.push(TurnResidual {
+                model_w,
                 t_mid_s: Some(row.t_start_s + 0.5 * row.duration_s),
                 avg_power_w: s.avg_power_w - model_w,
                 peak_over_model_w: Some(s.max_power_w - model_w),
@@ -333,32 +315,45 @@ pub struct GroupStat {
     pub ci: (f64, f64),
     /// Practical floor the mean must exceed (the metric's unit).
     pub floor: f64,
-    /// Beyond the repeat noise and the floor.
+    /// Beyond the noise and the floor ([`judge`]).
     pub significant: bool,
+    /// Without repeats: the leave-one-out test of each observation (power metrics only).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub loo: Vec<LooTest>,
 }
 
-/// A group's values: (value, run index, expected duration [s] for the energy floor,
-/// [`repeat_key`]).
-type Values = Vec<(f64, usize, f64, i64)>;
+/// A group's observations.
+type Values = Vec<Obs>;
 
-fn stat(group: String, values: &Values, per_second_floor: bool, seed: u64) -> Option<GroupStat> {
-    let v: Vec<f64> = values.iter().map(|x| x.0).collect();
-    let g: Vec<usize> = values.iter().map(|x| x.1).collect();
-    let k: Vec<i64> = values.iter().map(|x| x.3).collect();
-    let (mean, lo, hi) = bootstrap(&v, &g, &k, seed)?;
-    let floor = if per_second_floor {
-        cv::PRACTICAL_FLOOR_W * values.iter().map(|x| x.2).sum::<f64>() / values.len() as f64
-    } else {
-        cv::PRACTICAL_FLOOR_W
-    };
+fn stat(
+    group: String,
+    values: &Values,
+    floor: Floor,
+    seed: u64,
+    tests: &[LooTest],
+) -> Option<GroupStat> {
+    let j = judge(values, floor, seed, tests)?;
     Some(GroupStat {
         group,
-        n: v.len(),
-        mean,
-        ci: (lo, hi),
-        floor,
-        significant: is_significant(mean, lo, hi, floor),
+        n: values.len(),
+        mean: j.mean,
+        ci: j.ci,
+        floor: j.floor,
+        significant: j.significant,
+        loo: j.loo,
     })
+}
+
+fn obs_of(t: &TurnResidual, value: f64, duration_s: f64) -> Obs {
+    Obs {
+        value,
+        run: t.run_index,
+        key: repeat_key(t.r_over_r_prime),
+        row: t.row,
+        part: t.part,
+        model_w: t.model_w,
+        duration_s,
+    }
 }
 
 /// Stable seed of a group label (FNV-1a), so every group has its own resampling stream.
@@ -372,12 +367,13 @@ fn seed_of(label: &str) -> u64 {
 fn grouped(
     prefix: &str,
     items: &[(&TurnResidual, f64, f64)],
-    per_second_floor: bool,
+    floor: Floor,
+    tests: &[LooTest],
 ) -> (Vec<GroupStat>, Vec<GroupStat>) {
     let mut by_regime: BTreeMap<(Regime, Part), Values> = BTreeMap::new();
     let mut by_side: BTreeMap<Part, Values> = BTreeMap::new();
     for (t, v, dur) in items {
-        let x = (*v, t.run_index, *dur, repeat_key(t.r_over_r_prime));
+        let x = obs_of(t, *v, *dur);
         by_regime.entry((t.regime, t.part)).or_default().push(x);
         if t.regime != Regime::Straight {
             by_side.entry(t.part).or_default().push(x);
@@ -387,8 +383,7 @@ fn grouped(
         .into_iter()
         .filter_map(|((regime, part), v)| {
             let label = format!("{}/{}", regime.id(), part.id());
-            let seed = seed_of(&format!("{prefix}:{label}"));
-            stat(label, &v, per_second_floor, seed)
+            stat(label, &v, floor, group_seed(prefix, regime, part), tests)
         })
         .collect();
     let side_stats = by_side
@@ -396,7 +391,8 @@ fn grouped(
         .filter_map(|(part, v)| {
             let label = part.id().to_owned();
             let seed = seed_of(&format!("{prefix}:{label}"));
-            stat(label, &v, per_second_floor, seed)
+            // A side pools different regimes: its rows are judged in their regime's group.
+            stat(label, &v, floor, seed, &[])
         })
         .collect();
     (regime_stats, side_stats)
@@ -498,12 +494,12 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         } else {
             0
         };
-        thirds_values[k].push((centred(t), t.run_index, 0.0, repeat_key(t.r_over_r_prime)));
+        thirds_values[k].push(obs_of(t, centred(t), 0.0));
     }
     let thirds = ["first-third", "middle-third", "last-third"]
         .iter()
         .zip(&thirds_values)
-        .filter_map(|(label, v)| stat((*label).to_owned(), v, false, seed_of(label)))
+        .filter_map(|(label, v)| stat((*label).to_owned(), v, Floor::Fixed, seed_of(label), &[]))
         .collect();
 
     let obs: Vec<(usize, TimedObs)> = timed
@@ -575,6 +571,41 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
     }
 }
 
+/// The significant leave-one-out test with the largest |t| among `loo` whose residual exceeds
+/// `floor`.
+fn strongest(loo: &[LooTest], floor: f64) -> Option<&LooTest> {
+    loo.iter()
+        .filter(|t| t.beyond_noise && t.residual_w.abs() > floor)
+        .max_by(|a, b| a.t.abs().total_cmp(&b.t.abs()))
+}
+
+impl LooTest {
+    /// One line: the row, its leave-one-out residual and the significance statement.
+    pub fn statement(&self, rows: &[TurnRow]) -> String {
+        let what = rows.get(self.row).map_or_else(String::new, |r| {
+            if r.radius_cmd_m.is_finite() {
+                format!("R = {:.2} m ", r.radius_cmd_m)
+            } else {
+                "straight ".to_owned()
+            }
+        });
+        format!(
+            "{what}{:+.1} W against the baseline refitted without it ({:.1} W, 95 % prediction \
+             interval [{:.1}, {:.1}]): t = {:.2}, df = {}, p = {:.3} (adjusted {:.3}; plain Holm \
+             over all tested rows {:.3})",
+            self.residual_w,
+            self.prediction_w,
+            self.interval_w.0,
+            self.interval_w.1,
+            self.t,
+            self.df,
+            self.p,
+            self.p_adjusted,
+            self.p_holm_all
+        )
+    }
+}
+
 /// Where the model departs: per-turn residuals and their groups.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WhereAnalysis {
@@ -599,8 +630,37 @@ pub struct WhereAnalysis {
     pub turns: Vec<TurnResidual>,
 }
 
-/// The "where" analysis of `rows` against `baseline`.
-pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
+impl WhereAnalysis {
+    /// Records a departure that no group shows but cross-validation does: the selection's clear
+    /// winner `c` removes at least the practical floor of held-out RMS (e.g. a slope, whose power
+    /// changes sign along the path, so its group means are ~0). The diagnosis' `significant`
+    /// counts it, so the "where" analysis must too.
+    pub fn add_heldout_departure(&mut self, c: &cv::CandidateScore, scheme: cv::Scheme) {
+        let removed = (c.heldout_error_before.powi(2) - c.heldout_error_after.powi(2))
+            .max(0.0)
+            .sqrt();
+        let finding = format!(
+            "held out ({}): {} removes {removed:.1} W RMS ({:.2} → {:.2} W), more than the \
+             {} W floor, although no group's mean departs on its own",
+            scheme.id(),
+            c.effect,
+            c.heldout_error_before,
+            c.heldout_error_after,
+            cv::PRACTICAL_FLOOR_W
+        );
+        self.statement = if self.significant {
+            format!("{}; {finding}", self.statement)
+        } else {
+            format!("departure beyond the noise out of sample: {finding}")
+        };
+        self.findings.push(finding);
+        self.significant = true;
+    }
+}
+
+/// The "where" analysis of `rows` against `baseline`; groups without repeats are judged by
+/// `verdicts` (see [`judge`]).
+pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> WhereAnalysis {
     let turns = turn_residuals(baseline, rows);
     let mut metrics = Vec::new();
     // The max metric's reference: each run's mean peak over steady model on its calibration
@@ -639,7 +699,13 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         if items.is_empty() {
             continue;
         }
-        let (by_regime_side, by_side) = grouped(metric.id(), &items, metric == Metric::Energy);
+        let (floor, tests): (Floor, &[LooTest]) = match metric {
+            Metric::AvgPower => (Floor::Power, &verdicts.average),
+            Metric::MaxPower => (Floor::Power, &[]),
+            Metric::Energy => (Floor::Energy, &[]),
+            Metric::EffectivePower => (Floor::Power, &verdicts.effective),
+        };
+        let (by_regime_side, by_side) = grouped(metric.id(), &items, floor, tests);
         metrics.push(MetricWhere {
             metric,
             unit: metric.unit(),
@@ -652,7 +718,7 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         .iter()
         .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0)))
         .collect();
-    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, false);
+    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
     let run_time = run_time(&turns);
 
     let mut scored: Vec<(f64, String)> = Vec::new();
@@ -660,13 +726,14 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
     let mut note_group = |label: &str, unit: &str, g: &GroupStat| {
         any_finite |= g.ci.0.is_finite() && g.ci.1.is_finite();
         if g.significant {
-            scored.push((
-                g.mean.abs() / g.floor.max(f64::MIN_POSITIVE),
-                format!(
+            let text = match strongest(&g.loo, g.floor) {
+                Some(t) => format!("{label} {}: {}", g.group, t.statement(rows)),
+                None => format!(
                     "{label} {}: {:+.1} {unit} [{:.1}, {:.1}] (n = {})",
                     g.group, g.mean, g.ci.0, g.ci.1, g.n
                 ),
-            ));
+            };
+            scored.push((g.mean.abs() / g.floor.max(f64::MIN_POSITIVE), text));
         }
     };
     for m in &metrics {
@@ -706,12 +773,12 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
     let statement = if significant {
         let shown: Vec<&str> = findings.iter().take(3).map(String::as_str).collect();
         format!(
-            "gap beyond the repeat noise in {} group(s); largest: {}",
+            "gap beyond the noise in {} group(s); largest: {}",
             findings.len(),
             shown.join("; ")
         )
     } else if any_finite {
-        "no gap beyond the repeat noise".to_owned()
+        "no gap beyond the noise".to_owned()
     } else {
         "no gap can be judged: no group has repeats (two runs, or the same radius twice) to \
          estimate the noise from"
@@ -726,8 +793,10 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
         .len();
     if n_runs < 2 {
         notes.push(
-            "one run: intervals resample the repeated manoeuvres within a group; a group \
-             without a radius driven twice has no noise estimate and is never significant"
+            "one run: intervals resample the repeated manoeuvres within a group; a power group \
+             without a radius driven twice is judged row by row against the leave-one-out \
+             prediction interval of the baseline refitted without the row (Holm, R ≤ R′ first); \
+             other groups without repeats have no verdict"
                 .to_owned(),
         );
     }
@@ -756,147 +825,4 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow]) -> WhereAnalysis {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::super::tests::{rows_of, scenario, simulate_run};
-    use super::*;
-    use crate::effect_id::EffectId;
-    use crate::log::run_csv::RunSample;
-    use crate::sim::world::{Scenario, WorldConfig};
-    use model_core::Rover;
-
-    const HUSKY: Rover = Rover::HUSKY_A200;
-
-    #[test]
-    fn practical_floor_scales_with_the_model_power() {
-        // Small or zero model power: the absolute floor.
-        assert_eq!(practical_floor_w(&[]), cv::PRACTICAL_FLOOR_W);
-        assert_eq!(practical_floor_w(&[0.0, 10.0]), cv::PRACTICAL_FLOOR_W);
-        // A 200 W side (either sign): 5 % of it.
-        let floor = practical_floor_w(&[200.0, -200.0]);
-        assert!((floor - cv::RELATIVE_FLOOR * 200.0).abs() < 1e-9);
-        assert!(floor > cv::PRACTICAL_FLOOR_W);
-    }
-
-    fn analyse_world(world: &WorldConfig, scenario: &Scenario, runs: u64) -> WhereAnalysis {
-        let runs: Vec<Vec<RunSample>> = (0..runs)
-            .map(|k| simulate_run(world, scenario, 20 + k))
-            .collect();
-        let rows = rows_of(&runs);
-        let cal: Vec<&TurnRow> = rows.iter().filter(|r| r.calibration_kind).collect();
-        let b = Baseline::fit(&HUSKY, &cal).expect("fits");
-        analyse(&b, &rows)
-    }
-
-    fn significant_groups(a: &WhereAnalysis) -> Vec<String> {
-        let mut out = Vec::new();
-        for m in &a.metrics {
-            for g in m.by_regime_side.iter().chain(&m.by_side) {
-                if g.significant {
-                    out.push(format!("{}:{}", m.metric.id(), g.group));
-                }
-            }
-        }
-        for g in a.phase_by_regime_side.iter().chain(&a.phase_by_side) {
-            if g.significant {
-                out.push(format!("growth:{}", g.group));
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn control_world_has_nothing_significant() {
-        let a = analyse_world(&WorldConfig::hard_ground(), &scenario(), 3);
-        assert_eq!(
-            a.statement, "no gap beyond the repeat noise",
-            "{:?}",
-            a.findings
-        );
-        assert!(!a.significant);
-        // One manoeuvre per regime per run at the same run time: no trend can be separated
-        // from the regime pattern, and the analysis says so.
-        assert!(a.run_time.trend.is_none());
-        assert!(a.notes.iter().any(|n| n.contains("not identifiable")));
-        // Every metric has its groups; per-turn rows carry both sides of each manoeuvre.
-        assert_eq!(a.metrics.len(), 4);
-        assert_eq!(a.turns.len(), 2 * 7 * 3);
-        let j = serde_json::to_value(&a).expect("serialises");
-        assert!(j["metrics"][1]["by_regime_side"].is_array());
-    }
-
-    #[test]
-    fn inner_drag_is_on_the_inner_side_of_dragged_turns_only() {
-        let world = WorldConfig::hard_ground().with_effect(EffectId::InnerDrag, true);
-        let a = analyse_world(&world, &scenario(), 3);
-        let sig = significant_groups(&a);
-        for metric in ["avg-power", "max-power", "energy", "effective-power"] {
-            assert!(
-                sig.contains(&format!("{metric}:dragged-inner/inner")),
-                "{metric}: {sig:?}"
-            );
-        }
-        assert!(!sig.iter().any(|g| g.contains("outer")), "{sig:?}");
-        assert!(!sig.iter().any(|g| g.contains("straight")), "{sig:?}");
-        let g = a.metrics[3]
-            .by_regime_side
-            .iter()
-            .find(|g| g.group == "dragged-inner/inner")
-            .expect("group");
-        // About 6 W per inner side at 2R'/3 (the world's default drag, see tests.rs).
-        assert!(g.mean > 4.5 && g.ci.0 > 4.0, "{g:?}");
-        assert!(a.statement.starts_with("gap beyond the repeat noise"));
-        assert!(
-            a.findings[0].contains("dragged-inner/inner"),
-            "{:?}",
-            a.findings
-        );
-    }
-
-    #[test]
-    fn sinkage_grows_through_the_turn_on_both_sides() {
-        let world = WorldConfig::hard_ground().with_effect(EffectId::SinkageBulldozing, true);
-        let a = analyse_world(&world, &scenario(), 3);
-        for side in ["inner", "outer"] {
-            let g = a
-                .phase_by_side
-                .iter()
-                .find(|g| g.group == side)
-                .expect("side");
-            assert!(g.significant && g.mean > 3.0, "{g:?}");
-            let point = a
-                .phase_by_regime_side
-                .iter()
-                .find(|g| g.group == format!("point/{side}"))
-                .expect("point turns");
-            assert!(point.significant && point.mean > 5.0, "{point:?}");
-        }
-    }
-
-    /// Motor heating is invisible in short runs (NOTES.md); over 12 repeats of the turn set
-    /// (~8 min per run) with a 10× thermal resistance it shows as a rising residual.
-    #[test]
-    fn motor_heating_shows_as_a_run_time_trend_in_long_runs() {
-        let long = Scenario::seed_turns(0.3, 12);
-        let mut heat = WorldConfig::hard_ground().with_effect(EffectId::MotorHeating, true);
-        heat.effects.motor_heating.thermal_resistance_k_per_w *= 10.0;
-        let a = analyse_world(&heat, &long, 3);
-        let t = a
-            .run_time
-            .trend
-            .as_ref()
-            .expect("identifiable in long runs");
-        assert!(t.significant && t.slope_w_per_min > 0.0, "{t:?}");
-        let last = a
-            .run_time
-            .thirds
-            .iter()
-            .find(|g| g.group == "last-third")
-            .expect("third");
-        assert!(last.significant && last.mean > 0.0, "{last:?}");
-
-        let control = analyse_world(&WorldConfig::hard_ground(), &long, 3);
-        let t = control.run_time.trend.as_ref().expect("identifiable");
-        assert!(!t.significant && t.change_w.abs() < 0.5, "{t:?}");
-        assert!(!control.significant, "{:?}", control.findings);
-    }
-}
+mod tests;

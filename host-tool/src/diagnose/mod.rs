@@ -15,6 +15,7 @@ pub mod effects;
 pub mod features;
 pub mod figures;
 pub mod gaps;
+pub mod loo;
 pub mod model_file;
 pub mod observe;
 pub mod report;
@@ -197,8 +198,11 @@ pub fn diagnose_with(
     }
     let baseline = calibration.baseline(rover, rows)?;
 
-    let gaps = gaps::effective_gaps(&baseline, rows);
-    let where_ = gaps::analyse(&baseline, rows);
+    // One significance rule for the gaps and the "where" groups (gaps::judge); groups without
+    // repeats are judged row by row by leave-one-out prediction intervals.
+    let verdicts = gaps::RowVerdicts::of(rows, calibration);
+    let gaps = gaps::effective_gaps(&baseline, rows, &verdicts);
+    let mut where_ = gaps::analyse(&baseline, rows, &verdicts);
     let gap_significant = gaps.iter().any(|g| g.significant);
     let mut gap_regimes: Vec<Regime> = gaps
         .iter()
@@ -261,12 +265,18 @@ pub fn diagnose_with(
         )?,
         None => None,
     };
-    let explains_spread = selected
+    let spread = selected
         .and_then(|e| candidates.iter().find(|c| c.effect == e))
-        .is_some_and(|c| {
+        .filter(|c| {
             removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= cv::PRACTICAL_FLOOR_W
         });
+    let explains_spread = spread.is_some();
     let significant = gap_significant || explains_spread;
+    // The headline and the "where" analysis state one verdict: a departure seen only out of
+    // sample is recorded there too.
+    if let (Some(c), false) = (spread, gap_significant) {
+        where_.add_heldout_departure(c, primary);
+    }
     let effect = if !significant {
         "none".to_owned()
     } else {

@@ -201,8 +201,8 @@ pub fn conclusion(d: &Diagnosis) -> String {
         )
     } else {
         format!(
-            "diagnosis: none: no significant gap (every regime's mean residual has a 95 % \
-             bootstrap interval containing 0 or is under {PRACTICAL_FLOOR_W} W per side); the \
+            "diagnosis: none: no significant gap (no regime's residual is beyond its noise and \
+             above the practical floor of {PRACTICAL_FLOOR_W} W or 5 % of the model power); the \
              hard-ground model explains the runs"
         )
     }
@@ -332,9 +332,9 @@ pub fn table(d: &Diagnosis) -> String {
     let _ = writeln!(out, "{METRIC}");
     let _ = writeln!(
         out,
-        "\ngaps: mean residual per regime and side (* significant: 95 % bootstrap CI over \
-         repeats excludes 0 and |mean| > {PRACTICAL_FLOOR_W} W; straights: inner = left by \
-         convention)"
+        "\ngaps: mean residual per regime and side (* significant: {}; straights: inner = left \
+         by convention)",
+        super::gaps::SIGNIFICANCE_RULE
     );
     out.push_str(&columns(&gap_rows(d)));
     let _ = writeln!(
@@ -377,9 +377,9 @@ pub fn markdown(
     let _ = writeln!(out, "## Where: gaps per regime and side\n");
     let _ = writeln!(
         out,
-        "Mean effective-power residual against the baseline, with its 95 % bootstrap interval \
-         over repeats (runs). `*`: significant (interval excludes 0 and |mean| > \
-         {PRACTICAL_FLOOR_W} W). On straights, `inner` is the left side by convention.\n"
+        "Mean effective-power residual against the baseline, with its 95 % interval. `*`: \
+         significant ({}). On straights, `inner` is the left side by convention.\n",
+        super::gaps::SIGNIFICANCE_RULE
     );
     out.push_str(&markdown_table(&gap_rows(d)));
     let _ = writeln!(out, "\n## Which: candidate effects\n");
