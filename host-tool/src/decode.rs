@@ -7,7 +7,13 @@
 //! measurements start over like the rebooted board's. A hello frame alone is not a reset: the
 //! firmware greets again whenever the host re-opens the port (DTR), with `seq`, time and energy
 //! running on.
+//!
+//! A live port is read with [`StreamDecoder::for_port`]: everything before the first hello of a
+//! connection is ignored and counted. usbd-serial's 128-byte write buffer and the OTG FIFO
+//! survive the host closing the port (only a USB reset clears them), so a re-opened port first
+//! delivers up to ~190 bytes the board queued for the previous connection.
 
+use model_core::board_id::{BoardIdentity, SERIAL_LEN};
 use model_core::energy::{RunningMeasurements, Snapshot};
 use model_core::ina226::Scale;
 use model_core::wire::{
@@ -54,6 +60,11 @@ pub struct StreamStats {
     pub gaps: u64,
     /// Board resets (segments after the first).
     pub board_resets: u64,
+    /// Bytes that arrived on a connection before its first hello: left over from the previous
+    /// connection, ignored ([`StreamDecoder::for_port`]).
+    pub stale_bytes: u64,
+    /// Frames (good or bad) among those stale bytes.
+    pub stale_frames: u64,
     /// Model frames received.
     pub models: u64,
     /// Model frames that differ from the host's recomputation at the same sample (power, τ, or
@@ -113,6 +124,11 @@ pub struct StreamDecoder {
     segment: Segment,
     /// Commands sent to the board whose effect the host applies when their ack arrives.
     awaiting_ack: Vec<HostFrame>,
+    /// Ignoring everything until the connection's first hello.
+    awaiting_hello: bool,
+    /// Bytes fed while awaiting the hello, and bytes since the last delimiter.
+    stale_pending: u64,
+    frame_bytes: u64,
 }
 
 impl Default for StreamDecoder {
@@ -135,14 +151,36 @@ impl StreamDecoder {
             measurements: RunningMeasurements::new(Scale::BOARD),
             segment: Segment::default(),
             awaiting_ack: Vec::new(),
+            awaiting_hello: false,
+            stale_pending: 0,
+            frame_bytes: 0,
         }
+    }
+
+    /// A decoder for a freshly opened port: the connection's bytes count from its first hello.
+    pub fn for_port() -> Self {
+        let mut decoder = Self::new();
+        decoder.new_connection();
+        decoder
     }
 
     /// Feeds bytes; calls `on_event` for every frame, bad frame, sample gap and board reset, in
     /// stream order.
     pub fn feed(&mut self, bytes: &[u8], mut on_event: impl FnMut(Event)) {
         for &b in bytes {
-            match self.frames.push::<BoardFrame>(b) {
+            let outcome = self.frames.push::<BoardFrame>(b);
+            if self.awaiting_hello {
+                self.stale_pending += 1;
+                self.frame_bytes += 1;
+                if b == 0 {
+                    let stale = self.stale_frame_ends(&outcome);
+                    self.frame_bytes = 0;
+                    if stale {
+                        continue;
+                    }
+                }
+            }
+            match outcome {
                 None => {}
                 Some(Err(e)) => {
                     self.stats.bad_frames += 1;
@@ -160,10 +198,32 @@ impl StreamDecoder {
         }
     }
 
-    /// Drops the bytes of an unfinished frame (after re-opening a port: they cannot be completed
-    /// by what the new connection sends).
-    pub fn resync(&mut self) {
+    /// A new connection (the port was re-opened): drops the bytes of an unfinished frame, and
+    /// ignores (counting them) the frames before the connection's first hello, which the board
+    /// queued for the previous connection.
+    pub fn new_connection(&mut self) {
         self.frames = FrameDecoder::new();
+        self.awaiting_hello = true;
+        self.stale_pending = 0;
+        self.frame_bytes = 0;
+    }
+
+    /// At a delimiter while awaiting the hello: whether the frame that ended is stale (and is
+    /// dropped). The hello ends the wait and is decoded as usual.
+    fn stale_frame_ends(&mut self, outcome: &Option<Result<BoardFrame, FrameError>>) -> bool {
+        match outcome {
+            Some(Ok(BoardFrame::Hello(_))) => {
+                self.awaiting_hello = false;
+                self.stats.stale_bytes += self.stale_pending - self.frame_bytes;
+                false
+            }
+            Some(_) => {
+                self.stats.stale_frames += 1;
+                true
+            }
+            // A repeated delimiter: nothing to decode.
+            None => true,
+        }
     }
 
     /// Registers a command just sent to the board: when the board acks `frame.id`, the host
@@ -202,6 +262,9 @@ impl StreamDecoder {
                         }
                         Command::ClearWheelRates => self.measurements.set_wheel_rates(None),
                         Command::ResetEnergy => self.measurements.reset_energy(),
+                        // The board pauses its energy at Stop: no samples arrive until Start, and
+                        // the first one after it only re-anchors time.
+                        Command::Stop => self.measurements.pause(),
                         _ => {}
                     }
                 }
@@ -359,6 +422,19 @@ impl Summary {
     }
 }
 
+/// The board's USB serial number and crystal, as `ports` shows the serial.
+pub fn identity_line(identity: &BoardIdentity) -> String {
+    if *identity == BoardIdentity::UNKNOWN {
+        return "board identity: none (a simulated or synthesised stream)".into();
+    }
+    let mut buf = [0u8; SERIAL_LEN];
+    format!(
+        "board serial {}, {} MHz crystal",
+        identity.usb_serial(&mut buf),
+        identity.hse_mhz
+    )
+}
+
 impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let j = |lsb_us: i64| self.scale.energy_j(lsb_us);
@@ -376,7 +452,8 @@ impl fmt::Display for Summary {
                 h.addresses.left,
                 h.addresses.right,
                 h.sample_period_us
-            )?,
+            )
+            .and_then(|()| writeln!(f, "{}", identity_line(&h.identity)))?,
             None => writeln!(f, "board: no hello frame in the capture (assuming the rover-power board's scale)")?,
         }
         let s = &self.stats;
@@ -618,6 +695,42 @@ mod tests {
         let mut blind = StreamDecoder::new();
         blind.feed(&bytes_of(frames).concat(), |_| {});
         assert_eq!(blind.stats().model_mismatches, 15);
+    }
+
+    #[test]
+    fn a_new_connection_ignores_and_counts_everything_before_its_hello() {
+        let hello = BoardFrame::Hello(crate::replay::synthetic_hello(5_000));
+        // What the board's USB buffers still held from the previous connection: the tail of a
+        // frame cut mid-way, then whole frames.
+        let cut = &bytes_of([sample(7)])[0][5..];
+        let stale_frames = bytes_of((8..11).map(sample)).concat();
+        let fresh = bytes_of([hello].into_iter().chain((500..510).map(sample))).concat();
+        let stale_len = (cut.len() + stale_frames.len()) as u64;
+        let stream = [cut, &stale_frames, &fresh].concat();
+
+        let mut dec = StreamDecoder::for_port();
+        let mut events = Vec::new();
+        // In small pieces, as USB delivers them.
+        for chunk in stream.chunks(7) {
+            dec.feed(chunk, |e| events.push(e));
+        }
+        let stats = dec.stats();
+        assert_eq!((stats.stale_bytes, stats.stale_frames), (stale_len, 4));
+        assert_eq!((stats.samples, stats.bad_frames, stats.gaps), (10, 0, 0));
+        assert!(matches!(events[0], Event::Frame(BoardFrame::Hello(_))));
+        assert_eq!(dec.current_segment().samples, 10);
+
+        // A re-opened port: the same again, counted on top.
+        dec.new_connection();
+        dec.feed(&stream, |_| {});
+        assert_eq!(dec.stats().stale_bytes, 2 * stale_len);
+        assert_eq!(dec.stats().stale_frames, 8);
+
+        // A capture is decoded whole: nothing is stale.
+        let mut capture = StreamDecoder::new();
+        capture.feed(&stream, |_| {});
+        assert_eq!(capture.stats().stale_bytes, 0);
+        assert_eq!(capture.stats().bad_frames, 1, "the cut frame");
     }
 
     proptest! {

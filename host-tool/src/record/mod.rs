@@ -347,6 +347,13 @@ impl fmt::Display for RecordSummary {
                 self.vanished, self.reconnects
             )?;
         }
+        if s.stale_bytes > 0 {
+            writeln!(
+                f,
+                "ignored {} bytes ({} frames) queued for an earlier connection, before the board's hello",
+                s.stale_bytes, s.stale_frames
+            )?;
+        }
         if self.commands_sent > 0 {
             writeln!(
                 f,
@@ -476,7 +483,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             open,
             sink,
             reader: PortReader::new(port),
-            decoder: StreamDecoder::new(),
+            decoder: StreamDecoder::for_port(),
             clock: RunClock::new(),
             timeline: CommandTimeline::new(options.commands.clone()),
             scale: Scale::BOARD,
@@ -617,7 +624,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             }
             if let Ok(new_port) = (self.open)(&port) {
                 self.reader = PortReader::new(new_port);
-                self.decoder.resync();
+                self.decoder.new_connection();
                 self.connected = true;
                 self.reconnects += 1;
                 self.event(LogEvent::Reconnected {

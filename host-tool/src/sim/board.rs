@@ -5,7 +5,7 @@
 
 use super::SimBus;
 use crate::serial::PtyTask;
-use firmware::board::Board;
+use firmware::board::{Board, Watchdog};
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
 use model_core::Sides;
@@ -46,10 +46,21 @@ impl<F: FnMut(u64) -> Sides<SideLoad> + Send> LoadSource for F {
     }
 }
 
+/// The simulated board's watchdog: counts the feeds (one per completed tick).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FeedCounter(pub u64);
+
+impl Watchdog for FeedCounter {
+    fn feed(&mut self) {
+        self.0 += 1;
+    }
+}
+
 /// The firmware's `Board` + `Link` on a simulated bus, in simulated time.
 pub struct SimBoard {
     board: Board,
     link: Link,
+    watchdog: FeedCounter,
     bus: SimBus,
     addresses: Sides<u8>,
     load: Box<dyn LoadSource>,
@@ -85,6 +96,7 @@ impl SimBoard {
         Self {
             board: Board::new(config),
             link: Link::new(),
+            watchdog: FeedCounter::default(),
             bus,
             addresses: config.addresses,
             load: Box::new(|_| Sides::new(SideLoad::IDLE, SideLoad::IDLE)),
@@ -95,6 +107,11 @@ impl SimBoard {
     /// The host's DTR: the board transmits only while it is held, and greets on its rising edge.
     pub fn set_host_connected(&mut self, connected: bool) {
         self.link.set_connected(connected);
+    }
+
+    /// Watchdog feeds so far (one per completed [`SimBoard::step`]).
+    pub fn watchdog_feeds(&self) -> u64 {
+        self.watchdog.0
     }
 
     /// Sets the load the chips measure from now on.
@@ -117,7 +134,8 @@ impl SimBoard {
             load.right.bus_v,
         );
         self.bus.set_time_us(t);
-        self.board.tick(&mut self.bus, &mut self.link, t);
+        self.board
+            .tick(&mut self.bus, &mut self.link, &mut self.watchdog, t);
         self.now_us = t.saturating_add(u64::from(self.board.sample_period_us().max(1)));
         self.link.queued()
     }
