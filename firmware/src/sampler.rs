@@ -131,7 +131,14 @@ impl Chip {
             Err(e) => return self.fail(crate::ina226::fault_of(&e)),
         };
         if self.driver.registers_show_reset(&regs) {
-            return self.lost_calibration();
+            // Only a suspicion: shunt and current are read in separate transactions and a result
+            // lands every 4.48 ms against 5 ms reads, so at idle about 1 read in 20 pairs a new
+            // shunt value with the previous (zero) current. CAL reads 0 only after a reset.
+            match self.driver.calibration_lost(i2c) {
+                Ok(true) => return self.lost_calibration(),
+                Ok(false) => {}
+                Err(e) => return self.fail(crate::ina226::fault_of(&e)),
+            }
         }
         self.last_fault = None;
         if fresh {
@@ -425,6 +432,7 @@ mod tests {
         tx.push(read(0x40, Register::BusVoltage, 19_200));
         tx.push(read(0x40, Register::Current, 0));
         tx.push(read(0x40, Register::Power, 0));
+        tx.push(read(0x40, Register::Calibration, 0)); // confirmed
         tx.extend(reading(0x45, true, 1.0));
         tx.extend(init(0x40));
         tx.extend(reading(0x40, true, 1.0));
@@ -442,6 +450,31 @@ mod tests {
         assert!(matches!(back.chips.left, ChipReading::Fresh(_)));
         assert_eq!(s.reinits(), Sides::new(1, 0));
         assert_eq!(s.i2c_errors(), Sides::new(0, 0));
+        i2c.done();
+    }
+
+    #[test]
+    fn a_conversion_landing_between_shunt_and_current_is_not_a_reset() {
+        let mut tx = init(0x40);
+        tx.extend(reading(0x40, true, 0.0));
+        tx.extend(init(0x45));
+        tx.extend(reading(0x45, true, 0.0));
+        // Idle: the shunt register already holds the next result (+3 LSB of offset), the current
+        // register still the previous one (0). CAL reads back fine: no reset.
+        tx.push(read(0x40, Register::MaskEnable, 0x0008));
+        tx.push(read(0x40, Register::ShuntVoltage, 3));
+        tx.push(read(0x40, Register::BusVoltage, 19_200));
+        tx.push(read(0x40, Register::Current, 0));
+        tx.push(read(0x40, Register::Power, 0));
+        tx.push(cal_ok(0x40));
+        tx.extend(reading(0x45, true, 0.0));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        s.sample(&mut i2c, 0);
+        let straddled = s.sample(&mut i2c, 5_000).expect("running");
+        assert!(matches!(straddled.chips.left, ChipReading::Fresh(r) if r.shunt.0 == 3));
+        assert_eq!(s.reinits(), Sides::new(0, 0));
+        assert_eq!(s.last_faults(), Sides::new(None, None));
         i2c.done();
     }
 
