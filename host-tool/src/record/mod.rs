@@ -271,6 +271,11 @@ impl fmt::Display for RecordStatus {
         if s.board_resets > 0 {
             write!(f, "  resets {}", s.board_resets)?;
         }
+        if s.stale_frames > 0 {
+            // Frames before the connection's hello, ignored; a count that keeps growing means
+            // no hello arrives (another protocol version?).
+            write!(f, "  stale {}", s.stale_frames)?;
+        }
         if self.commands_sent > 0 {
             write!(
                 f,
