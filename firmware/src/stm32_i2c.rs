@@ -36,8 +36,8 @@ pub const TRANSACTION_BUDGET_US: u32 = 1_000;
 /// Why a wait ended early.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Abort {
-    /// The slave did not acknowledge (address or data).
-    Nack,
+    /// The slave did not acknowledge its address or a data byte.
+    Nack(NoAcknowledgeSource),
     ArbitrationLoss,
     Overrun,
     /// The deadline passed: the bus or the peripheral is stuck.
@@ -128,7 +128,7 @@ impl BoundedI2c {
             let sr1 = self.i2c.sr1().read();
             if sr1.af().bit_is_set() {
                 self.i2c.sr1().modify(|_, w| w.af().clear_bit());
-                return Err(Abort::Nack);
+                return Err(Abort::Nack(NoAcknowledgeSource::Unknown));
             }
             if sr1.arlo().bit_is_set() {
                 self.i2c.sr1().modify(|_, w| w.arlo().clear_bit());
@@ -159,6 +159,7 @@ impl BoundedI2c {
             .dr()
             .write(|w| w.dr().set((address << 1) | u8::from(read)));
         self.wait(start, |sr1| sr1.addr().bit_is_set())
+            .map_err(|e| nack_in(e, NoAcknowledgeSource::Address))
     }
 
     /// Clears ADDR (read SR1 then SR2).
@@ -168,12 +169,15 @@ impl BoundedI2c {
     }
 
     fn write_bytes(&self, start: u32, bytes: &[u8]) -> Result<(), Abort> {
+        let data_nack = |e| nack_in(e, NoAcknowledgeSource::Data);
         for &b in bytes {
-            self.wait(start, |sr1| sr1.tx_e().bit_is_set())?;
+            self.wait(start, |sr1| sr1.tx_e().bit_is_set())
+                .map_err(data_nack)?;
             self.i2c.dr().write(|w| w.dr().set(b));
         }
         // Every byte on the wire (and ACKed) before a STOP or repeated START.
         self.wait(start, |sr1| sr1.btf().bit_is_set())
+            .map_err(data_nack)
     }
 
     /// Receives `buf` after the address phase; sets STOP before the last byte completes.
@@ -279,7 +283,7 @@ impl I2c<SevenBitAddress> for BoundedI2c {
                 .modify(|_, w| w.ack().clear_bit().pos().clear_bit());
             match self.run(start, address, ops) {
                 Ok(()) => Ok(()),
-                Err(Abort::Nack) => {
+                Err(Abort::Nack(source)) => {
                     // Release the bus; a NACKed address is an absent chip, not a stuck bus.
                     self.i2c.cr1().modify(|_, w| w.stop().set_bit());
                     if self
@@ -289,7 +293,7 @@ impl I2c<SevenBitAddress> for BoundedI2c {
                         self.timeouts = self.timeouts.saturating_add(1);
                         self.reset_bus();
                     }
-                    Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Unknown))
+                    Err(ErrorKind::NoAcknowledge(source))
                 }
                 Err(Abort::ArbitrationLoss) => {
                     // Single-master bus: arbitration lost means a glitch; start clean.
@@ -307,6 +311,14 @@ impl I2c<SevenBitAddress> for BoundedI2c {
                 }
             }
         })
+    }
+}
+
+/// A NACK seen while waiting in the address or data phase.
+fn nack_in(abort: Abort, source: NoAcknowledgeSource) -> Abort {
+    match abort {
+        Abort::Nack(_) => Abort::Nack(source),
+        other => other,
     }
 }
 

@@ -62,7 +62,8 @@ pub enum ChipFault {
     DataNack,
     /// Another master won arbitration.
     ArbitrationLoss,
-    /// Bus error (misplaced START/STOP, stuck line).
+    /// Bus error: a transaction that did not finish within its deadline (a line held low, missing
+    /// pull-ups, a misplaced START/STOP); the board reset the bus and clocked it free.
     Bus,
     /// Receive overrun.
     Overrun,
