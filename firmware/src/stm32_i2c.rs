@@ -169,6 +169,10 @@ impl BoundedI2c {
     }
 
     fn write_bytes(&self, start: u32, bytes: &[u8]) -> Result<(), Abort> {
+        if bytes.is_empty() {
+            // An address-only write (a probe): no byte, so no BTF to wait for.
+            return Ok(());
+        }
         let data_nack = |e| nack_in(e, NoAcknowledgeSource::Data);
         for &b in bytes {
             self.wait(start, |sr1| sr1.tx_e().bit_is_set())
@@ -284,10 +288,12 @@ impl I2c<SevenBitAddress> for BoundedI2c {
             match self.run(start, address, ops) {
                 Ok(()) => Ok(()),
                 Err(Abort::Nack(source)) => {
-                    // Release the bus; a NACKed address is an absent chip, not a stuck bus.
+                    // Release the bus; a NACKed address is an absent chip, not a stuck bus. The
+                    // STOP gets its own deadline (the NACK may have come late in this one).
                     self.i2c.cr1().modify(|_, w| w.stop().set_bit());
+                    let stop_start = DWT::cycle_count();
                     if self
-                        .wait(start, |_| self.i2c.cr1().read().stop().bit_is_clear())
+                        .wait(stop_start, |_| self.i2c.cr1().read().stop().bit_is_clear())
                         .is_err()
                     {
                         self.timeouts = self.timeouts.saturating_add(1);

@@ -733,6 +733,46 @@ mod tests {
         assert_eq!(capture.stats().bad_frames, 1, "the cut frame");
     }
 
+    #[test]
+    fn a_stop_ack_pauses_the_host_energy_like_the_board() {
+        // Ten samples, Stop (acked), a minute without samples, Start (acked), ten more.
+        let mut board = RunningMeasurements::new(Scale::BOARD);
+        let mut frames = Vec::new();
+        let mut t_us = 0;
+        for k in 0..20u32 {
+            if k == 10 {
+                board.pause();
+                frames.push(BoardFrame::Ack { id: 1 });
+                frames.push(BoardFrame::Ack { id: 2 });
+                t_us += 60_000_000;
+            }
+            let s = sample_at(k, t_us, 400);
+            if let BoardFrame::Sample(s) = &s {
+                board.update(s.t_us, s.chips.map(|c| c.registers()));
+            }
+            frames.push(s);
+            frames.push(BoardFrame::Model(Model {
+                t_us,
+                seq: k,
+                snapshot: board.snapshot(),
+            }));
+            t_us += 5_000;
+        }
+        let mut dec = StreamDecoder::new();
+        dec.expect_ack(HostFrame {
+            id: 1,
+            command: Command::Stop,
+        });
+        dec.expect_ack(HostFrame {
+            id: 2,
+            command: Command::Start,
+        });
+        dec.feed(&bytes_of(frames).concat(), |_| {});
+        assert_eq!(dec.stats().model_mismatches, 0);
+        // 18 intervals of 5 ms at 400 LSB: the minute of pause adds nothing.
+        assert_eq!(dec.current_segment().host_energy_lsb_us, [400 * 90_000; 2]);
+    }
+
     proptest! {
         /// Corrupting frames (without touching delimiters) loses exactly those frames: each is
         /// reported bad, and the sample gaps add up to the number corrupted.
