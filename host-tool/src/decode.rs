@@ -422,17 +422,19 @@ impl Summary {
     }
 }
 
-/// The board's USB serial number and crystal, as `ports` shows the serial.
-pub fn identity_line(identity: &BoardIdentity) -> String {
-    if *identity == BoardIdentity::UNKNOWN {
-        return "board identity: none (a simulated or synthesised stream)".into();
-    }
+/// The board's USB serial number as `ports` shows it; `None` for a simulated or synthesised
+/// stream (no unique ID).
+pub fn usb_serial(identity: &BoardIdentity) -> Option<String> {
     let mut buf = [0u8; SERIAL_LEN];
-    format!(
-        "board serial {}, {} MHz crystal",
-        identity.usb_serial(&mut buf),
-        identity.hse_mhz
-    )
+    (*identity != BoardIdentity::UNKNOWN).then(|| identity.usb_serial(&mut buf).to_owned())
+}
+
+/// The board's USB serial number and crystal.
+pub fn identity_line(identity: &BoardIdentity) -> String {
+    match usb_serial(identity) {
+        Some(serial) => format!("board serial {serial}, {} MHz crystal", identity.hse_mhz),
+        None => "board identity: none (a simulated or synthesised stream)".into(),
+    }
 }
 
 impl fmt::Display for Summary {

@@ -285,3 +285,20 @@ proptest! {
         prop_assert!(dec.stats().bad_frames >= corrupt.len() as u64);
     }
 }
+
+#[test]
+fn the_summary_names_the_board_by_its_usb_serial() {
+    let mut hello = crate::replay::synthetic_hello(5_000);
+    let synthetic = Summary::of(&bytes_of([BoardFrame::Hello(hello)]).concat());
+    assert!(synthetic.to_string().contains("board identity: none"));
+    hello.identity = model_core::board_id::BoardIdentity {
+        uid: [0xA5; model_core::board_id::UID_LEN],
+        hse_mhz: 8,
+    };
+    let board = Summary::of(&bytes_of([BoardFrame::Hello(hello)]).concat());
+    let text = board.to_string();
+    assert!(
+        text.contains("board serial rover-power.github.io:a5a5a5a5a5a5a5a5a5a5a5a5, 8 MHz crystal"),
+        "{text}"
+    );
+}
