@@ -212,7 +212,7 @@ mod app {
         }
     }
 
-    /// The 96-bit unique ID in memory order (RM0383 §24.2): X, Y (little-endian), wafer, lot.
+    /// The 96-bit unique ID in memory order (RM0383, "Unique device ID register"): X, Y (little-endian), wafer, lot.
     fn unique_id() -> [u8; UID_LEN] {
         let uid = Uid::get();
         let mut bytes = [0u8; UID_LEN];

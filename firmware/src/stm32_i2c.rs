@@ -13,8 +13,9 @@
 //! Here every transaction has a cycle-counted deadline (DWT `CYCCNT`, [`TRANSACTION_BUDGET_US`]);
 //! when it passes, the peripheral is reset and the bus clocked free ([`crate::bus_recovery`]),
 //! and the transaction fails with `ErrorKind::Bus` (wire `ChipFault::Bus`): a reported fault,
-//! not a watchdog reset. Reads follow RM0383 §27.3.3 (1 byte: ACK cleared before ADDR is
-//! cleared; 2 bytes: POS method, STOP set while BTF stretches SCL). Each transaction also runs
+//! not a watchdog reset. Reads follow RM0383's I²C master receiver procedures (1 byte: ACK
+//! cleared before ADDR is cleared; 2 bytes: POS, STOP set while BTF stretches SCL). Each
+//! transaction also runs
 //! in a critical section (≈120 µs for a register read at 400 kHz, at most the budget plus a
 //! recovery): nothing can split a timing-sensitive step, and the deadline measures bus time
 //! only. The USB interrupt waits at most that long; the OTG core NAKs the host meanwhile.
@@ -29,7 +30,7 @@ use embedded_hal::i2c::{
 };
 use stm32f4xx_hal::{i2c::I2c as HalI2c, pac};
 
-/// Deadline of one transaction [µs]: a register read takes 115 µs at 400 kHz (46 SCL periods);
+/// Deadline of one transaction [µs]: a register read takes 120 µs at 400 kHz (48 SCL periods);
 /// 1 ms is ~8× that, and far below the 5 ms sample period.
 pub const TRANSACTION_BUDGET_US: u32 = 1_000;
 

@@ -19,7 +19,7 @@ pub const BAUD_RATE: u32 = 115_200;
 /// Bytes asked for per read: several 64-byte USB packets.
 pub const READ_CHUNK: usize = 4096;
 
-/// USB VID:PID of the board (pid.codes' shared CDC-ACM pair).
+/// USB VID:PID of the board (V-USB's shared CDC-ACM pair, told apart by serial number).
 pub const ROVER_POWER_VID_PID: (u16, u16) = (0x16c0, 0x27dd);
 
 /// Errors of listing and opening ports.

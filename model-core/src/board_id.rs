@@ -1,9 +1,9 @@
 //! Which board is talking: the STM32's 96-bit unique ID and its crystal, sent in the hello frame,
 //! and the USB serial number built from the ID.
 //!
-//! The board enumerates as 16c0:27dd, the pid.codes/V-USB VID:PID shared by every CDC-ACM device
-//! that follows its rules; those rules require the serial number to be
-//! `your-domain-or-email:something-unique`. Two boards with the same serial collide in
+//! The board enumerates as 16c0:27dd, the VID:PID that Objective Development (V-USB,
+//! `USB-IDs-for-free.txt`) shares among CDC-ACM devices told apart by serial number; its rules
+//! require the serial number to be `your-domain-or-email:something-unique`. Two boards with the same serial collide in
 //! `/dev/serial/by-id` and in Windows' COM-port assignment, so the unique part is the chip's ID.
 
 use serde::{Deserialize, Serialize};
@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 /// e-mail address they control (README, "Bring-up").
 pub const SERIAL_PREFIX: &str = "rover-power.github.io:";
 
-/// Bytes of the STM32F4 unique device ID (RM0383 §24.2, at 0x1FFF_7A10).
+/// Bytes of the STM32F4 unique device ID (RM0383, "Unique device ID register", at 0x1FFF_7A10).
 pub const UID_LEN: usize = 12;
 
 /// Length of the USB serial number: the prefix and two hex digits per ID byte.
@@ -66,7 +66,7 @@ mod tests {
         let serial = id.usb_serial(&mut buf);
         assert_eq!(serial, "rover-power.github.io:33003a0012513330363439ff");
         assert_eq!(serial.len(), SERIAL_LEN);
-        // The pid.codes rule: "owner:unique", one colon, and short enough for a USB string
+        // The shared-PID rule: "owner:unique", one colon, and short enough for a USB string
         // descriptor (126 UTF-16 units).
         assert_eq!(serial.matches(':').count(), 1);
         assert!(serial.len() <= 126);
