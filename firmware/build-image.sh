@@ -6,7 +6,8 @@
 #
 # The toolchain that can build for the board is chosen by firmware/cross-cargo.sh (the pinned one where
 # rustup offers the thumbv7em target, else nightly; $CARGO_FW overrides). With CHECK_LINTS=1 the
-# firmware is also linted for the target (the RTIC app only compiles there).
+# firmware is also linted for the target (the RTIC app only compiles there). FW_FEATURES passes
+# cargo features, e.g. FW_FEATURES=hse-8mhz for boards with an 8 MHz crystal.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,10 +19,13 @@ CARGO_CMD=$(firmware/cross-cargo.sh)
 read -r -a CARGO <<<"$CARGO_CMD"
 export CARGO_FW="${CARGO[*]}"
 
+FEATURES=()
+if [[ -n "${FW_FEATURES:-}" ]]; then FEATURES=(--features "$FW_FEATURES"); fi
+
 if [[ "${CHECK_LINTS:-0}" == 1 ]]; then
-    "${CARGO[@]}" clippy -p firmware --bins --profile firmware --target "$TARGET" -- -D warnings
+    "${CARGO[@]}" clippy -p firmware --bins --profile firmware --target "$TARGET" "${FEATURES[@]}" -- -D warnings
 fi
-"${CARGO[@]}" build -p firmware --bin firmware --profile firmware --target "$TARGET"
+"${CARGO[@]}" build -p firmware --bin firmware --profile firmware --target "$TARGET" "${FEATURES[@]}"
 
 # llvm-size / llvm-objcopy from the pinned toolchain's llvm-tools component.
 rustup component list --installed 2>/dev/null | grep -q '^llvm-tools' || rustup component add llvm-tools >/dev/null

@@ -24,6 +24,13 @@ impl LinkAccess for Link {
     }
 }
 
+/// The independent watchdog, fed once per completed tick: a tick that hangs (a bus the I²C driver
+/// cannot get out of, a runaway loop) is never fed and the board resets. On the board the HAL's
+/// IWDG; on the host a counter.
+pub trait Watchdog {
+    fn feed(&mut self);
+}
+
 /// The sampler plus the schedule of periodic frames.
 #[derive(Debug, Clone)]
 pub struct Board {
@@ -50,9 +57,21 @@ impl Board {
         self.sampler.sample_period_us()
     }
 
-    /// One sampling period at board time `now_us`. I²C time is spent outside the link, so the
-    /// USB interrupt is held off only while frames are queued.
-    pub fn tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
+    /// One sampling period at board time `now_us`; feeds `watchdog` when it completes (failed
+    /// chip reads included: they are reported, not hung). I²C time is spent outside the link, so
+    /// the USB interrupt is held off only while frames are queued.
+    pub fn tick<I: I2c, L: LinkAccess, W: Watchdog>(
+        &mut self,
+        i2c: &mut I,
+        link: &mut L,
+        watchdog: &mut W,
+        now_us: u64,
+    ) {
+        self.run_tick(i2c, link, now_us);
+        watchdog.feed();
+    }
+
+    fn run_tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
         if link.with_link(|l| l.take_hello_due()) {
             let hello = self.sampler.hello();
             link.with_link(|l| l.send(&BoardFrame::Hello(hello)));
@@ -128,3 +147,6 @@ fn due(last_us: &mut Option<u64>, now_us: u64, period_us: u64) -> bool {
     }
     is_due
 }
+
+#[cfg(test)]
+mod tests;

@@ -5,6 +5,9 @@
 #![cfg_attr(not(test), no_std)]
 
 pub mod board;
+pub mod bus_recovery;
 pub mod ina226;
 pub mod link;
 pub mod sampler;
+#[cfg(target_os = "none")]
+pub mod stm32_i2c;

@@ -1,7 +1,11 @@
 //! rover-power board firmware: RTIC 2 on the STM32F411CEU6 "Black Pill".
 //!
-//! Only the hardware glue lives here: clocks, TIM2 monotonic, I²C1, USB CDC-ACM. The logic
-//! (`Board`, `Sampler`, `Link`) is in the library and tested on the host.
+//! Only the hardware glue lives here: watchdog, core voltage, clocks, TIM2 monotonic, I²C1, USB
+//! CDC-ACM. The logic (`Board`, `Sampler`, `Link`, bus recovery) is in the library and tested on
+//! the host; the bounded I²C driver is the library's target-only `stm32_i2c`.
+//!
+//! Crystal: 25 MHz (WeAct Black Pill v3.x) by default; build with `--features hse-8mhz` for the
+//! boards that carry 8 MHz (README, "Bring-up").
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 /// Host build: the firmware only runs on the board; this keeps `cargo test --workspace` green.
@@ -16,9 +20,12 @@ mod app {
     use defmt_rtt as _;
     use panic_probe as _;
 
-    use firmware::board::{Board, LinkAccess};
+    use firmware::board::{Board, LinkAccess, Watchdog};
+    use firmware::bus_recovery::Recovery;
     use firmware::link::Link;
     use firmware::sampler::SamplerConfig;
+    use firmware::stm32_i2c::BoundedI2c;
+    use model_core::board_id::{BoardIdentity, SERIAL_LEN, UID_LEN};
     use rtic::Mutex;
     use rtic_time::Monotonic;
     use stm32f4xx_hal::{
@@ -27,10 +34,11 @@ mod app {
         pac,
         prelude::*,
         rcc::Config,
+        signature::Uid,
         timer::MonoTimerUs,
         watchdog::IndependentWatchdog,
     };
-    use usb_device::{bus::UsbBusAllocator, prelude::*};
+    use usb_device::{bus::UsbBusAllocator, class::UsbClass, prelude::*};
     use usbd_serial::SerialPort;
 
     /// TIM2 at 1 MHz with u64 ticks: board time in µs, wraps after 584 000 years.
@@ -40,10 +48,16 @@ mod app {
 
     /// USB full-speed bulk packet size.
     const USB_PACKET: usize = 64;
-    /// The sample task feeds the watchdog every period (≤ 1 s, `wire::MAX_SAMPLE_PERIOD_US`); the
-    /// HAL's I²C busy-waits without a timeout, so a bus stuck without an error flag would hang
-    /// sampling for good. The reset restarts the stream (a new hello, `seq` from 0).
-    const WATCHDOG_MS: u32 = 2_000;
+    /// `Board::tick` feeds the watchdog once per completed tick, i.e. every period (at most 1 s,
+    /// `wire::MAX_SAMPLE_PERIOD_US`) plus the tick's own few ms. The HAL sizes the IWDG for a
+    /// 32 kHz LSI (PR ÷256, RL 374); the F411's LSI spans 17–47 kHz (datasheet), so 3 s nominal
+    /// is 2.04 s at the fast corner (2× the longest period) and 5.6 s at the slow one. A hung
+    /// tick resets the board, which restarts the stream (a new hello, `seq` from 0).
+    const WATCHDOG_MS: u32 = 3_000;
+    /// HSE crystal [MHz] (cargo feature `hse-8mhz` for the 8 MHz boards).
+    const HSE_MHZ: u32 = if cfg!(feature = "hse-8mhz") { 8 } else { 25 };
+    const SYSCLK_HZ: u32 = 96_000_000;
+    const USB_CLK_HZ: u32 = 48_000_000;
 
     defmt::timestamp!("{=u64:us}", Mono::now().ticks());
 
@@ -52,11 +66,21 @@ mod app {
         link: Link,
     }
 
+    /// The HAL's IWDG as the board logic's watchdog.
+    #[derive(Debug)]
+    pub struct Iwdg(IndependentWatchdog);
+
+    impl Watchdog for Iwdg {
+        fn feed(&mut self) {
+            self.0.feed();
+        }
+    }
+
     #[local]
     struct Local {
-        i2c: I2c<pac::I2C1>,
+        i2c: BoundedI2c,
         board: Board,
-        watchdog: IndependentWatchdog,
+        watchdog: Iwdg,
         usb_dev: UsbDevice<'static, UsbBusType>,
         serial: SerialPort<'static, UsbBusType>,
     }
@@ -66,16 +90,44 @@ mod app {
         let mut core = cx.core;
         let dp = cx.device;
 
-        // 25 MHz crystal → 96 MHz system clock; the PLL's 48 MHz output clocks USB.
-        let mut rcc = dp
-            .RCC
-            .freeze(Config::hse(25.MHz()).sysclk(96.MHz()).require_pll48clk());
+        // The watchdog first: `freeze` spins on HSERDY with no timeout, so a board without a
+        // (working) crystal would otherwise hang here for good; now it resets and tries again.
+        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+        // Halted at a breakpoint, the debugger must not be reset under us.
+        watchdog.stop_on_debug(&dp.DBGMCU, true);
+        watchdog.start(WATCHDOG_MS.millis());
+
+        voltage_scale_1(&dp.RCC, &dp.PWR);
+        // HSE → PLL: 96 MHz system clock, 48 MHz for USB. The HAL computes M/N/P/Q itself (no
+        // API to force them); for 25 MHz it picks M=25 N=384 P=4 Q=8, for 8 MHz M=4 N=192 P=4
+        // Q=8, both exact. Checked below from the registers.
+        let mut rcc = dp.RCC.freeze(
+            Config::hse(HSE_MHZ.MHz())
+                .sysclk(SYSCLK_HZ.Hz())
+                .require_pll48clk(),
+        );
+        log_clocks(&rcc, &dp.PWR);
         let _mono: Mono = dp.TIM2.monotonic_us(&mut core.NVIC, &mut rcc);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
-        // I²C1 at 400 kHz on PB8 (SCL) / PB9 (SDA); both INA226 on this bus.
-        let i2c = I2c::new(dp.I2C1, (gpiob.pb8, gpiob.pb9), 400.kHz(), &mut rcc);
+        // I²C1 at 400 kHz on PB8 (SCL) / PB9 (SDA), both INA226 on it; external 2.2–4.7 kΩ
+        // pull-ups to 3V3 (the pins are open-drain without pulls). The HAL sets up peripheral and
+        // pins, `BoundedI2c` clocks the bus free and bounds every transaction (DWT cycles).
+        core.DCB.enable_trace();
+        core.DWT.enable_cycle_counter();
+        let hal_i2c = I2c::new(dp.I2C1, (gpiob.pb8, gpiob.pb9), 400.kHz(), &mut rcc);
+        let i2c = BoundedI2c::new(hal_i2c, rcc.clocks.sysclk().raw());
+        log_recovery(i2c.last_recovery());
+
+        let identity = BoardIdentity {
+            uid: unique_id(),
+            hse_mhz: HSE_MHZ as u8,
+        };
+        // usb-device keeps the serial as &'static str: formatted once into static storage.
+        let serial_buf = cortex_m::singleton!(SERIAL: [u8; SERIAL_LEN] = [0; SERIAL_LEN])
+            .expect("init runs once");
+        let serial_number: &'static str = identity.usb_serial(serial_buf);
 
         let usb = USB {
             usb_global: dp.OTG_FS_GLOBAL,
@@ -99,20 +151,20 @@ mod app {
             .strings(&[StringDescriptors::default()
                 .manufacturer("rover-power")
                 .product("rover-power INA226 board")
-                .serial_number("RP-0001")])
+                .serial_number(serial_number)])
             .expect("one language of string descriptors")
             .build();
 
-        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
-        // Halted at a breakpoint, the debugger must not be reset under us.
-        watchdog.stop_on_debug(&dp.DBGMCU, true);
-        watchdog.start(WATCHDOG_MS.millis());
-
-        let board = Board::new(SamplerConfig::BOARD);
+        let board = Board::new(SamplerConfig {
+            identity,
+            ..SamplerConfig::BOARD
+        });
         defmt::info!(
-            "rover-power firmware {=str}: sysclk {=u32} Hz, sampling every {=u32} us",
+            "rover-power firmware {=str}: {=u32} MHz crystal, sysclk {=u32} Hz, serial {=str}, sampling every {=u32} us",
             env!("CARGO_PKG_VERSION"),
+            HSE_MHZ,
             rcc.clocks.sysclk().raw(),
+            serial_number,
             board.sample_period_us()
         );
         sample::spawn().ok();
@@ -121,11 +173,68 @@ mod app {
             Local {
                 i2c,
                 board,
-                watchdog,
+                watchdog: Iwdg(watchdog),
                 usb_dev,
                 serial,
             },
         )
+    }
+
+    /// 96 MHz needs regulator scale 1 (≤ 100 MHz; the reset value is scale 2, ≤ 84 MHz), and
+    /// the HAL leaves PWR_CR.VOS alone. VOS may only change while the PLL is off, i.e. before
+    /// `freeze`; it takes effect when the PLL locks (VOSRDY, checked in `log_clocks`).
+    fn voltage_scale_1(rcc: &pac::RCC, pwr: &pac::PWR) {
+        rcc.apb1enr().modify(|_, w| w.pwren().set_bit());
+        // Read back: the clock must be running before the PWR write (RCC enable delay).
+        let _ = rcc.apb1enr().read();
+        pwr.cr().modify(|_, w| w.vos().scale1());
+    }
+
+    /// Logs the PLL as programmed and complains if USB or the core are off their exact clocks
+    /// (a crystal other than the build's: `hse-8mhz`).
+    fn log_clocks(rcc: &stm32f4xx_hal::rcc::Rcc, pwr: &pac::PWR) {
+        let pll = rcc.pllcfgr().read();
+        let p = 2 * (u32::from(pll.pllp().bits()) + 1);
+        defmt::info!(
+            "PLL M={=u8} N={=u16} P={=u32} Q={=u8}, voltage scale 1 ready: {=bool}",
+            pll.pllm().bits(),
+            pll.plln().bits(),
+            p,
+            pll.pllq().bits(),
+            pwr.csr().read().vosrdy().bit_is_set()
+        );
+        let usb_exact = rcc.clocks.pll48clk().map(|f| f.raw()) == Some(USB_CLK_HZ);
+        if rcc.clocks.sysclk().raw() != SYSCLK_HZ || !usb_exact {
+            defmt::error!(
+                "clocks are not exactly 96/48 MHz for a {=u32} MHz crystal: USB will fail",
+                HSE_MHZ
+            );
+        }
+    }
+
+    /// The 96-bit unique ID in memory order (RM0383, "Unique device ID register"): X, Y (little-endian), wafer, lot.
+    fn unique_id() -> [u8; UID_LEN] {
+        let uid = Uid::get();
+        let mut bytes = [0u8; UID_LEN];
+        bytes[0..2].copy_from_slice(&uid.x().to_le_bytes());
+        bytes[2..4].copy_from_slice(&uid.y().to_le_bytes());
+        bytes[4] = uid.waf_num();
+        for (dst, src) in bytes[5..].iter_mut().zip(uid.lot_num().as_bytes()) {
+            *dst = *src;
+        }
+        bytes
+    }
+
+    fn log_recovery(recovery: Option<Recovery>) {
+        match recovery {
+            Some(Recovery::WasFree) | None => {}
+            Some(Recovery::Freed { pulses }) => {
+                defmt::warn!("I2C: a chip held SDA low; freed after {=u8} clocks", pulses)
+            }
+            Some(Recovery::Stuck) => {
+                defmt::error!("I2C: SDA stays low (short, missing pull-up, latched chip)")
+            }
+        }
     }
 
     /// The link behind RTIC's lock: held only while frames are queued, never during I²C.
@@ -154,9 +263,17 @@ mod app {
             }
             Mono::delay_until(next).await;
             let t_us = Mono::now().ticks();
-            cx.local
-                .board
-                .tick(cx.local.i2c, &mut Locked(&mut cx.shared.link), t_us);
+            let timeouts = cx.local.i2c.timeouts();
+            cx.local.board.tick(
+                cx.local.i2c,
+                &mut Locked(&mut cx.shared.link),
+                cx.local.watchdog,
+                t_us,
+            );
+            if cx.local.i2c.timeouts() != timeouts {
+                defmt::warn!("I2C transaction timed out; bus reset");
+                log_recovery(cx.local.i2c.last_recovery());
+            }
 
             let now_faults = cx.local.board.sampler().last_faults();
             if now_faults != faults {
@@ -184,6 +301,14 @@ mod app {
         }
         let dtr = usb_dev.state() == UsbDeviceState::Configured && serial.dtr();
         cx.shared.link.lock(|link| {
+            if link.connected() && !dtr {
+                // The host closed the port: drop usbd-serial's 128-byte write buffer too (only a
+                // USB reset would), so the next connection starts nearer its hello. A packet
+                // already in the endpoint FIFO still goes out; the host skips everything before
+                // the hello (`StreamDecoder::for_port`). The class reset also clears DTR/RTS and
+                // the line coding, which the host sets again on open.
+                UsbClass::reset(serial);
+            }
             if dtr != link.connected() {
                 defmt::info!(
                     "host {=str}",

@@ -7,7 +7,13 @@
 //! measurements start over like the rebooted board's. A hello frame alone is not a reset: the
 //! firmware greets again whenever the host re-opens the port (DTR), with `seq`, time and energy
 //! running on.
+//!
+//! A live port is read with [`StreamDecoder::for_port`]: everything before the first hello of a
+//! connection is ignored and counted. usbd-serial's 128-byte write buffer and the OTG FIFO
+//! survive the host closing the port (only a USB reset clears them), so a re-opened port first
+//! delivers up to ~190 bytes the board queued for the previous connection.
 
+use model_core::board_id::{BoardIdentity, SERIAL_LEN};
 use model_core::energy::{RunningMeasurements, Snapshot};
 use model_core::ina226::Scale;
 use model_core::wire::{
@@ -54,6 +60,11 @@ pub struct StreamStats {
     pub gaps: u64,
     /// Board resets (segments after the first).
     pub board_resets: u64,
+    /// Bytes that arrived on a connection before its first hello: left over from the previous
+    /// connection, ignored ([`StreamDecoder::for_port`]).
+    pub stale_bytes: u64,
+    /// Frames (good or bad) among those stale bytes.
+    pub stale_frames: u64,
     /// Model frames received.
     pub models: u64,
     /// Model frames that differ from the host's recomputation at the same sample (power, τ, or
@@ -113,6 +124,11 @@ pub struct StreamDecoder {
     segment: Segment,
     /// Commands sent to the board whose effect the host applies when their ack arrives.
     awaiting_ack: Vec<HostFrame>,
+    /// Ignoring everything until the connection's first hello.
+    awaiting_hello: bool,
+    /// Bytes fed while awaiting the hello, and bytes since the last delimiter.
+    stale_pending: u64,
+    frame_bytes: u64,
 }
 
 impl Default for StreamDecoder {
@@ -135,14 +151,36 @@ impl StreamDecoder {
             measurements: RunningMeasurements::new(Scale::BOARD),
             segment: Segment::default(),
             awaiting_ack: Vec::new(),
+            awaiting_hello: false,
+            stale_pending: 0,
+            frame_bytes: 0,
         }
+    }
+
+    /// A decoder for a freshly opened port: the connection's bytes count from its first hello.
+    pub fn for_port() -> Self {
+        let mut decoder = Self::new();
+        decoder.new_connection();
+        decoder
     }
 
     /// Feeds bytes; calls `on_event` for every frame, bad frame, sample gap and board reset, in
     /// stream order.
     pub fn feed(&mut self, bytes: &[u8], mut on_event: impl FnMut(Event)) {
         for &b in bytes {
-            match self.frames.push::<BoardFrame>(b) {
+            let outcome = self.frames.push::<BoardFrame>(b);
+            if self.awaiting_hello {
+                self.stale_pending += 1;
+                self.frame_bytes += 1;
+                if b == 0 {
+                    let stale = self.stale_frame_ends(&outcome);
+                    self.frame_bytes = 0;
+                    if stale {
+                        continue;
+                    }
+                }
+            }
+            match outcome {
                 None => {}
                 Some(Err(e)) => {
                     self.stats.bad_frames += 1;
@@ -160,10 +198,32 @@ impl StreamDecoder {
         }
     }
 
-    /// Drops the bytes of an unfinished frame (after re-opening a port: they cannot be completed
-    /// by what the new connection sends).
-    pub fn resync(&mut self) {
+    /// A new connection (the port was re-opened): drops the bytes of an unfinished frame, and
+    /// ignores (counting them) the frames before the connection's first hello, which the board
+    /// queued for the previous connection.
+    pub fn new_connection(&mut self) {
         self.frames = FrameDecoder::new();
+        self.awaiting_hello = true;
+        self.stale_pending = 0;
+        self.frame_bytes = 0;
+    }
+
+    /// At a delimiter while awaiting the hello: whether the frame that ended is stale (and is
+    /// dropped). The hello ends the wait and is decoded as usual.
+    fn stale_frame_ends(&mut self, outcome: &Option<Result<BoardFrame, FrameError>>) -> bool {
+        match outcome {
+            Some(Ok(BoardFrame::Hello(_))) => {
+                self.awaiting_hello = false;
+                self.stats.stale_bytes += self.stale_pending - self.frame_bytes;
+                false
+            }
+            Some(_) => {
+                self.stats.stale_frames += 1;
+                true
+            }
+            // A repeated delimiter: nothing to decode.
+            None => true,
+        }
     }
 
     /// Registers a command just sent to the board: when the board acks `frame.id`, the host
@@ -202,6 +262,9 @@ impl StreamDecoder {
                         }
                         Command::ClearWheelRates => self.measurements.set_wheel_rates(None),
                         Command::ResetEnergy => self.measurements.reset_energy(),
+                        // The board pauses its energy at Stop: no samples arrive until Start, and
+                        // the first one after it only re-anchors time.
+                        Command::Stop => self.measurements.pause(),
                         _ => {}
                     }
                 }
@@ -359,6 +422,21 @@ impl Summary {
     }
 }
 
+/// The board's USB serial number as `ports` shows it; `None` for a simulated or synthesised
+/// stream (no unique ID).
+pub fn usb_serial(identity: &BoardIdentity) -> Option<String> {
+    let mut buf = [0u8; SERIAL_LEN];
+    (*identity != BoardIdentity::UNKNOWN).then(|| identity.usb_serial(&mut buf).to_owned())
+}
+
+/// The board's USB serial number and crystal.
+pub fn identity_line(identity: &BoardIdentity) -> String {
+    match usb_serial(identity) {
+        Some(serial) => format!("board serial {serial}, {} MHz crystal", identity.hse_mhz),
+        None => "board identity: none (a simulated or synthesised stream)".into(),
+    }
+}
+
 impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let j = |lsb_us: i64| self.scale.energy_j(lsb_us);
@@ -376,7 +454,8 @@ impl fmt::Display for Summary {
                 h.addresses.left,
                 h.addresses.right,
                 h.sample_period_us
-            )?,
+            )
+            .and_then(|()| writeln!(f, "{}", identity_line(&h.identity)))?,
             None => writeln!(f, "board: no hello frame in the capture (assuming the rover-power board's scale)")?,
         }
         let s = &self.stats;
@@ -436,216 +515,4 @@ impl fmt::Display for Summary {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use model_core::energy::RunningMeasurements;
-    use model_core::ina226::{BusVoltageRaw, CurrentRaw, PowerRaw, Registers, ShuntVoltageRaw};
-    use model_core::wire::{encode, ChipReading, MAX_FRAME};
-    use model_core::Sides;
-    use proptest::prelude::*;
-
-    fn sample(seq: u32) -> BoardFrame {
-        let regs = Registers {
-            shunt: ShuntVoltageRaw(1000),
-            bus: BusVoltageRaw(19_200),
-            current: CurrentRaw(1000),
-            power: PowerRaw(960),
-        };
-        BoardFrame::Sample(Sample {
-            t_us: u64::from(seq) * 5_000,
-            seq,
-            chips: Sides::new(
-                ChipReading::Fresh(regs),
-                ChipReading::Failed(model_core::wire::ChipFault::AddressNack),
-            ),
-        })
-    }
-
-    fn bytes_of(frames: impl IntoIterator<Item = BoardFrame>) -> Vec<Vec<u8>> {
-        frames
-            .into_iter()
-            .map(|f| {
-                let mut buf = [0u8; MAX_FRAME];
-                let n = encode(&f, &mut buf).expect("fits");
-                buf[..n].to_vec()
-            })
-            .collect()
-    }
-
-    #[test]
-    fn gaps_are_counted_exactly() {
-        let frames = bytes_of((0..10).map(sample));
-        let mut stream = Vec::new();
-        for (i, f) in frames.iter().enumerate() {
-            if i != 3 && i != 6 && i != 7 {
-                stream.extend(f);
-            }
-        }
-        let mut dec = StreamDecoder::new();
-        let mut gaps = Vec::new();
-        dec.feed(&stream, |e| {
-            if let Event::SampleGap { after_seq, missing } = e {
-                gaps.push((after_seq, missing));
-            }
-        });
-        assert_eq!(gaps, vec![(2, 1), (5, 2)]);
-        assert_eq!(dec.stats().lost_samples, 3);
-        assert_eq!(dec.stats().samples, 7);
-    }
-
-    fn sample_at(seq: u32, t_us: u64, power: u16) -> BoardFrame {
-        let regs = Registers {
-            shunt: ShuntVoltageRaw(1000),
-            bus: BusVoltageRaw(19_200),
-            current: CurrentRaw(1000),
-            power: PowerRaw(power),
-        };
-        BoardFrame::Sample(Sample {
-            t_us,
-            seq,
-            chips: Sides::new(ChipReading::Fresh(regs), ChipReading::Stale(regs)),
-        })
-    }
-
-    fn decode_all(frames: impl IntoIterator<Item = BoardFrame>) -> (StreamDecoder, Vec<Event>) {
-        let mut dec = StreamDecoder::new();
-        let mut events = Vec::new();
-        dec.feed(&bytes_of(frames).concat(), |e| events.push(e));
-        (dec, events)
-    }
-
-    #[test]
-    fn seq_going_back_is_a_board_reset_and_host_energy_starts_over() {
-        let first = (0..10).map(|k| sample_at(k, u64::from(k) * 5_000, 100));
-        let second = (0..4).map(|k| sample_at(k, 1_000 + u64::from(k) * 5_000, 200));
-        let (dec, events) = decode_all(first.chain(second));
-        let resets: Vec<&Segment> = events
-            .iter()
-            .filter_map(|e| match e {
-                Event::BoardReset { previous } => Some(previous),
-                _ => None,
-            })
-            .collect();
-        assert_eq!(resets.len(), 1);
-        assert_eq!(resets[0].samples, 10);
-        assert_eq!(resets[0].host_energy_lsb_us, [100 * 45_000, 100 * 45_000]);
-        // The reset comes right before the new segment's first sample.
-        let at = events
-            .iter()
-            .position(|e| matches!(e, Event::BoardReset { .. }))
-            .expect("reset");
-        assert!(matches!(
-            events[at + 1],
-            Event::Frame(BoardFrame::Sample(Sample { seq: 0, .. }))
-        ));
-        let stats = dec.stats();
-        assert_eq!(
-            (stats.board_resets, stats.gaps, stats.lost_samples),
-            (1, 0, 0)
-        );
-        let seg = dec.current_segment();
-        assert_eq!(seg.samples, 4);
-        assert_eq!(seg.host_energy_lsb_us, [200 * 15_000, 200 * 15_000]);
-        // Backwards but not to 0 (the host connected late to a rebooted board) is a reset too.
-        let (dec, _) = decode_all([sample_at(50, 0, 1), sample_at(7, 10, 1)]);
-        assert_eq!((dec.stats().board_resets, dec.stats().gaps), (1, 0));
-    }
-
-    #[test]
-    fn seq_wrapping_past_u32_max_is_neither_a_gap_nor_a_reset() {
-        let (dec, _) = decode_all([
-            sample_at(u32::MAX - 1, 0, 1),
-            sample_at(u32::MAX, 5_000, 1),
-            sample_at(0, 10_000, 1),
-            sample_at(2, 20_000, 1),
-        ]);
-        let stats = dec.stats();
-        assert_eq!(
-            (stats.board_resets, stats.gaps, stats.lost_samples),
-            (0, 1, 1)
-        );
-    }
-
-    #[test]
-    fn energy_integrates_across_the_u64_microsecond_wrap() {
-        let t0 = u64::MAX - 12_000;
-        let (dec, _) =
-            decode_all((0..6).map(|k| sample_at(k, t0.wrapping_add(u64::from(k) * 5_000), 40)));
-        assert_eq!(dec.current_segment().host_energy_lsb_us, [40 * 25_000; 2]);
-    }
-
-    #[test]
-    fn an_acked_command_is_mirrored_so_the_model_matches() {
-        let mut board = RunningMeasurements::new(Scale::BOARD);
-        let rates = Sides::new(2.0f32, -3.0);
-        let mut frames = Vec::new();
-        for k in 0..20u32 {
-            if k == 5 {
-                board.set_wheel_rates(Some(rates));
-                frames.push(BoardFrame::Ack { id: 9 });
-            }
-            if k == 12 {
-                board.reset_energy();
-                frames.push(BoardFrame::Ack { id: 10 });
-            }
-            let s = sample_at(k, u64::from(k) * 5_000, 100 + k as u16);
-            if let BoardFrame::Sample(s) = &s {
-                board.update(s.t_us, s.chips.map(|c| c.registers()));
-            }
-            frames.push(s);
-            frames.push(BoardFrame::Model(Model {
-                t_us: u64::from(k) * 5_000,
-                seq: k,
-                snapshot: board.snapshot(),
-            }));
-        }
-        let mut dec = StreamDecoder::new();
-        dec.expect_ack(HostFrame {
-            id: 9,
-            command: Command::SetWheelRates(rates),
-        });
-        dec.expect_ack(HostFrame {
-            id: 10,
-            command: Command::ResetEnergy,
-        });
-        dec.feed(&bytes_of(frames.clone()).concat(), |_| {});
-        assert_eq!(dec.stats().models, 20);
-        assert_eq!(dec.stats().model_mismatches, 0);
-        let check = dec.board_vs_host_model().expect("model");
-        assert_eq!(check.board.snapshot, check.host);
-        assert!(check.host.torque_proportional.left.is_some());
-        // Without mirroring, τ differs from the ack on.
-        let mut blind = StreamDecoder::new();
-        blind.feed(&bytes_of(frames).concat(), |_| {});
-        assert_eq!(blind.stats().model_mismatches, 15);
-    }
-
-    proptest! {
-        /// Corrupting frames (without touching delimiters) loses exactly those frames: each is
-        /// reported bad, and the sample gaps add up to the number corrupted.
-        #[test]
-        fn corrupted_frames_are_lost_exactly(corrupt in proptest::collection::btree_set(1usize..49, 0..12), byte in 0usize..20, flip in 1u8..=255) {
-            let frames = bytes_of((0..50).map(sample));
-            let mut stream = Vec::new();
-            for (i, f) in frames.iter().enumerate() {
-                let mut f = f.clone();
-                if corrupt.contains(&i) {
-                    let at = byte % (f.len() - 1);
-                    // Always change the byte, never into a 0x00: delimiters stay where they are.
-                    let mut corrupted = f[at] ^ flip;
-                    if corrupted == 0 {
-                        corrupted = if f[at] == 0xFF { 0x01 } else { 0xFF };
-                    }
-                    f[at] = corrupted;
-                }
-                stream.extend(f);
-            }
-            let mut dec = StreamDecoder::new();
-            let mut good = 0u64;
-            dec.feed(&stream, |e| if matches!(e, Event::Frame(_)) { good += 1 });
-            prop_assert_eq!(dec.stats().lost_samples, corrupt.len() as u64);
-            prop_assert_eq!(good, 50 - corrupt.len() as u64);
-            prop_assert!(dec.stats().bad_frames >= corrupt.len() as u64);
-        }
-    }
-}
+mod tests;

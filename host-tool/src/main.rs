@@ -404,6 +404,7 @@ fn ports(json: bool) -> Result<()> {
                     "product": p.product,
                     "manufacturer": p.manufacturer,
                     "serial_number": p.serial_number,
+                    "rover_power": p.is_rover_power(),
                 })
             })
             .collect();
@@ -414,7 +415,7 @@ fn ports(json: bool) -> Result<()> {
         println!("no serial ports found");
         return Ok(());
     }
-    let rows: Vec<[String; 5]> = ports
+    let rows: Vec<[String; 6]> = ports
         .iter()
         .map(|p| {
             let opt = |s: &Option<String>| s.clone().unwrap_or_else(|| "-".into());
@@ -426,10 +427,18 @@ fn ports(json: bool) -> Result<()> {
                 opt(&p.product),
                 opt(&p.manufacturer),
                 opt(&p.serial_number),
+                if p.is_rover_power() { "yes" } else { "-" }.into(),
             ]
         })
         .collect();
-    let header = ["PORT", "VID:PID", "PRODUCT", "MANUFACTURER", "SERIAL"];
+    let header = [
+        "PORT",
+        "VID:PID",
+        "PRODUCT",
+        "MANUFACTURER",
+        "SERIAL",
+        "ROVER-POWER",
+    ];
     let mut widths = header.map(str::len);
     for row in &rows {
         for (w, cell) in widths.iter_mut().zip(row) {

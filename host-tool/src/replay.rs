@@ -67,6 +67,7 @@ pub fn synthetic_hello(sample_period_us: u32) -> Hello {
         addresses: BOARD_ADDRESSES,
         adc: AdcConfig::BOARD_DEFAULT,
         sample_period_us,
+        identity: model_core::board_id::BoardIdentity::UNKNOWN,
     }
 }
 

@@ -19,6 +19,9 @@ pub const BAUD_RATE: u32 = 115_200;
 /// Bytes asked for per read: several 64-byte USB packets.
 pub const READ_CHUNK: usize = 4096;
 
+/// USB VID:PID of the board (V-USB's shared CDC-ACM pair, told apart by serial number).
+pub const ROVER_POWER_VID_PID: (u16, u16) = (0x16c0, 0x27dd);
+
 /// Errors of listing and opening ports.
 #[derive(Debug, thiserror::Error)]
 pub enum SerialError {
@@ -73,6 +76,18 @@ pub struct PortInfo {
 }
 
 impl PortInfo {
+    /// Whether this is a rover-power board: the shared CDC-ACM VID:PID 16c0:27dd and a serial
+    /// number under the project's prefix (built from the MCU's unique ID, as in its hello).
+    pub fn is_rover_power(&self) -> bool {
+        self.usb
+            .as_ref()
+            .is_some_and(|u| (u.vid, u.pid) == ROVER_POWER_VID_PID)
+            && self
+                .serial_number
+                .as_deref()
+                .is_some_and(|s| s.starts_with(model_core::board_id::SERIAL_PREFIX))
+    }
+
     fn from_serialport(info: serialport::SerialPortInfo) -> Self {
         let mut port = PortInfo {
             name: info.port_name,
@@ -522,6 +537,26 @@ mod tests {
             open("/dev/null-no-such-port", Duration::from_millis(10)),
             Err(SerialError::Open { .. })
         ));
+    }
+
+    #[test]
+    fn a_board_is_known_by_vid_pid_and_serial_prefix() {
+        let mut port = PortInfo {
+            name: "/dev/ttyACM0".into(),
+            usb: Some(UsbId {
+                vid: 0x16c0,
+                pid: 0x27dd,
+            }),
+            product: None,
+            manufacturer: None,
+            serial_number: Some("rover-power.github.io:33003a0012513330363439ff".into()),
+        };
+        assert!(port.is_rover_power());
+        // Another device on the shared pair, and the old firmware's serial.
+        port.serial_number = Some("someone.example:1".into());
+        assert!(!port.is_rover_power());
+        port.serial_number = Some("RP-0001".into());
+        assert!(!port.is_rover_power());
     }
 
     #[test]

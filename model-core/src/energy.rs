@@ -50,6 +50,13 @@ impl EnergyAccumulator {
     pub fn reset(&mut self) {
         self.energy_lsb_us = 0;
     }
+
+    /// Forgets the time of the last reading but keeps the energy: the next reading starts a new
+    /// interval and adds nothing. For a pause (host `Stop`): without it the first reading after
+    /// `Start` would be multiplied by the whole pause.
+    pub fn re_anchor(&mut self) {
+        self.last_t_us = None;
+    }
 }
 
 /// Eq 5.14: τ ∝ P/ω for one side (W per rad/s, i.e. N·m at unit efficiency). `None` where the
@@ -148,6 +155,13 @@ impl RunningMeasurements {
     pub fn reset_energy(&mut self) {
         self.energy.left.reset();
         self.energy.right.reset();
+    }
+
+    /// Sampling pauses: energy stops accumulating and the first reading after the pause only
+    /// re-anchors time (see [`EnergyAccumulator::re_anchor`]).
+    pub fn pause(&mut self) {
+        self.energy.left.re_anchor();
+        self.energy.right.re_anchor();
     }
 
     /// Total energy of both sides in power-LSB × µs.

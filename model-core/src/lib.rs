@@ -8,6 +8,7 @@
 //! (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are "paper Eq 20".
 #![cfg_attr(not(test), no_std)]
 
+pub mod board_id;
 pub mod energy;
 pub mod fit;
 pub mod geometry;

@@ -5,13 +5,15 @@
 //! dropped byte or a bad CRC discards just that frame and is back in sync at the next 0x00.
 //! The CRC is CRC-32/ISO-HDLC (the Ethernet/zlib CRC), little-endian on the wire.
 
+use crate::board_id::BoardIdentity;
 use crate::energy::Snapshot;
 use crate::ina226::{AdcConfig, Registers, Scale};
 use crate::Sides;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
 /// Bumped whenever a message layout changes; both ends refuse frames of another version.
-pub const PROTOCOL_VERSION: u8 = 1;
+/// 2: the hello frame carries the board's identity (unique ID, crystal).
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Largest unencoded frame body: version byte + postcard message + 4 CRC bytes.
 pub const MAX_BODY: usize = 128;
@@ -47,6 +49,8 @@ pub struct Hello {
     pub addresses: Sides<u8>,
     pub adc: AdcConfig,
     pub sample_period_us: u32,
+    /// The MCU's unique ID (the USB serial number is built from it) and the crystal.
+    pub identity: BoardIdentity,
 }
 
 /// Why a chip gave no reading in a sample.
@@ -58,7 +62,8 @@ pub enum ChipFault {
     DataNack,
     /// Another master won arbitration.
     ArbitrationLoss,
-    /// Bus error (misplaced START/STOP, stuck line).
+    /// Bus error: a transaction that did not finish within its deadline (a line held low, missing
+    /// pull-ups, a misplaced START/STOP); the board reset the bus and clocked it free.
     Bus,
     /// Receive overrun.
     Overrun,
@@ -472,6 +477,10 @@ mod tests {
             addresses: Sides::new(0x40, 0x45),
             adc: AdcConfig::BOARD_DEFAULT,
             sample_period_us: 5_000,
+            identity: BoardIdentity {
+                uid: [0xFF; crate::board_id::UID_LEN],
+                hse_mhz: 25,
+            },
         }));
         round_trip(&BoardFrame::Model(Model {
             t_us: u64::MAX,

@@ -13,7 +13,7 @@
 //! | `/rover_power/status` | `rover_power.Status` | the board's status frame (health counters) |
 //! | `/rover_power/command` | `rover_power.Command` | commanded side speeds and tracked pose |
 //! | `/rover_power/event` | `foxglove.Log` | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
-//! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v1`: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
+//! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v<PROTOCOL_VERSION>`, now v2: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
 //!
 //! `log_time` and `publish_time` are the run time in ns (the host has no other clock in the
 //! log). Frames are stored as bytes, so their run time is kept to the nanosecond; samples,

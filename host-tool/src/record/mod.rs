@@ -271,6 +271,11 @@ impl fmt::Display for RecordStatus {
         if s.board_resets > 0 {
             write!(f, "  resets {}", s.board_resets)?;
         }
+        if s.stale_frames > 0 {
+            // Frames before the connection's hello, ignored; a count that keeps growing means
+            // no hello arrives (another protocol version?).
+            write!(f, "  stale {}", s.stale_frames)?;
+        }
         if self.commands_sent > 0 {
             write!(
                 f,
@@ -345,6 +350,13 @@ impl fmt::Display for RecordSummary {
                 f,
                 "device vanished {} times, reconnected {} times",
                 self.vanished, self.reconnects
+            )?;
+        }
+        if s.stale_bytes > 0 {
+            writeln!(
+                f,
+                "ignored {} bytes ({} frames) queued for an earlier connection, before the board's hello",
+                s.stale_bytes, s.stale_frames
             )?;
         }
         if self.commands_sent > 0 {
@@ -476,7 +488,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             open,
             sink,
             reader: PortReader::new(port),
-            decoder: StreamDecoder::new(),
+            decoder: StreamDecoder::for_port(),
             clock: RunClock::new(),
             timeline: CommandTimeline::new(options.commands.clone()),
             scale: Scale::BOARD,
@@ -617,7 +629,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             }
             if let Ok(new_port) = (self.open)(&port) {
                 self.reader = PortReader::new(new_port);
-                self.decoder.resync();
+                self.decoder.new_connection();
                 self.connected = true;
                 self.reconnects += 1;
                 self.event(LogEvent::Reconnected {

@@ -257,6 +257,44 @@ fn a_reconnection_to_a_rebooted_board_is_marked_and_time_continues() {
 }
 
 #[test]
+fn bytes_queued_for_the_previous_connection_are_not_recorded() {
+    // The same board re-opened: its USB buffers still hold the tail of the first connection's
+    // stream (a cut frame, then samples 30..32) before the new connection's hello.
+    let (all, _) = board_stream(0, 60, &[]);
+    let (first, _) = board_stream(0, 30, &[]);
+    let hello_len = all.iter().position(|&b| b == 0).expect("hello") + 1;
+    let stale_start = first.len() - 7;
+    let stale_end = {
+        // Through the delimiter of sample 32 (the first connection ended after sample 29).
+        let mut end = first.len();
+        for _ in 0..3 {
+            end += all[end..].iter().position(|&b| b == 0).expect("frame") + 1;
+        }
+        end
+    };
+    let stale = all[stale_start..stale_end].to_vec();
+    let mut second = stale.clone();
+    second.extend(&all[..hello_len]);
+    second.extend(&all[stale_end..]);
+    let (a, _) = script(vec![first]);
+    let (b, _) = script(vec![second]);
+    let (result, log, _) = record_ports(&fast_options(), vec![a, b]);
+    let summary = result.expect("recorded");
+    assert_eq!(
+        (summary.stream.stale_bytes, summary.stream.stale_frames),
+        (stale.len() as u64, 4)
+    );
+    assert_eq!(
+        summary.stream.bad_frames, 0,
+        "the cut frame is stale, not bad"
+    );
+    // 30 + the 27 after the stale ones; the 3 stale samples are a gap, not data.
+    assert_eq!(summary.samples, 57);
+    assert_eq!(summary.stream.lost_samples, 3);
+    assert_eq!(log.samples.len(), 57);
+}
+
+#[test]
 fn commands_are_forwarded_once_per_change_and_copied_into_the_samples() {
     let rows = vec![
         CommandRow {

@@ -5,7 +5,7 @@
 
 use super::SimBus;
 use crate::serial::PtyTask;
-use firmware::board::Board;
+use firmware::board::{Board, Watchdog};
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
 use model_core::Sides;
@@ -46,10 +46,21 @@ impl<F: FnMut(u64) -> Sides<SideLoad> + Send> LoadSource for F {
     }
 }
 
+/// The simulated board's watchdog: counts the feeds (one per completed tick).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FeedCounter(pub u64);
+
+impl Watchdog for FeedCounter {
+    fn feed(&mut self) {
+        self.0 += 1;
+    }
+}
+
 /// The firmware's `Board` + `Link` on a simulated bus, in simulated time.
 pub struct SimBoard {
     board: Board,
     link: Link,
+    watchdog: FeedCounter,
     bus: SimBus,
     addresses: Sides<u8>,
     load: Box<dyn LoadSource>,
@@ -85,6 +96,7 @@ impl SimBoard {
         Self {
             board: Board::new(config),
             link: Link::new(),
+            watchdog: FeedCounter::default(),
             bus,
             addresses: config.addresses,
             load: Box::new(|_| Sides::new(SideLoad::IDLE, SideLoad::IDLE)),
@@ -95,6 +107,11 @@ impl SimBoard {
     /// The host's DTR: the board transmits only while it is held, and greets on its rising edge.
     pub fn set_host_connected(&mut self, connected: bool) {
         self.link.set_connected(connected);
+    }
+
+    /// Watchdog feeds so far (one per completed [`SimBoard::step`]).
+    pub fn watchdog_feeds(&self) -> u64 {
+        self.watchdog.0
     }
 
     /// Sets the load the chips measure from now on.
@@ -117,7 +134,8 @@ impl SimBoard {
             load.right.bus_v,
         );
         self.bus.set_time_us(t);
-        self.board.tick(&mut self.bus, &mut self.link, t);
+        self.board
+            .tick(&mut self.bus, &mut self.link, &mut self.watchdog, t);
         self.now_us = t.saturating_add(u64::from(self.board.sample_period_us().max(1)));
         self.link.queued()
     }
@@ -382,6 +400,37 @@ mod tests {
         fn flush(&mut self) -> io::Result<()> {
             Ok(())
         }
+    }
+
+    /// The bench a user tries first: no load, a chip with a few LSB of offset and noise, read
+    /// every 5 ms while results land every 4.48 ms. A conversion landing between the shunt and
+    /// the current reads must not be taken for a chip reset.
+    #[test]
+    fn an_idle_bench_has_no_false_resets() {
+        let mut sim = SimBoard::new(SamplerConfig::BOARD);
+        for (address, seed) in [(0x40, 7), (0x45, 11)] {
+            let analog = super::super::Analog {
+                shunt_noise_lsb: 2.0,
+                shunt_offset_lsb: 1.0,
+                seed,
+                ..super::super::Analog::IDEAL
+            };
+            sim.bus_mut()
+                .insert(address, super::super::SimIna226::new(analog));
+        }
+        for _ in 0..12_000 {
+            sim.step();
+        }
+        let sampler = sim.board().sampler();
+        assert_eq!(sampler.reinits(), Sides::new(0, 0));
+        assert_eq!(sampler.i2c_errors(), Sides::new(0, 0));
+        assert_eq!(sim.watchdog_feeds(), 12_000, "one feed per completed tick");
+        // A real reset is still caught at idle (by the periodic calibration read-back).
+        sim.bus_mut().brown_out(0x40);
+        for _ in 0..600 {
+            sim.step();
+        }
+        assert_eq!(sim.board().sampler().reinits(), Sides::new(1, 0));
     }
 
     #[test]

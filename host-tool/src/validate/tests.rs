@@ -521,6 +521,7 @@ fn runs_from_logs_carry_their_cross_check() {
         addresses: Sides::new(0x40, 0x45),
         adc: model_core::ina226::AdcConfig::BOARD_DEFAULT,
         sample_period_us: 5_000,
+        identity: model_core::board_id::BoardIdentity::UNKNOWN,
     });
     let log = RunLog {
         samples,

@@ -191,6 +191,11 @@ impl<W: Write + Seek> McapSink<W> {
             ("address_right", format!("{:#04x}", hello.addresses.right)),
             ("adc", format!("{:?}", hello.adc)),
             ("sample_period_us", hello.sample_period_us.to_string()),
+            (
+                "usb_serial",
+                crate::decode::usb_serial(&hello.identity).unwrap_or_default(),
+            ),
+            ("hse_mhz", hello.identity.hse_mhz.to_string()),
         ];
         self.writer
             .write_metadata(&Metadata {

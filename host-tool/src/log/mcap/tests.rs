@@ -198,7 +198,7 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
     assert_eq!(topics[TOPIC_STATUS], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_COMMAND], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_EVENT], ("json", Some("jsonschema")));
-    assert_eq!(topics[TOPIC_FRAME], ("rover-power-wire-v1", None));
+    assert_eq!(topics[TOPIC_FRAME], ("rover-power-wire-v2", None));
     assert!(!summary.chunk_indexes.is_empty());
     assert_eq!(summary.metadata_indexes.len(), 2, "rover_power + one hello");
 
@@ -377,7 +377,7 @@ fn not_mcap_foreign_and_other_versions_are_clear_errors() {
     assert!(matches!(e, McapError::Foreign { .. }), "{e}");
     assert!(
         e.to_string().contains(
-            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v1\""
+            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v2\""
         ),
         "{e}"
     );

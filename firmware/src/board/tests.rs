@@ -1,0 +1,132 @@
+use super::*;
+use embedded_hal::i2c::{ErrorKind, ErrorType, Operation};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::Duration;
+
+/// Counts feeds; shared with the test thread.
+#[derive(Debug, Clone, Default)]
+struct Counter(Arc<AtomicU32>);
+
+impl Counter {
+    fn feeds(&self) -> u32 {
+        self.0.load(Ordering::SeqCst)
+    }
+}
+
+impl Watchdog for Counter {
+    fn feed(&mut self) {
+        self.0.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+/// An I²C bus where every transaction fails with `kind` (a stuck bus the driver bounded).
+#[derive(Debug)]
+struct Failing(ErrorKind);
+
+impl ErrorType for Failing {
+    type Error = ErrorKind;
+}
+
+impl I2c for Failing {
+    fn transaction(&mut self, _: u8, _: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
+        Err(self.0)
+    }
+}
+
+/// An I²C bus whose first transaction hangs until the test lets it go (then NACKs).
+#[derive(Debug)]
+struct Hanging {
+    entered: mpsc::Sender<()>,
+    release: mpsc::Receiver<()>,
+}
+
+impl ErrorType for Hanging {
+    type Error = ErrorKind;
+}
+
+impl I2c for Hanging {
+    fn transaction(&mut self, _: u8, _: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
+        let _ = self.entered.send(());
+        let _ = self.release.recv();
+        Err(ErrorKind::NoAcknowledge(
+            embedded_hal::i2c::NoAcknowledgeSource::Address,
+        ))
+    }
+}
+
+/// A bus that panics: the tick is aborted half-way.
+#[derive(Debug)]
+struct Panicking;
+
+impl ErrorType for Panicking {
+    type Error = ErrorKind;
+}
+
+impl I2c for Panicking {
+    fn transaction(&mut self, _: u8, _: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
+        panic!("the bus driver gave up")
+    }
+}
+
+#[test]
+fn a_completed_tick_feeds_the_watchdog_even_when_the_chips_fail() {
+    let mut board = Board::new(SamplerConfig::BOARD);
+    let mut link = Link::new();
+    link.set_connected(true);
+    let dog = Counter::default();
+    let mut i2c = Failing(ErrorKind::Bus);
+    for k in 0..3u64 {
+        board.tick(&mut i2c, &mut link, &mut dog.clone(), k * 5_000);
+        assert_eq!(dog.feeds(), k as u32 + 1, "fed once per tick");
+    }
+    // The stuck bus is reported as a fault, not left to the watchdog.
+    assert_eq!(
+        board.sampler().last_faults(),
+        model_core::Sides::new(
+            Some(model_core::wire::ChipFault::Bus),
+            Some(model_core::wire::ChipFault::Bus)
+        )
+    );
+}
+
+#[test]
+fn a_hung_tick_is_not_fed_until_it_completes() {
+    let (entered_tx, entered) = mpsc::channel();
+    let (release, release_rx) = mpsc::channel();
+    let dog = Counter::default();
+    let mut thread_dog = dog.clone();
+    let ticking = std::thread::spawn(move || {
+        let mut board = Board::new(SamplerConfig::BOARD);
+        let mut link = Link::new();
+        let mut i2c = Hanging {
+            entered: entered_tx,
+            release: release_rx,
+        };
+        board.tick(&mut i2c, &mut link, &mut thread_dog, 0);
+    });
+    entered
+        .recv_timeout(Duration::from_secs(10))
+        .expect("the tick reached the bus");
+    std::thread::sleep(Duration::from_millis(50));
+    assert_eq!(dog.feeds(), 0, "a tick stuck on the bus must not feed");
+    // Let every transaction of the tick through.
+    for _ in 0..16 {
+        let _ = release.send(());
+    }
+    ticking.join().expect("tick completes");
+    assert_eq!(dog.feeds(), 1);
+}
+
+#[test]
+fn an_aborted_tick_is_not_fed() {
+    let dog = Counter::default();
+    let mut thread_dog = dog.clone();
+    let outcome = std::panic::catch_unwind(move || {
+        let mut board = Board::new(SamplerConfig::BOARD);
+        let mut link = Link::new();
+        board.tick(&mut Panicking, &mut link, &mut thread_dog, 0);
+    });
+    assert!(outcome.is_err());
+    assert_eq!(dog.feeds(), 0);
+}
