@@ -126,8 +126,8 @@ mod tests {
     fn husky_threshold_radius_gives_the_default_fade_radius() {
         let rover = Rover::HUSKY_A200;
         let icr = IcrParams::HARD_GROUND.model(&rover);
-        let rf = fade_radius_for_threshold_m(18.0, f64::from(rover.slip_track_m), &icr)
-            .expect("exists");
+        let rf =
+            fade_radius_for_threshold_m(18.0, f64::from(rover.slip_track_m), &icr).expect("exists");
         assert!((rf - TRACTION_FADE_RADIUS_M).abs() < 0.05, "{rf}");
         assert!(fade_radius_for_threshold_m(0.5, 1.1, &icr).is_none());
         let mut flat = icr;
@@ -294,10 +294,16 @@ mod tests {
             .collect();
         let no_copper = lossy(0.8, 0.0);
         // The point turn: both sides motoring, 1/η of Eq 21.
-        assert!((no_copper[0] - eq21[0] / 0.8).abs() < 1e-6 * eq21[0], "{no_copper:?}");
+        assert!(
+            (no_copper[0] - eq21[0] / 0.8).abs() < 1e-6 * eq21[0],
+            "{no_copper:?}"
+        );
         let (low, high) = (lossy(0.8, 0.05), lossy(0.8, 0.5));
         for k in 0..radii.len() {
-            assert!(high[k] > low[k] && low[k] > no_copper[k], "{low:?} {high:?}");
+            assert!(
+                high[k] > low[k] && low[k] > no_copper[k],
+                "{low:?} {high:?}"
+            );
         }
         assert!(high[0] - low[0] > high[2] - low[2]);
     }

@@ -159,8 +159,12 @@ impl Timeline {
             Sides::new(0.0, 0.0)
         };
         let iq = world.driver.quiescent_a();
-        let v = world.battery.nominal_v - (iq.left + iq.right) * world.battery.internal_resistance_ohm;
-        let idle = |current_a| SideLoad { current_a, bus_v: v };
+        let v =
+            world.battery.nominal_v - (iq.left + iq.right) * world.battery.internal_resistance_ohm;
+        let idle = |current_a| SideLoad {
+            current_a,
+            bus_v: v,
+        };
         Self {
             seed,
             samples,
