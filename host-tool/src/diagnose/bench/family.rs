@@ -39,6 +39,8 @@ pub const TEST_R_OVER_R_PRIME: [f64; 9] = [
     3.0,
     f64::INFINITY,
 ];
+/// Share of the datasets without `motor-heating` whose test runs repeat the set 8–12 times.
+pub const LONG_SHARE: f64 = 0.05;
 /// Calibration runs per dataset.
 pub const CALIBRATION_RUNS: usize = 2;
 /// Test runs per dataset.
@@ -295,7 +297,7 @@ pub struct DatasetSpec {
     /// `[noise] run_power_std`.
     pub run_power_std: f64,
     /// Repeats of the turn set per test run (1; 8–12 for `motor-heating`, whose time constant
-    /// is 10 min, and for 15 % of the others so long runs are seen without heating too).
+    /// is 10 min, and for [`LONG_SHARE`] of the others so long runs are seen without heating).
     pub repeats: u32,
     /// Straight-line length [m].
     pub straight_m: f64,
@@ -551,7 +553,11 @@ fn draw_setting(
             }
             Part::HeldOut => (rover(rng), side(rng), HELD_OUT_STRUCTURE),
         };
-        if is_held_out(r, d, &s) == (part == Part::HeldOut) {
+        // The Argo's controller uses B_s = B, so its inner wheels are never dragged forward
+        // while counter-rotating (no B/2 < R < R' range): `inner-drag` has nothing to act on.
+        let no_effect =
+            r == RoverKind::ArgoJ5 && class == DatasetClass::Effect(EffectId::InnerDrag);
+        if !no_effect && is_held_out(r, d, &s) == (part == Part::HeldOut) {
             return (r, d, s);
         }
     }
@@ -584,7 +590,7 @@ fn draw(part: Part, index: usize, bench_seed: u64) -> DatasetSpec {
     } else {
         1.0
     };
-    let long = effect == Some(EffectId::MotorHeating) || rng.chance(0.15);
+    let long = effect == Some(EffectId::MotorHeating) || rng.chance(LONG_SHARE);
     let repeats = if long { 8 + rng.below(5) as u32 } else { 1 };
     let quiescent_current_a = match structure.standstill {
         Standstill::Default => {

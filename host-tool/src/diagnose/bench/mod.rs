@@ -23,8 +23,9 @@
 //! Layout (the independent check): 2 calibration runs (R ∈ {0, 2R′, 3R′, straight}),
 //! passed to the diagnosis as calibration, and 3 test runs of the seed's turn set (0, R′/3,
 //! 2R′/3, 0.8R′, R′, 4R′/3, 2R′, 3R′, straight), each shuffled, 90° turns. `motor-heating`
-//! datasets (time constant 10 min) and 15 % of the others repeat the set 8–12 times per test
-//! run.
+//! datasets (time constant 10 min) and 5 % of the others repeat the set 8–12 times per test
+//! run. `inner-drag` is drawn on the Husky only: the Argo's controller uses B_s = B, so its inner
+//! wheels are never dragged while counter-rotating and the effect has nothing to act on.
 //!
 //! Classes, round robin over the index: `none` (a control: the default structure), each of the
 //! 8 effects (any structure), and `structure-only` (a non-default structure, no effect: right

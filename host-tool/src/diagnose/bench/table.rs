@@ -188,6 +188,10 @@ pub struct Timing {
     pub median_diagnose_s: Option<f64>,
     /// Slowest diagnosis [s].
     pub max_diagnose_s: Option<f64>,
+    /// Median diagnosis time of the issue's layout (one turn set per test run) [s].
+    pub median_diagnose_layout_s: Option<f64>,
+    /// Median diagnosis time of the long datasets (8–12 sets per test run) [s].
+    pub median_diagnose_long_s: Option<f64>,
     /// Datasets whose diagnosis took longer than the goal ([`GOAL_DIAGNOSE_MS`]).
     pub over_goal: usize,
 }
@@ -383,17 +387,22 @@ pub fn tabulate(options: BenchOptions, datasets: Vec<DatasetResult>, wall_s: f64
         .iter()
         .map(|&p| part_figures(p, &datasets))
         .collect();
-    let times: Vec<f64> = datasets
-        .iter()
-        .filter(|r| r.error.is_none())
-        .map(|r| r.diagnose_s)
-        .collect();
+    let ok = |f: &dyn Fn(&DatasetResult) -> bool| -> Vec<f64> {
+        datasets
+            .iter()
+            .filter(|r| r.error.is_none() && f(r))
+            .map(|r| r.diagnose_s)
+            .collect()
+    };
+    let times = ok(&|_| true);
     let timing = Timing {
         wall_s,
         simulate_s: datasets.iter().map(|r| r.simulate_s).sum(),
         diagnose_s: datasets.iter().map(|r| r.diagnose_s).sum(),
         median_diagnose_s: median(times.clone()),
         max_diagnose_s: times.iter().copied().reduce(f64::max),
+        median_diagnose_layout_s: median(ok(&|r| r.spec.repeats == 1)),
+        median_diagnose_long_s: median(ok(&|r| r.spec.repeats > 1)),
         over_goal: times
             .iter()
             .filter(|&&t| t * 1e3 > GOAL_DIAGNOSE_MS)
@@ -445,8 +454,11 @@ impl fmt::Display for BenchReport {
         )?;
         writeln!(
             f,
-            "diagnosis per dataset: median {} ms, max {} ms; {} over the {GOAL_DIAGNOSE_MS:.0} ms goal",
+            "diagnosis per dataset: median {} ms (issue layout {} ms, long runs {} ms), max {} ms; \
+             {} over the {GOAL_DIAGNOSE_MS:.0} ms goal",
             opt(t.median_diagnose_s.map(|s| s * 1e3), ""),
+            opt(t.median_diagnose_layout_s.map(|s| s * 1e3), ""),
+            opt(t.median_diagnose_long_s.map(|s| s * 1e3), ""),
             opt(t.max_diagnose_s.map(|s| s * 1e3), ""),
             t.over_goal
         )?;

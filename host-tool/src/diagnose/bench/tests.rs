@@ -68,6 +68,9 @@ fn the_family_draws_what_it_says() {
         if s.effect() == Some(EffectId::MotorHeating) {
             assert!(s.repeats >= 8);
         }
+        if s.effect() == Some(EffectId::InnerDrag) {
+            assert_eq!(s.rover, RoverKind::HuskyA200);
+        }
         // The layout: 2 calibration runs of 4 manoeuvres, 3 shuffled test runs of 9.
         assert_eq!(s.calibration_scenario().manoeuvres.len(), 4);
         let tests = s.test_scenarios();
