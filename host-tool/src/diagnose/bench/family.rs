@@ -87,6 +87,14 @@ pub enum RoverKind {
 }
 
 impl RoverKind {
+    /// `husky-a200` or `argo-j5`.
+    pub const fn id(self) -> &'static str {
+        match self {
+            RoverKind::HuskyA200 => "husky-a200",
+            RoverKind::ArgoJ5 => "argo-j5",
+        }
+    }
+
     /// The geometry (the same numbers as the rover files).
     pub const fn rover(self) -> Rover {
         match self {
@@ -149,6 +157,17 @@ pub enum Standstill {
     Uneven,
 }
 
+impl Standstill {
+    /// `default`, `zero` or `uneven`.
+    pub const fn id(self) -> &'static str {
+        match self {
+            Standstill::Default => "default",
+            Standstill::Zero => "zero",
+            Standstill::Uneven => "uneven",
+        }
+    }
+}
+
 /// The split switch of a structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -161,6 +180,18 @@ pub enum SplitDraw {
     Regen,
     /// `clamped`.
     Clamp,
+}
+
+impl SplitDraw {
+    /// `default`, `rt`, `regen` or `clamp`.
+    pub const fn id(self) -> &'static str {
+        match self {
+            SplitDraw::Default => "default",
+            SplitDraw::Rt => "rt",
+            SplitDraw::Regen => "regen",
+            SplitDraw::Clamp => "clamp",
+        }
+    }
 }
 
 /// A dataset's world structure: which switches are off their defaults.
@@ -198,11 +229,8 @@ impl StructureKind {
     /// `slip`, `loss`, `iq0`, `iq-uneven`).
     pub fn label(&self) -> String {
         let mut parts = Vec::new();
-        match self.split {
-            SplitDraw::Default => {}
-            SplitDraw::Rt => parts.push("rt"),
-            SplitDraw::Regen => parts.push("regen"),
-            SplitDraw::Clamp => parts.push("clamp"),
+        if self.split != SplitDraw::Default {
+            parts.push(self.split.id());
         }
         if self.slip {
             parts.push("slip");

@@ -8,6 +8,7 @@ use super::run::{DatasetResult, BASELINE_MISFIT};
 use super::{BenchOptions, GOAL_ACCURACY_PCT, GOAL_DIAGNOSE_MS, GOAL_SHRINK_PCT};
 use crate::diagnose::cv::PRACTICAL_FLOOR_W;
 use crate::effect_id::EffectId;
+use crate::sim::world::Side;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -173,6 +174,8 @@ pub struct PartFigures {
     pub per_class: Vec<ClassFigures>,
     /// Per world structure, by label.
     pub per_structure: Vec<StructureFigures>,
+    /// Per switch value (`split=clamp`, …, `rover=argo-j5`, `turns=right`).
+    pub per_switch: Vec<StructureFigures>,
 }
 
 /// Diagnosis and simulation times.
@@ -259,18 +262,40 @@ fn class_figures(label: &str, of: &[&DatasetResult]) -> ClassFigures {
     }
 }
 
-fn structure_figures(results: &[&DatasetResult]) -> Vec<StructureFigures> {
-    let mut by: BTreeMap<&str, Vec<&DatasetResult>> = BTreeMap::new();
+/// The switch values of a dataset (`split=clamp`, `slip=on`, …, `rover=argo-j5`,
+/// `turns=right`): each dataset counts once per switch.
+fn switch_values(r: &DatasetResult) -> Vec<String> {
+    let st = &r.spec.structure;
+    let on = |b: bool| if b { "on" } else { "off" };
+    let turns = match r.spec.direction {
+        Side::Left => "left",
+        Side::Right => "right",
+    };
+    vec![
+        format!("split={}", st.split.id()),
+        format!("slip={}", on(st.slip)),
+        format!("loss={}", on(st.losses)),
+        format!("standstill={}", st.standstill.id()),
+        format!("rover={}", r.spec.rover.id()),
+        format!("turns={turns}"),
+    ]
+}
+
+fn structure_figures(
+    results: &[&DatasetResult],
+    keys: impl Fn(&DatasetResult) -> Vec<String>,
+) -> Vec<StructureFigures> {
+    let mut by: BTreeMap<String, Vec<&DatasetResult>> = BTreeMap::new();
     for r in results {
-        by.entry(r.spec.structure_label.as_str())
-            .or_default()
-            .push(r);
+        for key in keys(r) {
+            by.entry(key).or_default().push(r);
+        }
     }
     by.into_iter()
         .map(|(label, of)| {
             let effects: Vec<_> = of.iter().filter(|r| r.spec.effect().is_some()).collect();
             StructureFigures {
-                structure: label.into(),
+                structure: label,
                 n: of.len(),
                 right: of.iter().filter(|r| r.right()).count(),
                 effect_datasets: effects.len(),
@@ -375,7 +400,8 @@ pub fn part_figures(part: Part, results: &[DatasetResult]) -> PartFigures {
         summary: summary(&of),
         confusion,
         per_class,
-        per_structure: structure_figures(&of),
+        per_structure: structure_figures(&of, |r| vec![r.spec.structure_label.clone()]),
+        per_switch: structure_figures(&of, switch_values),
     }
 }
 
@@ -568,9 +594,9 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
     writeln!(
         f,
         "{:<28}{:>4}{:>7}{:>9}{:>10}{:>8}",
-        "structure", "n", "right", "effects", "false eff", "misfit"
+        "switch / structure", "n", "right", "effects", "false eff", "misfit"
     )?;
-    for st in &p.per_structure {
+    for st in p.per_switch.iter().chain(&p.per_structure) {
         writeln!(
             f,
             "{:<28}{:>4}{:>7}{:>9}{:>10}{:>8}",

@@ -222,6 +222,23 @@ fn small_bench_tabulates_every_dataset_per_part() {
         }
         let per_structure: usize = p.per_structure.iter().map(|st| st.n).sum();
         assert_eq!(per_structure, 20);
+        // Each switch partitions the part once.
+        for switch in [
+            "split=",
+            "slip=",
+            "loss=",
+            "standstill=",
+            "rover=",
+            "turns=",
+        ] {
+            let n: usize = p
+                .per_switch
+                .iter()
+                .filter(|st| st.structure.starts_with(switch))
+                .map(|st| st.n)
+                .sum();
+            assert_eq!(n, 20, "{switch}");
+        }
     }
     for r in &report.datasets {
         let expected = match r.spec.class {
