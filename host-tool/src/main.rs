@@ -207,18 +207,29 @@ struct DiagnoseArgs {
 
 #[derive(clap::Args)]
 struct DiagnoseBenchArgs {
-    /// Number of datasets (one in nine is a control without an effect).
+    /// Datasets per part (one in ten a control, one in ten a structure without effect).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=100_000))]
     datasets: u64,
-    /// Bench seed: the same seed gives the same datasets.
-    #[arg(long, default_value_t = 1)]
+    /// Bench seed: the same seed gives the same datasets (the held-out part uses 1000 + seed).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(0..1000))]
     seed: u64,
+    /// Part of the world family: `tuning`, `held-out` (structures, geometry and seeds no
+    /// tuning decision looks at) or `both`, reported separately.
+    #[arg(long, value_enum, default_value = "both")]
+    part: BenchPartArg,
     /// Worker threads.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=256))]
     threads: u64,
     /// Write every dataset's result as JSON to FILE (`-` for stdout, then no table is printed).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum BenchPartArg {
+    Tuning,
+    HeldOut,
+    Both,
 }
 
 #[derive(clap::Args)]
@@ -747,6 +758,11 @@ fn diagnose_bench_cmd(args: DiagnoseBenchArgs) -> Result<()> {
         datasets: args.datasets as usize,
         seed: args.seed,
         threads: args.threads as usize,
+        part: match args.part {
+            BenchPartArg::Tuning => diagnose::bench::PartChoice::Tuning,
+            BenchPartArg::HeldOut => diagnose::bench::PartChoice::HeldOut,
+            BenchPartArg::Both => diagnose::bench::PartChoice::Both,
+        },
     };
     let report = diagnose::bench::run_bench(&options);
     if !emit_json(args.json.as_deref(), &report, "bench")? {

@@ -7,7 +7,7 @@ use super::scenario::{ManoeuvreKind, Segment, Until};
 use super::timeline::{
     gaussian, ManoeuvreTruth, Sample, SegmentSpan, Timeline, MANOEUVRE_SCALE, RUN_SCALE,
 };
-use super::{WorldConfig, WorldError, STEP_S};
+use super::{DrivePower, PowerSplit, WorldConfig, WorldError, STEP_S};
 use model_core::kinematics::{Regime, RegimeBounds, TurnDirection};
 use model_core::power::GRAVITY_M_S2;
 use model_core::soil::{PileLimit, SandBulldozer, SlipSinkage2d};
@@ -59,6 +59,8 @@ struct Plant {
     torque_per_amp_nm: f64,
     /// Peak of q = |V_i| v_iy / v_c² for an ideal turn (inner-drag normalisation).
     drag_q_ref: f64,
+    /// The `threshold` split's fade radius R_f [m].
+    fade_radius_m: f64,
 }
 
 impl Plant {
@@ -89,6 +91,10 @@ impl Plant {
                 / (torque_per_amp_nm * torque_per_amp_nm),
             torque_per_amp_nm,
             drag_q_ref,
+            // Validated: a threshold radius without a fade radius is an error.
+            fade_radius_m: world
+                .traction_fade_radius_m()
+                .unwrap_or(world.icr.traction_fade_radius_m),
         }
     }
 
@@ -96,8 +102,8 @@ impl Plant {
         self.world.effects.is_enabled(id)
     }
 
-    /// The baseline ICR power per side (paper Eq 21 split by the tread-force couple, with the
-    /// traction fade for wide arcs) [W]. Sums to `icr.power_w` exactly.
+    /// The baseline ICR power per side (paper Eq 21 split by the tread-force couple, per
+    /// `[structure] split`) [W]. Sums to `icr.power_w` exactly except for the `clamped` split.
     fn icr_side_power_w(&self, v: Io) -> Io {
         let g = self.icr.rolling_resistance_n;
         let sum = v.inner.abs() + v.outer.abs();
@@ -106,18 +112,42 @@ impl Plant {
         }
         let diff = v.outer - v.inner;
         let skid_w = self.icr.skid_moment_nm() * (diff / self.icr.slip_track_m).abs();
-        let fade = if diff == 0.0 {
-            0.0
-        } else {
-            let r = self.icr.slip_track_m / 2.0 * ((v.outer + v.inner) / diff).abs();
-            1.0 / (1.0 + (r / self.world.icr.traction_fade_radius_m).powi(2))
+        let split = self.world.structure.split;
+        let fade = match split {
+            PowerSplit::Regenerating | PowerSplit::Clamped => 1.0,
+            PowerSplit::Threshold if diff == 0.0 => 0.0,
+            PowerSplit::Threshold => {
+                let r = self.icr.slip_track_m / 2.0 * ((v.outer + v.inner) / diff).abs();
+                1.0 / (1.0 + (r / self.fade_radius_m).powi(2))
+            }
         };
         let k = self.tread_force_n * fade;
         let residual_w = (1.0 - fade) * skid_w;
-        Io {
+        let side = Io {
             inner: -k * v.inner + residual_w * v.inner.abs() / sum + g * v.inner.abs(),
             outer: k * v.outer + residual_w * v.outer.abs() / sum + g * v.outer.abs(),
+        };
+        match split {
+            // Section 1.1.3: "any negative power calculated should be put to 0".
+            PowerSplit::Clamped => Io {
+                inner: side.inner.max(0.0),
+                outer: side.outer.max(0.0),
+            },
+            PowerSplit::Threshold | PowerSplit::Regenerating => side,
         }
+    }
+
+    /// A side's electrical power for wheel torque τ at wheel rate ω by Eq 1.18 (a generating
+    /// side returns τωη rather than τω/η: the motor is then a generator with the same losses).
+    fn motor_power_w(&self, torque_nm: f64, rate_rad_s: f64) -> f64 {
+        let shaft_w = torque_nm * rate_rad_s;
+        let eta = self.motor.efficiency;
+        let shaft_w = if shaft_w >= 0.0 {
+            shaft_w / eta
+        } else {
+            shaft_w * eta
+        };
+        shaft_w + self.copper_w_per_nm2 * torque_nm * torque_nm
     }
 
     /// The wheel torque τ with DcMotor::side_power_w(τ, ω) = P (Eq 1.18 inverted on the root
@@ -246,7 +276,9 @@ pub(crate) fn run(
         } else {
             0.0
         };
-        let w_true = w_kin * (1.0 - slip);
+        // [structure] angular_slip: the terrain's constant loss in every turn (Fig. 6.7).
+        let w_terrain = w_kin * (1.0 - world.structure.angular_slip);
+        let w_true = w_terrain * (1.0 - slip);
         let v_y = (v.inner + v.outer) / 2.0;
         let yaw_sign = match seg.direction {
             Some(TurnDirection::Right) => -1.0,
@@ -339,8 +371,8 @@ pub(crate) fn run(
                     continue;
                 }
                 let e = match (id, seg.until) {
-                    (EffectId::AngularSlip, Until::Yaw(a)) if w_kin != 0.0 => {
-                        (duration_s - a / w_kin.abs()) * avg_total_w
+                    (EffectId::AngularSlip, Until::Yaw(a)) if w_terrain != 0.0 => {
+                        (duration_s - a / w_terrain.abs()) * avg_total_w
                     }
                     (EffectId::SlipTrack, Until::Yaw(a)) if w_kin != 0.0 => {
                         (a / w_kin.abs() - expected_s) * avg_total_w
@@ -417,7 +449,7 @@ fn step(
     let moving = v.inner != 0.0 || v.outer != 0.0;
     let mut effect_w = [0.0f64; EffectId::COUNT];
     // Every term of Eq 21 is ∝ μ or G: the terrain factor scales the whole baseline.
-    let base = {
+    let icr = {
         let b = plant.icr_side_power_w(v);
         Io {
             inner: b.inner * resistance_scale,
@@ -428,9 +460,27 @@ fn step(
         inner: v.inner / r,
         outer: v.outer / r,
     };
-    let tau_b = Io {
-        inner: plant.torque_for_power_nm(base.inner, rate.inner),
-        outer: plant.torque_for_power_nm(base.outer, rate.outer),
+    // The baseline torque, and the drivers' baseline power ([`DrivePower`]).
+    let (tau_b, base) = match world.structure.drive_power {
+        DrivePower::Electrical => (
+            Io {
+                inner: plant.torque_for_power_nm(icr.inner, rate.inner),
+                outer: plant.torque_for_power_nm(icr.outer, rate.outer),
+            },
+            icr,
+        ),
+        DrivePower::Mechanical => {
+            let tau = |p: f64, w: f64| if w == 0.0 { 0.0 } else { p / w };
+            let t = Io {
+                inner: tau(icr.inner, rate.inner),
+                outer: tau(icr.outer, rate.outer),
+            };
+            let p = Io {
+                inner: plant.motor_power_w(t.inner, rate.inner),
+                outer: plant.motor_power_w(t.outer, rate.outer),
+            };
+            (t, p)
+        }
     };
     // Ground velocity of the inner and outer (front) wheels in the left-turn body frame.
     let (half, hl) = (plant.half_track_m, plant.length_m / 2.0);
@@ -581,9 +631,9 @@ fn step(
     }
     // Battery and drivers: V = V_0 − R_int (I_l + I_r), I = I_q + P/V.
     let bat = world.battery;
-    let iq = world.driver.quiescent_current_a;
+    let iq = world.driver.quiescent_a();
     let total_w = p_sides.left + p_sides.right;
-    let a = bat.nominal_v - 2.0 * bat.internal_resistance_ohm * iq;
+    let a = bat.nominal_v - bat.internal_resistance_ohm * (iq.left + iq.right);
     let mut bus_v = if bat.internal_resistance_ohm == 0.0 {
         bat.nominal_v
     } else {
@@ -593,7 +643,10 @@ fn step(
     if bus_v <= 0.0 {
         bus_v = a / 2.0;
     }
-    let mut current = Sides::new(iq + p_sides.left / bus_v, iq + p_sides.right / bus_v);
+    let mut current = Sides::new(
+        iq.left + p_sides.left / bus_v,
+        iq.right + p_sides.right / bus_v,
+    );
     if current.left + current.right < 0.0 {
         // The battery cannot be charged: the drivers burn the surplus (Section 1.1.3).
         bus_v = bat.nominal_v;

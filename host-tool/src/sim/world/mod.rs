@@ -33,6 +33,15 @@
 //! Section 4.4), with continuity into a straight line (P = G|V| per side, Lemma 1). At R' the
 //! inner side is not commanded and draws only its driver's quiescent current.
 //!
+//! Structure switches (`[structure]`, [`structure`]; the defaults are the split above): the
+//! per-side split — `threshold` (above; `threshold_radius_m` sets R_T and derives R_f),
+//! `regenerating` (the tread couple alone, inner negative for every R > R') or `clamped` (thesis
+//! Section 1.1.3: "any negative power … put to 0") —, a constant angular slip in every turn
+//! (thesis Fig. 6.7's hard-ground offset), and whether Eq 21 is the drivers' electrical power or
+//! the wheels' mechanical power with the motors' Eq 1.18–1.19 losses (efficiency, copper ∝ I²).
+//! The standstill draw per side is `[driver]`'s quiescent current (≈ 0 A on the INA226 board,
+//! thesis Fig. 3.3; distinct from the `current-offset` effect, a sensor offset).
+//!
 //! Effects (each its own TOML table, [`effects`]): torque-type terms (`inner-drag`,
 //! `sinkage-bulldozing`, `braked-inner`) add wheel torque Δτ on a side and go through
 //! `model_core::power::DcMotor` (Eq 1.18–1.19): ΔP = Δτω/η + (2τΔτ + Δτ²)R_m/(K_T g η)², with τ
@@ -66,17 +75,20 @@
 //!
 //! The numbers the tests measure are in this module's tests (`calibration_*`).
 
+mod domain;
 pub mod effects;
 mod engine;
 pub mod scenario;
+pub mod structure;
 mod timeline;
 
 pub use effects::EffectId;
 pub use scenario::{load_scenario, parse_scenario, Manoeuvre, ManoeuvreKind, Scenario, Side};
+pub use structure::{DrivePower, PowerSplit, Structure};
 pub use timeline::{ManoeuvreTruth, Timeline, TimelineLoad};
 
 use model_core::power::{DcMotor, IcrHardGround};
-use model_core::Rover;
+use model_core::{Rover, Sides};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -222,20 +234,42 @@ impl Default for Battery {
     }
 }
 
-/// `[driver]`.
+/// `[driver]`: the standstill draw per side (the drivers' quiescent current, real power from the
+/// battery; thesis Fig. 3.3 measures ≈ 0 A at rest on the INA226 board — not the
+/// `current-offset` effect, a sensor offset).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Driver {
     /// Each motor driver's own draw, also at standstill [A].
     pub quiescent_current_a: f64,
+    /// The left driver's draw when it differs from `quiescent_current_a` [A].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_quiescent_current_a: Option<f64>,
+    /// The right driver's draw when it differs from `quiescent_current_a` [A].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub right_quiescent_current_a: Option<f64>,
 }
 
 impl Default for Driver {
-    /// 50 mA (not in the seed).
+    /// 50 mA per side (not in the seed).
     fn default() -> Self {
         Self {
             quiescent_current_a: 0.05,
+            left_quiescent_current_a: None,
+            right_quiescent_current_a: None,
         }
+    }
+}
+
+impl Driver {
+    /// The standstill draw of each side [A].
+    pub fn quiescent_a(&self) -> Sides<f64> {
+        Sides::new(
+            self.left_quiescent_current_a
+                .unwrap_or(self.quiescent_current_a),
+            self.right_quiescent_current_a
+                .unwrap_or(self.quiescent_current_a),
+        )
     }
 }
 
@@ -363,10 +397,12 @@ impl Effects {
 /// [icr]                            # defaults: paper Table 2 (hard) or the sand calibration
 /// mu = 0.74
 /// [battery]                        # nominal_v 24, internal_resistance_ohm 0.05
-/// [driver]                         # quiescent_current_a 0.05
+/// [driver]                         # quiescent_current_a 0.05 (both sides; left_/right_quiescent_current_a)
 /// [motor]                          # torque_constant_nm_per_a, gear_ratio, efficiency, winding_resistance_ohm
 /// [noise]                          # left/right_current_std_a, bus_std_v, yaw_std_rad, pitch_std_deg,
 ///                                  # manoeuvre_power_std, run_power_std (repeat/run variation, 0)
+/// [structure]                      # split = "threshold" | "regenerating" | "clamped", threshold_radius_m,
+///                                  # angular_slip 0, drive_power = "electrical" | "mechanical"
 /// [inner-drag]                     # every effect: enabled (ground default) + its parameters
 /// enabled = true
 /// torque_nm = 16.0
@@ -385,6 +421,8 @@ pub struct WorldConfig {
     pub driver: Driver,
     /// Each side's motor.
     pub motor: Motor,
+    /// The structural switches ([`structure`]).
+    pub structure: Structure,
     /// Measurement noise.
     pub noise: Noise,
     /// The effects.
@@ -418,6 +456,7 @@ impl WorldConfig {
             battery: Battery::default(),
             driver: Driver::default(),
             motor: Motor::default(),
+            structure: Structure::default(),
             noise: Noise::default(),
             effects,
         }
@@ -459,147 +498,25 @@ impl WorldConfig {
         }
     }
 
+    /// The `threshold` split's fade radius R_f [m]: derived from `[structure]
+    /// threshold_radius_m` when given (None if no R_f puts the zero crossing there), else
+    /// `[icr] traction_fade_radius_m`.
+    pub fn traction_fade_radius_m(&self) -> Option<f64> {
+        match self.structure.threshold_radius_m {
+            None => Some(self.icr.traction_fade_radius_m),
+            Some(rt) => structure::fade_radius_for_threshold_m(
+                rt,
+                f64::from(self.rover.slip_track_m),
+                &self.icr.model(&self.rover),
+            ),
+        }
+    }
+
     /// Simulates `scenario`; the same seed gives the same timeline.
     pub fn simulate(&self, scenario: &Scenario, seed: u64) -> Result<Timeline, WorldError> {
         self.validate("world")?;
         let segments = scenario.segments(&self.rover, "scenario")?;
         engine::run(self, &segments, seed)
-    }
-
-    /// Checks every parameter's domain.
-    pub fn validate(&self, origin: &str) -> Result<(), WorldError> {
-        let bad = |key: &str, v: f64, what: &str| -> Result<(), WorldError> {
-            Err(WorldError::Invalid {
-                origin: origin.to_string(),
-                key: key.to_string(),
-                reason: format!("= {v} must be {what}"),
-            })
-        };
-        let pos = |key: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                bad(key, v, "finite and > 0")
-            }
-        };
-        let nonneg = |key: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                bad(key, v, "finite and ≥ 0")
-            }
-        };
-        let fin = |key: &str, v: f64| {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                bad(key, v, "finite")
-            }
-        };
-        nonneg("icr.mu", self.icr.mu)?;
-        nonneg("icr.rolling_resistance_n", self.icr.rolling_resistance_n)?;
-        pos("icr.slip_track_m", self.icr.slip_track_m)?;
-        pos(
-            "icr.traction_fade_radius_m",
-            self.icr.traction_fade_radius_m,
-        )?;
-        pos("battery.nominal_v", self.battery.nominal_v)?;
-        nonneg(
-            "battery.internal_resistance_ohm",
-            self.battery.internal_resistance_ohm,
-        )?;
-        nonneg(
-            "driver.quiescent_current_a",
-            self.driver.quiescent_current_a,
-        )?;
-        pos(
-            "motor.torque_constant_nm_per_a",
-            self.motor.torque_constant_nm_per_a,
-        )?;
-        pos("motor.gear_ratio", self.motor.gear_ratio)?;
-        if !(self.motor.efficiency > 0.0 && self.motor.efficiency <= 1.0) {
-            bad("motor.efficiency", self.motor.efficiency, "in (0, 1]")?;
-        }
-        nonneg(
-            "motor.winding_resistance_ohm",
-            self.motor.winding_resistance_ohm,
-        )?;
-        let n = &self.noise;
-        nonneg("noise.left_current_std_a", n.left_current_std_a)?;
-        nonneg("noise.right_current_std_a", n.right_current_std_a)?;
-        nonneg("noise.bus_std_v", n.bus_std_v)?;
-        nonneg("noise.yaw_std_rad", n.yaw_std_rad)?;
-        nonneg("noise.pitch_std_deg", n.pitch_std_deg)?;
-        for (key, v) in [
-            ("noise.manoeuvre_power_std", n.manoeuvre_power_std),
-            ("noise.run_power_std", n.run_power_std),
-        ] {
-            if !(0.0..=0.5).contains(&v) {
-                bad(key, v, "in [0, 0.5]")?;
-            }
-        }
-        let e = &self.effects;
-        nonneg("inner-drag.torque_nm", e.inner_drag.torque_nm)?;
-        pos("inner-drag.ramp_s", e.inner_drag.ramp_s)?;
-        let sb = &e.sinkage_bulldozing;
-        nonneg(
-            "sinkage-bulldozing.resistance_n_per_mm",
-            sb.resistance_n_per_mm,
-        )?;
-        nonneg(
-            "sinkage-bulldozing.counter_rotation_gain",
-            sb.counter_rotation_gain,
-        )?;
-        if let Err(err) = model_core::soil::SlipSinkage2d::new(sb.sinkage_params()) {
-            return Err(WorldError::Invalid {
-                origin: origin.to_string(),
-                key: "sinkage-bulldozing".into(),
-                reason: format!("sinkage parameters: {err}"),
-            });
-        }
-        if let Err(err) = model_core::soil::SandBulldozing::new(sb.soil()) {
-            return Err(WorldError::Invalid {
-                origin: origin.to_string(),
-                key: "sinkage-bulldozing".into(),
-                reason: format!("soil parameters: {err}"),
-            });
-        }
-        for (key, v) in [
-            ("angular-slip.at_zero", e.angular_slip.at_zero),
-            ("angular-slip.at_r_prime", e.angular_slip.at_r_prime),
-        ] {
-            if !(0.0..=0.95).contains(&v) {
-                bad(key, v, "in [0, 0.95]")?;
-            }
-        }
-        if let Some(b) = e.slip_track.slip_track_m {
-            pos("slip-track.slip_track_m", b)?;
-        }
-        nonneg("braked-inner.resistance_n", e.braked_inner.resistance_n)?;
-        fin("current-offset.left_a", e.current_offset.left_a)?;
-        fin("current-offset.right_a", e.current_offset.right_a)?;
-        let mh = &e.motor_heating;
-        pos(
-            "motor-heating.thermal_resistance_k_per_w",
-            mh.thermal_resistance_k_per_w,
-        )?;
-        pos("motor-heating.time_constant_s", mh.time_constant_s)?;
-        nonneg(
-            "motor-heating.resistance_coefficient_per_k",
-            mh.resistance_coefficient_per_k,
-        )?;
-        nonneg("slope.phi", e.slope.phi)?;
-        fin("slope.pitch_deg", e.slope.pitch_deg)?;
-        fin("slope.amplitude_deg", e.slope.amplitude_deg)?;
-        if e.slope.pitch_deg.abs() + e.slope.amplitude_deg.abs() > 45.0 {
-            bad(
-                "slope.pitch_deg",
-                e.slope.pitch_deg,
-                "within ±45° together with amplitude_deg",
-            )?;
-        }
-        pos("slope.wavelength_m", e.slope.wavelength_m)?;
-        Ok(())
     }
 }
 
@@ -624,6 +541,8 @@ struct WorldToml {
     driver: Driver,
     #[serde(default)]
     motor: Motor,
+    #[serde(default)]
+    structure: Structure,
     #[serde(default)]
     noise: Noise,
     #[serde(rename = "inner-drag")]
@@ -719,6 +638,7 @@ fn resolve(raw: WorldToml, origin: &str, base: Option<&Path>) -> Result<WorldCon
     world.battery = raw.battery;
     world.driver = raw.driver;
     world.motor = raw.motor;
+    world.structure = raw.structure;
     world.noise = raw.noise;
     let e = &mut world.effects;
     let mut set = |id: EffectId, on: Option<bool>| {

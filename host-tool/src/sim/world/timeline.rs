@@ -158,10 +158,11 @@ impl Timeline {
         } else {
             Sides::new(0.0, 0.0)
         };
-        let iq = world.driver.quiescent_current_a;
-        let v = world.battery.nominal_v - 2.0 * iq * world.battery.internal_resistance_ohm;
-        let idle = SideLoad {
-            current_a: iq,
+        let iq = world.driver.quiescent_a();
+        let v =
+            world.battery.nominal_v - (iq.left + iq.right) * world.battery.internal_resistance_ohm;
+        let idle = |current_a| SideLoad {
+            current_a,
             bus_v: v,
         };
         Self {
@@ -171,7 +172,7 @@ impl Timeline {
             truths,
             noise: world.noise,
             offset_a,
-            idle: Sides::new(idle, idle),
+            idle: Sides::new(idle(iq.left), idle(iq.right)),
         }
     }
 

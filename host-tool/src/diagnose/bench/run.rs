@@ -1,0 +1,291 @@
+//! One dataset end to end ([`run_dataset`]): its calibration and test runs simulated and
+//! sampled, validated into rows, diagnosed blind with the calibration runs passed as
+//! calibration — the diagnosis sees only the samples and the rover — and scored against the
+//! truth.
+
+use super::family::{DatasetClass, DatasetSpec, CALIBRATION_RUNS};
+use super::truth::{truth_of, Truth};
+use crate::diagnose::calibration::Calibration;
+use crate::diagnose::features::{self, TurnRow};
+use crate::diagnose::{DiagnoseError, Diagnosis};
+use crate::effect_id::EffectId;
+use crate::log::run_csv::RunSample;
+use crate::sim::world::{Timeline, WorldError};
+use crate::validate::{self, RunInput, ValidateError, ValidateOptions};
+use model_core::{Rover, Sides};
+use serde::Serialize;
+use std::time::Instant;
+
+/// The verdict label a structure-only dataset may also get right: the baseline does not fit
+/// its own calibration data.
+pub const BASELINE_MISFIT: &str = "baseline-misfit";
+
+/// Why a dataset could not be diagnosed.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// The world did not simulate the scenario.
+    #[error("simulation: {0}")]
+    World(#[from] WorldError),
+    /// Validation failed.
+    #[error("validation: {0}")]
+    Validate(#[from] ValidateError),
+    /// The diagnosis failed.
+    #[error("diagnosis: {0}")]
+    Diagnose(#[from] DiagnoseError),
+}
+
+/// A dataset's runs as the diagnosis sees them, and its truth.
+#[derive(Debug, Clone)]
+pub struct SimulatedDataset {
+    /// Each calibration run's samples.
+    pub calibration: Vec<Vec<RunSample>>,
+    /// Each test run's samples.
+    pub runs: Vec<Vec<RunSample>>,
+    /// The ground truth (over the test runs).
+    pub truth: Truth,
+}
+
+/// `timeline` sampled at `sample_hz` into run samples (what a recorder would log, without the
+/// board and the pty).
+pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
+    let step_us = 1_000_000 / sample_hz.max(1);
+    (0..=timeline.duration_us() / step_us)
+        .map(|i| {
+            let t_us = i * step_us;
+            let load = timeline.load_at(t_us);
+            let (yaw_rad, pitch_deg) = timeline.pose_at(t_us);
+            RunSample {
+                t_s: t_us as f64 * 1e-6,
+                bus_v: Sides::new(load.left.bus_v, load.right.bus_v),
+                current_a: Sides::new(load.left.current_a, load.right.current_a),
+                cmd_mps: timeline.command_at(t_us),
+                yaw_rad: Some(yaw_rad),
+                pitch_deg: Some(pitch_deg),
+            }
+        })
+        .collect()
+}
+
+/// Simulates the calibration and test runs of `spec` and works out its truth.
+pub fn simulate(spec: &DatasetSpec) -> Result<SimulatedDataset, DatasetError> {
+    let world = spec.world();
+    let cal = spec.calibration_scenario();
+    let calibration = (0..CALIBRATION_RUNS)
+        .map(|k| {
+            let t = world.simulate(&cal, spec.seed.wrapping_add(k as u64))?;
+            Ok(sample_run(&t, spec.sample_hz))
+        })
+        .collect::<Result<Vec<_>, WorldError>>()?;
+    let mut runs = Vec::new();
+    let mut truths = Vec::new();
+    for (k, scenario) in spec.test_scenarios().iter().enumerate() {
+        let seed = spec.seed.wrapping_add((CALIBRATION_RUNS + k) as u64);
+        let timeline = world.simulate(scenario, seed)?;
+        runs.push(sample_run(&timeline, spec.sample_hz));
+        truths.extend(timeline.manoeuvres().iter().cloned());
+    }
+    Ok(SimulatedDataset {
+        calibration,
+        runs,
+        truth: truth_of(spec.effect(), &truths),
+    })
+}
+
+/// The diagnosis' rows of the Husky's `runs` (samples only, as from run CSVs).
+pub fn rows_of(runs: &[Vec<RunSample>]) -> Result<Vec<TurnRow>, ValidateError> {
+    rows_for(&Rover::HUSKY_A200, runs, "run")
+}
+
+/// The diagnosis' rows of `rover`'s `runs`, named `{prefix}-{k}`.
+pub fn rows_for(
+    rover: &Rover,
+    runs: &[Vec<RunSample>],
+    prefix: &str,
+) -> Result<Vec<TurnRow>, ValidateError> {
+    let names: Vec<String> = (0..runs.len()).map(|k| format!("{prefix}-{k}")).collect();
+    let inputs: Vec<RunInput<'_>> = runs
+        .iter()
+        .zip(&names)
+        .map(|(s, n)| RunInput::from_samples(n, s))
+        .collect();
+    let report = validate::validate(rover, &inputs, &ValidateOptions::for_rover(rover))?;
+    let slices: Vec<&[RunSample]> = runs.iter().map(Vec::as_slice).collect();
+    Ok(features::rows(&report, &slices))
+}
+
+/// What the diagnosis said on one dataset, against its truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DatasetResult {
+    /// The dataset.
+    pub spec: DatasetSpec,
+    /// Its truth (`None` when it could not be simulated).
+    pub truth: Option<Truth>,
+    /// The diagnosed effect: a catalogue id, `none`, `ambiguous`, `baseline-misfit`, or `error`.
+    pub diagnosed: String,
+    /// The diagnosed regime (`error` on error).
+    pub diagnosed_regime: String,
+    /// Whether any gap was significant.
+    pub significant: bool,
+    /// The significant gaps (what made a control or a missed effect `ambiguous`).
+    pub significant_gaps: Vec<GapNote>,
+    /// The best candidate and its held-out shrink [%].
+    pub best_candidate: Option<(EffectId, f64)>,
+    /// Held-out shrink of the true effect, all rows [%]: the diagnosis' `heldout` entry for
+    /// all rows when it is about the true effect, else the true effect's candidate score.
+    pub true_effect_shrink_pct: Option<f64>,
+    /// Held-out shrink of the true effect in the true regime [%], when the diagnosis' held-out
+    /// figures are about the true effect.
+    pub true_regime_shrink_pct: Option<f64>,
+    /// The error, if any.
+    pub error: Option<String>,
+    /// Simulation, sampling and validation time [s].
+    pub simulate_s: f64,
+    /// Diagnosis time [s].
+    pub diagnose_s: f64,
+}
+
+impl DatasetResult {
+    /// The true class label (`none` for controls, `structure-only`).
+    pub fn true_label(&self) -> &'static str {
+        self.spec.class.label()
+    }
+
+    /// Whether the diagnosis named a catalogue effect.
+    pub fn named_an_effect(&self) -> bool {
+        EffectId::from_id(&self.diagnosed).is_some()
+    }
+
+    /// Whether the answer is right: the effect for effect datasets, `none` for controls,
+    /// `none` or `baseline-misfit` for structure-only datasets.
+    pub fn right(&self) -> bool {
+        match self.spec.class {
+            DatasetClass::Effect(e) => self.diagnosed == e.id(),
+            DatasetClass::Control => self.diagnosed == "none",
+            DatasetClass::StructureOnly => {
+                self.diagnosed == "none" || self.diagnosed == BASELINE_MISFIT
+            }
+        }
+    }
+
+    /// Whether the true effect was named.
+    pub fn named_right(&self) -> bool {
+        self.spec.effect().is_some() && self.right()
+    }
+
+    /// Whether the truth's peak extra power reaches the diagnosis' practical floor (no effect:
+    /// false).
+    pub fn detectable(&self) -> bool {
+        self.spec.effect().is_some()
+            && self
+                .truth
+                .as_ref()
+                .is_some_and(|t| t.peak_extra_power_w >= crate::diagnose::cv::PRACTICAL_FLOOR_W)
+    }
+
+    /// Whether the diagnosed regime is the true one.
+    pub fn regime_hit(&self) -> bool {
+        self.truth
+            .as_ref()
+            .is_some_and(|t| self.diagnosed_regime == t.regime)
+    }
+}
+
+/// A significant gap of a diagnosis.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GapNote {
+    /// Regime id.
+    pub regime: String,
+    /// `inner` or `outer`.
+    pub side: String,
+    /// Mean effective-power residual [W].
+    pub mean_w: f64,
+    /// Its 95 % bootstrap interval [W].
+    pub ci_w: (f64, f64),
+    /// Side observations.
+    pub n: usize,
+}
+
+/// Simulates and diagnoses one dataset.
+pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
+    let t0 = Instant::now();
+    let mut result = DatasetResult {
+        spec: spec.clone(),
+        truth: None,
+        diagnosed: "error".into(),
+        diagnosed_regime: "error".into(),
+        significant: false,
+        significant_gaps: Vec::new(),
+        best_candidate: None,
+        true_effect_shrink_pct: None,
+        true_regime_shrink_pct: None,
+        error: None,
+        simulate_s: 0.0,
+        diagnose_s: 0.0,
+    };
+    let rover = spec.rover.rover();
+    let rows = simulate(spec).and_then(|d| {
+        result.truth = Some(d.truth);
+        Ok((
+            rows_for(&rover, &d.calibration, "cal")?,
+            rows_for(&rover, &d.runs, "run")?,
+        ))
+    });
+    result.simulate_s = t0.elapsed().as_secs_f64();
+    let (cal_rows, rows) = match rows {
+        Ok(rows) => rows,
+        Err(e) => {
+            result.error = Some(e.to_string());
+            return result;
+        }
+    };
+    let t1 = Instant::now();
+    let diagnosis = crate::diagnose::diagnose_with(&rover, &rows, Calibration::Rows(&cal_rows));
+    result.diagnose_s = t1.elapsed().as_secs_f64();
+    match diagnosis {
+        Ok(d) => score(&mut result, &d),
+        Err(e) => result.error = Some(DatasetError::from(e).to_string()),
+    }
+    result
+}
+
+/// The verdict as the bench's label (`none`, `ambiguous`, `baseline-misfit` or an effect id):
+/// the one place that reads the diagnosis' verdict.
+fn verdict_label(d: &Diagnosis) -> String {
+    d.effect.clone()
+}
+
+/// Fills `result` from the diagnosis.
+fn score(result: &mut DatasetResult, d: &Diagnosis) {
+    result.diagnosed = verdict_label(d);
+    result.diagnosed_regime = d.regime.clone();
+    result.significant = d.significant;
+    result.significant_gaps = d
+        .gaps
+        .iter()
+        .filter(|g| g.significant)
+        .map(|g| GapNote {
+            regime: g.regime.id().into(),
+            side: g.side.id().into(),
+            mean_w: g.mean_w,
+            ci_w: g.ci_w,
+            n: g.n,
+        })
+        .collect();
+    result.best_candidate = d.candidates.first().map(|c| (c.effect, c.shrink_pct));
+    let Some(effect) = result.spec.effect() else {
+        return;
+    };
+    let about_truth = |regime: &str| {
+        d.heldout
+            .iter()
+            .find(|h| h.effect == effect && h.regime == regime)
+            .map(|h| h.shrink_pct)
+    };
+    result.true_effect_shrink_pct = about_truth("all").or_else(|| {
+        d.candidates
+            .iter()
+            .find(|c| c.effect == effect)
+            .map(|c| c.shrink_pct)
+    });
+    result.true_regime_shrink_pct = result.truth.as_ref().and_then(|t| about_truth(&t.regime));
+}

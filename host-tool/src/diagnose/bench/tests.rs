@@ -1,0 +1,262 @@
+//! Bench tests: the family draws what it says, the parts are disjoint, the truth follows the
+//! effect, and a small bench tabulates every dataset.
+
+use super::family::*;
+use super::*;
+use crate::effect_id::EffectId;
+use crate::sim::world::{DrivePower, PowerSplit, Side, WorldConfig};
+use std::collections::BTreeSet;
+
+fn both(datasets: usize, seed: u64) -> Vec<DatasetSpec> {
+    generate_all(&BenchOptions {
+        datasets,
+        seed,
+        threads: 1,
+        part: PartChoice::Both,
+    })
+}
+
+#[test]
+fn the_family_draws_what_it_says() {
+    let specs = generate(Part::Tuning, 200, 3);
+    assert_eq!(specs, generate(Part::Tuning, 200, 3));
+    assert_ne!(specs, generate(Part::Tuning, 200, 4));
+    for s in &specs {
+        let w = s.world();
+        w.validate("bench").expect("valid world");
+        // The class: exactly its effect on; controls default, structure-only not.
+        let on: Vec<EffectId> = EffectId::ALL
+            .into_iter()
+            .filter(|e| w.effects.is_enabled(*e))
+            .collect();
+        assert_eq!(on, s.effect().into_iter().collect::<Vec<_>>());
+        match s.class {
+            DatasetClass::Control => assert_eq!(s.structure, DEFAULT_STRUCTURE),
+            DatasetClass::StructureOnly => assert_ne!(s.structure, DEFAULT_STRUCTURE),
+            DatasetClass::Effect(_) => assert!((0.5..=2.0).contains(&s.strength)),
+        }
+        // The structure reaches the world.
+        let st = s.structure;
+        assert_eq!(
+            w.structure.split,
+            match st.split {
+                SplitDraw::Default | SplitDraw::Rt => PowerSplit::Threshold,
+                SplitDraw::Regen => PowerSplit::Regenerating,
+                SplitDraw::Clamp => PowerSplit::Clamped,
+            }
+        );
+        assert_eq!(
+            w.structure.threshold_radius_m.is_some(),
+            st.split == SplitDraw::Rt
+        );
+        if let Some(rt) = w.structure.threshold_radius_m {
+            assert!((10.0..=30.0).contains(&rt));
+        }
+        assert_eq!(w.structure.angular_slip > 0.0, st.slip);
+        assert!(w.structure.angular_slip <= 0.15);
+        assert_eq!(w.structure.drive_power == DrivePower::Mechanical, st.losses);
+        let iq = w.driver.quiescent_a();
+        match st.standstill {
+            Standstill::Zero => assert!(iq.left <= 0.005 && iq.right <= 0.005),
+            Standstill::Uneven => assert!((0.02..=0.12).contains(&iq.left)),
+            Standstill::Default => assert_eq!(iq.left, iq.right),
+        }
+        assert_eq!(w.rover, s.rover.rover());
+        assert!((0.2..=0.5).contains(&s.v_c_mps));
+        assert!((50..=200).contains(&s.sample_hz));
+        assert!((0.01..=0.1).contains(&s.current_std_a.left));
+        if s.effect() == Some(EffectId::MotorHeating) {
+            assert!(s.repeats >= 8);
+        }
+        if s.effect() == Some(EffectId::InnerDrag) {
+            assert_eq!(s.rover, RoverKind::HuskyA200);
+        }
+        // The layout: 2 calibration runs of 4 manoeuvres, 3 shuffled test runs of 9.
+        assert_eq!(s.calibration_scenario().manoeuvres.len(), 4);
+        let tests = s.test_scenarios();
+        assert_eq!(tests.len(), TEST_RUNS);
+        for order in &s.test_orders {
+            let set: BTreeSet<usize> = order.iter().copied().collect();
+            assert_eq!(set.len(), TEST_R_OVER_R_PRIME.len());
+        }
+    }
+    for class in (0..DatasetClass::COUNT).map(DatasetClass::of) {
+        assert_eq!(specs.iter().filter(|s| s.class == class).count(), 20);
+    }
+    // Every switch value, both rovers, both sides and a spread of v_c are drawn.
+    let labels: BTreeSet<&str> = specs.iter().map(|s| s.structure_label.as_str()).collect();
+    for part in ["rt", "regen", "clamp", "slip", "loss", "iq0", "iq-uneven"] {
+        assert!(
+            labels.iter().any(|l| l.split('+').any(|p| p == part)),
+            "{part}"
+        );
+    }
+    assert!(specs.iter().any(|s| s.rover == RoverKind::ArgoJ5));
+    assert!(specs.iter().any(|s| s.direction == Side::Right));
+    assert!(specs.iter().any(|s| s.v_c_mps < 0.25) && specs.iter().any(|s| s.v_c_mps > 0.45));
+    assert_eq!(
+        specs
+            .iter()
+            .map(|s| s.sample_hz)
+            .collect::<BTreeSet<_>>()
+            .len(),
+        SAMPLE_HZ.len()
+    );
+}
+
+#[test]
+fn held_out_and_tuning_parts_are_disjoint() {
+    let specs = both(300, 1);
+    let (tuning, held): (Vec<_>, Vec<_>) = specs.iter().partition(|s| s.part == Part::Tuning);
+    assert_eq!((tuning.len(), held.len()), (300, 300));
+    for s in &tuning {
+        assert!(!is_held_out(s.rover, s.direction, &s.structure), "{s:?}");
+        assert_ne!(s.structure, HELD_OUT_STRUCTURE);
+        assert!(!(s.rover == RoverKind::ArgoJ5 && s.direction == Side::Right));
+    }
+    for s in &held {
+        assert!(is_held_out(s.rover, s.direction, &s.structure), "{s:?}");
+    }
+    // Both held-out kinds occur, and no dataset seed is shared.
+    assert!(held.iter().any(|s| s.structure == HELD_OUT_STRUCTURE));
+    assert!(held
+        .iter()
+        .any(|s| s.rover == RoverKind::ArgoJ5 && s.direction == Side::Right));
+    let seeds: BTreeSet<u64> = tuning.iter().map(|s| s.seed).collect();
+    assert!(held.iter().all(|s| !seeds.contains(&s.seed)));
+    // The held-out part of seed 1 is drawn from bench seed 1001.
+    assert_eq!(
+        held.into_iter().cloned().collect::<Vec<_>>(),
+        generate(Part::HeldOut, 300, 1)
+    );
+    assert_ne!(
+        generate(Part::HeldOut, 10, 1),
+        generate(Part::Tuning, 10, 1001)
+    );
+}
+
+#[test]
+fn the_argo_world_file_is_the_family_argo() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let file = crate::sim::world::load_world(&root.join("worlds/argo-j5-hard-ground.toml"))
+        .expect("loads");
+    let family = RoverKind::ArgoJ5.world();
+    assert_eq!(file.rover, family.rover);
+    assert_eq!(file.icr, family.icr);
+    assert!((file.motor.gear_ratio - family.motor.gear_ratio).abs() < 1e-4);
+    assert_eq!(file.motor.efficiency, family.motor.efficiency);
+    assert_eq!(file.effects.slip_track, family.effects.slip_track);
+    let rover = crate::rover::load_rover(&root.join("rovers/argo-j5.toml")).expect("rover");
+    assert_eq!(rover, ARGO_J5);
+}
+
+#[test]
+fn scaling_an_effect_scales_its_parameters() {
+    let base = WorldConfig::hard_ground();
+    let mut w = base;
+    scale_effect(&mut w, EffectId::SlipTrack, 2.0);
+    let b = w.effects.slip_track.slip_track_m.expect("set");
+    let controller = f64::from(base.rover.slip_track_m);
+    let hard = crate::sim::world::effects::HARD_GROUND_SLIP_TRACK_M;
+    assert!((b - (controller + 2.0 * (hard - controller))).abs() < 1e-12);
+    let mut w = base;
+    scale_effect(&mut w, EffectId::InnerDrag, 0.5);
+    assert_eq!(w.effects.inner_drag.torque_nm, 3.5);
+    let mut w = base;
+    scale_effect(&mut w, EffectId::AngularSlip, 4.0);
+    assert_eq!(w.effects.angular_slip.at_r_prime, 0.95);
+}
+
+/// Truth regimes on Husky datasets: braked-inner and angular-slip at R', current-offset and
+/// slope `all`, no effect `none`.
+#[test]
+fn truth_regimes_follow_where_the_extra_power_goes() {
+    let truth = |effect: EffectId| {
+        let mut s = generate(Part::Tuning, 100, 11)
+            .into_iter()
+            .find(|s| s.effect() == Some(effect) && s.rover == RoverKind::HuskyA200)
+            .expect("class present");
+        s.repeats = 1;
+        s.structure = DEFAULT_STRUCTURE;
+        (s.threshold_radius_m, s.angular_slip, s.motor_losses) = (None, 0.0, None);
+        simulate(&s).expect("simulates").truth
+    };
+    assert_eq!(truth(EffectId::BrakedInner).regime, "at-r-prime");
+    assert_eq!(truth(EffectId::AngularSlip).regime, "at-r-prime");
+    let t = truth(EffectId::CurrentOffset);
+    assert_eq!(t.regime, "all", "{t:?}");
+    assert_eq!(truth(EffectId::Slope).regime, "all");
+    assert_eq!(truth_of(None, []).regime, "none");
+}
+
+/// A small bench over both parts (20 datasets each: every class twice): the tables add up,
+/// every dataset is evaluated, and the scoring follows the class.
+#[test]
+fn small_bench_tabulates_every_dataset_per_part() {
+    let opts = BenchOptions {
+        datasets: 20,
+        seed: 7,
+        threads: 2,
+        part: PartChoice::Both,
+    };
+    let report = run_bench(&opts);
+    assert_eq!(report.datasets.len(), 40);
+    assert_eq!(report.parts.len(), 2);
+    for p in &report.parts {
+        let s = &p.summary;
+        assert_eq!(p.confusion.total(), 20);
+        assert_eq!(
+            (s.controls, s.structure_only, s.effect_datasets),
+            (2, 2, 16)
+        );
+        assert_eq!(s.errors, 0, "{report}");
+        for c in &p.per_class {
+            // Every dataset in exactly one column: a structure-only `baseline-misfit` is right.
+            let misfit_wrong = if c.label == "structure-only" {
+                0
+            } else {
+                c.misfit
+            };
+            let sum = c.right + c.ambiguous + misfit_wrong + c.none + c.wrong + c.errors;
+            assert_eq!(sum, c.n, "{c:?}");
+        }
+        let per_structure: usize = p.per_structure.iter().map(|st| st.n).sum();
+        assert_eq!(per_structure, 20);
+        // Each switch partitions the part once.
+        for switch in [
+            "split=",
+            "slip=",
+            "loss=",
+            "standstill=",
+            "rover=",
+            "turns=",
+        ] {
+            let n: usize = p
+                .per_switch
+                .iter()
+                .filter(|st| st.structure.starts_with(switch))
+                .map(|st| st.n)
+                .sum();
+            assert_eq!(n, 20, "{switch}");
+        }
+    }
+    for r in &report.datasets {
+        let expected = match r.spec.class {
+            DatasetClass::Effect(e) => r.diagnosed == e.id(),
+            DatasetClass::Control => r.diagnosed == "none",
+            DatasetClass::StructureOnly => {
+                r.diagnosed == "none" || r.diagnosed == run::BASELINE_MISFIT
+            }
+        };
+        assert_eq!(r.right(), expected);
+        assert!(r.diagnose_s > 0.0);
+    }
+    let text = report.to_text();
+    assert!(text.contains("=== tuning part"), "{text}");
+    assert!(text.contains("=== held-out part"), "{text}");
+    assert!(text.contains("structure-only"), "{text}");
+    let json = report.to_json();
+    assert_eq!(json["parts"][1]["part"], "held-out");
+    assert_eq!(json["parts"][0]["summary"]["controls"], 2);
+    assert_eq!(json["datasets"].as_array().map(Vec::len), Some(40));
+}
