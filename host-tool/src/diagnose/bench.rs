@@ -624,8 +624,8 @@ pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
 
 /// Fills `result` from the diagnosis.
 fn score(result: &mut DatasetResult, d: &Diagnosis) {
-    result.diagnosed = d.effect.clone();
-    result.diagnosed_regime = d.regime.clone();
+    result.diagnosed = d.effect.label().to_owned();
+    result.diagnosed_regime = d.regime.label().to_owned();
     result.significant = d.significant;
     result.significant_gaps = d
         .gaps

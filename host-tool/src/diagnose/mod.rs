@@ -19,6 +19,7 @@ pub mod model_file;
 pub mod observe;
 pub mod report;
 pub mod summary;
+pub mod verdict;
 
 #[cfg(test)]
 mod tests;
@@ -33,6 +34,7 @@ pub use gaps::{Gap, Part, WhereAnalysis};
 use model_core::kinematics::Regime;
 use model_core::Rover;
 use serde::Serialize;
+pub use verdict::{Scope, Verdict};
 
 /// Why there is no diagnosis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -54,10 +56,10 @@ pub enum DiagnoseError {
 /// What the diagnosis concluded.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Diagnosis {
-    /// A catalogue id, `none` (no significant gap) or `ambiguous`.
-    pub effect: String,
+    /// A catalogue effect, `none` (no significant gap), `ambiguous` or `baseline-misfit`.
+    pub effect: Verdict,
     /// The regime of the largest significant gap, or `all`.
-    pub regime: String,
+    pub regime: Scope,
     /// Whether the model departs significantly: a gap is significant, or the named effect
     /// removes at least the practical floor of held-out RMS (a departure seen as spread).
     pub significant: bool,
@@ -107,8 +109,8 @@ pub struct StepwiseStep {
 /// Held-out RMS before and after one effect over a set of rows.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HeldOutError {
-    /// `all` or a regime id.
-    pub regime: String,
+    /// All rows, the gap rows or one regime.
+    pub regime: Scope,
     /// The effect added.
     pub effect: EffectId,
     /// RMS before [W].
@@ -123,8 +125,8 @@ impl Diagnosis {
     /// The JSON: `effect`, `regime`, `significant`, `candidates`, `metric`, `heldout`
     /// (all rows; `heldout_per_regime` has the rest), plus the baseline and the gaps.
     pub fn to_json(&self) -> serde_json::Value {
-        let all = self.heldout.iter().find(|h| h.regime == "all");
-        let gap = self.heldout.iter().find(|h| h.regime == "gap");
+        let all = self.heldout.iter().find(|h| h.regime == Scope::All);
+        let gap = self.heldout.iter().find(|h| h.regime == Scope::Gap);
         serde_json::json!({
             "effect": self.effect,
             "regime": self.regime,
@@ -156,7 +158,7 @@ impl Diagnosis {
                 "error_after": h.error_after,
                 "shrink_pct": h.shrink_pct,
             })),
-            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all" && h.regime != "gap").collect::<Vec<_>>(),
+            "heldout_per_regime": self.heldout.iter().filter(|h| matches!(h.regime, Scope::Regime(_))).collect::<Vec<_>>(),
             "secondary": self.secondary,
             "baseline": self.baseline,
             "gaps": self.gaps,
@@ -267,16 +269,16 @@ pub fn diagnose_with(
             removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= cv::PRACTICAL_FLOOR_W
         });
     let significant = gap_significant || explains_spread;
-    let effect = if !significant {
-        "none".to_owned()
-    } else {
-        selected.map_or("ambiguous", |e| e.id()).to_owned()
+    let effect = match selected {
+        _ if !significant => Verdict::None,
+        Some(e) => Verdict::Effect(e),
+        None => Verdict::Ambiguous,
     };
-    let named = named_id(&effect);
+    let named = effect.effect();
     let added = named.unwrap_or(candidates[0].effect);
     let mut heldout = Vec::new();
     if let Some(after) = cv::heldout_residuals(rover, rows, primary, &[added], calibration)? {
-        let mut push = |regime: String, keep: &dyn Fn(usize) -> bool| {
+        let mut push = |regime: Scope, keep: &dyn Fn(usize) -> bool| {
             if let (Some(b), Some(a)) = (
                 cv::mean_square(&before, keep),
                 cv::mean_square(&after, keep),
@@ -291,12 +293,12 @@ pub fn diagnose_with(
                 });
             }
         };
-        push("all".to_owned(), &|_| true);
+        push(Scope::All, &|_| true);
         if !gap_regimes.is_empty() {
-            push("gap".to_owned(), &|i| gap_regimes.contains(&rows[i].regime));
+            push(Scope::Gap, &|i| gap_regimes.contains(&rows[i].regime));
         }
         for regime in Regime::ALL {
-            push(regime.id().to_owned(), &|i| rows[i].regime == regime);
+            push(Scope::Regime(regime), &|i| rows[i].regime == regime);
         }
     }
 
@@ -308,8 +310,8 @@ pub fn diagnose_with(
     };
 
     let regime = match named {
-        Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => "all".to_owned(),
-        Some(_) => largest_gap.map_or("all", |r| r.id()).to_owned(),
+        Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => Scope::All,
+        Some(_) => largest_gap.map_or(Scope::All, Scope::Regime),
         // Without a named effect: `all` when every regime present has a significant gap.
         None => {
             let present = Regime::ALL
@@ -317,9 +319,9 @@ pub fn diagnose_with(
                 .filter(|r| rows.iter().any(|row| row.regime == **r))
                 .count();
             if gap_regimes.len() == present {
-                "all".to_owned()
+                Scope::All
             } else {
-                largest_gap.map_or("all", |r| r.id()).to_owned()
+                largest_gap.map_or(Scope::All, Scope::Regime)
             }
         }
     };
@@ -564,7 +566,8 @@ impl Diagnosis {
     /// The effects of the diagnosed model: the named one, then its stepwise secondaries; empty
     /// for `none` and `ambiguous`.
     pub fn model_effects(&self) -> Vec<EffectId> {
-        named_id(&self.effect)
+        self.effect
+            .effect()
             .into_iter()
             .chain(self.secondary.iter().map(|s| s.effect))
             .collect()
@@ -573,9 +576,5 @@ impl Diagnosis {
 
 /// The effect a diagnosis named, if it named one.
 pub fn named_effect(d: &Diagnosis) -> Option<EffectId> {
-    named_id(&d.effect)
-}
-
-fn named_id(effect: &str) -> Option<EffectId> {
-    EffectId::from_id(effect)
+    d.effect.effect()
 }

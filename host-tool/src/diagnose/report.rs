@@ -111,7 +111,7 @@ fn markdown_table(rows: &[Vec<String>]) -> String {
 /// secondary effects, where the model departs (the "where" analysis) and the data's caveats.
 pub fn findings(d: &Diagnosis) -> Vec<String> {
     let mut out = Vec::new();
-    if let Some(h) = d.heldout.iter().find(|h| h.regime == "gap") {
+    if let Some(h) = d.heldout.iter().find(|h| h.regime == super::Scope::Gap) {
         let regimes: Vec<&str> = d.gap_regimes.iter().map(|r| r.id()).collect();
         out.push(format!(
             "where the gap is ({}): held-out error {:.2} → {:.2} W with {} ({:.0} % closed)",
@@ -151,7 +151,7 @@ pub fn findings(d: &Diagnosis) -> Vec<String> {
 
 /// The one-line conclusion.
 pub fn conclusion(d: &Diagnosis) -> String {
-    let all = d.heldout.iter().find(|h| h.regime == "all");
+    let all = d.heldout.iter().find(|h| h.regime == super::Scope::All);
     let heldout = |h: &super::HeldOutError| {
         format!(
             "held-out error {:.2} → {:.2} W ({:.0} % of the gap closed), {}",
@@ -164,7 +164,7 @@ pub fn conclusion(d: &Diagnosis) -> String {
     if let Some(effect) = named_effect(d) {
         let h = all.map_or_else(|| d.scheme.id().to_owned(), heldout);
         format!("diagnosis: {effect} @ {} (significant gap); {h}", d.regime)
-    } else if d.effect == "ambiguous" {
+    } else if d.effect == super::Verdict::Ambiguous {
         let best: Vec<String> = d
             .candidates
             .iter()
@@ -299,7 +299,7 @@ fn regime_rows(d: &Diagnosis) -> Vec<Vec<String>> {
         .to_vec()];
     for h in &d.heldout {
         rows.push(vec![
-            h.regime.clone(),
+            h.regime.label().to_owned(),
             format!("{:.2}", h.error_before),
             format!("{:.2}", h.error_after),
             format!("{:.0} %", h.shrink_pct),
@@ -543,7 +543,7 @@ mod tests {
         assert_eq!(t.matches("<- named").count(), 1, "{t}");
 
         let mut ambiguous = d.clone();
-        ambiguous.effect = "ambiguous".into();
+        ambiguous.effect = super::super::Verdict::Ambiguous;
         let c = conclusion(&ambiguous);
         let (a, b) = (d.candidates[0].effect.id(), d.candidates[1].effect.id());
         assert!(

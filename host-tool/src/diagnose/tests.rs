@@ -275,7 +275,7 @@ fn strengths_and_noise_grid_names_no_wrong_effect() {
                     || (effect == EffectId::BrakedInner && scale < 1.0);
                 if known_gap {
                     assert!(
-                        ["ambiguous", "none", effect.id()].contains(&d.effect.as_str()),
+                        ["ambiguous", "none", effect.id()].contains(&d.effect.label()),
                         "{line}"
                     );
                 } else {
