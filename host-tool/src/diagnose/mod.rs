@@ -7,6 +7,7 @@
 //! with bootstrap significance ([`cv::bootstrap_mean`]) → every [`effects`] term scored by
 //! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection.
 
+pub mod adequacy;
 pub mod baseline;
 pub mod bench;
 pub mod calibration;
