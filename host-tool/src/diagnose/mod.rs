@@ -26,6 +26,7 @@ pub mod verdict;
 mod tests;
 
 use crate::effect_id::EffectId;
+use adequacy::Adequacy;
 use baseline::{Baseline, BaselineError};
 use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};
@@ -66,6 +67,12 @@ pub struct Diagnosis {
     pub significant: bool,
     /// The baseline on all calibration rows.
     pub baseline: Baseline,
+    /// The baseline's lack-of-fit test on its calibration manoeuvres.
+    pub adequacy: Adequacy,
+    /// The same test of the baseline plus the selected effect, when the baseline alone misfits
+    /// and an effect was selected (an effect acting on the calibration manoeuvres too may
+    /// explain the misfit; if it does not, the verdict is `baseline-misfit`).
+    pub adequacy_with_effect: Option<Adequacy>,
     /// Effective-power gaps per regime and side (the selection's input).
     pub gaps: Vec<Gap>,
     /// Where the model departs: every metric, side, phase and run-time group.
@@ -162,6 +169,8 @@ impl Diagnosis {
             "heldout_per_regime": self.heldout.iter().filter(|h| matches!(h.regime, Scope::Regime(_))).collect::<Vec<_>>(),
             "secondary": self.secondary,
             "baseline": self.baseline,
+            "adequacy": self.adequacy,
+            "adequacy_with_effect": self.adequacy_with_effect,
             "gaps": self.gaps,
             "where": self.where_,
             "calibration": self.calibration,
@@ -199,6 +208,9 @@ pub fn diagnose_with(
         return Err(DiagnoseError::NoRows);
     }
     let baseline = calibration.baseline(rover, rows)?;
+    let adequacy = adequacy::test(&calibration.manoeuvres(rows), 2, |r, s| {
+        baseline.side_power_w(r, s)
+    });
 
     let gaps = gaps::effective_gaps(&baseline, rows);
     let where_ = gaps::analyse(&baseline, rows);
@@ -270,11 +282,31 @@ pub fn diagnose_with(
             removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= cv::PRACTICAL_FLOOR_W
         });
     let significant = gap_significant || explains_spread;
-    let effect = match selected {
+    let verdict = match selected {
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
         None => Verdict::Ambiguous,
     };
+    // The stepwise selection starts from the selected effect's own score (the selection may
+    // have named it on the growth score, ahead of the best on effective power alone). The
+    // adequacy check then judges the whole diagnosed model (a world may carry several effects).
+    let mut secondary_steps = match verdict
+        .effect()
+        .and_then(|e| candidates.iter().find(|c| c.effect == e))
+    {
+        Some(score) => stepwise(rover, rows, primary, calibration, &before, score, &allowed)?,
+        None => Vec::new(),
+    };
+    let model_effects: Vec<EffectId> = verdict
+        .effect()
+        .into_iter()
+        .chain(secondary_steps.iter().map(|s| s.effect))
+        .collect();
+    let (effect, adequacy_with_effect) =
+        against_adequate_baseline(rover, rows, calibration, &adequacy, verdict, &model_effects)?;
+    if effect.effect().is_none() {
+        secondary_steps.clear();
+    }
     let named = effect.effect();
     let added = named.unwrap_or(candidates[0].effect);
     let mut heldout = Vec::new();
@@ -303,13 +335,6 @@ pub fn diagnose_with(
         }
     }
 
-    // The stepwise selection starts from the named effect's own score (the selection may have
-    // named it on the growth score, ahead of the best on effective power alone).
-    let secondary_steps = match named.and_then(|e| candidates.iter().find(|c| c.effect == e)) {
-        Some(score) => stepwise(rover, rows, primary, calibration, &before, score, &allowed)?,
-        None => Vec::new(),
-    };
-
     let regime = match named {
         Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => Scope::All,
         Some(_) => largest_gap.map_or(Scope::All, Scope::Regime),
@@ -332,6 +357,8 @@ pub fn diagnose_with(
         regime,
         significant,
         baseline,
+        adequacy,
+        adequacy_with_effect,
         gaps,
         where_,
         scheme: primary,
@@ -342,6 +369,47 @@ pub fn diagnose_with(
         calibration: calibration.note(rows),
         notes,
     })
+}
+
+/// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its
+/// calibration manoeuvres (or cannot be tested); when it misfits, `baseline-misfit` unless the
+/// diagnosed model (`model_effects`: the selected effect and its stepwise secondaries), fitted
+/// jointly, makes the calibration manoeuvres fit or removes most of
+/// their lack of fit (then the effect acts on them too, e.g. a current offset, a slope or
+/// sinkage on point turns, and the misfit was mostly the effect's; its own shape need not be
+/// ours exactly).
+fn against_adequate_baseline(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    adequacy: &Adequacy,
+    verdict: Verdict,
+    model_effects: &[EffectId],
+) -> Result<(Verdict, Option<Adequacy>), DiagnoseError> {
+    if adequacy.adequate != Some(false) {
+        return Ok((verdict, None));
+    }
+    if verdict.effect().is_none() {
+        return Ok((Verdict::BaselineMisfit, None));
+    }
+    let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    let params = 2 + effects::model_params(model_effects);
+    let with = adequacy::test(&calibration.manoeuvres(rows), params, |r, s| {
+        baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx)
+    });
+    let verdict = if with.adequate == Some(false)
+        && adequacy::explained_fraction(adequacy, &with) < adequacy::EXPLAINED_BY_EFFECT
+    {
+        Verdict::BaselineMisfit
+    } else {
+        verdict
+    };
+    Ok((verdict, Some(with)))
 }
 
 /// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
