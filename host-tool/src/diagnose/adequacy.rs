@@ -203,11 +203,11 @@ pub fn test(
             model: model[0] + model[1],
         });
         if row.observed == Observed::Sides {
-            for side in 0..2 {
+            for (obs, model) in row.sides.iter().zip(model) {
                 sides.push(Obs {
-                    key: (r, v, label.clone(), Some(row.sides[side].role)),
-                    measured: row.sides[side].avg_power_w,
-                    model: model[side],
+                    key: (r, v, label.clone(), Some(obs.role)),
+                    measured: obs.avg_power_w,
+                    model,
                 });
             }
         }

@@ -48,7 +48,7 @@ fn row(
     };
     let regime = match r_over_r_prime {
         r if r.is_infinite() => Regime::Straight,
-        r if r == 0.0 => Regime::Point,
+        0.0 => Regime::Point,
         _ => Regime::AboveRPrime,
     };
     TurnRow {
