@@ -339,6 +339,29 @@ fn suggestions(a: &Adequacy, rows: &[&TurnRow]) -> Vec<String> {
             );
         }
     }
+    // Straights below the model while turns sit above it: a no-intercept model linear in the
+    // drive force overprices the low-force manoeuvres when the loss grows faster than linearly
+    // (copper loss ∝ I², thesis Eq 1.17–1.19), or when the inner side does not regenerate.
+    let straight = a
+        .total
+        .groups_fit
+        .iter()
+        .find(|g| g.manoeuvre.starts_with("straight"));
+    let turns_above = a
+        .total
+        .groups_fit
+        .iter()
+        .filter(|g| !g.manoeuvre.starts_with("straight"))
+        .any(|g| g.mean_residual_w > g.floor_w);
+    if let Some(g) = straight.filter(|g| g.mean_residual_w < -g.floor_w && turns_above) {
+        out.push(format!(
+            "straights draw {:.1} W less than the model ({:.0} %) while turns draw more: power \
+             grows faster than linearly with the drive force (copper loss ∝ I², thesis Eq \
+             1.17–1.19) or the inner side does not regenerate",
+            -g.mean_residual_w,
+            -100.0 * g.mean_residual_w / g.model_w.abs().max(f64::MIN_POSITIVE)
+        ));
+    }
     // A constant angular slip on the calibration turns (thesis Fig 6.7 on hard ground).
     let slips: Vec<f64> = rows.iter().filter_map(|r| r.angular_slip).collect();
     if let Some((mean, lo, hi)) = super::cv::t_interval(&slips) {
