@@ -360,6 +360,31 @@ pub fn student_t_cdf(t: f64, dof: usize) -> Result<f64, FitError> {
     Ok(if t >= 0.0 { 1.0 - tail } else { tail })
 }
 
+/// Upper tail of Fisher's F with (`d1`, `d2`) degrees of freedom: P(F > f) =
+/// I_x(d2/2, d1/2), x = d2/(d2 + d1 f) (the p-value of a lack-of-fit or nested-model F test).
+pub fn f_upper_tail(f: f64, d1: usize, d2: usize) -> Result<f64, FitError> {
+    if d1 == 0 || d2 == 0 {
+        return Err(FitError::InvalidParameter);
+    }
+    if f.is_nan() {
+        return Err(FitError::NonFinite);
+    }
+    if f <= 0.0 {
+        return Ok(1.0);
+    }
+    if !f.is_finite() {
+        return Ok(0.0);
+    }
+    let (n1, n2) = (d1 as f64, d2 as f64);
+    let denom = n2 + n1 * f;
+    Ok(regularized_incomplete_beta(
+        n2 / 2.0,
+        n1 / 2.0,
+        n2 / denom,
+        n1 * f / denom,
+    ))
+}
+
 /// The p-quantile of Student's t with `dof` degrees of freedom (p in (0, 1), dof ≥ 1): the t in
 /// the seed's 95 % bounds b ± t(0.975, n − N) SE (Tables 4.2, 4.3).
 ///
@@ -737,6 +762,31 @@ mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn f_upper_tail_matches_tables_and_t() {
+        // F(0.95; 2, 4) = 6.944272, F(0.99; 6, 8) = 6.370681 (standard F tables).
+        assert!(close(
+            f_upper_tail(6.944_272, 2, 4).expect("valid"),
+            0.05,
+            1e-6
+        ));
+        assert!(close(
+            f_upper_tail(6.370_681, 6, 8).expect("valid"),
+            0.01,
+            1e-6
+        ));
+        // F(1, ν) is t² with ν degrees of freedom.
+        let t = 2.228_139;
+        let two_tail = 2.0 * (1.0 - student_t_cdf(t, 10).expect("valid"));
+        assert!(close(
+            f_upper_tail(t * t, 1, 10).expect("valid"),
+            two_tail,
+            1e-9
+        ));
+        assert_eq!(f_upper_tail(0.0, 3, 3), Ok(1.0));
+        assert_eq!(f_upper_tail(1.0, 0, 3), Err(FitError::InvalidParameter));
     }
 
     #[test]

@@ -18,7 +18,7 @@ use model_core::Sides;
 use serde::Serialize;
 
 /// Which side of the turn a side was on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SideRole {
     /// The side towards the turning centre.

@@ -7,6 +7,7 @@
 //! with bootstrap significance ([`cv::bootstrap_mean`]) → every [`effects`] term scored by
 //! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection.
 
+pub mod adequacy;
 pub mod baseline;
 pub mod bench;
 pub mod calibration;
@@ -20,11 +21,13 @@ pub mod model_file;
 pub mod observe;
 pub mod report;
 pub mod summary;
+pub mod verdict;
 
 #[cfg(test)]
 mod tests;
 
 use crate::effect_id::EffectId;
+use adequacy::Adequacy;
 use baseline::{Baseline, BaselineError};
 use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};
@@ -34,6 +37,7 @@ pub use gaps::{Gap, Part, WhereAnalysis};
 use model_core::kinematics::Regime;
 use model_core::Rover;
 use serde::Serialize;
+pub use verdict::{Scope, Verdict};
 
 /// Why there is no diagnosis.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -55,15 +59,21 @@ pub enum DiagnoseError {
 /// What the diagnosis concluded.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Diagnosis {
-    /// A catalogue id, `none` (no significant gap) or `ambiguous`.
-    pub effect: String,
+    /// A catalogue effect, `none` (no significant gap), `ambiguous` or `baseline-misfit`.
+    pub effect: Verdict,
     /// The regime of the largest significant gap, or `all`.
-    pub regime: String,
+    pub regime: Scope,
     /// Whether the model departs significantly: a gap is significant, or the named effect
     /// removes at least the practical floor of held-out RMS (a departure seen as spread).
     pub significant: bool,
     /// The baseline on all calibration rows.
     pub baseline: Baseline,
+    /// The baseline's lack-of-fit test on its calibration manoeuvres.
+    pub adequacy: Adequacy,
+    /// The same test of the baseline plus the selected effect, when the baseline alone misfits
+    /// and an effect was selected (an effect acting on the calibration manoeuvres too may
+    /// explain the misfit; if it does not, the verdict is `baseline-misfit`).
+    pub adequacy_with_effect: Option<Adequacy>,
     /// Effective-power gaps per regime and side (the selection's input).
     pub gaps: Vec<Gap>,
     /// Where the model departs: every metric, side, phase and run-time group.
@@ -108,8 +118,8 @@ pub struct StepwiseStep {
 /// Held-out RMS before and after one effect over a set of rows.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HeldOutError {
-    /// `all` or a regime id.
-    pub regime: String,
+    /// All rows, the gap rows or one regime.
+    pub regime: Scope,
     /// The effect added.
     pub effect: EffectId,
     /// RMS before [W].
@@ -124,8 +134,8 @@ impl Diagnosis {
     /// The JSON: `effect`, `regime`, `significant`, `candidates`, `metric`, `heldout`
     /// (all rows; `heldout_per_regime` has the rest), plus the baseline and the gaps.
     pub fn to_json(&self) -> serde_json::Value {
-        let all = self.heldout.iter().find(|h| h.regime == "all");
-        let gap = self.heldout.iter().find(|h| h.regime == "gap");
+        let all = self.heldout.iter().find(|h| h.regime == Scope::All);
+        let gap = self.heldout.iter().find(|h| h.regime == Scope::Gap);
         serde_json::json!({
             "effect": self.effect,
             "regime": self.regime,
@@ -157,9 +167,11 @@ impl Diagnosis {
                 "error_after": h.error_after,
                 "shrink_pct": h.shrink_pct,
             })),
-            "heldout_per_regime": self.heldout.iter().filter(|h| h.regime != "all" && h.regime != "gap").collect::<Vec<_>>(),
+            "heldout_per_regime": self.heldout.iter().filter(|h| matches!(h.regime, Scope::Regime(_))).collect::<Vec<_>>(),
             "secondary": self.secondary,
             "baseline": self.baseline,
+            "adequacy": self.adequacy,
+            "adequacy_with_effect": self.adequacy_with_effect,
             "gaps": self.gaps,
             "where": self.where_,
             "calibration": self.calibration,
@@ -197,6 +209,9 @@ pub fn diagnose_with(
         return Err(DiagnoseError::NoRows);
     }
     let baseline = calibration.baseline(rover, rows)?;
+    let adequacy = adequacy::test(&calibration.manoeuvres(rows), 2, |r, s| {
+        baseline.side_power_w(r, s)
+    });
 
     // One significance rule for the gaps and the "where" groups (gaps::judge); groups without
     // repeats are judged row by row by leave-one-out prediction intervals.
@@ -277,16 +292,36 @@ pub fn diagnose_with(
     if let (Some(c), false) = (spread, gap_significant) {
         where_.add_heldout_departure(c, primary);
     }
-    let effect = if !significant {
-        "none".to_owned()
-    } else {
-        selected.map_or("ambiguous", |e| e.id()).to_owned()
+    let verdict = match selected {
+        _ if !significant => Verdict::None,
+        Some(e) => Verdict::Effect(e),
+        None => Verdict::Ambiguous,
     };
-    let named = named_id(&effect);
+    // The stepwise selection starts from the selected effect's own score (the selection may
+    // have named it on the growth score, ahead of the best on effective power alone). The
+    // adequacy check then judges the whole diagnosed model (a world may carry several effects).
+    let mut secondary_steps = match verdict
+        .effect()
+        .and_then(|e| candidates.iter().find(|c| c.effect == e))
+    {
+        Some(score) => stepwise(rover, rows, primary, calibration, &before, score, &allowed)?,
+        None => Vec::new(),
+    };
+    let model_effects: Vec<EffectId> = verdict
+        .effect()
+        .into_iter()
+        .chain(secondary_steps.iter().map(|s| s.effect))
+        .collect();
+    let (effect, adequacy_with_effect) =
+        against_adequate_baseline(rover, rows, calibration, &adequacy, verdict, &model_effects)?;
+    if effect.effect().is_none() {
+        secondary_steps.clear();
+    }
+    let named = effect.effect();
     let added = named.unwrap_or(candidates[0].effect);
     let mut heldout = Vec::new();
     if let Some(after) = cv::heldout_residuals(rover, rows, primary, &[added], calibration)? {
-        let mut push = |regime: String, keep: &dyn Fn(usize) -> bool| {
+        let mut push = |regime: Scope, keep: &dyn Fn(usize) -> bool| {
             if let (Some(b), Some(a)) = (
                 cv::mean_square(&before, keep),
                 cv::mean_square(&after, keep),
@@ -301,25 +336,18 @@ pub fn diagnose_with(
                 });
             }
         };
-        push("all".to_owned(), &|_| true);
+        push(Scope::All, &|_| true);
         if !gap_regimes.is_empty() {
-            push("gap".to_owned(), &|i| gap_regimes.contains(&rows[i].regime));
+            push(Scope::Gap, &|i| gap_regimes.contains(&rows[i].regime));
         }
         for regime in Regime::ALL {
-            push(regime.id().to_owned(), &|i| rows[i].regime == regime);
+            push(Scope::Regime(regime), &|i| rows[i].regime == regime);
         }
     }
 
-    // The stepwise selection starts from the named effect's own score (the selection may have
-    // named it on the growth score, ahead of the best on effective power alone).
-    let secondary_steps = match named.and_then(|e| candidates.iter().find(|c| c.effect == e)) {
-        Some(score) => stepwise(rover, rows, primary, calibration, &before, score, &allowed)?,
-        None => Vec::new(),
-    };
-
     let regime = match named {
-        Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => "all".to_owned(),
-        Some(_) => largest_gap.map_or("all", |r| r.id()).to_owned(),
+        Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => Scope::All,
+        Some(_) => largest_gap.map_or(Scope::All, Scope::Regime),
         // Without a named effect: `all` when every regime present has a significant gap.
         None => {
             let present = Regime::ALL
@@ -327,9 +355,9 @@ pub fn diagnose_with(
                 .filter(|r| rows.iter().any(|row| row.regime == **r))
                 .count();
             if gap_regimes.len() == present {
-                "all".to_owned()
+                Scope::All
             } else {
-                largest_gap.map_or("all", |r| r.id()).to_owned()
+                largest_gap.map_or(Scope::All, Scope::Regime)
             }
         }
     };
@@ -339,6 +367,8 @@ pub fn diagnose_with(
         regime,
         significant,
         baseline,
+        adequacy,
+        adequacy_with_effect,
         gaps,
         where_,
         scheme: primary,
@@ -349,6 +379,47 @@ pub fn diagnose_with(
         calibration: calibration.note(rows),
         notes,
     })
+}
+
+/// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its
+/// calibration manoeuvres (or cannot be tested); when it misfits, `baseline-misfit` unless the
+/// diagnosed model (`model_effects`: the selected effect and its stepwise secondaries), fitted
+/// jointly, makes the calibration manoeuvres fit or removes most of
+/// their lack of fit (then the effect acts on them too, e.g. a current offset, a slope or
+/// sinkage on point turns, and the misfit was mostly the effect's; its own shape need not be
+/// ours exactly).
+fn against_adequate_baseline(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    adequacy: &Adequacy,
+    verdict: Verdict,
+    model_effects: &[EffectId],
+) -> Result<(Verdict, Option<Adequacy>), DiagnoseError> {
+    if adequacy.adequate != Some(false) {
+        return Ok((verdict, None));
+    }
+    if verdict.effect().is_none() {
+        return Ok((Verdict::BaselineMisfit, None));
+    }
+    let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    let params = 2 + effects::model_params(model_effects);
+    let with = adequacy::test(&calibration.manoeuvres(rows), params, |r, s| {
+        baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx)
+    });
+    let verdict = if with.adequate == Some(false)
+        && adequacy::explained_fraction(adequacy, &with) < adequacy::EXPLAINED_BY_EFFECT
+    {
+        Verdict::BaselineMisfit
+    } else {
+        verdict
+    };
+    Ok((verdict, Some(with)))
 }
 
 /// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
@@ -574,7 +645,8 @@ impl Diagnosis {
     /// The effects of the diagnosed model: the named one, then its stepwise secondaries; empty
     /// for `none` and `ambiguous`.
     pub fn model_effects(&self) -> Vec<EffectId> {
-        named_id(&self.effect)
+        self.effect
+            .effect()
             .into_iter()
             .chain(self.secondary.iter().map(|s| s.effect))
             .collect()
@@ -583,9 +655,5 @@ impl Diagnosis {
 
 /// The effect a diagnosis named, if it named one.
 pub fn named_effect(d: &Diagnosis) -> Option<EffectId> {
-    named_id(&d.effect)
-}
-
-fn named_id(effect: &str) -> Option<EffectId> {
-    EffectId::from_id(effect)
+    d.effect.effect()
 }

@@ -3,6 +3,7 @@
 //! ([`write_out_dir`]: `diagnosis.md` with the figures embedded, the figures as PNG and SVG, and
 //! `model.toml` for `plan --model`). Every file is written atomically.
 
+use super::adequacy::{Adequacy, LackOfFit, Observation};
 use super::baseline::BaselineError;
 use super::calibration::{Calibration, CalibrationSource};
 use super::cv::{self, PRACTICAL_FLOOR_W};
@@ -111,7 +112,7 @@ fn markdown_table(rows: &[Vec<String>]) -> String {
 /// secondary effects, where the model departs (the "where" analysis) and the data's caveats.
 pub fn findings(d: &Diagnosis) -> Vec<String> {
     let mut out = Vec::new();
-    if let Some(h) = d.heldout.iter().find(|h| h.regime == "gap") {
+    if let Some(h) = d.heldout.iter().find(|h| h.regime == super::Scope::Gap) {
         let regimes: Vec<&str> = d.gap_regimes.iter().map(|r| r.id()).collect();
         out.push(format!(
             "where the gap is ({}): held-out error {:.2} → {:.2} W with {} ({:.0} % closed)",
@@ -127,6 +128,23 @@ pub fn findings(d: &Diagnosis) -> Vec<String> {
             "also: + {} → held-out error {:.2} W ({:.0} % of the baseline's closed; penalised \
              {:.3} → {:.3} W²)",
             s.effect, s.heldout_error_after, s.shrink_pct, s.penalised_mse_before, s.penalised_mse
+        ));
+    }
+    out.push(format!("adequacy: {}", adequacy_summary(&d.adequacy)));
+    for g in misfit_groups(&d.adequacy) {
+        out.push(format!("  misfit: {g}"));
+    }
+    out.extend(
+        d.adequacy
+            .suggestions
+            .iter()
+            .map(|s| format!("  suggests: {s}")),
+    );
+    if let Some(with) = &d.adequacy_with_effect {
+        out.push(format!(
+            "adequacy with {}: {}",
+            d.effect,
+            adequacy_summary(with)
         ));
     }
     out.push(format!("where: {}", d.where_.statement));
@@ -151,7 +169,7 @@ pub fn findings(d: &Diagnosis) -> Vec<String> {
 
 /// The one-line conclusion.
 pub fn conclusion(d: &Diagnosis) -> String {
-    let all = d.heldout.iter().find(|h| h.regime == "all");
+    let all = d.heldout.iter().find(|h| h.regime == super::Scope::All);
     let heldout = |h: &super::HeldOutError| {
         format!(
             "held-out error {:.2} → {:.2} W ({:.0} % of the gap closed), {}",
@@ -161,10 +179,22 @@ pub fn conclusion(d: &Diagnosis) -> String {
             d.scheme.id()
         )
     };
-    if let Some(effect) = named_effect(d) {
+    if d.effect == super::Verdict::BaselineMisfit {
+        let best = d.candidates.first().map_or(String::new(), |c| {
+            format!(
+                " (the best candidate, {}, would have closed {:.0} %; not named)",
+                c.effect, c.shrink_pct
+            )
+        });
+        format!(
+            "diagnosis: baseline-misfit: the hard-ground model does not fit its own calibration \
+             manoeuvres beyond their repeat noise ({}), so no effect can be named against it{best}",
+            adequacy_summary(&d.adequacy)
+        )
+    } else if let Some(effect) = named_effect(d) {
         let h = all.map_or_else(|| d.scheme.id().to_owned(), heldout);
         format!("diagnosis: {effect} @ {} (significant gap); {h}", d.regime)
-    } else if d.effect == "ambiguous" {
+    } else if d.effect == super::Verdict::Ambiguous {
         let best: Vec<String> = d
             .candidates
             .iter()
@@ -206,6 +236,76 @@ pub fn conclusion(d: &Diagnosis) -> String {
              hard-ground model explains the runs"
         )
     }
+}
+
+/// One lack-of-fit test in words: F, df, p, repeat σ and the RMS misfit.
+fn lack_of_fit_line(t: &LackOfFit) -> String {
+    let what = match t.observation {
+        Observation::Total => "total",
+        Observation::PerSide => "per side",
+    };
+    match (t.f, t.p_value) {
+        (Some(f), Some(p)) => format!(
+            "{what}: lack of fit {:.1} W RMS against repeat σ {:.2} W, F({}, {}) = {:.1}, p = {:.2e} \
+             ({})",
+            t.lack_of_fit_rms_w,
+            t.repeat_sigma_w,
+            t.df_lack_of_fit,
+            t.df_pure_error,
+            f,
+            p,
+            match t.adequate() {
+                Some(false) => "misfit",
+                _ => "fits",
+            }
+        ),
+        _ => format!(
+            "{what}: not testable ({} manoeuvres, {} observations: no repeats or no spare \
+             manoeuvres)",
+            t.groups, t.n
+        ),
+    }
+}
+
+/// The adequacy of the baseline on its calibration manoeuvres, in one line.
+pub fn adequacy_summary(a: &Adequacy) -> String {
+    let verdict = match a.adequate {
+        Some(true) => "the baseline fits its calibration manoeuvres",
+        Some(false) => "the baseline MISFITS its calibration manoeuvres",
+        None => "adequacy could not be tested (the calibration manoeuvres were not repeated)",
+    };
+    let mut parts = vec![lack_of_fit_line(&a.total)];
+    parts.extend(a.per_side.as_ref().map(lack_of_fit_line));
+    format!("{verdict}; {}", parts.join("; "))
+}
+
+/// The calibration manoeuvres (and sides) beyond the practical floor of a misfitting test.
+fn misfit_groups(a: &Adequacy) -> Vec<String> {
+    if a.adequate != Some(false) {
+        return Vec::new();
+    }
+    [Some(&a.total), a.per_side.as_ref()]
+        .into_iter()
+        .flatten()
+        .filter(|t| t.adequate() == Some(false))
+        .flat_map(|t| {
+            t.groups_fit
+                .iter()
+                .filter(|g| g.beyond_floor())
+                .map(move |g| {
+                    format!(
+                        "{} {}: measured {:.1} W, model {:.1} W ({:+.1} W; repeat σ {:.2} W, n {})",
+                        g.manoeuvre,
+                        g.side.map_or("total", |s| s.id()),
+                        g.mean_measured_w,
+                        g.model_w,
+                        g.mean_residual_w,
+                        t.repeat_sigma_w,
+                        g.n
+                    )
+                })
+        })
+        .collect()
 }
 
 /// Where the baseline came from, in words.
@@ -299,7 +399,7 @@ fn regime_rows(d: &Diagnosis) -> Vec<Vec<String>> {
         .to_vec()];
     for h in &d.heldout {
         rows.push(vec![
-            h.regime.clone(),
+            h.regime.label().to_owned(),
             format!("{:.2}", h.error_before),
             format!("{:.2}", h.error_after),
             format!("{:.0} %", h.shrink_pct),
@@ -543,7 +643,7 @@ mod tests {
         assert_eq!(t.matches("<- named").count(), 1, "{t}");
 
         let mut ambiguous = d.clone();
-        ambiguous.effect = "ambiguous".into();
+        ambiguous.effect = super::super::Verdict::Ambiguous;
         let c = conclusion(&ambiguous);
         let (a, b) = (d.candidates[0].effect.id(), d.candidates[1].effect.id());
         assert!(

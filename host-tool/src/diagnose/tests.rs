@@ -169,6 +169,68 @@ fn control_world_has_no_significant_gap() {
     assert!(!d.significant);
 }
 
+/// A world whose inner side never regenerates (thesis Section 1.1.3: negative power put to 0),
+/// made from the control's rows: the baseline's tread couple misfits its own wide calibration
+/// turns, the control does not, and the report says where and suggests the clamp. Known
+/// limitation (NOTES.md): the verdict is not yet `baseline-misfit` here, because the sinkage
+/// term (2 parameters + growth) absorbs the clamp on the calibration manoeuvres and so passes
+/// the with-effect adequacy check; the baseline family (a clamp member) is the fix.
+#[test]
+fn a_no_regeneration_world_misfits_its_calibration() {
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 10 + k))
+        .collect();
+    let rows = rows_of(&runs);
+    let control = super::diagnose(&HUSKY, &rows).expect("diagnoses");
+    assert_eq!(
+        control.adequacy.adequate,
+        Some(true),
+        "{}",
+        summary(&control)
+    );
+    let clamped: Vec<TurnRow> = rows
+        .iter()
+        .cloned()
+        .map(|mut r| {
+            for s in &mut r.sides {
+                s.avg_power_w = s.avg_power_w.max(0.0);
+                s.effective_power_w = s.effective_power_w.max(0.0);
+                s.max_power_w = s.max_power_w.max(0.0);
+                s.energy_j = s.energy_j.max(0.0);
+            }
+            r
+        })
+        .collect();
+    let d = super::diagnose(&HUSKY, &clamped).expect("diagnoses");
+    let line = format!(
+        "{} | {} | with {:?}",
+        summary(&d),
+        super::report::adequacy_summary(&d.adequacy),
+        d.adequacy_with_effect
+            .as_ref()
+            .map(super::report::adequacy_summary)
+    );
+    assert_eq!(d.adequacy.adequate, Some(false), "{line}");
+    assert!(
+        d.adequacy
+            .suggestions
+            .iter()
+            .any(|s| s.contains("no-regeneration")),
+        "{:?}",
+        d.adequacy.suggestions
+    );
+    // Whatever is named must have passed the with-effect check, and the JSON says so.
+    let json = d.to_json();
+    assert_eq!(json["adequacy"]["adequate"], false);
+    match d.effect {
+        super::Verdict::Effect(_) => {
+            let with = d.adequacy_with_effect.as_ref().expect("checked");
+            assert_ne!(with.adequate, Some(false), "{line}");
+        }
+        other => assert_eq!(other, super::Verdict::BaselineMisfit, "{line}"),
+    }
+}
+
 /// The effects the catalogue names on their default strengths (hard ground, 3 runs of ~40 s),
 /// with the regime: `all` for the terms acting on every manoeuvre. `motor-heating` needs long
 /// runs (see `motor_heating_is_named_on_long_runs`).
@@ -275,7 +337,8 @@ fn strengths_and_noise_grid_names_no_wrong_effect() {
                     || (effect == EffectId::BrakedInner && scale < 1.0);
                 if known_gap {
                     assert!(
-                        ["ambiguous", "none", effect.id()].contains(&d.effect.as_str()),
+                        ["ambiguous", "none", "baseline-misfit", effect.id()]
+                            .contains(&d.effect.label()),
                         "{line}"
                     );
                 } else {
@@ -372,9 +435,26 @@ fn sand_world_primary_and_secondary_effects() {
             )
         })
         .collect();
-    let line = format!("{} | secondary: {}", summary(&d), secondary.join(", "));
+    let adequacy = crate::diagnose::report::adequacy_summary(&d.adequacy);
+    let line = format!(
+        "{} | secondary: {} | {adequacy} | with: {:?}",
+        summary(&d),
+        secondary.join(", "),
+        d.adequacy_with_effect
+            .as_ref()
+            .map(|w| crate::diagnose::adequacy::explained_fraction(&d.adequacy, w))
+    );
     println!("{line}");
     assert!(d.significant, "{line}");
+    // The hard-ground baseline does not hold on sand's own calibration manoeuvres (sinkage
+    // on point turns): then the honest verdict is `baseline-misfit`, and the best candidate is
+    // still one of the world's effects.
+    if d.effect == super::Verdict::BaselineMisfit {
+        assert_eq!(d.adequacy.adequate, Some(false), "{line}");
+        assert!(world.effects.is_enabled(d.candidates[0].effect), "{line}");
+        assert!(d.secondary.is_empty(), "{line}");
+        return;
+    }
     let Some(primary) = super::named_effect(&d) else {
         panic!("no primary: {line}");
     };

@@ -251,13 +251,13 @@ pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
 /// The verdict as the bench's label (`none`, `ambiguous`, `baseline-misfit` or an effect id):
 /// the one place that reads the diagnosis' verdict.
 fn verdict_label(d: &Diagnosis) -> String {
-    d.effect.clone()
+    d.effect.label().to_owned()
 }
 
 /// Fills `result` from the diagnosis.
 fn score(result: &mut DatasetResult, d: &Diagnosis) {
     result.diagnosed = verdict_label(d);
-    result.diagnosed_regime = d.regime.clone();
+    result.diagnosed_regime = d.regime.label().to_owned();
     result.significant = d.significant;
     result.significant_gaps = d
         .gaps
