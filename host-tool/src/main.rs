@@ -173,9 +173,11 @@ enum Command {
     /// closes. Table on the terminal; JSON with --json; report, figures and a `plan --model`
     /// file with --out.
     Diagnose(DiagnoseArgs),
-    /// Checks `diagnose` on simulated datasets whose effect it is not told: each carries one
-    /// catalogue effect (random strength, noise, speed, repeat variation, perturbed terrain) or
-    /// none; prints the confusion matrix, the regime hit rate and the median held-out shrink.
+    /// Checks `diagnose` on simulated datasets whose effect and structure it is not told, drawn
+    /// from a world family (power split, constant angular slip, motor losses, standstill draw,
+    /// Husky or Argo, turn direction, speed, rate, noise): each carries one catalogue effect,
+    /// none (control) or only a non-default structure; prints per part (tuning, held-out) the
+    /// confusion matrix, accuracy per structure, the regime hit rate and the median shrink.
     DiagnoseBench(DiagnoseBenchArgs),
     /// Energy of the optimal CLC path (arc – line – arc) against the PLP path (point turn –
     /// line – point turn) between two poses (paper Eq 23–50). Headings are in the path frame:
