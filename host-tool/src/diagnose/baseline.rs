@@ -61,6 +61,12 @@ pub struct Baseline {
     /// Copper-loss coefficient: the side draws c·F² on top of its motor power, F = P/V its
     /// traction force [W/N²]; 0 unless `structure.copper_loss`.
     pub copper_w_per_n2: f64,
+    /// The terrain-wide constant angular slip of the calibration turns (thesis Fig. 6.7: a
+    /// constant offset between actual and expected turn time on hard ground), the same at every
+    /// calibration radius; 0 when not significant or not the same ([`family`]). Turns take
+    /// 1/(1 − s₀) of their expected time, so the model's effective power of a turn is
+    /// P/(1 − s₀); only a slip beyond it is an effect.
+    pub turn_slip: f64,
     /// Leave-one-run-out RMS error of the chosen member on the calibration manoeuvres' average
     /// power [W]; `None` with fewer than 2 calibration runs (the plain member is used).
     pub cv_rmse_w: Option<f64>,
@@ -297,6 +303,7 @@ impl Baseline {
             n: 0,
             structure,
             copper_w_per_n2: c,
+            turn_slip: 0.0,
             cv_rmse_w: None,
         }
     }
@@ -325,14 +332,25 @@ impl Baseline {
         self.side_power_w(row, 0) + self.side_power_w(row, 1)
     }
 
-    /// Measured effective minus model power, per side (inner/outer order of the row) [W]; NaN
-    /// for a total-only row (see [`Baseline::observed_residuals_w`]).
+    /// The model's effective power E/T_expected of one side: its power over the turn's time
+    /// with the calibration's constant slip [W].
+    pub fn effective_side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
+        let p = self.side_power_w(row, side);
+        if row.is_straight() || !row.turned_from_yaw || self.turn_slip == 0.0 {
+            p
+        } else {
+            p / (1.0 - self.turn_slip)
+        }
+    }
+
+    /// Measured effective minus model effective power, per side (inner/outer order of the
+    /// row) [W]; NaN for a total-only row (see [`Baseline::observed_residuals_w`]).
     pub fn residual_w(&self, row: &TurnRow) -> [f64; 2] {
-        [0, 1].map(|s| row.sides[s].effective_power_w - self.side_power_w(row, s))
+        [0, 1].map(|s| row.sides[s].effective_power_w - self.effective_side_power_w(row, s))
     }
 
     /// Measured effective minus model power of each observation of `row`: per side, or the
-    /// total of a total-only row [W].
+    /// total of a total-only row (average power: no duration) [W].
     pub fn observed_residuals_w(&self, row: &TurnRow) -> Residuals {
         if row.is_total_only() {
             Residuals::total(row.effective_power_w() - self.power_w(row))

@@ -456,6 +456,7 @@ mod tests {
             n: 10,
             structure: crate::diagnose::baseline::Structure::PLAIN,
             copper_w_per_n2: 0.0,
+            turn_slip: 0.0,
             cv_rmse_w: None,
         };
         let at = Conditions {

@@ -101,9 +101,10 @@ fn cv_errors(
 pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
     let key = key_of(rover, calibration);
     let memo = CHOSEN.with(|c| c.borrow().iter().find(|(k, _)| *k == key).map(|(_, v)| *v));
-    if let Some((structure, cv_rmse_w)) = memo {
+    if let Some((structure, cv_rmse_w, turn_slip)) = memo {
         let mut b = Baseline::fit_member(rover, calibration, structure)?;
         b.cv_rmse_w = cv_rmse_w;
+        b.turn_slip = turn_slip;
         return Ok(b);
     }
     let b = choose_uncached(rover, calibration)?;
@@ -112,7 +113,7 @@ pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, Basel
         if c.len() >= MEMO_CAPACITY {
             c.remove(0);
         }
-        c.push((key, (b.structure, b.cv_rmse_w)));
+        c.push((key, (b.structure, b.cv_rmse_w, b.turn_slip)));
     });
     Ok(b)
 }
@@ -138,8 +139,8 @@ fn key_of(rover: &Rover, calibration: &[&TurnRow]) -> Key {
     key
 }
 
-/// A remembered choice: the member and its CV RMS error [W].
-type Choice = (Structure, Option<f64>);
+/// A remembered choice: the member, its CV RMS error [W] and the turn slip.
+type Choice = (Structure, Option<f64>, f64);
 
 /// Calibration sets remembered per thread.
 const MEMO_CAPACITY: usize = 16;
@@ -184,7 +185,47 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
     let mut b = fit_best(rover, calibration, &chosen.0)
         .map_or_else(|| Baseline::fit_plain(rover, calibration), Ok)?;
     b.cv_rmse_w = Some(chosen.1.sqrt());
+    b.turn_slip = constant_turn_slip(&level).unwrap_or(0.0);
     Ok(b)
+}
+
+/// Smallest constant slip taken into the baseline (below it, timing noise).
+const MIN_TURN_SLIP: f64 = 0.01;
+
+/// Largest spread of the calibration radii's mean slips around their common mean for the slip
+/// to count as constant (a radius-dependent slip is the `angular-slip` effect).
+const MAX_SLIP_SPREAD: f64 = 0.02;
+
+/// The calibration turns' common angular slip (Eq 6.3) when it is significant (95 % t interval
+/// above 0), at least [`MIN_TURN_SLIP`], and the same at every calibration radius within
+/// [`MAX_SLIP_SPREAD`].
+fn constant_turn_slip(level: &[&TurnRow]) -> Option<f64> {
+    let turns: Vec<&TurnRow> = level
+        .iter()
+        .copied()
+        .filter(|r| !r.is_straight() && r.turned_from_yaw && r.angular_slip.is_some())
+        .collect();
+    let slips: Vec<f64> = turns.iter().filter_map(|r| r.angular_slip).collect();
+    let (mean, lo, _) = crate::diagnose::cv::t_interval(&slips)?;
+    if !(lo > 0.0 && mean >= MIN_TURN_SLIP && mean < 1.0) {
+        return None;
+    }
+    let mut radii: Vec<i64> = turns
+        .iter()
+        .map(|r| (r.r_over_r_prime * 100.0).round() as i64)
+        .collect();
+    radii.sort_unstable();
+    radii.dedup();
+    let same = radii.iter().all(|&k| {
+        let at: Vec<f64> = turns
+            .iter()
+            .filter(|r| (r.r_over_r_prime * 100.0).round() as i64 == k)
+            .filter_map(|r| r.angular_slip)
+            .collect();
+        let m = at.iter().sum::<f64>() / at.len() as f64;
+        (m - mean).abs() <= MAX_SLIP_SPREAD
+    });
+    same.then_some(mean)
 }
 
 /// Mean and its standard error; `None` with fewer than 2 values.
