@@ -207,7 +207,7 @@ fn constant_turn_slip(level: &[&TurnRow]) -> Option<f64> {
         .collect();
     let slips: Vec<f64> = turns.iter().filter_map(|r| r.angular_slip).collect();
     let (mean, lo, _) = crate::diagnose::cv::t_interval(&slips)?;
-    if !(lo > 0.0 && mean >= MIN_TURN_SLIP && mean < 1.0) {
+    if !(lo > 0.0 && (MIN_TURN_SLIP..1.0).contains(&mean)) {
         return None;
     }
     let mut radii: Vec<i64> = turns
