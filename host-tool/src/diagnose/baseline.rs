@@ -258,7 +258,8 @@ impl Baseline {
             // The first pass fits the unclamped, copper-free regressors.
             let prev = (i > 0).then_some(&current);
             let x_of = |row: &TurnRow, side: usize| current_regressors(prev, row, side, structure);
-            let result = if structure.copper_loss {
+            // The first pass has no copper regressor yet (it comes from the previous fit).
+            let result = if structure.copper_loss && i > 0 {
                 solve::<3>(calibration, |r, s| x_of(r, s))
             } else {
                 solve::<2>(calibration, |r, s| {

@@ -2,7 +2,7 @@
 //! world with a misfit the model has no term for fail, and one run cannot be tested.
 
 use super::*;
-use crate::diagnose::baseline::{Baseline, Split};
+use crate::diagnose::baseline::{Baseline, Split, Structure};
 use crate::diagnose::cv::SplitMix64;
 use crate::diagnose::features::{Observed, SideObs};
 use model_core::kinematics::Regime;
@@ -181,4 +181,31 @@ fn without_repeats_adequacy_is_not_tested() {
     assert_eq!(a.adequate, None);
     assert_eq!(a.total.p_value, None);
     assert_eq!(a.total.df_pure_error, 0);
+}
+
+/// The copper-loss fit (not a family member, see `baseline::family::members`) recovers the
+/// coefficient of a world whose sides add c·F², F = P/V the traction force.
+#[test]
+fn the_copper_member_recovers_its_coefficient() {
+    const C: f64 = 1e-3;
+    let copper = |vi: f64, vo: f64| {
+        let p = couple(vi, vo);
+        [
+            p[0] + C * (p[0] / vi).powi(2),
+            p[1] + C * (p[1] / vo).powi(2),
+        ]
+    };
+    let rows = calibration(2, &copper);
+    let refs: Vec<&TurnRow> = rows.iter().collect();
+    let structure = Structure {
+        copper_loss: true,
+        ..Structure::PLAIN
+    };
+    let b = Baseline::fit_member(&HUSKY, &refs, structure).expect("fits");
+    assert!((b.copper_w_per_n2 - C).abs() < 0.2 * C, "{b:?}");
+    let plain = Baseline::fit_plain(&HUSKY, &refs).expect("fits");
+    assert!(
+        b.residual_std_w < 0.5 * plain.residual_std_w,
+        "{b:?} {plain:?}"
+    );
 }

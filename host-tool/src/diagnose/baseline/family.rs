@@ -1,6 +1,6 @@
 //! The baseline family (issue 10, part 2): the per-side split of the skid power (regenerating,
-//! clamped, or returning a fraction of the generated power) with or without copper loss ∝ I²,
-//! chosen on the calibration manoeuvres by leave-one-run-out cross-validation of their average
+//! clamped, or returning a fraction of the generated power; copper loss is fitted by
+//! [`Baseline::fit_member`] but not a member, see [`members`]), chosen on the calibration manoeuvres by leave-one-run-out cross-validation of their average
 //! power. The standstill draw is not a member: it is measured, not fitted (see
 //! [`quiescent_draw_w`](super::quiescent_draw_w)).
 //!
@@ -26,14 +26,6 @@ const RETURNED_GRID: [f64; 4] = [0.3, 0.5, 0.7, 0.85];
 
 /// The family in parsimony order (fewest parameters first; ties: listed order).
 fn members() -> Vec<Vec<Structure>> {
-    let with_copper = |v: &[Structure]| -> Vec<Structure> {
-        v.iter()
-            .map(|s| Structure {
-                copper_loss: true,
-                ..*s
-            })
-            .collect()
-    };
     let regen = [Structure::PLAIN];
     let clamp = [Structure {
         split: Split::Returning { fraction: 0.0 },
@@ -46,10 +38,13 @@ fn members() -> Vec<Vec<Structure>> {
             copper_loss: false,
         })
         .collect();
-    let mut out = vec![regen.to_vec(), clamp.to_vec(), returning.clone()];
-    out.push(with_copper(&regen));
-    out.push(with_copper(&clamp));
-    out.push(with_copper(&returning));
+    // Copper loss (`Structure::copper_loss`, fitted by `Baseline::fit_member`) is not in the
+    // family: measured as a member it absorbed part of a current offset and of point-turn
+    // sinkage (our unit tests' current-offset and sand worlds turned `ambiguous`; the
+    // independent generator's dev seeds fell from 39/48 to 35/48 effects right), while our
+    // bench's copper-loss worlds gained 3/48. The returning member carries most of the
+    // regeneration-efficiency misfit that copper loss + efficiency make.
+    let mut out = vec![regen.to_vec(), clamp.to_vec(), returning];
     out.sort_by_key(|m| m[0].parameters());
     out
 }
