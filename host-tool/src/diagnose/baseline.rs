@@ -15,6 +15,8 @@
 //!
 //! [`features`]: super::features
 
+pub mod family;
+
 use super::features::{SideRole, TurnRow};
 use super::observe::{self, Residuals};
 use model_core::fit::LinearFit;
@@ -54,6 +56,76 @@ pub struct Baseline {
     pub residual_std_w: f64,
     /// Side observations in the fit.
     pub n: usize,
+    /// The family member chosen on the calibration manoeuvres ([`family`]).
+    pub structure: Structure,
+    /// Copper-loss coefficient: the side draws c·F² on top of its motor power, F = P/V its
+    /// traction force [W/N²]; 0 unless `structure.copper_loss`.
+    pub copper_w_per_n2: f64,
+    /// The terrain-wide constant angular slip of the calibration turns (thesis Fig. 6.7: a
+    /// constant offset between actual and expected turn time on hard ground), the same at every
+    /// calibration radius; 0 when not significant or not the same ([`family`]). Turns take
+    /// 1/(1 − s₀) of their expected time, so the model's effective power of a turn is
+    /// P/(1 − s₀); only a slip beyond it is an effect.
+    pub turn_slip: f64,
+    /// Leave-one-run-out RMS error of the chosen member on the calibration manoeuvres' average
+    /// power [W]; `None` with fewer than 2 calibration runs (the plain member is used).
+    pub cv_rmse_w: Option<f64>,
+}
+
+/// How the skid power is split per side (the baseline family's split members).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum Split {
+    /// The tread couple ±a: the inner side regenerates for R > R' (the plain model).
+    Regenerating,
+    /// The tread couple with each side's negative (generated) power scaled by the fraction the
+    /// driver returns to the bus: 0 is the thesis' Section 1.1.3 clamp ("any negative power
+    /// … put to 0", drivers that cannot regenerate); between 0 and 1 a regenerating driver
+    /// with its efficiency on both conversions (P_m·η returned where P_m/η is drawn).
+    Returning {
+        /// Fraction of the generated power returned (0 = clamped).
+        fraction: f64,
+    },
+}
+
+/// A member of the baseline family: the split and whether copper loss ∝ I² is modelled.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Structure {
+    /// Per-side split of the skid power.
+    pub split: Split,
+    /// Whether each side adds c·(P/V)² (copper loss ∝ torque², Eq 1.18–1.19).
+    pub copper_loss: bool,
+}
+
+impl Structure {
+    /// The paper's model as the diagnosis always had it.
+    pub const PLAIN: Structure = Structure {
+        split: Split::Regenerating,
+        copper_loss: false,
+    };
+
+    /// Fitted parameters (a, G, the returned fraction, c): the parsimony order of the family.
+    pub fn parameters(&self) -> usize {
+        let grid = match self.split {
+            Split::Regenerating => 0,
+            Split::Returning { fraction } => usize::from(fraction > 0.0),
+        };
+        2 + grid + usize::from(self.copper_loss)
+    }
+
+    /// Short label (`regenerating`, `clamped+copper`, …).
+    pub fn label(&self) -> String {
+        let split = match self.split {
+            Split::Regenerating => "regenerating",
+            Split::Returning { fraction } if fraction <= 0.0 => "clamped",
+            Split::Returning { .. } => "returning",
+        };
+        if self.copper_loss {
+            format!("{split}+copper")
+        } else {
+            split.to_string()
+        }
+    }
 }
 
 /// The skid feature of a side: −V_i for the inner, V_o for the outer side, 0 on a straight [m/s].
@@ -68,46 +140,192 @@ pub fn skid_feature_mps(row: &TurnRow, side: usize) -> f64 {
     }
 }
 
+/// (P/V)², the copper-loss regressor of a side drawing motor power `motor_w` at its commanded
+/// speed: the square of its traction force, ∝ torque² ∝ motor current² (Eq 1.18–1.19: I²R
+/// depends on the torque, not on the speed) [N²]; 0 for a side (nearly) at rest.
+fn copper_regressor(motor_w: f64, row: &TurnRow, side: usize) -> f64 {
+    let v = row.sides[side].cmd_mps.abs();
+    if v > MIN_FORCE_SPEED_MPS {
+        (motor_w / v).powi(2)
+    } else {
+        0.0
+    }
+}
+
+/// Below this side speed the traction force P/V is not defined by the power [m/s].
+const MIN_FORCE_SPEED_MPS: f64 = 0.02;
+
+/// Largest standstill current per side taken as the drivers' quiescent draw [A]: the thesis'
+/// Fig. 3.3 shows ≈ 0 A at rest on the INA226 board and 0.59 A on the built-in sensing, the
+/// latter being the `current-offset` effect, which must stay in the residuals.
+pub const QUIESCENT_MAX_A: f64 = 0.25;
+
+/// The side's standstill draw as a fixed, measured (not fitted) offset of the baseline [W]: real
+/// power the drivers draw in every manoeuvre; 0 when the run's standstill current exceeds
+/// [`QUIESCENT_MAX_A`] (an offset that large is an effect) or is unknown.
+pub fn quiescent_draw_w(row: &TurnRow, side: usize) -> f64 {
+    let w = row.standstill_w[side];
+    let current_a = if row.bus_v > 1.0 {
+        w / row.bus_v
+    } else {
+        f64::INFINITY
+    };
+    if w.is_finite() && current_a.abs() <= QUIESCENT_MAX_A {
+        w
+    } else {
+        0.0
+    }
+}
+
+/// A side's regressors [a, G, c] given the previous iteration's fit (`None`: the first pass).
+fn current_regressors(
+    prev: Option<&Baseline>,
+    row: &TurnRow,
+    side: usize,
+    structure: Structure,
+) -> [f64; 3] {
+    let x = [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()];
+    let Some(prev) = prev else {
+        return [x[0], x[1], 0.0];
+    };
+    let motor = prev.motor_power_w(row, side);
+    let raw = prev.skid_force_n * x[0] + prev.rolling_resistance_n * x[1];
+    // A side predicted to generate returns only its fraction (clamped: nothing).
+    let scale = match structure.split {
+        Split::Returning { fraction } if raw < 0.0 => fraction,
+        _ => 1.0,
+    };
+    [
+        x[0] * scale,
+        x[1] * scale,
+        copper_regressor(motor, row, side),
+    ]
+}
+
+/// Least squares of the calibration observations' average power on `x_of`'s regressors:
+/// (estimate, 95 % half-width) per parameter, the residual standard error and n.
+type Solved<const N: usize> = ([(f64, f64); N], f64, usize);
+
+fn solve<const N: usize>(
+    calibration: &[&TurnRow],
+    x_of: impl Fn(&TurnRow, usize) -> [f64; N],
+) -> Result<Solved<N>, model_core::fit::FitError> {
+    let mut fit = LinearFit::<N>::new();
+    for row in calibration {
+        for sides in observe::observations(row) {
+            let x = observe::sum_sides(sides, |side| x_of(row, side));
+            let draw: f64 = sides.iter().map(|&side| quiescent_draw_w(row, side)).sum();
+            fit.add(x, observe::measured_avg_w(row, sides) - draw)?;
+        }
+    }
+    let solved = fit.solve()?;
+    Ok((
+        solved.estimates.map(|e| (e.value, e.half_width())),
+        solved.residual_standard_error,
+        solved.n,
+    ))
+}
+
 impl Baseline {
-    /// Fits a and G on the `calibration` rows' average power per side (a total-only row is one
-    /// observation: its total on the sum of both sides' features).
+    /// The baseline family's member chosen by leave-one-run-out cross-validation on the
+    /// `calibration` rows (one-standard-error rule), refitted on all of them ([`family`]).
     pub fn fit(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
-        let mut fit = LinearFit::<2>::new();
+        family::choose(rover, calibration)
+    }
+
+    /// Fits a and G of the plain member on the `calibration` rows' average power per side (a
+    /// total-only row is one observation: its total on the sum of both sides' features).
+    pub fn fit_plain(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
+        Baseline::fit_member(rover, calibration, Structure::PLAIN)
+    }
+
+    /// Fits one member of the family. The clamp and copper loss are not linear in the
+    /// parameters: the fit iterates, with the sides the previous fit predicts negative
+    /// contributing nothing (clamp) and the previous fit's (P/V)² as the copper regressor.
+    pub fn fit_member(
+        rover: &Rover,
+        calibration: &[&TurnRow],
+        structure: Structure,
+    ) -> Result<Baseline, BaselineError> {
         let err = |reason: String| BaselineError::Fit {
             reason,
             rows: calibration.len(),
         };
-        for row in calibration {
-            for sides in observe::observations(row) {
-                let x = observe::sum_sides(sides, |side| {
-                    [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()]
-                });
-                fit.add(x, observe::measured_avg_w(row, sides))
-                    .map_err(|e| err(e.to_string()))?;
+        let mut current = Baseline::with_parameters(rover, structure, [0.0; 3]);
+        let iterations = if structure == Structure::PLAIN { 1 } else { 4 };
+        let mut solved = None;
+        for i in 0..iterations {
+            // The first pass fits the unclamped, copper-free regressors.
+            let prev = (i > 0).then_some(&current);
+            let x_of = |row: &TurnRow, side: usize| current_regressors(prev, row, side, structure);
+            // The first pass has no copper regressor yet (it comes from the previous fit).
+            let result = if structure.copper_loss && i > 0 {
+                solve::<3>(calibration, |r, s| x_of(r, s))
+            } else {
+                solve::<2>(calibration, |r, s| {
+                    let [a, g, _] = x_of(r, s);
+                    [a, g]
+                })
+                .map(|(est, rse, n)| ([est[0], est[1], (0.0, 0.0)], rse, n))
             }
+            .map_err(|e| err(e.to_string()))?;
+            let [(a, _), (g, _), (c, _)] = result.0;
+            current = Baseline::with_parameters(rover, structure, [a, g, c]);
+            solved = Some(result);
         }
-        let solved = fit.solve().map_err(|e| err(e.to_string()))?;
-        let [a, g] = solved.estimates;
+        let Some(([(a, a_hw), (g, g_hw), (c, _)], rse, n)) = solved else {
+            return Err(err("no iteration".into()));
+        };
+        if structure.copper_loss && c < 0.0 {
+            return Err(err(format!("copper-loss coefficient {c:.2e} W/N² < 0")));
+        }
+        let mut b = Baseline::with_parameters(rover, structure, [a, g, c]);
+        b.skid_force_ci_n = a_hw;
+        b.rolling_resistance_ci_n = g_hw;
+        b.residual_std_w = rse;
+        b.n = n;
+        Ok(b)
+    }
+
+    /// A baseline of `structure` with a, G and c given (no uncertainty).
+    fn with_parameters(rover: &Rover, structure: Structure, [a, g, c]: [f64; 3]) -> Baseline {
         let slip_track_m = f64::from(rover.slip_track_m);
         let p = f64::from(rover.mass_kg) * GRAVITY_M_S2 / 4.0;
         let lateral = f64::from(rover.track_width_m) - slip_track_m;
         let lever = (f64::from(rover.length_m).powi(2) + lateral * lateral).sqrt();
-        Ok(Baseline {
-            skid_force_n: a.value,
-            skid_force_ci_n: a.half_width(),
-            rolling_resistance_n: g.value,
-            rolling_resistance_ci_n: g.half_width(),
+        Baseline {
+            skid_force_n: a,
+            skid_force_ci_n: 0.0,
+            rolling_resistance_n: g,
+            rolling_resistance_ci_n: 0.0,
             slip_track_m,
-            mu: a.value * slip_track_m / (2.0 * p * lever),
-            residual_std_w: solved.residual_standard_error,
-            n: solved.n,
-        })
+            mu: a * slip_track_m / (2.0 * p * lever),
+            residual_std_w: f64::NAN,
+            n: 0,
+            structure,
+            copper_w_per_n2: c,
+            turn_slip: 0.0,
+            cv_rmse_w: None,
+        }
     }
 
-    /// The model's power of one side of `row` [W].
+    /// The motor power of one side (the split applied, before copper loss) [W].
+    fn motor_power_w(&self, row: &TurnRow, side: usize) -> f64 {
+        let raw = self.skid_force_n * skid_feature_mps(row, side)
+            + self.rolling_resistance_n * row.sides[side].cmd_mps.abs();
+        match self.structure.split {
+            Split::Returning { fraction } if raw < 0.0 => raw * fraction,
+            _ => raw,
+        }
+    }
+
+    /// The model's power of one side of `row` [W]: motor power, copper loss and the side's
+    /// measured standstill draw ([`quiescent_draw_w`]).
     pub fn side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
-        self.skid_force_n * skid_feature_mps(row, side)
-            + self.rolling_resistance_n * row.sides[side].cmd_mps.abs()
+        let motor = self.motor_power_w(row, side);
+        motor
+            + self.copper_w_per_n2 * copper_regressor(motor, row, side)
+            + quiescent_draw_w(row, side)
     }
 
     /// Both sides' model power [W].
@@ -115,14 +333,25 @@ impl Baseline {
         self.side_power_w(row, 0) + self.side_power_w(row, 1)
     }
 
-    /// Measured effective minus model power, per side (inner/outer order of the row) [W]; NaN
-    /// for a total-only row (see [`Baseline::observed_residuals_w`]).
+    /// The model's effective power E/T_expected of one side: its power over the turn's time
+    /// with the calibration's constant slip [W].
+    pub fn effective_side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
+        let p = self.side_power_w(row, side);
+        if row.is_straight() || !row.turned_from_yaw || self.turn_slip == 0.0 {
+            p
+        } else {
+            p / (1.0 - self.turn_slip)
+        }
+    }
+
+    /// Measured effective minus model effective power, per side (inner/outer order of the
+    /// row) [W]; NaN for a total-only row (see [`Baseline::observed_residuals_w`]).
     pub fn residual_w(&self, row: &TurnRow) -> [f64; 2] {
-        [0, 1].map(|s| row.sides[s].effective_power_w - self.side_power_w(row, s))
+        [0, 1].map(|s| row.sides[s].effective_power_w - self.effective_side_power_w(row, s))
     }
 
     /// Measured effective minus model power of each observation of `row`: per side, or the
-    /// total of a total-only row [W].
+    /// total of a total-only row (average power: no duration) [W].
     pub fn observed_residuals_w(&self, row: &TurnRow) -> Residuals {
         if row.is_total_only() {
             Residuals::total(row.effective_power_w() - self.power_w(row))

@@ -109,6 +109,9 @@ pub struct TurnRow {
     pub standstill_current_a: Option<Sides<f64>>,
     /// Mean bus voltage over the manoeuvre's steady part, per side [V] (for current-type terms).
     pub bus_v: f64,
+    /// The standstill current of each side (inner/outer order, as `sides`) at this
+    /// manoeuvre's bus voltage [W]; 0 when the run never stands still.
+    pub standstill_w: [f64; 2],
     /// The inner then the outer side (turns), or left then right (straights).
     pub sides: [SideObs; 2],
     /// Whether the manoeuvre is of a kind the hard-ground model is trusted on (straights, point
@@ -225,6 +228,7 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
                 / span.len() as f64
         };
         let r_over_r_prime = m.r_over_r_prime.unwrap_or(f64::INFINITY);
+        let still = standstill.get(run_index).copied().flatten();
         out.push(TurnRow {
             run: m.run.clone(),
             run_index,
@@ -240,7 +244,15 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
             angular_slip: s.angular_slip,
             t_start_s: m.t_start_s,
             pitch_deg: s.mean_pitch_deg,
-            standstill_current_a: standstill.get(run_index).copied().flatten(),
+            standstill_current_a: still,
+            standstill_w: still.map_or([0.0; 2], |a| {
+                let (l, r) = (a.left * bus_v, a.right * bus_v);
+                if left_inner {
+                    [l, r]
+                } else {
+                    [r, l]
+                }
+            }),
             bus_v,
             sides,
             calibration_kind: straight

@@ -116,7 +116,13 @@ fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64)> 
             .iter()
             .zip(res.iter())
             .enumerate()
-            .map(|(k, (s, r))| (Part::from(s.role), *r, baseline.side_power_w(row, k)))
+            .map(|(k, (s, r))| {
+                (
+                    Part::from(s.role),
+                    *r,
+                    baseline.effective_side_power_w(row, k),
+                )
+            })
             .collect()
     }
 }
@@ -292,8 +298,10 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
                 t_mid_s: Some(row.t_start_s + 0.5 * row.duration_s),
                 avg_power_w: s.avg_power_w - model_w,
                 peak_over_model_w: Some(s.max_power_w - model_w),
-                energy_j: Some(s.energy_j - model_w * row.expected_duration_s),
-                effective_power_w: s.effective_power_w - model_w,
+                energy_j: Some(
+                    s.energy_j - baseline.effective_side_power_w(row, k) * row.expected_duration_s,
+                ),
+                effective_power_w: s.effective_power_w - baseline.effective_side_power_w(row, k),
                 growth_w: s.growth_w,
                 ..base(Part::from(s.role))
             });

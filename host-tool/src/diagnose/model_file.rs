@@ -180,6 +180,7 @@ pub fn synthetic_row(
         t_start_s: at.t_start_s,
         pitch_deg: Some(0.0),
         standstill_current_a: None,
+        standstill_w: [0.0; 2],
         bus_v: at.bus_v,
         sides: [
             side(SideRole::Inner, inner_mps),
@@ -453,6 +454,10 @@ mod tests {
             mu: 0.74,
             residual_std_w: 0.0,
             n: 10,
+            structure: crate::diagnose::baseline::Structure::PLAIN,
+            copper_w_per_n2: 0.0,
+            turn_slip: 0.0,
+            cv_rmse_w: None,
         };
         let at = Conditions {
             v_c_mps: 0.3,

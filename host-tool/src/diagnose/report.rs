@@ -4,7 +4,7 @@
 //! `model.toml` for `plan --model`). Every file is written atomically.
 
 use super::adequacy::{Adequacy, LackOfFit, Observation};
-use super::baseline::BaselineError;
+use super::baseline::{BaselineError, Split};
 use super::calibration::{Calibration, CalibrationSource};
 use super::cv::{self, PRACTICAL_FLOOR_W};
 use super::features::TurnRow;
@@ -327,9 +327,31 @@ pub fn calibration_line(d: &Diagnosis) -> String {
 
 fn baseline_line(d: &Diagnosis) -> String {
     let b = &d.baseline;
+    let split = match b.structure.split {
+        Split::Regenerating => "tread couple with regeneration".to_string(),
+        Split::Returning { fraction } if fraction <= 0.0 => {
+            "no regeneration (negative side power put to 0)".to_string()
+        }
+        Split::Returning { fraction } => {
+            format!("{:.0} % of generated power returned", 100.0 * fraction)
+        }
+    };
+    let chosen = match b.cv_rmse_w {
+        Some(cv) => format!("chosen by leave-one-run-out CV, RMS {cv:.2} W"),
+        None => "plain (fewer than 2 calibration runs to choose by CV)".to_string(),
+    };
+    let slip = if b.turn_slip > 0.0 {
+        format!(
+            "; calibration turns' constant slip {:.1} % taken as the terrain's",
+            100.0 * b.turn_slip
+        )
+    } else {
+        String::new()
+    };
     format!(
-        "baseline (paper Eq 21 per side): a = F/B_s = {:.1} ± {:.1} N, G = {:.2} ± {:.2} N, \
-         μ = {:.3} (Eq 22, B_s = {:.2} m), residual σ = {:.2} W per side over {} sides",
+        "baseline (paper Eq 21 per side; {split}, {chosen}{slip}): a = F/B_s = {:.1} ± {:.1} N, \
+         G = {:.2} ± {:.2} N, μ = {:.3} (Eq 22, B_s = {:.2} m), residual σ = {:.2} W per side \
+         over {} sides",
         b.skid_force_n,
         b.skid_force_ci_n,
         b.rolling_resistance_n,

@@ -375,6 +375,7 @@ pub fn summary_rows(rover: &Rover, rows: &[SummaryRow], run: &str) -> Vec<TurnRo
                 t_start_s: 0.0,
                 pitch_deg: s.pitch_deg,
                 standstill_current_a: None,
+                standstill_w: [0.0; 2],
                 bus_v: 0.0,
                 sides: [
                     side(SideRole::Inner, speeds.left_mps),

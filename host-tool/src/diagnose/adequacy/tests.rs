@@ -2,7 +2,7 @@
 //! world with a misfit the model has no term for fail, and one run cannot be tested.
 
 use super::*;
-use crate::diagnose::baseline::Baseline;
+use crate::diagnose::baseline::{Baseline, Split, Structure};
 use crate::diagnose::cv::SplitMix64;
 use crate::diagnose::features::{Observed, SideObs};
 use model_core::kinematics::Regime;
@@ -67,6 +67,7 @@ fn row(
         t_start_s: 0.0,
         pitch_deg: None,
         standstill_current_a: None,
+        standstill_w: [0.0; 2],
         bus_v: 24.0,
         sides: [
             side(SideRole::Inner, vi, p[0] + noise()),
@@ -92,9 +93,11 @@ fn calibration(runs: usize, power: &dyn Fn(f64, f64) -> [f64; 2]) -> Vec<TurnRow
         .collect()
 }
 
+/// The adequacy of the plain member (the family is tested in
+/// `the_family_finds_the_no_regeneration_clamp`).
 fn adequacy_of(rows: &[TurnRow]) -> Adequacy {
     let refs: Vec<&TurnRow> = rows.iter().collect();
-    let baseline = Baseline::fit(&HUSKY, &refs).expect("fits");
+    let baseline = Baseline::fit_plain(&HUSKY, &refs).expect("fits");
     test(&refs, 2, |r, s| baseline.side_power_w(r, s))
 }
 
@@ -112,6 +115,29 @@ fn the_baselines_own_structure_is_adequate() {
     );
     assert!(a.split_fits());
     assert!(a.suggestions.is_empty());
+}
+
+/// The family's clamp member, chosen by cross-validation over the 2 calibration runs, fits
+/// the world the plain member misfits (below); the plain world keeps the plain member.
+#[test]
+fn the_family_finds_the_no_regeneration_clamp() {
+    let clamp = |vi: f64, vo: f64| couple(vi, vo).map(|p| p.max(0.0));
+    for (power, split) in [
+        (
+            &clamp as &dyn Fn(f64, f64) -> [f64; 2],
+            Split::Returning { fraction: 0.0 },
+        ),
+        (&couple, Split::Regenerating),
+    ] {
+        let rows = calibration(2, power);
+        let refs: Vec<&TurnRow> = rows.iter().collect();
+        let b = Baseline::fit(&HUSKY, &refs).expect("fits");
+        assert_eq!(b.structure.split, split, "{b:?}");
+        assert!(!b.structure.copper_loss, "{b:?}");
+        assert!(b.cv_rmse_w.expect("2 runs") < 1.0, "{b:?}");
+        let a = test(&refs, 2, |r, s| b.side_power_w(r, s));
+        assert_eq!(a.adequate, Some(true), "{a:#?}");
+    }
 }
 
 #[test]
@@ -155,4 +181,31 @@ fn without_repeats_adequacy_is_not_tested() {
     assert_eq!(a.adequate, None);
     assert_eq!(a.total.p_value, None);
     assert_eq!(a.total.df_pure_error, 0);
+}
+
+/// The copper-loss fit (not a family member, see `baseline::family::members`) recovers the
+/// coefficient of a world whose sides add c·F², F = P/V the traction force.
+#[test]
+fn the_copper_member_recovers_its_coefficient() {
+    const C: f64 = 1e-3;
+    let copper = |vi: f64, vo: f64| {
+        let p = couple(vi, vo);
+        [
+            p[0] + C * (p[0] / vi).powi(2),
+            p[1] + C * (p[1] / vo).powi(2),
+        ]
+    };
+    let rows = calibration(2, &copper);
+    let refs: Vec<&TurnRow> = rows.iter().collect();
+    let structure = Structure {
+        copper_loss: true,
+        ..Structure::PLAIN
+    };
+    let b = Baseline::fit_member(&HUSKY, &refs, structure).expect("fits");
+    assert!((b.copper_w_per_n2 - C).abs() < 0.2 * C, "{b:?}");
+    let plain = Baseline::fit_plain(&HUSKY, &refs).expect("fits");
+    assert!(
+        b.residual_std_w < 0.5 * plain.residual_std_w,
+        "{b:?} {plain:?}"
+    );
 }

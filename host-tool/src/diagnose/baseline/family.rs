@@ -1,0 +1,235 @@
+//! The baseline family (issue 10, part 2): the per-side split of the skid power (regenerating,
+//! clamped, or returning a fraction of the generated power; copper loss is fitted by
+//! [`Baseline::fit_member`] but not a member, see [`members`]), chosen on the calibration manoeuvres by leave-one-run-out cross-validation of their average
+//! power. The standstill draw is not a member: it is measured, not fitted (see
+//! [`quiescent_draw_w`](super::quiescent_draw_w)).
+//!
+//! Not a member: the split turning positive past R_T (paper Fig. 11). With R_T ≈ 18 m the fade
+//! is ≤ 2–4 % on the calibration radii (≤ 3R′), so it cannot be told from the plain split there,
+//! and a fade short enough to be seen (R_f = 4–10 R′) bends the skid term between the point turn
+//! and 3R′ and absorbed our simulator's sinkage (a point-turn effect) in the unit tests.
+//!
+//! Parsimony by the one-standard-error rule: the member with the fewest parameters whose CV
+//! mean squared error is within one standard error of the best is chosen, so the plain model
+//! (the paper's) wins whenever it fits. The returning member's fraction is chosen on a grid
+//! inside each training fold (it is a parameter of that member, not of the selection).
+
+use super::{Baseline, BaselineError, Split, Structure};
+use crate::diagnose::adequacy::LEVEL_PITCH_DEG;
+use crate::diagnose::features::TurnRow;
+use crate::diagnose::observe;
+use model_core::Rover;
+use std::cell::RefCell;
+
+/// Fractions of generated power a regenerating driver returns (η² for η ≈ 0.55–0.95).
+const RETURNED_GRID: [f64; 4] = [0.3, 0.5, 0.7, 0.85];
+
+/// The family in parsimony order (fewest parameters first; ties: listed order).
+fn members() -> Vec<Vec<Structure>> {
+    let regen = [Structure::PLAIN];
+    let clamp = [Structure {
+        split: Split::Returning { fraction: 0.0 },
+        copper_loss: false,
+    }];
+    let returning: Vec<Structure> = RETURNED_GRID
+        .iter()
+        .map(|&fraction| Structure {
+            split: Split::Returning { fraction },
+            copper_loss: false,
+        })
+        .collect();
+    // Copper loss (`Structure::copper_loss`, fitted by `Baseline::fit_member`) is not in the
+    // family: measured as a member it absorbed part of a current offset and of point-turn
+    // sinkage (our unit tests' current-offset and sand worlds turned `ambiguous`; the
+    // independent generator's dev seeds fell from 39/48 to 35/48 effects right), while our
+    // bench's copper-loss worlds gained 3/48. The returning member carries most of the
+    // regeneration-efficiency misfit that copper loss + efficiency make.
+    let mut out = vec![regen.to_vec(), clamp.to_vec(), returning];
+    out.sort_by_key(|m| m[0].parameters());
+    out
+}
+
+/// The best-fitting (least training RSS) variant of one member on `train`; `None` if none fits.
+fn fit_best(rover: &Rover, train: &[&TurnRow], variants: &[Structure]) -> Option<Baseline> {
+    variants
+        .iter()
+        .filter_map(|s| Baseline::fit_member(rover, train, *s).ok())
+        .map(|b| (rss(&b, train), b))
+        .filter(|(r, _)| r.is_finite())
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, b)| b)
+}
+
+fn squared_errors<'a>(b: &'a Baseline, rows: &'a [&TurnRow]) -> impl Iterator<Item = f64> + 'a {
+    rows.iter().flat_map(move |row| {
+        observe::observations(row).iter().map(move |sides| {
+            let model: f64 = sides.iter().map(|&s| b.side_power_w(row, s)).sum();
+            (observe::measured_avg_w(row, sides) - model).powi(2)
+        })
+    })
+}
+
+fn rss(b: &Baseline, rows: &[&TurnRow]) -> f64 {
+    squared_errors(b, rows).sum()
+}
+
+/// Held-out squared errors of one member over leave-one-run-out folds; `None` if a fold cannot
+/// be fitted.
+fn cv_errors(
+    rover: &Rover,
+    calibration: &[&TurnRow],
+    runs: &[usize],
+    m: &[Structure],
+) -> Option<Vec<f64>> {
+    let mut errors = Vec::new();
+    for &run in runs {
+        let (test, train): (Vec<&TurnRow>, Vec<&TurnRow>) =
+            calibration.iter().partition(|r| r.run_index == run);
+        let b = fit_best(rover, &train, m)?;
+        errors.extend(squared_errors(&b, &test));
+    }
+    errors.iter().all(|e| e.is_finite()).then_some(errors)
+}
+
+/// Chooses the member (see the module docs) and refits it on all `calibration` rows. With fewer
+/// than 2 calibration runs there is nothing to cross-validate: the plain member.
+pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
+    let key = key_of(rover, calibration);
+    let memo = CHOSEN.with(|c| c.borrow().iter().find(|(k, _)| *k == key).map(|(_, v)| *v));
+    if let Some((structure, cv_rmse_w, turn_slip)) = memo {
+        let mut b = Baseline::fit_member(rover, calibration, structure)?;
+        b.cv_rmse_w = cv_rmse_w;
+        b.turn_slip = turn_slip;
+        return Ok(b);
+    }
+    let b = choose_uncached(rover, calibration)?;
+    CHOSEN.with(|c| {
+        let mut c = c.borrow_mut();
+        if c.len() >= MEMO_CAPACITY {
+            c.remove(0);
+        }
+        c.push((key, (b.structure, b.cv_rmse_w, b.turn_slip)));
+    });
+    Ok(b)
+}
+
+/// Identity of a calibration set: rover and each row's run, manoeuvre and measured powers.
+type Key = Vec<[u64; 4]>;
+
+fn key_of(rover: &Rover, calibration: &[&TurnRow]) -> Key {
+    let mut key = vec![[
+        u64::from(rover.slip_track_m.to_bits()),
+        u64::from(rover.track_width_m.to_bits()),
+        0,
+        0,
+    ]];
+    key.extend(calibration.iter().map(|r| {
+        [
+            r.run_index as u64,
+            r.manoeuvre as u64,
+            r.sides[0].avg_power_w.to_bits(),
+            r.sides[1].avg_power_w.to_bits() ^ observe::measured_avg_w(r, &[0, 1]).to_bits(),
+        ]
+    }));
+    key
+}
+
+/// A remembered choice: the member, its CV RMS error [W] and the turn slip.
+type Choice = (Structure, Option<f64>, f64);
+
+/// Calibration sets remembered per thread.
+const MEMO_CAPACITY: usize = 16;
+
+thread_local! {
+    /// The choice is a pure function of the calibration set, and a diagnosis refits the
+    /// baseline on the same sets many times (every effect candidate, every fold): remember it
+    /// so the cross-validation runs once per set (the 20 ms per dataset budget).
+    static CHOSEN: RefCell<Vec<(Key, Choice)>> = const { RefCell::new(Vec::new()) };
+}
+
+fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
+    // The structure is chosen on level manoeuvres, as the adequacy test judges it: a slope is an
+    // effect, not a structure of the level-ground model.
+    let level: Vec<&TurnRow> = calibration
+        .iter()
+        .copied()
+        .filter(|r| r.pitch_deg.is_none_or(|p| p.abs() <= LEVEL_PITCH_DEG))
+        .collect();
+    let mut runs: Vec<usize> = level.iter().map(|r| r.run_index).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    if runs.len() < 2 {
+        return Baseline::fit_plain(rover, calibration);
+    }
+    let scored: Vec<(Vec<Structure>, f64, f64)> = members()
+        .into_iter()
+        .filter_map(|m| {
+            let e = cv_errors(rover, &level, &runs, &m)?;
+            let (mean, se) = mean_and_se(&e)?;
+            Some((m, mean, se))
+        })
+        .collect();
+    let Some(best) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
+        return Baseline::fit_plain(rover, calibration);
+    };
+    let bar = best.1 + best.2;
+    let chosen = scored
+        .iter()
+        .find(|(_, mse, _)| *mse <= bar)
+        .unwrap_or(best);
+    let mut b = fit_best(rover, calibration, &chosen.0)
+        .map_or_else(|| Baseline::fit_plain(rover, calibration), Ok)?;
+    b.cv_rmse_w = Some(chosen.1.sqrt());
+    b.turn_slip = constant_turn_slip(&level).unwrap_or(0.0);
+    Ok(b)
+}
+
+/// Smallest constant slip taken into the baseline (below it, timing noise).
+const MIN_TURN_SLIP: f64 = 0.01;
+
+/// Largest spread of the calibration radii's mean slips around their common mean for the slip
+/// to count as constant (a radius-dependent slip is the `angular-slip` effect).
+const MAX_SLIP_SPREAD: f64 = 0.02;
+
+/// The calibration turns' common angular slip (Eq 6.3) when it is significant (95 % t interval
+/// above 0), at least [`MIN_TURN_SLIP`], and the same at every calibration radius within
+/// [`MAX_SLIP_SPREAD`].
+fn constant_turn_slip(level: &[&TurnRow]) -> Option<f64> {
+    let turns: Vec<&TurnRow> = level
+        .iter()
+        .copied()
+        .filter(|r| !r.is_straight() && r.turned_from_yaw && r.angular_slip.is_some())
+        .collect();
+    let slips: Vec<f64> = turns.iter().filter_map(|r| r.angular_slip).collect();
+    let (mean, lo, _) = crate::diagnose::cv::t_interval(&slips)?;
+    if !(lo > 0.0 && (MIN_TURN_SLIP..1.0).contains(&mean)) {
+        return None;
+    }
+    let mut radii: Vec<i64> = turns
+        .iter()
+        .map(|r| (r.r_over_r_prime * 100.0).round() as i64)
+        .collect();
+    radii.sort_unstable();
+    radii.dedup();
+    let same = radii.iter().all(|&k| {
+        let at: Vec<f64> = turns
+            .iter()
+            .filter(|r| (r.r_over_r_prime * 100.0).round() as i64 == k)
+            .filter_map(|r| r.angular_slip)
+            .collect();
+        let m = at.iter().sum::<f64>() / at.len() as f64;
+        (m - mean).abs() <= MAX_SLIP_SPREAD
+    });
+    same.then_some(mean)
+}
+
+/// Mean and its standard error; `None` with fewer than 2 values.
+fn mean_and_se(e: &[f64]) -> Option<(f64, f64)> {
+    if e.len() < 2 {
+        return None;
+    }
+    let n = e.len() as f64;
+    let mean = e.iter().sum::<f64>() / n;
+    let var = e.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    Some((mean, (var / n).sqrt()))
+}
