@@ -114,8 +114,10 @@ impl Plant {
         let skid_w = self.icr.skid_moment_nm() * (diff / self.icr.slip_track_m).abs();
         let split = self.world.structure.split;
         let fade = match split {
+            // No yaw, no skid couple (Eq 21's F|ω_z| is 0): on a straight both sides draw G|V|,
+            // whatever the split.
+            _ if diff == 0.0 => 0.0,
             PowerSplit::Regenerating | PowerSplit::Clamped => 1.0,
-            PowerSplit::Threshold if diff == 0.0 => 0.0,
             PowerSplit::Threshold => {
                 let r = self.icr.slip_track_m / 2.0 * ((v.outer + v.inner) / diff).abs();
                 1.0 / (1.0 + (r / self.fade_radius_m).powi(2))

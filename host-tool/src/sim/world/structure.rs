@@ -195,6 +195,30 @@ mod tests {
         }
     }
 
+    /// Every split draws the same G|V| on both sides of a straight line: with no yaw there is no
+    /// skid couple to split (a couple there made the regenerating world misfit its own straights).
+    #[test]
+    fn straights_have_no_skid_couple_in_any_split() {
+        for split in PowerSplit::ALL {
+            let mut world = with_split(split).without_noise();
+            world.driver.quiescent_current_a = 0.0;
+            let scenario = Scenario {
+                repeats: 1,
+                pause_s: 1.0,
+                lead_in_s: 1.0,
+                lead_out_s: 1.0,
+                manoeuvres: vec![Manoeuvre::Straight {
+                    distance_m: 2.0,
+                    speed_mps: V_C,
+                }],
+            };
+            let t = world.simulate(&scenario, 1).expect("simulates");
+            let p = t.manoeuvres()[0].avg_power_w;
+            assert!(p.left > 0.0, "{split:?}: {p:?}");
+            assert!((p.left - p.right).abs() < 0.01 * p.right, "{split:?}: {p:?}");
+        }
+    }
+
     /// The tread couple alone regenerates at every R > R', even at 100 m.
     #[test]
     fn regenerating_split_keeps_the_inner_side_negative_past_r_prime() {
