@@ -260,9 +260,14 @@ fn lack_of_fit_line(t: &LackOfFit) -> String {
             }
         ),
         _ => format!(
-            "{what}: not testable ({} manoeuvres, {} observations: no repeats or no spare \
-             manoeuvres)",
-            t.groups, t.n
+            "{what}: not testable ({} manoeuvres, {} observations: {})",
+            t.groups,
+            t.n,
+            if t.df_pure_error == 0 {
+                "no repeats"
+            } else {
+                "no more manoeuvres than model parameters"
+            }
         ),
     }
 }
@@ -272,7 +277,10 @@ pub fn adequacy_summary(a: &Adequacy) -> String {
     let verdict = match a.adequate {
         Some(true) => "the baseline fits its calibration manoeuvres",
         Some(false) => "the baseline MISFITS its calibration manoeuvres",
-        None => "adequacy could not be tested (the calibration manoeuvres were not repeated)",
+        None => {
+            "adequacy could not be tested (calibration manoeuvres not repeated, or no more of \
+             them than model parameters)"
+        }
     };
     let mut parts = vec![lack_of_fit_line(&a.total)];
     parts.extend(a.per_side.as_ref().map(lack_of_fit_line));

@@ -215,7 +215,10 @@ mod tests {
             let t = world.simulate(&scenario, 1).expect("simulates");
             let p = t.manoeuvres()[0].avg_power_w;
             assert!(p.left > 0.0, "{split:?}: {p:?}");
-            assert!((p.left - p.right).abs() < 0.01 * p.right, "{split:?}: {p:?}");
+            assert!(
+                (p.left - p.right).abs() < 0.01 * p.right,
+                "{split:?}: {p:?}"
+            );
         }
     }
 
