@@ -252,7 +252,22 @@ pub fn diagnose_with(
                 .to_owned(),
         );
     }
-    let allowed = |e: EffectId| heating_identifiable || e != EffectId::MotorHeating;
+    // A sensor's current offset reads at standstill too (seed Fig 3.3: 0.59 A at rest): when
+    // the runs have standstill samples and every side reads no more than a driver's quiescent
+    // draw there, a constant extra power in the turns is something else (copper loss, say).
+    let offset_seen = offset_seen_at_standstill(rows);
+    if !offset_seen {
+        notes.push(format!(
+            "current-offset not scored: the standstill current is within ±{} A on both sides \
+             (a sensor offset would read there too)",
+            baseline::QUIESCENT_MAX_A
+        ));
+    }
+    let allowed = |e: EffectId| match e {
+        EffectId::MotorHeating => heating_identifiable,
+        EffectId::CurrentOffset => offset_seen,
+        _ => true,
+    };
     let mut candidates =
         cv::score_all(rover, rows, primary, calibration)?.ok_or(DiagnoseError::NothingToHoldOut)?;
     candidates.retain(|c| allowed(c.effect));
@@ -379,6 +394,20 @@ pub fn diagnose_with(
         calibration: calibration.note(rows),
         notes,
     })
+}
+
+/// Whether a current offset is possible: some run's standstill current on some side exceeds
+/// the drivers' quiescent draw ([`baseline::QUIESCENT_MAX_A`]), or no run has standstill
+/// samples (a per-turn summary, runs without pauses) so it cannot be ruled out.
+fn offset_seen_at_standstill(rows: &[TurnRow]) -> bool {
+    let mut known = rows
+        .iter()
+        .filter_map(|r| r.standstill_current_a)
+        .peekable();
+    known.peek().is_none()
+        || known.any(|s| {
+            s.left.abs() > baseline::QUIESCENT_MAX_A || s.right.abs() > baseline::QUIESCENT_MAX_A
+        })
 }
 
 /// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its
