@@ -134,6 +134,12 @@ pub enum DemoError {
     /// The diagnosed model file could not be read back.
     #[error(transparent)]
     ModelFile(#[from] ModelFileError),
+    /// The diagnosis wrote no model file (its model is not a valid plan model).
+    #[error("the diagnosis wrote no model file to plan with ({}/diagnosis.md says why)", dir.display())]
+    NoModelFile {
+        /// The diagnosis' output directory.
+        dir: PathBuf,
+    },
     /// The plan failed.
     #[error("plan: {0}")]
     Plan(#[from] PlanError),
@@ -277,6 +283,9 @@ pub fn run(
     // The model file as `plan --model` reads it, and the same file without its effect terms:
     // the hard-ground model fitted to these runs.
     let model_path = dir.join(MODEL_FILE);
+    if !model_path.exists() {
+        return Err(DemoError::NoModelFile { dir });
+    }
     let diagnosed = plan::load_model(&model_path)?;
     let mut hard_ground = diagnosed.clone();
     hard_ground.effects.clear();

@@ -627,13 +627,27 @@ pub fn write_out_dir(
         "Power growth through each turn (second half − first half) vs R/R′".to_owned(),
         &figures::growth_vs_radius(rover, rows),
     )?;
-    let model = model_file::energy_model(rover, d, rows, calibration)?;
-    let text = model.to_toml()?;
-    let path = dir.join(MODEL_FILE);
-    write_atomically(&path, |w| w.write_all(text.as_bytes()))?;
-    files.push(path);
+    // A fitted base the planner cannot use (e.g. G < 0 when the plain split misfits a rover
+    // with large motor losses) costs the model file, not the report.
+    let (model, no_model) = match model_file::energy_model(rover, d, rows, calibration) {
+        Ok(model) => (Some(model), None),
+        Err(e) => (None, Some(e)),
+    };
+    if let Some(model) = &model {
+        let text = model.to_toml()?;
+        let path = dir.join(MODEL_FILE);
+        write_atomically(&path, |w| w.write_all(text.as_bytes()))?;
+        files.push(path);
+    }
     let path = dir.join(REPORT_FILE);
-    let md = markdown(d, &captions, Some(&model));
+    let mut md = markdown(d, &captions, model.as_ref());
+    if let Some(e) = no_model {
+        let _ = writeln!(
+            md,
+            "## Model file for `plan --model`\n\nNot written: the diagnosed model is not a valid \
+             plan model ({e})."
+        );
+    }
     write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
     files.push(path);
     Ok(files)
