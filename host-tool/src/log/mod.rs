@@ -12,7 +12,7 @@ pub mod run_csv;
 pub mod run_log;
 
 use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter};
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -37,6 +37,9 @@ pub enum AtomicWriteError<E> {
 /// which is then flushed, fsynced and renamed over `path` (and the directory fsynced on Unix).
 /// If `write` fails (or panics), or any step fails, the temporary file is removed and `path` is
 /// left as it was — absent, or with its previous complete content.
+///
+/// An existing target that is not a regular file (`/dev/null`, a FIFO, a terminal) is written
+/// in place: renaming over it would replace the device with a regular file.
 pub fn write_atomically<T, E>(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<T, E>,
@@ -46,6 +49,16 @@ pub fn write_atomically<T, E>(
         let path = path.to_owned();
         move |source| AtomicWriteError::Io { path, source }
     };
+    if fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        let file = OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(io_err(path))?;
+        let mut out = BufWriter::new(file);
+        let value = write(&mut out).map_err(AtomicWriteError::Content)?;
+        out.flush().map_err(io_err(path))?;
+        return Ok(value);
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
         _ => PathBuf::from("."),
@@ -182,5 +195,20 @@ mod tests {
         let e = write_atomically::<_, io::Error>(&path, |_| Ok(())).expect_err("no dir");
         assert!(matches!(e, AtomicWriteError::Io { .. }));
         assert!(e.to_string().contains("no/such/dir"), "{e}");
+    }
+
+    /// `--json /dev/null` once replaced the machine's /dev/null with a regular file (the rename
+    /// of the temporary file); a device is written in place and stays a device.
+    #[cfg(unix)]
+    #[test]
+    fn a_device_target_is_written_in_place() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        let is_device = |p: &Path| fs::metadata(p).is_ok_and(|m| m.file_type().is_char_device());
+        if !is_device(null) {
+            return; // not a Unix machine with a /dev/null device: nothing to check
+        }
+        write_atomically::<_, io::Error>(null, |w| w.write_all(b"discarded")).expect("writes");
+        assert!(is_device(null), "/dev/null is no longer a device");
     }
 }
