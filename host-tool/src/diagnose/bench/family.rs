@@ -428,13 +428,7 @@ impl DatasetSpec {
                 }
             })
             .collect();
-        Scenario {
-            repeats,
-            pause_s: 2.0,
-            lead_in_s: 2.0,
-            lead_out_s: 2.0,
-            manoeuvres,
-        }
+        Scenario::with_default_pauses(manoeuvres, repeats)
     }
 
     /// A calibration run: R ∈ {0, 2R′, 3R′, straight}.

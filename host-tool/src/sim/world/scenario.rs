@@ -628,11 +628,17 @@ impl Scenario {
             distance_m: 1.0,
             speed_mps: v_c_mps,
         });
+        Scenario::with_default_pauses(manoeuvres, repeats)
+    }
+
+    /// `manoeuvres` run `repeats` times with the TOML defaults' standstills (2 s lead-in,
+    /// pauses and lead-out).
+    pub fn with_default_pauses(manoeuvres: Vec<Manoeuvre>, repeats: u32) -> Scenario {
         Scenario {
             repeats,
-            pause_s: 2.0,
-            lead_in_s: 2.0,
-            lead_out_s: 2.0,
+            pause_s: two_seconds(),
+            lead_in_s: two_seconds(),
+            lead_out_s: two_seconds(),
             manoeuvres,
         }
     }
