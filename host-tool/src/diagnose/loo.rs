@@ -279,87 +279,11 @@ fn adjust(tests: &mut [LooTest]) {
     }
 }
 
-/// Two-sided p of Student's t with `df` degrees of freedom: I_{df/(df+t²)}(df/2, 1/2).
+/// Two-sided p of Student's t with `df` degrees of freedom (1 when there is no test: df = 0 or
+/// t NaN), from model-core's t distribution.
 pub fn t_two_sided_p(t: f64, df: usize) -> f64 {
-    if df == 0 || t.is_nan() {
-        return 1.0;
-    }
-    if t.is_infinite() {
-        return 0.0;
-    }
-    let v = df as f64;
-    regularized_beta(v / (v + t * t), 0.5 * v, 0.5).clamp(0.0, 1.0)
-}
-
-/// ln Γ(x), x > 0 (Lanczos, g = 7, 9 terms; ~1e-15 relative).
-fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        let pi = std::f64::consts::PI;
-        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (k, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + k as f64);
-    }
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Regularised incomplete beta I_x(a, b) (continued fraction, modified Lentz).
-fn regularized_beta(x: f64, a: f64, b: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let front =
-        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
-    // The continued fraction converges for x < (a + 1)/(a + b + 2); else use symmetry.
-    if x > (a + 1.0) / (a + b + 2.0) {
-        return 1.0 - regularized_beta(1.0 - x, b, a);
-    }
-    const TINY: f64 = 1e-300;
-    let (mut c, mut d) = (1.0, 1.0 - (a + b) * x / (a + 1.0));
-    if d.abs() < TINY {
-        d = TINY;
-    }
-    d = 1.0 / d;
-    let mut f = d;
-    for m in 1..300 {
-        let m = f64::from(m);
-        for num in [
-            m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m)),
-            -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0)),
-        ] {
-            d = 1.0 + num * d;
-            if d.abs() < TINY {
-                d = TINY;
-            }
-            c = 1.0 + num / c;
-            if c.abs() < TINY {
-                c = TINY;
-            }
-            d = 1.0 / d;
-            f *= c * d;
-        }
-        if (c * d - 1.0).abs() < 1e-15 {
-            break;
-        }
-    }
-    front * f / a
+    // The lower tail at −|t| is the upper tail at |t|, computed without cancellation.
+    model_core::fit::student_t_cdf(-t.abs(), df).map_or(1.0, |tail| (2.0 * tail).clamp(0.0, 1.0))
 }
 
 #[cfg(test)]
