@@ -450,7 +450,7 @@ pub struct RunTimeWhere {
 }
 
 /// Within-group spread of run time below which the trend is not identifiable [s].
-pub const MIN_TREND_SPREAD_S: f64 = 30.0;
+pub const MIN_TREND_SPREAD_S: f64 = 10.0;
 
 /// One observation of the trend fit: ((regime, side), run time [s], residual [W]).
 type TimedObs = ((Regime, Part), f64, f64);

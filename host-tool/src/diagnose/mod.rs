@@ -64,7 +64,8 @@ pub struct Diagnosis {
     /// The regime of the largest significant gap, or `all`.
     pub regime: Scope,
     /// Whether the model departs significantly: a gap is significant, or the named effect
-    /// removes at least the practical floor of held-out RMS (a departure seen as spread).
+    /// removes at least the practical floor of held-out RMS (the gaps' floor: the larger of
+    /// 1.5 W and 5 % of the mean model power; a departure seen as spread).
     pub significant: bool,
     /// The baseline on all calibration rows.
     pub baseline: Baseline,
@@ -295,11 +296,16 @@ pub fn diagnose_with(
         )?,
         None => None,
     };
+    // The practical floor of the gaps and the adequacy test: the larger of the fixed floor and
+    // a share of the model power (a few watts are noise for a rover drawing hundreds).
+    let model_w: Vec<f64> = rows
+        .iter()
+        .flat_map(|r| [0, 1].map(|s| baseline.effective_side_power_w(r, s)))
+        .collect();
+    let floor_w = gaps::practical_floor_w(&model_w);
     let spread = selected
         .and_then(|e| candidates.iter().find(|c| c.effect == e))
-        .filter(|c| {
-            removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= cv::PRACTICAL_FLOOR_W
-        });
+        .filter(|c| removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= floor_w);
     let explains_spread = spread.is_some();
     let significant = gap_significant || explains_spread;
     // The headline and the "where" analysis state one verdict: a departure seen only out of

@@ -348,10 +348,16 @@ fn baseline_line(d: &Diagnosis) -> String {
         Some(cv) => format!("chosen by leave-one-run-out CV, RMS {cv:.2} W"),
         None => "plain (fewer than 2 calibration runs to choose by CV)".to_string(),
     };
+    // A constant yaw-rate loss is what a terrain slip track wider than the controller's gives
+    // (ω = ΔV/B_s, Appendix D): say both readings, since yaw and power cannot tell them apart.
     let slip = if b.turn_slip > 0.0 {
         format!(
-            "; calibration turns' constant slip {:.1} % taken as the terrain's",
-            100.0 * b.turn_slip
+            "; calibration turns' constant slip {:.1} % taken as the terrain's, i.e. a terrain \
+             slip track of {:.2} m against the controller's {:.2} m (Appendix D; `slip-track` and \
+             a constant angular slip look alike in yaw and power)",
+            100.0 * b.turn_slip,
+            b.slip_track_m / (1.0 - b.turn_slip),
+            b.slip_track_m
         )
     } else {
         String::new()

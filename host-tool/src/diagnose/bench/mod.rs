@@ -70,6 +70,8 @@ pub const GOAL_ACCURACY_PCT: f64 = 90.0;
 pub const GOAL_SHRINK_PCT: f64 = 70.0;
 /// Diagnosis time per dataset [ms].
 pub const GOAL_DIAGNOSE_MS: f64 = 20.0;
+/// Goal: one diagnosis of a one-hour log, features included [s].
+pub const GOAL_ONE_HOUR_LOG_S: f64 = 1.0;
 
 /// Which part(s) of the family to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -164,7 +166,11 @@ pub fn run_bench(opts: &BenchOptions) -> BenchReport {
         .flatten()
         .collect();
     let wall_s = t0.elapsed().as_secs_f64();
-    tabulate(*opts, datasets, wall_s)
+    let one_hour_log = specs
+        .first()
+        .ok_or_else(|| "no dataset".to_owned())
+        .and_then(|s| run::time_one_hour_log(s).map_err(|e| e.to_string()));
+    tabulate(*opts, datasets, wall_s, one_hour_log)
 }
 
 #[cfg(test)]

@@ -289,3 +289,50 @@ fn score(result: &mut DatasetResult, d: &Diagnosis) {
     });
     result.true_regime_shrink_pct = result.truth.as_ref().and_then(|t| about_truth(&t.regime));
 }
+
+/// Timing of one diagnosis of a one-hour log (the second speed goal).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LongLogTiming {
+    /// Length of the simulated test run [s].
+    pub run_s: f64,
+    /// Its samples.
+    pub samples: usize,
+    /// Manoeuvres diagnosed.
+    pub manoeuvres: usize,
+    /// `validate` and the diagnosis' features [s].
+    pub validate_s: f64,
+    /// The diagnosis [s].
+    pub diagnose_s: f64,
+}
+
+/// The one-hour log to time: `spec`'s world driving its turn set until an hour has passed, as
+/// one test run, diagnosed against `spec`'s calibration runs.
+pub fn time_one_hour_log(spec: &DatasetSpec) -> Result<LongLogTiming, DatasetError> {
+    const HOUR_S: f64 = 3600.0;
+    let world = spec.world();
+    let mut one = spec.clone();
+    one.repeats = 1;
+    let set_s = world
+        .simulate(&one.test_scenarios()[0], spec.seed)?
+        .duration_s();
+    let mut long = spec.clone();
+    // One set more than the estimate: the long run's seed draws other pauses.
+    long.repeats = (HOUR_S / set_s.max(1.0)).ceil() as u32 + 1;
+    let rover = spec.rover.rover();
+    let calibration = world.simulate(&long.calibration_scenario(), spec.seed)?;
+    let run = world.simulate(&long.test_scenarios()[0], spec.seed.wrapping_add(1))?;
+    let samples = [sample_run(&run, spec.sample_hz)];
+    let cal_rows = rows_for(&rover, &[sample_run(&calibration, spec.sample_hz)], "cal")?;
+    let t0 = Instant::now();
+    let rows = rows_for(&rover, &samples, "run")?;
+    let validate_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    crate::diagnose::diagnose_with(&rover, &rows, Calibration::Rows(&cal_rows))?;
+    Ok(LongLogTiming {
+        run_s: run.duration_s(),
+        samples: samples[0].len(),
+        manoeuvres: rows.len(),
+        validate_s,
+        diagnose_s: t1.elapsed().as_secs_f64(),
+    })
+}

@@ -4,8 +4,11 @@
 //! all rows, and the same per structure and per class; the diagnosis timing over all datasets.
 
 use super::family::Part;
+use super::run::LongLogTiming;
 use super::run::{DatasetResult, BASELINE_MISFIT};
-use super::{BenchOptions, GOAL_ACCURACY_PCT, GOAL_DIAGNOSE_MS, GOAL_SHRINK_PCT};
+use super::{
+    BenchOptions, GOAL_ACCURACY_PCT, GOAL_DIAGNOSE_MS, GOAL_ONE_HOUR_LOG_S, GOAL_SHRINK_PCT,
+};
 use crate::diagnose::cv::PRACTICAL_FLOOR_W;
 use crate::effect_id::EffectId;
 use crate::sim::world::Side;
@@ -197,6 +200,8 @@ pub struct Timing {
     pub median_diagnose_long_s: Option<f64>,
     /// Datasets whose diagnosis took longer than the goal ([`GOAL_DIAGNOSE_MS`]).
     pub over_goal: usize,
+    /// One diagnosis of a one-hour log (the first dataset's world), or why it failed.
+    pub one_hour_log: Result<LongLogTiming, String>,
 }
 
 /// The bench's results: the figures per part, the timing, every dataset.
@@ -406,7 +411,12 @@ pub fn part_figures(part: Part, results: &[DatasetResult]) -> PartFigures {
 }
 
 /// The report of finished datasets.
-pub fn tabulate(options: BenchOptions, datasets: Vec<DatasetResult>, wall_s: f64) -> BenchReport {
+pub fn tabulate(
+    options: BenchOptions,
+    datasets: Vec<DatasetResult>,
+    wall_s: f64,
+    one_hour_log: Result<LongLogTiming, String>,
+) -> BenchReport {
     let parts = options
         .part
         .parts()
@@ -433,6 +443,7 @@ pub fn tabulate(options: BenchOptions, datasets: Vec<DatasetResult>, wall_s: f64
             .iter()
             .filter(|&&t| t * 1e3 > GOAL_DIAGNOSE_MS)
             .count(),
+        one_hour_log,
     };
     BenchReport {
         options,
@@ -488,6 +499,19 @@ impl fmt::Display for BenchReport {
             opt(t.max_diagnose_s.map(|s| s * 1e3), ""),
             t.over_goal
         )?;
+        match &t.one_hour_log {
+            Ok(h) => writeln!(
+                f,
+                "one-hour log ({:.0} s, {} samples, {} manoeuvres): validate {:.0} ms, diagnose \
+                 {:.0} ms (goal < {GOAL_ONE_HOUR_LOG_S:.0} s)",
+                h.run_s,
+                h.samples,
+                h.manoeuvres,
+                h.validate_s * 1e3,
+                h.diagnose_s * 1e3
+            )?,
+            Err(e) => writeln!(f, "one-hour log: not timed ({e})")?,
+        }
         for p in &self.parts {
             writeln!(f)?;
             write_part(f, p)?;

@@ -142,6 +142,7 @@ impl WorldConfig {
             "motor-heating.resistance_coefficient_per_k",
             mh.resistance_coefficient_per_k,
         )?;
+        pos("motor-heating.max_rise_k", mh.max_rise_k)?;
         nonneg("slope.phi", e.slope.phi)?;
         fin("slope.pitch_deg", e.slope.pitch_deg)?;
         fin("slope.amplitude_deg", e.slope.amplitude_deg)?;

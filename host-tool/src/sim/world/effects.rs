@@ -237,6 +237,10 @@ pub struct MotorHeating {
     pub time_constant_s: f64,
     /// α: temperature coefficient of the winding resistance [1/K] (copper 0.00393).
     pub resistance_coefficient_per_k: f64,
+    /// Largest winding temperature rise [K]: the insulation's limit (class F allows 105 K), where
+    /// a drive's thermal protection derates. It also bounds the model's thermal runaway, which
+    /// sets in when I² R_m α R_th ≥ 1 (a large rover's currents with a high R_th).
+    pub max_rise_k: f64,
 }
 
 impl Default for MotorHeating {
@@ -246,6 +250,7 @@ impl Default for MotorHeating {
             thermal_resistance_k_per_w: 3.0,
             time_constant_s: 600.0,
             resistance_coefficient_per_k: 0.00393,
+            max_rise_k: 105.0,
         }
     }
 }

@@ -628,7 +628,7 @@ fn step(
             effect_w[EffectId::MotorHeating as usize] += extra_w;
             let copper_w = i * i * rm * (1.0 + h.resistance_coefficient_per_k * *heat);
             let rise = (copper_w * h.thermal_resistance_k_per_w - *heat) / h.time_constant_s;
-            *heat += rise * dt;
+            *heat = (*heat + rise * dt).min(h.max_rise_k);
         }
     }
     // Battery and drivers: V = V_0 − R_int (I_l + I_r), I = I_q + P/V.
