@@ -208,6 +208,14 @@ impl<const N: usize> LinearFit<N> {
                 upper: b[i] + t * se,
             };
         }
+        // Cov(b)_ij = s² Σ_k R⁻¹_ik R⁻¹_jk.
+        let mut covariance = [[0.0; N]; N];
+        for (i, row) in covariance.iter_mut().enumerate() {
+            for (j, c) in row.iter_mut().enumerate() {
+                let dot: f64 = (0..N).map(|k| r_inv[i][k] * r_inv[j][k]).sum();
+                *c = residual_standard_error * residual_standard_error * dot;
+            }
+        }
         let r_squared = (self.y_m2 > 0.0).then(|| 1.0 - self.ssr / self.y_m2);
         let finite = estimates
             .iter()
@@ -219,6 +227,7 @@ impl<const N: usize> LinearFit<N> {
         }
         Ok(LinearFitResult {
             estimates,
+            covariance,
             r_squared,
             residual_standard_error,
             n: self.n,
@@ -300,6 +309,8 @@ impl Estimate {
 pub struct LinearFitResult<const N: usize> {
     /// One per regressor, in the order of the x arrays.
     pub estimates: [Estimate; N],
+    /// Covariance of the estimates, s² (XᵀX)⁻¹ (the variances are the squared standard errors).
+    pub covariance: [[f64; N]; N],
     /// r² = 1 − SSR/SST with SST about the mean of y (MATLAB's `rsquare`). `None` when all y are
     /// equal (SST = 0).
     pub r_squared: Option<f64>,
@@ -328,6 +339,18 @@ impl<const N: usize> LinearFitResult<N> {
             .zip(x)
             .map(|(e, xj)| e.value * xj)
             .sum()
+    }
+
+    /// Standard error of the fitted value at x (the mean response, not a new observation),
+    /// √(xᵀ Cov(b) x).
+    pub fn prediction_standard_error(&self, x: [f64; N]) -> f64 {
+        let mut v = 0.0;
+        for (i, xi) in x.iter().enumerate() {
+            for (j, xj) in x.iter().enumerate() {
+                v += xi * self.covariance[i][j] * xj;
+            }
+        }
+        libm::sqrt(v.max(0.0))
     }
 }
 
@@ -787,6 +810,39 @@ mod tests {
         ));
         assert_eq!(f_upper_tail(0.0, 3, 3), Ok(1.0));
         assert_eq!(f_upper_tail(1.0, 0, 3), Err(FitError::InvalidParameter));
+    }
+
+    /// Straight-line regression: the mean response's standard error has the textbook closed
+    /// form s √(1/n + (x₀ − x̄)²/Sxx), and the covariance's diagonal is the squared SEs.
+    #[test]
+    fn prediction_standard_error_matches_the_straight_line_formula() {
+        let xs = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0];
+        let ys = [0.1, 1.9, 4.2, 5.8, 8.3, 9.7];
+        let rows: Vec<[f64; 2]> = xs.iter().map(|&x| [1.0, x]).collect();
+        let fit = LinearFit::<2>::from_rows(&rows, &ys)
+            .expect("rows")
+            .solve()
+            .expect("solves");
+        let n = xs.len() as f64;
+        let mean = xs.iter().sum::<f64>() / n;
+        let sxx: f64 = xs.iter().map(|x| (x - mean) * (x - mean)).sum();
+        let s = fit.residual_standard_error;
+        for x0 in [-1.0, 0.0, 2.5, 7.0] {
+            let want = s * libm::sqrt(1.0 / n + (x0 - mean) * (x0 - mean) / sxx);
+            let got = fit.prediction_standard_error([1.0, x0]);
+            assert!(
+                close(got, want, 1e-12 * want.max(1.0)),
+                "x0 {x0}: {got} vs {want}"
+            );
+        }
+        for (i, e) in fit.estimates.iter().enumerate() {
+            assert!(close(fit.covariance[i][i].sqrt(), e.standard_error, 1e-12));
+        }
+        assert!(close(fit.covariance[0][1], fit.covariance[1][0], 1e-15));
+        assert!(
+            fit.covariance[0][1] < 0.0,
+            "intercept and slope anticorrelate for x̄ > 0"
+        );
     }
 
     #[test]

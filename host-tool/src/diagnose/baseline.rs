@@ -70,6 +70,9 @@ pub struct Baseline {
     /// Leave-one-run-out RMS error of the chosen member on the calibration manoeuvres' average
     /// power [W]; `None` with fewer than 2 calibration runs (the plain member is used).
     pub cv_rmse_w: Option<f64>,
+    /// Covariance of (a, G) from the fit [N²]; zero when given, not fitted.
+    #[serde(skip)]
+    pub covariance: [[f64; 2]; 2],
 }
 
 /// How the skid power is split per side (the baseline family's split members).
@@ -204,7 +207,9 @@ fn current_regressors(
 
 /// Least squares of the calibration observations' average power on `x_of`'s regressors:
 /// (estimate, 95 % half-width) per parameter, the residual standard error and n.
-type Solved<const N: usize> = ([(f64, f64); N], f64, usize);
+/// (estimate, 95 % half-width) per parameter, the residual standard error, n and the
+/// covariance of the first two parameters (a, G).
+type Solved<const N: usize> = ([(f64, f64); N], f64, usize, [[f64; 2]; 2]);
 
 fn solve<const N: usize>(
     calibration: &[&TurnRow],
@@ -219,10 +224,12 @@ fn solve<const N: usize>(
         }
     }
     let solved = fit.solve()?;
+    let c = &solved.covariance;
     Ok((
         solved.estimates.map(|e| (e.value, e.half_width())),
         solved.residual_standard_error,
         solved.n,
+        [[c[0][0], c[0][1]], [c[1][0], c[1][1]]],
     ))
 }
 
@@ -266,14 +273,14 @@ impl Baseline {
                     let [a, g, _] = x_of(r, s);
                     [a, g]
                 })
-                .map(|(est, rse, n)| ([est[0], est[1], (0.0, 0.0)], rse, n))
+                .map(|(est, rse, n, cov)| ([est[0], est[1], (0.0, 0.0)], rse, n, cov))
             }
             .map_err(|e| err(e.to_string()))?;
             let [(a, _), (g, _), (c, _)] = result.0;
             current = Baseline::with_parameters(rover, structure, [a, g, c]);
             solved = Some(result);
         }
-        let Some(([(a, a_hw), (g, g_hw), (c, _)], rse, n)) = solved else {
+        let Some(([(a, a_hw), (g, g_hw), (c, _)], rse, n, covariance)) = solved else {
             return Err(err("no iteration".into()));
         };
         if structure.copper_loss && c < 0.0 {
@@ -284,6 +291,7 @@ impl Baseline {
         b.rolling_resistance_ci_n = g_hw;
         b.residual_std_w = rse;
         b.n = n;
+        b.covariance = covariance;
         Ok(b)
     }
 
@@ -306,6 +314,7 @@ impl Baseline {
             copper_w_per_n2: c,
             turn_slip: 0.0,
             cv_rmse_w: None,
+            covariance: [[0.0; 2]; 2],
         }
     }
 
@@ -342,6 +351,24 @@ impl Baseline {
         } else {
             p / (1.0 - self.turn_slip)
         }
+    }
+
+    /// Standard error of [`effective_side_power_w`](Self::effective_side_power_w) from the
+    /// uncertainty of a and G (the copper coefficient's is left out) [W]: every diagnosed row
+    /// shares it, so a gap must exceed it as well as the rows' own spread.
+    pub fn effective_side_power_se_w(&self, row: &TurnRow, side: usize) -> f64 {
+        let x = [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()];
+        let raw = self.skid_force_n * x[0] + self.rolling_resistance_n * x[1];
+        let mut scale = match self.structure.split {
+            Split::Returning { fraction } if raw < 0.0 => fraction,
+            _ => 1.0,
+        };
+        if !(row.is_straight() || !row.turned_from_yaw || self.turn_slip == 0.0) {
+            scale /= 1.0 - self.turn_slip;
+        }
+        let c = &self.covariance;
+        let v = x[0] * x[0] * c[0][0] + 2.0 * x[0] * x[1] * c[0][1] + x[1] * x[1] * c[1][1];
+        scale.abs() * v.max(0.0).sqrt()
     }
 
     /// Measured effective minus model effective power, per side (inner/outer order of the

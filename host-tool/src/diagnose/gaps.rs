@@ -106,11 +106,15 @@ pub struct Gap {
     pub loo: Vec<LooTest>,
 }
 
-/// The observations of `row` with their part, effective-power residual and model power [W].
-fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64)> {
+/// The observations of `row` with their part, effective-power residual, model power and the
+/// model power's standard error [W].
+fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64, f64)> {
     let res = baseline.observed_residuals_w(row);
     if res.is_total() {
-        vec![(Part::Total, res[0], baseline.power_w(row))]
+        let se = (0..2)
+            .map(|k| baseline.effective_side_power_se_w(row, k))
+            .sum();
+        vec![(Part::Total, res[0], baseline.power_w(row), se)]
     } else {
         row.sides
             .iter()
@@ -121,6 +125,7 @@ fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64)> 
                     Part::from(s.role),
                     *r,
                     baseline.effective_side_power_w(row, k),
+                    baseline.effective_side_power_se_w(row, k),
                 )
             })
             .collect()
@@ -140,14 +145,15 @@ pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdi
                 .flat_map(|(i, r)| {
                     effective_parts(baseline, r)
                         .into_iter()
-                        .filter(|(p, _, _)| *p == part)
-                        .map(move |(_, value, model_w)| Obs {
+                        .filter(|(p, ..)| *p == part)
+                        .map(move |(_, value, model_w, model_se_w)| Obs {
                             value,
                             run: r.run_index,
                             key: repeat_key(r.r_over_r_prime),
                             row: i,
                             part,
                             model_w,
+                            model_se_w,
                             duration_s: r.expected_duration_s,
                         })
                 })
@@ -247,6 +253,8 @@ pub struct TurnResidual {
     pub calibration_kind: bool,
     /// The baseline's power of this observation [W] (the relative practical floor's base).
     pub model_w: f64,
+    /// Standard error of the baseline's effective power here [W].
+    pub model_se_w: f64,
     /// Run time at the middle of the manoeuvre [s]; `None` for total-only rows.
     pub t_mid_s: Option<f64>,
     /// Average power minus model [W].
@@ -273,6 +281,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             part,
             calibration_kind: row.calibration_kind,
             model_w: 0.0,
+            model_se_w: 0.0,
             t_mid_s: None,
             avg_power_w: 0.0,
             peak_over_model_w: None,
@@ -285,6 +294,9 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             let r = row.effective_power_w() - model_w;
             out.push(TurnResidual {
                 model_w,
+                model_se_w: (0..2)
+                    .map(|k| baseline.effective_side_power_se_w(row, k))
+                    .sum(),
                 avg_power_w: r,
                 effective_power_w: r,
                 ..base(Part::Total)
@@ -295,6 +307,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             let model_w = baseline.side_power_w(row, k);
             out.push(TurnResidual {
                 model_w,
+                model_se_w: baseline.effective_side_power_se_w(row, k),
                 t_mid_s: Some(row.t_start_s + 0.5 * row.duration_s),
                 avg_power_w: s.avg_power_w - model_w,
                 peak_over_model_w: Some(s.max_power_w - model_w),
@@ -360,6 +373,7 @@ fn obs_of(t: &TurnResidual, value: f64, duration_s: f64) -> Obs {
         row: t.row,
         part: t.part,
         model_w: t.model_w,
+        model_se_w: t.model_se_w,
         duration_s,
     }
 }

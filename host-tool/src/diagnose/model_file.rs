@@ -458,6 +458,7 @@ mod tests {
             copper_w_per_n2: 0.0,
             turn_slip: 0.0,
             cv_rmse_w: None,
+            covariance: [[0.0; 2]; 2],
         };
         let at = Conditions {
             v_c_mps: 0.3,

@@ -43,6 +43,9 @@ pub(super) struct Obs {
     pub(super) part: Part,
     /// The baseline's power of the observation [W] (the relative floor).
     pub(super) model_w: f64,
+    /// Its standard error from the baseline's fit [W]: shared by every observation of a group,
+    /// so it widens the interval of their mean instead of averaging out.
+    pub(super) model_se_w: f64,
     /// Expected duration [s] (the energy floor).
     pub(super) duration_s: f64,
 }
@@ -59,7 +62,8 @@ pub(super) enum Floor {
 }
 
 /// [`judge`]'s rule in words, for reports.
-pub const SIGNIFICANCE_RULE: &str = "with repeats, the 95 % interval over them excludes 0; \
+pub const SIGNIFICANCE_RULE: &str = "with repeats, the 95 % interval over them, widened by the \
+     baseline's own fit error, excludes 0; \
      without, a row lies outside its leave-one-out 95 % prediction interval (externally \
      studentised t, Holm-adjusted, turns with R ≤ R′ first); and |mean| above the practical \
      floor, max(1.5 W, 5 % of the model power)";
@@ -77,7 +81,8 @@ pub(super) struct Judgement {
 /// **The one significance rule** of the diagnosis, for the selection's gaps and every group of
 /// the "where" analysis alike:
 /// - with repeats ([`has_repeats`]): the mean's 95 % interval over them
-///   ([`cv::bootstrap_mean`]) excludes 0 and |mean| > the floor;
+///   ([`cv::bootstrap_mean`]), widened in quadrature by the baseline's 95 % error there, excludes
+///   0 and |mean| > the floor;
 /// - without repeats, when the observations have leave-one-out tests ([`loo`], power metrics):
 ///   some observation lies outside its prediction interval after the multiple-testing
 ///   adjustment and its leave-one-out residual exceeds the floor;
@@ -87,6 +92,7 @@ pub(super) fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> 
         return None;
     }
     let model_w: Vec<f64> = obs.iter().map(|o| o.model_w).collect();
+    let floor_kind = floor;
     let floor = match floor {
         Floor::Power => practical_floor_w(&model_w),
         Floor::Energy => {
@@ -100,6 +106,17 @@ pub(super) fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> 
     if has_repeats(&pairs) {
         let runs: Vec<usize> = obs.iter().map(|o| o.run).collect();
         let (mean, lo, hi) = cv::bootstrap_mean(&values, &runs, seed)?;
+        // The baseline's own error is common to every row of the group (its parameters were fitted
+        // once, on the calibration manoeuvres): add it in quadrature to the repeats' interval.
+        let n = obs.len() as f64;
+        let model_hw = 1.96
+            * match floor_kind {
+                Floor::Power => obs.iter().map(|o| o.model_se_w).sum::<f64>() / n,
+                Floor::Energy => obs.iter().map(|o| o.model_se_w * o.duration_s).sum::<f64>() / n,
+                Floor::Fixed => 0.0,
+            };
+        let widen = |half: f64| half.hypot(model_hw);
+        let (lo, hi) = (mean - widen(mean - lo), mean + widen(hi - mean));
         return Some(Judgement {
             mean,
             ci: (lo, hi),

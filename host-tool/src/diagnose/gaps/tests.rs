@@ -8,6 +8,41 @@ use model_core::Rover;
 
 const HUSKY: Rover = Rover::HUSKY_A200;
 
+/// A gap of 3 W repeated tightly over three runs is significant against an exact baseline, and
+/// not when the baseline's own fit error there is 2 W (its 95 % half-width, 3.9 W, covers it):
+/// every row shares that error, so more repeats cannot average it away.
+#[test]
+fn the_baselines_fit_error_widens_a_gaps_interval() {
+    let obs = |model_se_w: f64| -> Vec<Obs> {
+        [2.9, 3.0, 3.1, 3.05, 2.95, 3.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &value)| Obs {
+                value,
+                run: i % 3,
+                key: 100,
+                row: i,
+                part: Part::Outer,
+                model_w: 20.0,
+                model_se_w,
+                duration_s: 5.0,
+            })
+            .collect()
+    };
+    let exact = judge(&obs(0.0), Floor::Power, 7, &[]).expect("judged");
+    assert!(exact.significant && exact.ci.0 > 2.5, "{:?}", exact.ci);
+    let uncertain = judge(&obs(2.0), Floor::Power, 7, &[]).expect("judged");
+    assert!((uncertain.mean - exact.mean).abs() < 1e-12);
+    assert!(
+        !uncertain.significant && uncertain.ci.0 < 0.0,
+        "{:?}",
+        uncertain.ci
+    );
+    // Growth and run-time groups have no model term to be uncertain about.
+    let fixed = judge(&obs(2.0), Floor::Fixed, 7, &[]).expect("judged");
+    assert!(fixed.significant, "{:?}", fixed.ci);
+}
+
 #[test]
 fn practical_floor_scales_with_the_model_power() {
     // Small or zero model power: the absolute floor.
