@@ -46,6 +46,8 @@
 //! commanded duration, minus the hard-ground power. A file with no effects is the hard-ground
 //! model; [`EnergyModel::husky_hard_ground`] written out ([`EnergyModel::to_toml`]) is the preset.
 
+pub mod sweep;
+
 use crate::rover::{decimal_f64, parse_rover};
 use model_core::paths::{optimise_clc, ClcEnds, ClcPath, PathError, SegmentEnergy};
 use model_core::power::IcrHardGround;
@@ -498,6 +500,9 @@ pub enum PlanError {
     /// The optimiser found no path.
     #[error("no path: {0}")]
     Path(PathError),
+    /// A sweep range that is not finite and > 0.
+    #[error("--sweep-max must be finite and > 0, got {0}")]
+    InvalidSweep(f64),
 }
 
 /// A path of the plan: its geometry, energy and duration.
