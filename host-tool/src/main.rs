@@ -645,6 +645,26 @@ fn demo_cmd(
             -p.saving_pct
         );
     }
+    // Issue 18: the diagnosed model's ΔE curve beside thesis Table 6.1 (45° – 10 m – 45°).
+    let sweep = &outcome.sweep_diagnosed;
+    println!(
+        "  diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
+         ({:+.1} %); slices of R/R′, model vs measured on sand:",
+        sweep.start_deg,
+        sweep.distance_m,
+        sweep.end_deg,
+        sweep.optimum.r_over_r_prime,
+        sweep.optimum.delta_e_pct
+    );
+    for s in &sweep.slices {
+        let seed = s
+            .seed_delta_e_pct
+            .map_or("-".to_owned(), |d| format!("{d:+.2} %"));
+        println!(
+            "    {:.1} – {:.1}: {:+6.2} % vs {seed}",
+            s.lo, s.hi, s.model_delta_e_pct
+        );
+    }
     println!();
     println!(
         "{} files in {} ({:.1} s):",
