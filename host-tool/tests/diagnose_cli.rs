@@ -256,11 +256,9 @@ fn diagnose_fails_clearly_on_bad_input() {
 #[test]
 fn diagnose_reads_table_6_1_as_a_path_table() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let rover = root.join("rovers/husky-a200.toml");
     let table = root.join("examples/husky-sand-table-6.1.csv");
+    // `diagnose` passes --rover rovers/husky-a200.toml.
     let out = diagnose(&[
-        os("--rover"),
-        rover.as_os_str(),
         os("--runs"),
         table.as_os_str(),
         os("--json"),
