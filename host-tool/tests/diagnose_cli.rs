@@ -258,12 +258,7 @@ fn diagnose_reads_table_6_1_as_a_path_table() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let table = root.join("examples/husky-sand-table-6.1.csv");
     // `diagnose` passes --rover rovers/husky-a200.toml.
-    let out = diagnose(&[
-        os("--runs"),
-        table.as_os_str(),
-        os("--json"),
-        os("-"),
-    ]);
+    let out = diagnose(&[os("--runs"), table.as_os_str(), os("--json"), os("-")]);
     let v: serde_json::Value = serde_json::from_str(&ok(&out)).expect("JSON");
     assert_eq!(v["effect"], "angular-slip");
     assert_eq!(v["regime"], "at-r-prime");

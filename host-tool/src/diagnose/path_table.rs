@@ -576,7 +576,7 @@ fn score(
         .collect();
     let n = rows.len();
     let mut heldout_pct = Vec::with_capacity(n);
-    for i in 0..n {
+    for (i, held_out) in energies.iter().enumerate() {
         let keep = |v: &[f64]| -> Vec<f64> {
             v.iter()
                 .enumerate()
@@ -586,7 +586,7 @@ fn score(
         };
         let xs: Vec<Vec<f64>> = (0..n).filter(|&j| j != i).map(|j| x[j].clone()).collect();
         let theta = fit(&xs, &keep(&y), &keep(weights));
-        heldout_pct.push(predicted_pct(&energies[i], &theta));
+        heldout_pct.push(predicted_pct(held_out, &theta));
     }
     let rms = |e: &mut dyn Iterator<Item = f64>| {
         let v: Vec<f64> = e.collect();
