@@ -8,6 +8,9 @@
 //! (d, 0), headings from A→C counter-clockwise positive, both in (0°, 90°] or both in [−90°, 0°)
 //! (Eq 50). The geometry and the optimiser are `model_core::paths`.
 //!
+//! [`sweep`]: ΔE of the CLC path against R/R' for one pair of poses (`plan --sweep`, thesis
+//! Fig. 6.3 and Table 6.1).
+//!
 //! # Model file (TOML, format version 1)
 //!
 //! ```toml

@@ -72,6 +72,9 @@
 //!   40 % above R = 0's, the time offset at least double the hard ground's (`angular-slip`,
 //!   `slip-track` 1.21 m vs hard ground 1.29 m);
 //! - Section 6.2 / Fig 4.8: P(R') close to P(0) (`braked-inner` kept small).
+//! - Section 6.1 / Table 6.1: the 45° – 10 m – 45° CLC path cheapest at 2R' < R < 2.5R' and
+//!   dearer than PLP at R' (`angular-slip` falling as (R'/R)³ above R' on sand; the slice
+//!   around R' stays below the table's +14 %, see the README's calibration table).
 //!
 //! The numbers the tests measure are in this module's tests (`calibration_*`).
 
