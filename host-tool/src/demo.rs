@@ -21,6 +21,7 @@ use crate::log::load::{load_run, LoadError};
 use crate::log::run_csv::RunCsvFileError;
 use crate::log::run_log::RunLog;
 use crate::log::{write_atomically, AtomicWriteError};
+use crate::plan::sweep::{SweepGrid, SweepReport, TABLE_6_1_PATH};
 use crate::plan::{self, ModelFileError, ModelSource, PlanError, PlanReport};
 use crate::plot::{Format, PlotError};
 use crate::record::{self, RecordError, RecordOptions, RecordStatus, RecordSummary, SinkError};
@@ -175,6 +176,9 @@ pub struct DemoOutcome {
     pub plan_hard_ground: PlanReport,
     /// [`PLAN_PATH`] under the diagnosed model (the model file `diagnose` wrote).
     pub plan_diagnosed: PlanReport,
+    /// The diagnosed model's ΔE against R/R' on thesis Table 6.1's path, with the table's
+    /// measured slices beside its own.
+    pub sweep_diagnosed: SweepReport,
     /// Every file written (logs, reports, figures).
     pub files: Vec<PathBuf>,
 }
@@ -294,12 +298,15 @@ pub fn run(
     let source = ModelSource::File(model_path);
     let plan_diagnosed = plan::plan(&diagnosed, &source, start_deg, end_deg, distance_m)?;
     let plan_hard_ground = plan::plan(&hard_ground, &source, start_deg, end_deg, distance_m)?;
+    let (a, c, d) = TABLE_6_1_PATH;
+    let sweep_diagnosed = plan::sweep::sweep(&diagnosed, &source, a, c, d, SweepGrid::default())?;
     Ok(DemoOutcome {
         runs,
         report,
         diagnosis,
         plan_hard_ground,
         plan_diagnosed,
+        sweep_diagnosed,
         files,
     })
 }

@@ -259,6 +259,21 @@ struct PlanArgs {
     /// Write the plan as JSON to FILE (`-` for stdout, then no table is printed).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Sweep both CLC arcs over R/R' = 0 … --sweep-max instead: ΔE = (E_CLC − E_PLP)/E_PLP
+    /// against R/R' (thesis Fig. 6.3), the optimum, and thesis Table 6.1's slices.
+    #[arg(long)]
+    sweep: bool,
+    /// Largest R/R' of the sweep.
+    #[arg(
+        long,
+        default_value_t = 3.0,
+        requires = "sweep",
+        value_name = "R_OVER_R_PRIME"
+    )]
+    sweep_max: f64,
+    /// Draw the sweep as thesis Fig. 6.3 to FILE (.png or .svg).
+    #[arg(long, requires = "sweep", value_name = "FILE")]
+    figure: Option<PathBuf>,
 }
 
 /// `plan --preset` values.
@@ -630,6 +645,26 @@ fn demo_cmd(
             -p.saving_pct
         );
     }
+    // Issue 18: the diagnosed model's ΔE curve beside thesis Table 6.1 (45° – 10 m – 45°).
+    let sweep = &outcome.sweep_diagnosed;
+    println!(
+        "  diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
+         ({:+.1} %); slices of R/R′, model vs measured on sand:",
+        sweep.start_deg,
+        sweep.distance_m,
+        sweep.end_deg,
+        sweep.optimum.r_over_r_prime,
+        sweep.optimum.delta_e_pct
+    );
+    for s in &sweep.slices {
+        let seed = s
+            .seed_delta_e_pct
+            .map_or("-".to_owned(), |d| format!("{d:+.2} %"));
+        println!(
+            "    {:.1} – {:.1}: {:+6.2} % vs {seed}",
+            s.lo, s.hi, s.model_delta_e_pct
+        );
+    }
     println!();
     println!(
         "{} files in {} ({:.1} s):",
@@ -723,6 +758,14 @@ fn run_rows(
 
 fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
     let rover = load_rover(&args.rover)?;
+    // Path-level summaries (thesis Table 6.1) have their own judgement.
+    if args
+        .runs
+        .iter()
+        .any(|p| diagnose::path_table::is_path_table_file(p))
+    {
+        return diagnose_path_table_cmd(&rover, &args);
+    }
     let (rows, notes) = diagnosis_rows(&rover, &args.runs, "diagnosed")?;
     let cal_rows = if args.calibration.is_empty() {
         None
@@ -755,6 +798,38 @@ fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
     Ok(())
 }
 
+/// `diagnose` on a path table: every `--runs` file must be one; no calibration runs.
+fn diagnose_path_table_cmd(rover: &model_core::Rover, args: &DiagnoseArgs) -> Result<()> {
+    use diagnose::path_table;
+    if let Some(p) = args
+        .runs
+        .iter()
+        .find(|p| !path_table::is_path_table_file(p))
+    {
+        anyhow::bail!(
+            "{}: a path table (header start_deg,end_deg,…) cannot be diagnosed with runs or \
+             per-turn summaries; pass them separately",
+            p.display()
+        );
+    }
+    if !args.calibration.is_empty() || args.out.is_some() {
+        anyhow::bail!(
+            "a path table is judged against paper Table 2's hard-ground model carried over to \
+             the rover: --calibration and --out do not apply"
+        );
+    }
+    let mut rows = Vec::new();
+    for path in &args.runs {
+        rows.extend(path_table::load_path_table(path).with_context(|| path.display().to_string())?);
+    }
+    let model = path_table::hard_ground_for(rover);
+    let diagnosis = path_table::diagnose_path_table(&model, &rows)?;
+    if !emit_json(args.json.as_deref(), &diagnosis.to_json(), "diagnosis")? {
+        write!(std::io::stdout().lock(), "{diagnosis}")?;
+    }
+    Ok(())
+}
+
 fn diagnose_bench_cmd(args: DiagnoseBenchArgs) -> Result<()> {
     let options = diagnose::bench::BenchOptions {
         datasets: args.datasets as usize,
@@ -781,6 +856,28 @@ fn plan_cmd(args: PlanArgs) -> Result<()> {
             (preset.model(), ModelSource::Preset(preset))
         }
     };
+    if args.sweep {
+        let grid = plan::sweep::SweepGrid {
+            max_r_over_r_prime: args.sweep_max,
+            ..plan::sweep::SweepGrid::default()
+        };
+        let report = plan::sweep::sweep(
+            &model,
+            &source,
+            args.start_deg,
+            args.end_deg,
+            args.distance_m,
+            grid,
+        )?;
+        if let Some(path) = &args.figure {
+            host_tool::plot::render(&report.chart(), path)
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        if !emit_json(args.json.as_deref(), &report, "sweep")? {
+            write!(std::io::stdout().lock(), "{report}")?;
+        }
+        return Ok(());
+    }
     let report = plan::plan(
         &model,
         &source,

@@ -8,6 +8,9 @@
 //! (d, 0), headings from A→C counter-clockwise positive, both in (0°, 90°] or both in [−90°, 0°)
 //! (Eq 50). The geometry and the optimiser are `model_core::paths`.
 //!
+//! [`sweep`]: ΔE of the CLC path against R/R' for one pair of poses (`plan --sweep`, thesis
+//! Fig. 6.3 and Table 6.1).
+//!
 //! # Model file (TOML, format version 1)
 //!
 //! ```toml
@@ -45,6 +48,8 @@
 //! (angular slip, thesis Eq 6.3) enters as energy-equivalent power: measured turn energy over
 //! commanded duration, minus the hard-ground power. A file with no effects is the hard-ground
 //! model; [`EnergyModel::husky_hard_ground`] written out ([`EnergyModel::to_toml`]) is the preset.
+
+pub mod sweep;
 
 use crate::rover::{decimal_f64, parse_rover};
 use model_core::paths::{optimise_clc, ClcEnds, ClcPath, PathError, SegmentEnergy};
@@ -498,6 +503,9 @@ pub enum PlanError {
     /// The optimiser found no path.
     #[error("no path: {0}")]
     Path(PathError),
+    /// A sweep range that is not finite and > 0.
+    #[error("--sweep-max must be finite and > 0, got {0}")]
+    InvalidSweep(f64),
 }
 
 /// A path of the plan: its geometry, energy and duration.

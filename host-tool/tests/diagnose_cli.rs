@@ -251,3 +251,21 @@ fn diagnose_fails_clearly_on_bad_input() {
     assert!(stderr.contains("calibration runs"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 18's check: thesis Table 6.1 as a path table departs at R' and angular slip explains it.
+#[test]
+fn diagnose_reads_table_6_1_as_a_path_table() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let table = root.join("examples/husky-sand-table-6.1.csv");
+    // `diagnose` passes --rover rovers/husky-a200.toml.
+    let out = diagnose(&[os("--runs"), table.as_os_str(), os("--json"), os("-")]);
+    let v: serde_json::Value = serde_json::from_str(&ok(&out)).expect("JSON");
+    assert_eq!(v["effect"], "angular-slip");
+    assert_eq!(v["regime"], "at-r-prime");
+    assert_eq!(v["significant"], true);
+    assert_eq!(v["heldout"]["scheme"], "leave-one-slice-out");
+    assert!(
+        v["heldout"]["shrink_pct"].as_f64().expect("shrink") > 30.0,
+        "{v}"
+    );
+}

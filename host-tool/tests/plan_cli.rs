@@ -159,3 +159,54 @@ fn bad_input_is_a_clear_error() {
         assert!(out.stdout.is_empty(), "{args:?}");
     }
 }
+
+/// Issue 18's check: the hard-ground sweep's minimum is at R' with Table 3's CLC energy, and
+/// `--figure` writes thesis Fig. 6.3.
+#[test]
+fn sweep_of_the_preset_has_its_minimum_at_r_prime() {
+    let args = [
+        "--sweep",
+        "--preset",
+        "husky-hard-ground",
+        "--start-deg",
+        "45",
+        "--end-deg",
+        "45",
+        "--distance-m",
+        "10",
+    ];
+    let v = json_of(&args);
+    assert!(
+        (number(&v, "/optimum/r_over_r_prime") - 1.0).abs() < 1e-6,
+        "{v}"
+    );
+    assert!(
+        (number(&v, "/optimum/clc_energy_j") - 965.83).abs() < 0.1,
+        "{v}"
+    );
+    assert!((number(&v, "/plp_energy_j") - 1004.38).abs() < 0.1, "{v}");
+    assert_eq!(v["points"].as_array().map(Vec::len), Some(61));
+    assert_eq!(number(&v, "/slices/1/seed_delta_e_pct"), 14.38);
+    let dir = temp_dir("sweep-figure");
+    let figure = dir.join("fig-6.3.svg");
+    let out = plan(&[&args[..], &["--figure", figure.to_str().expect("utf-8")]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("optimum R = 1.000 R'"), "{text}");
+    assert!(std::fs::metadata(&figure).expect("figure").len() > 1000);
+    let out = plan(&[
+        "--sweep-max",
+        "2",
+        "--start-deg",
+        "45",
+        "--end-deg",
+        "45",
+        "--distance-m",
+        "10",
+    ]);
+    assert!(!out.status.success(), "--sweep-max needs --sweep");
+}

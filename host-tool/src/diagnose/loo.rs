@@ -244,7 +244,7 @@ pub fn tests(
 }
 
 /// Holm-adjusted p values of `p` (same order).
-fn holm(p: &[f64]) -> Vec<f64> {
+pub(super) fn holm(p: &[f64]) -> Vec<f64> {
     let m = p.len();
     let mut order: Vec<usize> = (0..m).collect();
     order.sort_by(|&a, &b| p[a].total_cmp(&p[b]));

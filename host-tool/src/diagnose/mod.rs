@@ -19,6 +19,8 @@ pub mod gaps;
 pub mod loo;
 pub mod model_file;
 pub mod observe;
+// Path-level summaries (thesis Table 6.1): their own reader and judgement.
+pub mod path_table;
 pub mod report;
 pub mod summary;
 pub mod verdict;

@@ -126,6 +126,10 @@ impl WorldConfig {
                 bad(key, v, "in [0, 0.95]")?;
             }
         }
+        let n = e.angular_slip.decay_exponent;
+        if !(0.0..=10.0).contains(&n) {
+            bad("angular-slip.decay_exponent", n, "in [0, 10]")?;
+        }
         if let Some(b) = e.slip_track.slip_track_m {
             pos("slip-track.slip_track_m", b)?;
         }

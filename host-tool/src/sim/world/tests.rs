@@ -570,3 +570,67 @@ fn the_simulated_board_measures_the_world() {
         "{current_a} A vs {truth} A"
     );
 }
+
+/// ΔE of `scenarios/table-6.1.toml` driven in `world` (noise-free truth), per CLC entry.
+fn table_6_1(world: &WorldConfig) -> Vec<super::path_energy::PathDeltaE> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let sc = load_scenario(&root.join("scenarios/table-6.1.toml")).expect("loads");
+    let t = world.without_noise().simulate(&sc, 1).expect("simulates");
+    super::path_energy::path_delta_e(&sc, t.manoeuvres(), f64::from(world.rover.r_prime_m()))
+}
+
+#[test]
+fn table_6_1_sand_world_matches_the_thesis_slices() {
+    // Thesis Table 6.1 (45° – 10 m – 45° on sand): slice means +4.55, +14.38, −8.63, −13.2,
+    // −12.03 %. The sand world, driven through CLC paths at the slice centres and the PLP path
+    // (three repeats), gives +0.71, +3.55, −10.82, −11.51, −11.17 %: four slices within ±5
+    // points, the optimum in 2R' < R < 2.5R' and CLC dearer than PLP around R'. The slice around
+    // R' is 10.8 points short: raising it needs ≈ 1.6× the angular slip at R = 0 and R' (the
+    // seed's 40 % ratio kept), which stretches every turn with R ≤ R' and breaks the sand
+    // world's power figures (P(R'/3) +40 %, the inner τ ratio 1.22 instead of ≈ 1.7).
+    let got = table_6_1(&WorldConfig::sand());
+    let x: Vec<f64> = got.iter().map(|p| p.r_over_r_prime).collect();
+    assert_eq!(x, [0.25, 1.0, 1.75, 2.25, 2.75]);
+    let d: Vec<f64> = got.iter().map(|p| p.mean_delta_e_pct).collect();
+    for p in &got {
+        assert_eq!(p.delta_e_pct.len(), 3);
+    }
+    for (got, want) in d.iter().zip([0.71, 3.55, -10.82, -11.51, -11.17]) {
+        assert!((got - want).abs() < 0.05, "{d:?}");
+    }
+    let seed = [4.55, 14.38, -8.63, -13.2, -12.03];
+    let within: Vec<bool> = d
+        .iter()
+        .zip(seed)
+        .map(|(g, s)| (g - s).abs() <= 5.0)
+        .collect();
+    assert_eq!(within, [true, false, true, true, true], "{d:?}");
+    let best = d.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert_eq!(best, d[3], "optimum in the 2–2.5 R' slice: {d:?}");
+    assert!(d[1] > 0.0, "CLC dearer than PLP around R': {d:?}");
+    // The thesis sorts by the actual radius over the actual R' (R_ACT/R'_ACT): slower turns near
+    // R' drive wider circles there, so the commanded 2.25 R' is 1.57 R'_ACT.
+    let ract: Vec<f64> = got
+        .iter()
+        .filter_map(|p| p.r_act_over_r_prime_act)
+        .collect();
+    assert!((ract[3] - 1.57).abs() < 0.01, "{ract:?}");
+}
+
+#[test]
+fn table_6_1_the_fall_of_the_slip_above_r_prime_sets_the_optimum() {
+    // With the slip falling as R'/R (the effect's default elsewhere) the savings keep growing
+    // to 2.75 R' and stay near −7 %: the fall above R' is what the table calibrates.
+    let mut world = WorldConfig::sand();
+    world.effects.angular_slip.decay_exponent = 1.0;
+    let d: Vec<f64> = table_6_1(&world)
+        .iter()
+        .map(|p| p.mean_delta_e_pct)
+        .collect();
+    assert!(d[3] > -8.0 && d[4] <= d[3] + 0.1, "{d:?}");
+    // A sand world file that leaves the exponent out keeps the sand's.
+    let w = parse_world("ground = \"sand\"\n[angular-slip]\nat_zero = 0.2\n").expect("valid");
+    assert_eq!(w.effects.angular_slip, effects::AngularSlip::SAND);
+    let e = parse_world("[angular-slip]\ndecay_exponent = -1\n").expect_err("negative");
+    assert!(e.to_string().contains("angular-slip.decay_exponent"), "{e}");
+}
