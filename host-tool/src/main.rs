@@ -24,8 +24,6 @@ use host_tool::validate::{self, RunInput, ValidateOptions};
 use model_core::power::IcrHardGround;
 use std::io::{IsTerminal, Read, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 
 #[derive(Parser)]
@@ -491,15 +489,8 @@ fn record_cmd(args: RecordArgs) -> Result<()> {
         options.rover = load_rover(path)?;
     }
     options.validate()?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::Relaxed) {
-            // A second Ctrl-C: the user wants out now; the log holds what was flushed.
-            std::process::exit(130);
-        }
-    })
-    .context("installing the Ctrl-C handler")?;
+    // Ctrl-C, SIGTERM and SIGHUP stop cleanly (footer written, exit 0).
+    let stop = record::stop_signal::install().context("installing the stop-signal handler")?;
     let mut open = record::serial_opener(options.read_timeout);
     // The port first: a wrong path leaves no empty log behind.
     let board = open(&options.port)?;
