@@ -1,8 +1,8 @@
 //! Reading a run log whatever its format, chosen by the file's extension: `.mcap` (see
 //! [`super::mcap`]) or `.csv` (the run CSV, [`super::run_csv`]).
 
-use super::mcap::{read_mcap_run, McapError, Truncation};
-use super::run_csv::{read_run_csv, RunCsvFileError};
+use super::mcap::{read_mcap_run, Loss, McapError, Truncation};
+use super::run_csv::{read_run_csv_salvaging, DroppedRow, RunCsvFileError};
 use super::run_log::RunLog;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -68,25 +68,51 @@ pub struct LoadedRun {
     pub format: RunFormat,
     /// For an MCAP file cut short (recorder killed): where; the run holds what came before.
     pub truncated: Option<Truncation>,
+    /// For a damaged MCAP file: the stretches skipped (the run holds everything else).
+    pub losses: Vec<Loss>,
+    /// For a run CSV: the rows left out (a cut last row; damaged rows with salvage).
+    pub dropped_rows: Vec<DroppedRow>,
 }
 
-/// Loads the run log at `path` (`.mcap` or `.csv`), reporting a truncated MCAP file.
+impl LoadedRun {
+    /// Whether data inside the file was lost to damage (not counting a cut end: a truncated
+    /// MCAP file or a cut last CSV row, which a killed recorder leaves).
+    pub fn lost_data(&self) -> bool {
+        !self.losses.is_empty() || self.dropped_rows.iter().any(|r| !r.cut)
+    }
+}
+
+/// Loads the run log at `path` (`.mcap` or `.csv`), reporting a truncated or damaged MCAP file
+/// and a cut last CSV row; a damaged CSV row is an error.
 pub fn load(path: &Path) -> Result<LoadedRun, LoadError> {
+    load_salvaging(path, false)
+}
+
+/// [`load`], and with `salvage` damaged CSV rows are left out (and listed) instead of refused.
+/// (A damaged MCAP file is always salvaged: its losses are listed.)
+pub fn load_salvaging(path: &Path, salvage: bool) -> Result<LoadedRun, LoadError> {
     match RunFormat::of(path)? {
-        RunFormat::Csv => Ok(LoadedRun {
-            run: RunLog {
-                samples: read_run_csv(path)?,
-                ..RunLog::default()
-            },
-            format: RunFormat::Csv,
-            truncated: None,
-        }),
+        RunFormat::Csv => {
+            let (samples, dropped_rows) = read_run_csv_salvaging(path, salvage)?;
+            Ok(LoadedRun {
+                run: RunLog {
+                    samples,
+                    ..RunLog::default()
+                },
+                format: RunFormat::Csv,
+                truncated: None,
+                losses: Vec::new(),
+                dropped_rows,
+            })
+        }
         RunFormat::Mcap => {
             let mcap = read_mcap_run(path)?;
             Ok(LoadedRun {
                 run: mcap.run,
                 format: RunFormat::Mcap,
                 truncated: mcap.truncated,
+                losses: mcap.losses,
+                dropped_rows: Vec::new(),
             })
         }
     }
