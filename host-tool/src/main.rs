@@ -9,7 +9,7 @@ use host_tool::diagnose::{self, calibration::Calibration, report};
 use host_tool::figures::{write_figures, RunSamples};
 use host_tool::log::commands::read_commands_csv;
 use host_tool::log::convert::{convert_salvaging, same_file};
-use host_tool::log::load::{load_salvaging, LoadedRun};
+use host_tool::log::load::{load_salvaging, refuse_duplicate_runs, LoadedRun};
 use host_tool::log::mcap::{Loss, Truncation};
 use host_tool::log::run_csv::DroppedRow;
 use host_tool::log::write_atomically;
@@ -347,6 +347,7 @@ fn load_runs(paths: &[PathBuf]) -> Result<(Vec<String>, Vec<host_tool::log::run_
         bar.inc(1);
     }
     bar.finish_and_clear();
+    refuse_duplicate_runs(&names, &logs)?;
     Ok((names, logs))
 }
 

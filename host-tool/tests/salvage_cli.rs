@@ -33,7 +33,11 @@ fn write_mcap(dir: &Path) -> (std::path::PathBuf, usize) {
         .args([&csv, &mcap])
         .output()
         .expect("convert");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     (mcap, samples.len())
 }
 
@@ -44,7 +48,10 @@ fn convert(input: &Path, output: &Path, salvage: bool) -> (Option<i32>, String) 
         c.arg("--salvage");
     }
     let out = c.output().expect("convert");
-    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -53,15 +60,24 @@ fn damaged_mcap_converts_what_survives_and_exits_3_unless_salvage() {
     let (mcap, total) = write_mcap(&dir);
     let bytes = std::fs::read(&mcap).expect("read");
     let cases: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 3] = [
-        ("flipped byte", Box::new(|b: &mut Vec<u8>| {
-            let at = b.len() / 2;
-            b[at] ^= 0x01;
-        })),
-        ("zeroed 64 KiB", Box::new(|b: &mut Vec<u8>| {
-            let at = b.len() / 3;
-            b[at..at + 65_536].fill(0);
-        })),
-        ("zeroed header", Box::new(|b: &mut Vec<u8>| b[..4096].fill(0))),
+        (
+            "flipped byte",
+            Box::new(|b: &mut Vec<u8>| {
+                let at = b.len() / 2;
+                b[at] ^= 0x01;
+            }),
+        ),
+        (
+            "zeroed 64 KiB",
+            Box::new(|b: &mut Vec<u8>| {
+                let at = b.len() / 3;
+                b[at..at + 65_536].fill(0);
+            }),
+        ),
+        (
+            "zeroed header",
+            Box::new(|b: &mut Vec<u8>| b[..4096].fill(0)),
+        ),
     ];
     for (name, damage) in &cases {
         let mut damaged = bytes.clone();
@@ -71,7 +87,10 @@ fn damaged_mcap_converts_what_survives_and_exits_3_unless_salvage() {
         let out = dir.join(format!("{}.csv", name.replace(' ', "-")));
         let (code, stderr) = convert(&input, &out, false);
         assert_eq!(code, Some(3), "{name}: {stderr}");
-        assert!(stderr.contains("damaged, skipped bytes"), "{name}: {stderr}");
+        assert!(
+            stderr.contains("damaged, skipped bytes"),
+            "{name}: {stderr}"
+        );
         assert!(stderr.contains("samples lost"), "{name}: {stderr}");
         let kept = read_run_csv(&out).expect("salvaged output").len();
         assert!(kept > 0 && kept < total, "{name}: {kept} of {total}");

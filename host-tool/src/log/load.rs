@@ -57,6 +57,61 @@ pub enum LoadError {
     /// The MCAP file is unreadable, damaged or not a rover-power run.
     #[error(transparent)]
     Mcap(#[from] McapError),
+    /// Two inputs hold the same run (the same file passed twice, or a copy or conversion of
+    /// it): counted twice, it would pose as an independent repeat.
+    #[error("{second} holds the same run as {first} (identical samples); pass each run once")]
+    DuplicateRun {
+        /// The first input.
+        first: String,
+        /// The input that repeats it.
+        second: String,
+    },
+}
+
+/// Refuses inputs that hold the same run, by content: the samples' bits, so a run and its
+/// conversion to the other format (same samples exactly) are one run too. `names` name the
+/// runs in the error; runs without samples are not compared.
+pub fn refuse_duplicate_runs(names: &[String], runs: &[RunLog]) -> Result<(), LoadError> {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
+    let mut seen: HashMap<u64, usize> = HashMap::new();
+    for (i, run) in runs.iter().enumerate() {
+        if run.samples.is_empty() {
+            continue;
+        }
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        for s in &run.samples {
+            for v in [
+                s.t_s,
+                s.bus_v.left,
+                s.bus_v.right,
+                s.current_a.left,
+                s.current_a.right,
+                s.cmd_mps.left,
+                s.cmd_mps.right,
+            ] {
+                v.to_bits().hash(&mut hasher);
+            }
+        }
+        let key = hasher.finish();
+        if let Some(&first) = seen.get(&key) {
+            // A hash match is confirmed on the samples themselves.
+            if runs[first].samples == run.samples {
+                let name = |k: usize| {
+                    names
+                        .get(k)
+                        .cloned()
+                        .unwrap_or_else(|| format!("run {}", k + 1))
+                };
+                return Err(LoadError::DuplicateRun {
+                    first: name(first),
+                    second: name(i),
+                });
+            }
+        }
+        seen.entry(key).or_insert(i);
+    }
+    Ok(())
 }
 
 /// A run log as loaded, with what the caller should tell the user about it.
@@ -128,6 +183,35 @@ pub fn load_run(path: &Path) -> Result<RunLog, LoadError> {
 mod tests {
     use super::*;
     use crate::log::tests_support::TempDir;
+
+    #[test]
+    fn the_same_run_twice_is_refused_by_content() {
+        use crate::log::run_csv::RunSample;
+        use model_core::Sides;
+        let run = |current: f64| RunLog {
+            samples: (0..50)
+                .map(|i| RunSample {
+                    t_s: f64::from(i) * 0.01,
+                    bus_v: Sides::new(24.0, 24.0),
+                    current_a: Sides::new(current, 1.0),
+                    cmd_mps: Sides::new(0.3, 0.3),
+                    yaw_rad: None,
+                    pitch_deg: None,
+                })
+                .collect(),
+            ..RunLog::default()
+        };
+        let names = ["a.csv", "b.mcap", "c.csv"].map(String::from);
+        assert!(refuse_duplicate_runs(&names, &[run(1.0), run(2.0), run(3.0)]).is_ok());
+        let e = refuse_duplicate_runs(&names, &[run(1.0), run(2.0), run(1.0)]).expect_err("dup");
+        assert_eq!(
+            e.to_string(),
+            "c.csv holds the same run as a.csv (identical samples); pass each run once"
+        );
+        assert!(
+            refuse_duplicate_runs(&names[..2], &[RunLog::default(), RunLog::default()]).is_ok()
+        );
+    }
 
     #[test]
     fn format_by_extension() {

@@ -154,7 +154,7 @@ fn compressed_chunks_are_several_times_smaller() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(crate::log::tests_support::fuzz_config(96))]
 
     /// Flip bytes or zero a block anywhere: the reader never invents or reorders data — what
     /// it returns is the original with items left out — and one flipped byte never stops it.
@@ -192,4 +192,3 @@ proptest! {
         }
     }
 }
-

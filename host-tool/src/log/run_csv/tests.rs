@@ -603,7 +603,7 @@ fn impossible_readings_are_errors_naming_line_and_column() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(crate::log::tests_support::fuzz_config(128))]
 
     /// Damage rows anywhere: with salvage the reader keeps exactly the rows it did not touch
     /// (never an invented or altered one) and names every dropped line.
