@@ -59,7 +59,8 @@ fn damaged_mcap_converts_what_survives_and_exits_3_unless_salvage() {
     let dir = temp_dir("salvage-cli");
     let (mcap, total) = write_mcap(&dir);
     let bytes = std::fs::read(&mcap).expect("read");
-    let cases: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 3] = [
+    type Damage = Box<dyn Fn(&mut Vec<u8>)>;
+    let cases: [(&str, Damage); 3] = [
         (
             "flipped byte",
             Box::new(|b: &mut Vec<u8>| {
