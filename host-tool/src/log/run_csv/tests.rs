@@ -648,3 +648,35 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// The parallel fast path gives the general reader's samples, bit for bit, or gives up.
+    #[test]
+    fn the_fast_path_reads_what_the_general_reader_reads(rows in samples(), copies in 1usize..4) {
+        let mut text = Vec::new();
+        let mut writer = RunCsvWriter::new(&mut text).expect("header");
+        // Repeated with shifted times: files past the parallel threshold too.
+        let span = rows.last().map_or(0.0, |r| r.t_s) - rows.first().map_or(0.0, |r| r.t_s) + 1.0;
+        let mut all = Vec::new();
+        for k in 0..copies * 12_000 / (rows.len() + 1) + 1 {
+            for r in &rows {
+                let shifted = RunSample { t_s: r.t_s + span * k as f64, ..*r };
+                if all.last().is_none_or(|p: &RunSample| shifted.t_s > p.t_s) {
+                    all.push(shifted);
+                }
+            }
+        }
+        for r in &all {
+            writer.write(r).expect("row");
+        }
+        writer.into_inner().expect("flushed");
+        let general = RunCsvReader::new(&text[..]).expect("header").collect::<Result<Vec<_>, _>>().expect("valid");
+        let fast = super::fast::read(&text).expect("this tool's layout");
+        prop_assert_eq!(fast.len(), general.len());
+        for (a, b) in fast.iter().zip(&general) {
+            prop_assert!(same_bits(a, b), "{:?} vs {:?}", a, b);
+        }
+    }
+}
