@@ -4,26 +4,28 @@
 #
 #     bench/throughput.sh
 #
-# 1. Makes sure python3 can import numpy and mcap (installs them with
-#    `python3 -m pip install --quiet numpy mcap` if not; without python3 the Rust figures are
-#    still printed).
+# 1. Makes sure python3 can import numpy, mcap, pyarrow and polars (installs them with
+#    `python3 -m pip install --quiet numpy mcap pyarrow polars` if not; without python3 the Rust
+#    figures are still printed).
 # 2. Runs `cargo bench -p host-tool --bench turn_stats` (host-tool/benches/turn_stats.rs): the
 #    first run generates an hour of the simulated Husky on sand, recorded by the tool's recorder
 #    from the simulated board (target/bench-data/large-run.{bin,csv,commands.csv,mcap}; kept for
 #    later runs), then times, best of 5: the Rust path from the run CSV, from the raw capture and
-#    from the MCAP log, bench/numpy_turn_stats.py on the same CSV and bench/mcap_turn_stats.py
-#    (mcap reader + json + numpy) on the same MCAP log; prints rows/s, MB/s, the ratios
-#    Rust/Python and how closely the per-span energies agree.
+#    from the MCAP log, the page-cache read floor (the CSV's bytes read again), the Python peers
+#    on the same CSV (bench/numpy_turn_stats.py: numpy.loadtxt; bench/arrow_turn_stats.py:
+#    pyarrow.csv; bench/polars_turn_stats.py: polars) and bench/mcap_turn_stats.py (mcap reader +
+#    json + numpy) on the same MCAP log; prints rows/s, MB/s, every ratio from that one run and
+#    how closely the per-span energies agree.
 #
 # Extra arguments go to cargo (e.g. `--offline`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 if command -v python3 >/dev/null 2>&1; then
-    if ! python3 -c "import numpy, mcap" >/dev/null 2>&1; then
-        echo "numpy or mcap is missing: python3 -m pip install --quiet numpy mcap" >&2
-        python3 -m pip install --quiet numpy mcap \
-            || echo "could not install numpy/mcap; the Python baselines that need them will be skipped" >&2
+    if ! python3 -c "import numpy, mcap, pyarrow, polars" >/dev/null 2>&1; then
+        echo "a Python peer's package is missing: python3 -m pip install --quiet numpy mcap pyarrow polars" >&2
+        python3 -m pip install --quiet numpy mcap pyarrow polars \
+            || echo "could not install them; the Python baselines that need them will be skipped" >&2
     fi
 else
     echo "python3 not found: the Python baselines will be skipped" >&2

@@ -8,9 +8,10 @@ use host_tool::demo::{self, DemoOptions};
 use host_tool::diagnose::{self, calibration::Calibration, report};
 use host_tool::figures::{write_figures, RunSamples};
 use host_tool::log::commands::read_commands_csv;
-use host_tool::log::convert::{convert, same_file};
-use host_tool::log::load::load;
-use host_tool::log::mcap::Truncation;
+use host_tool::log::convert::{convert_salvaging, same_file};
+use host_tool::log::load::{load_salvaging, refuse_duplicate_runs, LoadedRun};
+use host_tool::log::mcap::{Loss, Truncation};
+use host_tool::log::run_csv::DroppedRow;
 use host_tool::log::write_atomically;
 use host_tool::plan::{self, ModelSource, Preset};
 use host_tool::plot::Format;
@@ -25,7 +26,6 @@ use model_core::power::IcrHardGround;
 use std::io::{IsTerminal, Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 
 #[derive(Parser)]
@@ -33,7 +33,20 @@ use std::time::Duration;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Accept a damaged run log: use what could be read (exit 0, not 3) and leave out damaged
+    /// run CSV rows instead of refusing them.
+    #[arg(long, global = true)]
+    salvage: bool,
 }
+
+/// Exit code when a run log lost data to damage (the command still did its work with the rest;
+/// `--salvage` makes it 0).
+const EXIT_DATA_LOST: i32 = 3;
+
+/// Set by `--salvage`; read where run logs are loaded.
+static SALVAGE: AtomicBool = AtomicBool::new(false);
+/// Set when a loaded run log lost data to damage.
+static DATA_LOST: AtomicBool = AtomicBool::new(false);
 
 #[derive(Subcommand)]
 enum Command {
@@ -342,14 +355,43 @@ fn load_runs(paths: &[PathBuf]) -> Result<(Vec<String>, Vec<host_tool::log::run_
     let mut names = Vec::with_capacity(paths.len());
     let mut logs = Vec::with_capacity(paths.len());
     for path in paths {
-        let loaded = load(path)?;
-        warn_truncated(path, loaded.truncated);
+        let loaded = load_salvaging(path, SALVAGE.load(Ordering::Relaxed))?;
+        warn_damage(path, &loaded);
         names.push(path.display().to_string());
         logs.push(loaded.run);
         bar.inc(1);
     }
     bar.finish_and_clear();
+    refuse_duplicate_runs(&names, &logs)?;
     Ok((names, logs))
+}
+
+/// Warns about everything a loaded run log lost, and notes damage for the exit code.
+fn warn_damage(path: &Path, loaded: &LoadedRun) {
+    warn_truncated(path, loaded.truncated);
+    warn_losses(path, &loaded.losses, &loaded.dropped_rows);
+}
+
+fn warn_losses(path: &Path, losses: &[Loss], dropped_rows: &[DroppedRow]) {
+    for loss in losses {
+        eprintln!("warning: {}: damaged, skipped {loss}", path.display());
+    }
+    for row in dropped_rows {
+        let why = if row.cut {
+            "the file ends inside it (cut by a kill or a full disk)"
+        } else {
+            "damaged"
+        };
+        eprintln!(
+            "warning: {}: line {} dropped, {why}: {}",
+            path.display(),
+            row.line,
+            row.reason
+        );
+    }
+    if !losses.is_empty() || dropped_rows.iter().any(|r| !r.cut) {
+        DATA_LOST.store(true, Ordering::Relaxed);
+    }
 }
 
 fn warn_truncated(path: &Path, truncated: Option<Truncation>) {
@@ -506,15 +548,8 @@ fn record_cmd(args: RecordArgs) -> Result<()> {
         options.rover = load_rover(path)?;
     }
     options.validate()?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::Relaxed) {
-            // A second Ctrl-C: the user wants out now; the log holds what was flushed.
-            std::process::exit(130);
-        }
-    })
-    .context("installing the Ctrl-C handler")?;
+    // Ctrl-C, SIGTERM and SIGHUP stop cleanly (footer written, exit 0).
+    let stop = record::stop_signal::install().context("installing the stop-signal handler")?;
     let mut open = record::serial_opener(options.read_timeout);
     // The port first: a wrong path leaves no empty log behind.
     let board = open(&options.port)?;
@@ -892,7 +927,21 @@ fn plan_cmd(args: PlanArgs) -> Result<()> {
 }
 
 fn main() -> Result<()> {
-    match Cli::parse().command {
+    let cli = Cli::parse();
+    SALVAGE.store(cli.salvage, Ordering::Relaxed);
+    run(cli.command)?;
+    if DATA_LOST.load(Ordering::Relaxed) && !cli.salvage {
+        eprintln!(
+            "error: data was lost to damage (see the warnings above); the outputs hold the \
+             rest. --salvage accepts that (exit 0)."
+        );
+        std::process::exit(EXIT_DATA_LOST);
+    }
+    Ok(())
+}
+
+fn run(command: Command) -> Result<()> {
+    match command {
         Command::Decode { capture, json } => {
             let bytes = if capture.as_os_str() == "-" {
                 let mut bytes = Vec::new();
@@ -960,8 +1009,9 @@ fn main() -> Result<()> {
             }
         }
         Command::Convert { input, output } => {
-            let done = convert(&input, &output)?;
+            let done = convert_salvaging(&input, &output, SALVAGE.load(Ordering::Relaxed))?;
             warn_truncated(&input, done.truncated);
+            warn_losses(&input, &done.losses, &done.dropped_rows);
             print!(
                 "{} ({}) -> {} ({}): {} samples",
                 input.display(),
@@ -987,8 +1037,8 @@ fn main() -> Result<()> {
             speed,
             as_fast_as_possible,
         } => {
-            let loaded = load(&log)?;
-            warn_truncated(&log, loaded.truncated);
+            let loaded = load_salvaging(&log, SALVAGE.load(Ordering::Relaxed))?;
+            warn_damage(&log, &loaded);
             let frames =
                 frames_of(&loaded.run).map_err(|e| anyhow::anyhow!("encoding frames: {e}"))?;
             if frames.is_empty() {

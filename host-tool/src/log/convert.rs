@@ -8,11 +8,13 @@
 //!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
 //!   frames), so the file replays like a recording.
 //! - MCAP → MCAP: a clean, finished copy (also the way to repair a file cut short by a killed
-//!   recorder: everything before the cut is kept, with a summary and footer).
+//!   recorder: everything before the cut is kept, with a summary and footer; or a damaged one:
+//!   everything outside the damage is kept, and [`Converted::losses`] says what was not).
 //! - run CSV → run CSV: this tool's canonical column order and number format.
 
-use super::load::{load, LoadError, RunFormat};
-use super::mcap::{write_mcap_run, McapError, Truncation};
+use super::load::{load_salvaging, LoadError, RunFormat};
+use super::mcap::{write_mcap_run, Loss, McapError, Truncation};
+use super::run_csv::DroppedRow;
 use super::run_csv::{write_run_csv_atomically, RunCsvFileError};
 use super::run_log::RunLog;
 use super::{write_atomically, AtomicWriteError};
@@ -45,7 +47,7 @@ pub enum ConvertError {
 }
 
 /// What a conversion did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Converted {
     /// The input's format.
     pub from: RunFormat,
@@ -59,6 +61,10 @@ pub struct Converted {
     pub synthesised_frames: bool,
     /// The input MCAP file was cut short here; the output holds what came before.
     pub truncated: Option<Truncation>,
+    /// Stretches of a damaged input MCAP file that were skipped; the output holds the rest.
+    pub losses: Vec<Loss>,
+    /// Rows of the input run CSV left out (a cut last row; damaged rows with salvage).
+    pub dropped_rows: Vec<DroppedRow>,
 }
 
 /// Writes `run` to `path` in the format its extension names, all or nothing. A run CSV keeps
@@ -88,13 +94,23 @@ pub fn save_run(path: &Path, run: &RunLog) -> Result<RunFormat, ConvertError> {
 /// Converts the run log `input` into `output` (formats by extension, see the module docs).
 /// Refuses to write over the input; leaves `output` untouched on any error.
 pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
+    convert_salvaging(input, output, false)
+}
+
+/// [`convert`]; with `salvage`, damaged rows of an input run CSV are left out instead of
+/// refused (a damaged MCAP input is always salvaged).
+pub fn convert_salvaging(
+    input: &Path,
+    output: &Path,
+    salvage: bool,
+) -> Result<Converted, ConvertError> {
     let to = RunFormat::of(output)?;
     if same_file(input, output) {
         return Err(ConvertError::SameFile {
             path: output.to_owned(),
         });
     }
-    let loaded = load(input)?;
+    let loaded = load_salvaging(input, salvage)?;
     let mut run = loaded.run;
     let synthesised_frames =
         to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
@@ -113,6 +129,8 @@ pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
         },
         synthesised_frames,
         truncated: loaded.truncated,
+        losses: loaded.losses,
+        dropped_rows: loaded.dropped_rows,
     })
 }
 

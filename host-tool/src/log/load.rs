@@ -1,8 +1,8 @@
 //! Reading a run log whatever its format, chosen by the file's extension: `.mcap` (see
 //! [`super::mcap`]) or `.csv` (the run CSV, [`super::run_csv`]).
 
-use super::mcap::{read_mcap_run, McapError, Truncation};
-use super::run_csv::{read_run_csv, RunCsvFileError};
+use super::mcap::{read_mcap_run, Loss, McapError, Truncation};
+use super::run_csv::{read_run_csv_salvaging, DroppedRow, RunCsvFileError};
 use super::run_log::RunLog;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -57,6 +57,61 @@ pub enum LoadError {
     /// The MCAP file is unreadable, damaged or not a rover-power run.
     #[error(transparent)]
     Mcap(#[from] McapError),
+    /// Two inputs hold the same run (the same file passed twice, or a copy or conversion of
+    /// it): counted twice, it would pose as an independent repeat.
+    #[error("{second} holds the same run as {first} (identical samples); pass each run once")]
+    DuplicateRun {
+        /// The first input.
+        first: String,
+        /// The input that repeats it.
+        second: String,
+    },
+}
+
+/// Refuses inputs that hold the same run, by content: the samples' bits, so a run and its
+/// conversion to the other format (same samples exactly) are one run too. `names` name the
+/// runs in the error; runs without samples are not compared.
+pub fn refuse_duplicate_runs(names: &[String], runs: &[RunLog]) -> Result<(), LoadError> {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
+    let mut seen: HashMap<u64, usize> = HashMap::new();
+    for (i, run) in runs.iter().enumerate() {
+        if run.samples.is_empty() {
+            continue;
+        }
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        for s in &run.samples {
+            for v in [
+                s.t_s,
+                s.bus_v.left,
+                s.bus_v.right,
+                s.current_a.left,
+                s.current_a.right,
+                s.cmd_mps.left,
+                s.cmd_mps.right,
+            ] {
+                v.to_bits().hash(&mut hasher);
+            }
+        }
+        let key = hasher.finish();
+        if let Some(&first) = seen.get(&key) {
+            // A hash match is confirmed on the samples themselves.
+            if runs[first].samples == run.samples {
+                let name = |k: usize| {
+                    names
+                        .get(k)
+                        .cloned()
+                        .unwrap_or_else(|| format!("run {}", k + 1))
+                };
+                return Err(LoadError::DuplicateRun {
+                    first: name(first),
+                    second: name(i),
+                });
+            }
+        }
+        seen.entry(key).or_insert(i);
+    }
+    Ok(())
 }
 
 /// A run log as loaded, with what the caller should tell the user about it.
@@ -68,25 +123,51 @@ pub struct LoadedRun {
     pub format: RunFormat,
     /// For an MCAP file cut short (recorder killed): where; the run holds what came before.
     pub truncated: Option<Truncation>,
+    /// For a damaged MCAP file: the stretches skipped (the run holds everything else).
+    pub losses: Vec<Loss>,
+    /// For a run CSV: the rows left out (a cut last row; damaged rows with salvage).
+    pub dropped_rows: Vec<DroppedRow>,
 }
 
-/// Loads the run log at `path` (`.mcap` or `.csv`), reporting a truncated MCAP file.
+impl LoadedRun {
+    /// Whether data inside the file was lost to damage (not counting a cut end: a truncated
+    /// MCAP file or a cut last CSV row, which a killed recorder leaves).
+    pub fn lost_data(&self) -> bool {
+        !self.losses.is_empty() || self.dropped_rows.iter().any(|r| !r.cut)
+    }
+}
+
+/// Loads the run log at `path` (`.mcap` or `.csv`), reporting a truncated or damaged MCAP file
+/// and a cut last CSV row; a damaged CSV row is an error.
 pub fn load(path: &Path) -> Result<LoadedRun, LoadError> {
+    load_salvaging(path, false)
+}
+
+/// [`load`], and with `salvage` damaged CSV rows are left out (and listed) instead of refused.
+/// (A damaged MCAP file is always salvaged: its losses are listed.)
+pub fn load_salvaging(path: &Path, salvage: bool) -> Result<LoadedRun, LoadError> {
     match RunFormat::of(path)? {
-        RunFormat::Csv => Ok(LoadedRun {
-            run: RunLog {
-                samples: read_run_csv(path)?,
-                ..RunLog::default()
-            },
-            format: RunFormat::Csv,
-            truncated: None,
-        }),
+        RunFormat::Csv => {
+            let (samples, dropped_rows) = read_run_csv_salvaging(path, salvage)?;
+            Ok(LoadedRun {
+                run: RunLog {
+                    samples,
+                    ..RunLog::default()
+                },
+                format: RunFormat::Csv,
+                truncated: None,
+                losses: Vec::new(),
+                dropped_rows,
+            })
+        }
         RunFormat::Mcap => {
             let mcap = read_mcap_run(path)?;
             Ok(LoadedRun {
                 run: mcap.run,
                 format: RunFormat::Mcap,
                 truncated: mcap.truncated,
+                losses: mcap.losses,
+                dropped_rows: Vec::new(),
             })
         }
     }
@@ -102,6 +183,35 @@ pub fn load_run(path: &Path) -> Result<RunLog, LoadError> {
 mod tests {
     use super::*;
     use crate::log::tests_support::TempDir;
+
+    #[test]
+    fn the_same_run_twice_is_refused_by_content() {
+        use crate::log::run_csv::RunSample;
+        use model_core::Sides;
+        let run = |current: f64| RunLog {
+            samples: (0..50)
+                .map(|i| RunSample {
+                    t_s: f64::from(i) * 0.01,
+                    bus_v: Sides::new(24.0, 24.0),
+                    current_a: Sides::new(current, 1.0),
+                    cmd_mps: Sides::new(0.3, 0.3),
+                    yaw_rad: None,
+                    pitch_deg: None,
+                })
+                .collect(),
+            ..RunLog::default()
+        };
+        let names = ["a.csv", "b.mcap", "c.csv"].map(String::from);
+        assert!(refuse_duplicate_runs(&names, &[run(1.0), run(2.0), run(3.0)]).is_ok());
+        let e = refuse_duplicate_runs(&names, &[run(1.0), run(2.0), run(1.0)]).expect_err("dup");
+        assert_eq!(
+            e.to_string(),
+            "c.csv holds the same run as a.csv (identical samples); pass each run once"
+        );
+        assert!(
+            refuse_duplicate_runs(&names[..2], &[RunLog::default(), RunLog::default()]).is_ok()
+        );
+    }
 
     #[test]
     fn format_by_extension() {

@@ -27,20 +27,32 @@
 //!
 //! # Crash safety
 //!
-//! Records are grouped in uncompressed chunks of at most [`CHUNK_BYTES`]; each
+//! Records are grouped in zstd-compressed chunks of at most [`CHUNK_BYTES`] (uncompressed and
+//! lz4 chunks, as other tools write them, read too); each
 //! [`RunLogSink::flush`] closes the current chunk and writes it whole, so a killed process
 //! leaves a file that holds every chunk flushed before it died. The summary section (indexes,
 //! statistics) and the footer are written by [`McapSink::finish`] or on drop. The reader does
 //! not need them: it reads the records in order and reports a file cut short (no footer, or a
 //! torn last record) as [`McapRun::truncated`] with everything before the cut.
+//!
+//! # Salvage
+//!
+//! A damaged file (a flipped bit, a zeroed block) is read around the damage: a chunk whose
+//! CRC, compression or sizes do not check out is skipped whole, and bytes holding no record
+//! header are skipped up to the next record header that parses and is followed by another.
+//! Each skipped stretch is a [`Loss`] in [`McapRun::losses`]: bytes, the run times around it and
+//! the samples lost (counted from the chunk's message index when it survived, else estimated).
 
 mod read;
+#[cfg(test)]
+mod salvage_tests;
 mod sample_json;
 mod sink;
 #[cfg(test)]
 pub(crate) mod tests;
+mod walk;
 
-pub use read::{read_mcap_bytes, read_mcap_run, McapRun, Truncation};
+pub use read::{read_mcap_bytes, read_mcap_run, Loss, LostSamples, McapRun, Truncation};
 pub use sink::McapSink;
 
 use super::commands::CommandRow;
@@ -132,6 +144,15 @@ pub enum McapError {
 /// Writes a whole [`RunLog`] as MCAP into `out`, records in time order (frames before samples
 /// at equal times); returns the finished writer.
 pub fn write_mcap_run<W: io::Write + io::Seek>(out: W, run: &RunLog) -> Result<W, McapError> {
+    write_mcap_run_with(out, run, Some(::mcap::Compression::Zstd))
+}
+
+/// [`write_mcap_run`] with the chunks' compression chosen (`None`: uncompressed).
+pub fn write_mcap_run_with<W: io::Write + io::Seek>(
+    out: W,
+    run: &RunLog,
+    compression: Option<::mcap::Compression>,
+) -> Result<W, McapError> {
     use super::run_log::RunLogSink;
     enum Item<'a> {
         Frame(&'a model_core::wire::BoardFrame),
@@ -148,7 +169,7 @@ pub fn write_mcap_run<W: io::Write + io::Seek>(out: W, run: &RunLog) -> Result<W
     items.extend(run.events.iter().map(|(t, e)| (*t, Item::Event(e))));
     // Stable: within one kind the order is the log's.
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut sink = McapSink::new(out)?;
+    let mut sink = McapSink::with_compression(out, compression)?;
     for (t_s, item) in items {
         let written = match item {
             Item::Frame(f) => sink.frame(t_s, f),

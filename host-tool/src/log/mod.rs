@@ -114,6 +114,15 @@ pub(crate) mod tests_support {
     use std::path::{Path, PathBuf};
     use std::sync::atomic::{AtomicU64, Ordering};
 
+    /// Cases of a damage-fuzzing property test: `cases` by default, `PROPTEST_CASES` when set
+    /// (CI's bounded fuzz step runs them long).
+    pub(crate) fn fuzz_config(cases: u32) -> proptest::test_runner::Config {
+        match std::env::var("PROPTEST_CASES") {
+            Ok(_) => proptest::test_runner::Config::default(),
+            Err(_) => proptest::test_runner::Config::with_cases(cases),
+        }
+    }
+
     /// A fresh directory under the system temp dir, removed on drop.
     #[derive(Debug)]
     pub(crate) struct TempDir(PathBuf);

@@ -48,6 +48,12 @@ pub struct RunSample {
     pub pitch_deg: Option<f64>,
 }
 
+/// Highest bus voltage the INA226 reads: its bus input's full scale, 32 768 × 1.25 mV [V].
+pub const BUS_V_MAX: f64 = 40.96;
+/// Largest current the board measures: the INA226's full scale at its calibration (5 mΩ shunt,
+/// 0.5 mA current LSB), 32 768 × 0.5 mA [A]. A reading beyond it is a unit or scale error.
+pub const CURRENT_A_MAX: f64 = 16.384;
+
 /// A column the run CSV defines.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Column {
@@ -120,6 +126,46 @@ impl Column {
     const fn index(self) -> usize {
         self as usize
     }
+
+    /// The values the board can measure in this column (`None`: any finite number): bus
+    /// voltages within the INA226's bus input range, currents within its full scale.
+    pub fn range(self) -> Option<(f64, f64)> {
+        match self {
+            Column::LeftBusV | Column::RightBusV => Some((0.0, BUS_V_MAX)),
+            Column::LeftCurrentA | Column::RightCurrentA => Some((-CURRENT_A_MAX, CURRENT_A_MAX)),
+            Column::TimeS
+            | Column::CmdLeftMps
+            | Column::CmdRightMps
+            | Column::YawRad
+            | Column::PitchDeg => None,
+        }
+    }
+}
+
+impl RunSample {
+    /// The first value outside what the board can measure ([`Column::range`]) or not finite,
+    /// with its column.
+    pub fn out_of_range(&self) -> Option<(Column, f64)> {
+        let values = [
+            (Column::TimeS, self.t_s),
+            (Column::LeftBusV, self.bus_v.left),
+            (Column::LeftCurrentA, self.current_a.left),
+            (Column::RightBusV, self.bus_v.right),
+            (Column::RightCurrentA, self.current_a.right),
+            (Column::CmdLeftMps, self.cmd_mps.left),
+            (Column::CmdRightMps, self.cmd_mps.right),
+        ];
+        let optional = [
+            (Column::YawRad, self.yaw_rad),
+            (Column::PitchDeg, self.pitch_deg),
+        ];
+        values
+            .into_iter()
+            .chain(optional.into_iter().filter_map(|(c, v)| Some((c, v?))))
+            .find(|&(column, v)| {
+                !v.is_finite() || column.range().is_some_and(|(lo, hi)| v < lo || v > hi)
+            })
+    }
 }
 
 impl fmt::Display for Column {
@@ -139,6 +185,8 @@ pub enum CellProblem {
     NotFinite,
     /// `t_s` is not greater than the previous row's.
     TimeNotIncreasing,
+    /// The number is outside what the board can measure ([`Column::range`]).
+    OutOfRange,
 }
 
 /// What is wrong with a run CSV or a commands CSV (reading), or with a row handed to a writer
@@ -216,6 +264,10 @@ fn describe(problem: CellProblem, value: &str, previous_t_s: Option<f64>) -> Str
         CellProblem::Empty => "empty cell in a required column".into(),
         CellProblem::NotANumber => format!("{value:?} is not a number"),
         CellProblem::NotFinite => format!("{value:?} is not a finite number"),
+        CellProblem::OutOfRange => format!(
+            "{value} is outside the board's measuring range (INA226 at the board's calibration: \
+             bus 0 to {BUS_V_MAX} V, current ±{CURRENT_A_MAX} A)"
+        ),
         CellProblem::TimeNotIncreasing => match previous_t_s {
             Some(prev) => format!("time {value} is not after the previous row's {prev}"),
             None => format!("time {value} is not increasing"),
@@ -276,6 +328,11 @@ impl<R: BufRead> Table<R> {
         })
     }
 
+    /// Whether the input ended inside the last line read (see [`Records::unterminated`]).
+    pub(crate) fn at_cut_end(&self) -> bool {
+        self.records.unterminated
+    }
+
     /// Whether the header has `column`.
     pub(crate) fn has(&self, column: Column) -> bool {
         self.positions[column.index()].is_some()
@@ -323,10 +380,15 @@ impl<R: BufRead> Table<R> {
             .cell_str(i)
             .and_then(|s| s.parse().ok())
             .ok_or_else(|| err(CellProblem::NotANumber))?;
-        if value.is_finite() {
-            Ok(Some(value))
-        } else {
+        if !value.is_finite() {
             Err(err(CellProblem::NotFinite))
+        } else if column
+            .range()
+            .is_some_and(|(lo, hi)| value < lo || value > hi)
+        {
+            Err(err(CellProblem::OutOfRange))
+        } else {
+            Ok(Some(value))
         }
     }
 
@@ -360,6 +422,35 @@ impl<R: BufRead> Table<R> {
 pub struct RunCsvReader<R> {
     table: Table<R>,
     done: bool,
+    salvage: bool,
+    dropped: Vec<DroppedRow>,
+}
+
+/// A row the reader left out (see [`RunCsvReader::salvaging`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DroppedRow {
+    /// Its line.
+    pub line: u64,
+    /// Why, as the error would have said it.
+    pub reason: String,
+    /// Whether it was the file's last line, cut before its end (a kill or a full disk while
+    /// writing): dropped even without salvage.
+    pub cut: bool,
+}
+
+impl RunCsvError {
+    /// The line of a problem in one row (`None` for I/O and header problems).
+    fn row_line(&self) -> Option<u64> {
+        match self {
+            RunCsvError::CellCount { line, .. }
+            | RunCsvError::Cell { line, .. }
+            | RunCsvError::Syntax { line, .. } => Some(*line),
+            RunCsvError::Io(_)
+            | RunCsvError::NoHeader
+            | RunCsvError::MissingColumn { .. }
+            | RunCsvError::DuplicateColumn { .. } => None,
+        }
+    }
 }
 
 impl<R: BufRead> RunCsvReader<R> {
@@ -368,7 +459,21 @@ impl<R: BufRead> RunCsvReader<R> {
         Ok(Self {
             table: Table::new(input, &Column::REQUIRED)?,
             done: false,
+            salvage: false,
+            dropped: Vec::new(),
         })
+    }
+
+    /// With `salvage`, a damaged row anywhere is left out (and listed in [`Self::dropped`])
+    /// instead of ending the read with an error. Without it, only a cut last row is.
+    pub fn salvaging(mut self, salvage: bool) -> Self {
+        self.salvage = salvage;
+        self
+    }
+
+    /// The rows left out so far.
+    pub fn dropped(&self) -> &[DroppedRow] {
+        &self.dropped
     }
 
     /// Whether the file has a `yaw_rad` column.
@@ -382,6 +487,31 @@ impl<R: BufRead> RunCsvReader<R> {
     }
 
     fn next_sample(&mut self) -> Result<Option<RunSample>, RunCsvError> {
+        loop {
+            let error = match self.next_row_sample() {
+                Ok(sample) => return Ok(sample),
+                Err(e) => e,
+            };
+            let Some(line) = error.row_line() else {
+                return Err(error);
+            };
+            // The input ends inside this row: a row cut by a kill or a full disk.
+            let cut = self.table.at_cut_end();
+            if !cut && !self.salvage {
+                return Err(error);
+            }
+            self.dropped.push(DroppedRow {
+                line,
+                reason: error.to_string(),
+                cut,
+            });
+            if cut {
+                return Ok(None);
+            }
+        }
+    }
+
+    fn next_row_sample(&mut self) -> Result<Option<RunSample>, RunCsvError> {
         let Some(line) = self.table.next_row()? else {
             return Ok(None);
         };
@@ -448,6 +578,9 @@ struct Records<R> {
     cells_in: CellsIn,
     /// Where each cell of the current record starts and ends.
     spans: Vec<(usize, usize)>,
+    /// Whether the last physical line read had no line end: the input ends inside it (a row
+    /// cut by a kill or a full disk, or a file without a final newline).
+    unterminated: bool,
 }
 
 /// Where the current record's cells are.
@@ -488,6 +621,7 @@ impl<R: BufRead> Records<R> {
             text: String::new(),
             cells_in: CellsIn::Text,
             spans: Vec::new(),
+            unterminated: false,
         }
     }
 
@@ -552,6 +686,7 @@ impl<R: BufRead> Records<R> {
             return Ok(false);
         }
         self.line_no += 1;
+        self.unterminated = self.line.last() != Some(&b'\n');
         if self.line.last() == Some(&b'\n') {
             self.line.pop();
             if self.line.last() == Some(&b'\r') {
@@ -798,13 +933,31 @@ impl RunCsvFileError {
     }
 }
 
-/// Reads a whole run CSV file.
+/// Reads a whole run CSV file (a cut last row is left out; see [`read_run_csv_salvaging`] to
+/// learn about it).
 pub fn read_run_csv(path: &Path) -> Result<Vec<RunSample>, RunCsvFileError> {
-    let file = std::fs::File::open(path).map_err(|e| RunCsvFileError::new(path, e))?;
-    RunCsvReader::new(io::BufReader::new(file))
+    read_run_csv_salvaging(path, false).map(|(samples, _)| samples)
+}
+
+/// Reads a whole run CSV file and the rows left out: a cut last row always, any damaged row
+/// with `salvage` (see [`RunCsvReader::salvaging`]).
+pub fn read_run_csv_salvaging(
+    path: &Path,
+    salvage: bool,
+) -> Result<(Vec<RunSample>, Vec<DroppedRow>), RunCsvFileError> {
+    let bytes = std::fs::read(path).map_err(|e| RunCsvFileError::new(path, e))?;
+    // This tool's own files, valid throughout: parsed in parallel straight from the bytes.
+    if let Some(samples) = fast::read(&bytes) {
+        return Ok((samples, Vec::new()));
+    }
+    let mut reader = RunCsvReader::new(&bytes[..])
         .map_err(|e| RunCsvFileError::new(path, e))?
+        .salvaging(salvage);
+    let samples = reader
+        .by_ref()
         .collect::<Result<_, _>>()
-        .map_err(|e| RunCsvFileError::new(path, e))
+        .map_err(|e| RunCsvFileError::new(path, e))?;
+    Ok((samples, reader.dropped))
 }
 
 /// Writes `samples` to a run CSV at `path`, all or nothing (see [`write_atomically`]): if any
@@ -856,5 +1009,6 @@ pub fn normalize_run_csv(input: &Path, output: &Path) -> Result<u64, RunCsvFileE
     )
 }
 
+mod fast;
 #[cfg(test)]
 mod tests;

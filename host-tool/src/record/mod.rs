@@ -22,6 +22,7 @@
 //! - Crash safety: the sink is flushed every [`RecordOptions::flush_every`].
 
 mod clock;
+pub mod stop_signal;
 mod timeline;
 
 pub use clock::RunClock;

@@ -1,17 +1,22 @@
-//! [`read_mcap_run`]: an MCAP run log back into a [`RunLog`], record by record in file order
-//! (the summary section is not needed, so a file cut short by a killed recorder reads up to its
-//! last complete record).
+//! [`read_mcap_run`]: an MCAP run log back into a [`RunLog`], record by record in file order,
+//! streamed from the disk (memory holds one chunk, not the file). The summary section is not
+//! needed, so a file cut short by a killed recorder reads up to its last complete record; a
+//! damaged file is salvaged ([`walk`](super::walk)): every chunk that checks out is read, and what
+//! could not be is reported as [`Loss`]es (byte range, run time range, samples).
 
 use super::sample_json::parse_sample_msg;
+use super::walk::{ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use super::{
     frame_encoding, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND, TOPIC_EVENT,
     TOPIC_FRAME, TOPIC_SAMPLE,
 };
+use crate::log::run_csv::{BUS_V_MAX, CURRENT_A_MAX};
 use crate::log::run_log::RunLog;
 use ::mcap::records::{op, Record};
-use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use model_core::wire::{self, BoardFrame, MAX_FRAME};
 use std::collections::{BTreeSet, HashMap};
+use std::fmt;
+use std::io::{self, Read, Seek};
 use std::path::{Path, PathBuf};
 
 /// Where a file was cut short.
@@ -23,74 +28,198 @@ pub struct Truncation {
     pub file_bytes: u64,
 }
 
+/// How many samples a [`Loss`] took.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LostSamples {
+    /// Counted from the damaged chunk's message index, which survived it.
+    Exact(u64),
+    /// Estimated from the time gap between the surviving samples around the loss and their
+    /// sample period.
+    About(u64),
+    /// At the very start or end of the run: no sample on one side to measure the gap.
+    Unknown,
+}
+
+/// A stretch of a damaged MCAP file that could not be trusted and was skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Loss {
+    /// First byte skipped.
+    pub start_byte: u64,
+    /// One past the last byte skipped.
+    pub end_byte: u64,
+    /// Why it was skipped (chunk CRC mismatch, no record header, ...).
+    pub detail: String,
+    /// Samples lost.
+    pub samples: LostSamples,
+    /// Run time of the last sample read before the loss [s] (`None`: the loss starts the run).
+    pub after_t_s: Option<f64>,
+    /// Run time of the first sample read after the loss [s] (`None`: the loss ends the run).
+    pub before_t_s: Option<f64>,
+}
+
+impl fmt::Display for Loss {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "bytes {}..{}: ", self.start_byte, self.end_byte)?;
+        match self.samples {
+            LostSamples::Exact(n) => write!(f, "{n} samples lost")?,
+            LostSamples::About(n) => write!(f, "about {n} samples lost")?,
+            LostSamples::Unknown => write!(f, "samples lost")?,
+        }
+        match (self.after_t_s, self.before_t_s) {
+            (Some(a), Some(b)) => write!(f, " between t = {a:.3} s and {b:.3} s")?,
+            (Some(a), None) => write!(f, " after t = {a:.3} s")?,
+            (None, Some(b)) => write!(f, " before t = {b:.3} s")?,
+            (None, None) => {}
+        }
+        write!(f, " ({})", self.detail)
+    }
+}
+
 /// What [`read_mcap_run`] found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct McapRun {
-    /// The run, up to the last complete record.
+    /// The run: every record that could be trusted, up to the last complete one.
     pub run: RunLog,
     /// `Some` if the file ends before its footer (the recorder was killed, the disk filled up,
     /// the copy was cut): a torn last record, or no summary section. `None` for a finished file.
     pub truncated: Option<Truncation>,
+    /// Damaged stretches skipped inside the file, in file order (empty for an intact file).
+    pub losses: Vec<Loss>,
 }
 
-/// Reads the MCAP run log at `path`. A file cut short is not an error (see
-/// [`McapRun::truncated`]); a damaged or foreign file is, with the byte offset of the problem.
+/// Reads the MCAP run log at `path`, streaming it (memory stays bounded by one chunk plus the
+/// run itself). A file cut short is not an error (see [`McapRun::truncated`]), nor is a damaged
+/// one (see [`McapRun::losses`]); a foreign file, or a message that does not hold what its
+/// verified chunk promises, is.
 pub fn read_mcap_run(path: &Path) -> Result<McapRun, McapError> {
-    let bytes = std::fs::read(path).map_err(|source| McapError::Io {
+    let io_err = |source| McapError::Io {
         path: path.to_owned(),
         source,
-    })?;
-    read_mcap_bytes(&bytes, path)
+    };
+    let file = std::fs::File::open(path).map_err(io_err)?;
+    let len = file.metadata().map_err(io_err)?.len();
+    read_mcap(file, len, path)
 }
 
 /// Reads an MCAP run log held in memory; `path` only names it in errors.
 pub fn read_mcap_bytes(bytes: &[u8], path: &Path) -> Result<McapRun, McapError> {
-    if !bytes.starts_with(::mcap::MAGIC) {
-        return Err(McapError::NotMcap {
-            path: path.to_owned(),
+    read_mcap(io::Cursor::new(bytes), bytes.len() as u64, path)
+}
+
+/// The reader behind [`read_mcap_run`] and [`read_mcap_bytes`].
+fn read_mcap<R: Read + Seek>(mut input: R, len: u64, path: &Path) -> Result<McapRun, McapError> {
+    let io_err = |source| McapError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let magic = ::mcap::MAGIC.len() as u64;
+    let mut head = [0u8; 8];
+    let has_magic = len >= magic
+        && input
+            .read_exact(&mut head)
+            .map(|()| head == ::mcap::MAGIC)
+            .map_err(io_err)?;
+    let mut walker = Walker::new(input, len, magic.min(len)).map_err(io_err)?;
+    let mut skipped = Vec::new();
+    if !has_magic {
+        // A damaged start (a zeroed first block): salvage from the first record found.
+        let Some(at) = walker.resync(0).map_err(io_err)? else {
+            return Err(McapError::NotMcap {
+                path: path.to_owned(),
+            });
+        };
+        walker.seek(at).map_err(io_err)?;
+        skipped.push(Skip {
+            skipped: Skipped {
+                start_byte: 0,
+                end_byte: at,
+                detail: format!("no MCAP magic; resynchronised at byte {at}"),
+            },
+            at_sample: 0,
+            indexed: None,
         });
     }
-    let file_bytes = bytes.len() as u64;
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            // Chunks come whole; their records are read below, within the chunk's bounds.
-            .with_emit_chunks(true)
-            .with_validate_data_section_crc(true)
-            .with_validate_summary_section_crc(true),
-        // No record length limit: the reader asks for a record's bytes before it allocates
-        // them, and is given at most the rest of the file; a record claiming more than that
-        // ends the file as truncated (a torn last record and a damaged length look the same).
-    );
     let mut state = State::new(path);
-    let mut fed = 0usize;
-    // Start of the next top-level record: the magic, then records of opcode + length + data.
-    let mut offset = ::mcap::MAGIC.len() as u64;
+    let mut summary_is_ours = false;
+    for channel in walker.summary_channels() {
+        summary_is_ours |= channel.topic.starts_with("/rover_power/");
+        state.fallback.insert(channel.id, channel);
+    }
+    let mut decoder = ChunkDecoder::default();
     let mut truncated = None;
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(wanted)) => {
-                let n = wanted.min(bytes.len() - fed);
-                if n > 0 {
-                    reader.insert(n).copy_from_slice(&bytes[fed..fed + n]);
-                    fed += n;
+    // The damaged chunk whose message indexes (which follow it) count what it held.
+    let mut pending: Option<usize> = None;
+    // After the data end record: the summary section, whose channels were read above.
+    let mut in_summary = false;
+    while let Some(step) = walker.next().map_err(io_err)? {
+        match step {
+            Step::Record { .. } if in_summary => {}
+            Step::Record {
+                opcode: op::DATA_END,
+                ..
+            } => in_summary = true,
+            Step::Record {
+                opcode: op::CHUNK,
+                offset,
+                body,
+            } => match decoder.decode(body) {
+                Ok(records) => {
+                    state.chunk_records(records, offset)?;
+                    pending = None;
                 }
-                reader.notify_read(n);
+                Err(problem) => {
+                    let detail = match problem {
+                        ChunkProblem::Damaged(detail) => detail,
+                        // Not in the MCAP spec (zstd, lz4): most likely a damaged name.
+                        ChunkProblem::Unsupported(c) => format!(
+                            "chunk compressed with {c:?}; this tool reads uncompressed, zstd \
+                             and lz4 chunks"
+                        ),
+                    };
+                    skipped.push(Skip {
+                        skipped: Skipped {
+                            start_byte: offset,
+                            end_byte: offset + 9 + body.len() as u64,
+                            detail,
+                        },
+                        at_sample: state.run.samples.len(),
+                        indexed: Some(Indexed::default()),
+                    });
+                    pending = Some(skipped.len() - 1);
+                }
+            },
+            Step::Record {
+                opcode: op::MESSAGE_INDEX,
+                body,
+                ..
+            } => {
+                if let Some(skip) = pending.and_then(|i| skipped.get_mut(i)) {
+                    state.count_index(body, skip);
+                }
             }
-            Ok(LinearReadEvent::Record { opcode, data }) => {
-                state.record(opcode, data, offset)?;
-                offset += 9 + data.len() as u64;
-            }
-            Err(::mcap::McapError::UnexpectedEof) => {
-                truncated = Some(Truncation {
-                    complete_bytes: offset.min(file_bytes),
-                    file_bytes,
+            Step::Record {
+                opcode,
+                offset,
+                body,
+            } => state.inner_record(opcode, body, offset)?,
+            Step::Skipped(s) => {
+                skipped.push(Skip {
+                    skipped: s,
+                    at_sample: state.run.samples.len(),
+                    indexed: None,
                 });
-                break;
+                pending = None;
             }
-            Err(e) => return Err(state.corrupt(offset, e.to_string())),
+            Step::Footer => {}
+            Step::Truncated { complete_bytes } => {
+                truncated = Some(Truncation {
+                    complete_bytes,
+                    file_bytes: len,
+                });
+            }
         }
     }
-    if truncated.is_none() && !state.ours {
+    if truncated.is_none() && !state.ours && !summary_is_ours {
         let topics: Vec<&str> = state.foreign_topics.iter().map(String::as_str).collect();
         return Err(McapError::Foreign {
             path: path.to_owned(),
@@ -104,10 +233,98 @@ pub fn read_mcap_bytes(bytes: &[u8], path: &Path) -> Result<McapRun, McapError> 
             },
         });
     }
+    let losses = losses(merge(skipped), &state.run);
     Ok(McapRun {
         run: state.run,
         truncated,
+        losses,
     })
+}
+
+/// Samples of a damaged chunk, from the message index records that follow it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Indexed {
+    /// Whether any message index record followed the chunk (then `samples` is exact).
+    seen: bool,
+    samples: u64,
+}
+
+/// A skipped stretch and where it falls in the run.
+#[derive(Debug, Clone)]
+struct Skip {
+    skipped: Skipped,
+    /// Samples read before it.
+    at_sample: usize,
+    /// For one damaged chunk: what its message indexes say it held.
+    indexed: Option<Indexed>,
+}
+
+/// Joins stretches that touch (a damaged chunk and the bad headers after it) into one loss.
+fn merge(skips: Vec<Skip>) -> Vec<Skip> {
+    let mut out: Vec<Skip> = Vec::with_capacity(skips.len());
+    for s in skips {
+        match out.last_mut() {
+            Some(last)
+                if last.skipped.end_byte == s.skipped.start_byte
+                    && last.at_sample == s.at_sample =>
+            {
+                last.skipped.end_byte = s.skipped.end_byte;
+                last.skipped.detail = format!("{}; {}", last.skipped.detail, s.skipped.detail);
+                last.indexed = None;
+            }
+            _ => out.push(s),
+        }
+    }
+    out
+}
+
+/// The losses of a salvaged run, with their run times and sample counts.
+fn losses(skips: Vec<Skip>, run: &RunLog) -> Vec<Loss> {
+    let samples = &run.samples;
+    skips
+        .into_iter()
+        .map(|s| {
+            let k = s.at_sample;
+            let after_t_s = k.checked_sub(1).and_then(|i| samples.get(i)).map(|x| x.t_s);
+            let before_t_s = samples.get(k).map(|x| x.t_s);
+            let samples_lost = match (s.indexed, after_t_s, before_t_s) {
+                (Some(ix), _, _) if ix.seen => LostSamples::Exact(ix.samples),
+                (_, Some(a), Some(b)) => match typical_period_s(samples, k) {
+                    Some(period) => {
+                        LostSamples::About((((b - a) / period).round() - 1.0).max(0.0) as u64)
+                    }
+                    None => LostSamples::Unknown,
+                },
+                _ => LostSamples::Unknown,
+            };
+            Loss {
+                start_byte: s.skipped.start_byte,
+                end_byte: s.skipped.end_byte,
+                detail: s.skipped.detail,
+                samples: samples_lost,
+                after_t_s,
+                before_t_s,
+            }
+        })
+        .collect()
+}
+
+/// The median sample period around sample `k` (up to 32 intervals on each side of the gap
+/// before it, the gap itself left out).
+fn typical_period_s(samples: &[crate::log::run_csv::RunSample], k: usize) -> Option<f64> {
+    let before = &samples[k.saturating_sub(33)..k];
+    let after = &samples[k..(k + 33).min(samples.len())];
+    let mut dts: Vec<f64> = before
+        .windows(2)
+        .chain(after.windows(2))
+        .map(|w| w[1].t_s - w[0].t_s)
+        .filter(|dt| *dt > 0.0)
+        .collect();
+    if dts.is_empty() {
+        return None;
+    }
+    dts.sort_by(f64::total_cmp);
+    Some(dts[dts.len() / 2])
 }
 
 /// What a channel carries, for this reader.
@@ -127,6 +344,8 @@ struct State {
     /// Whether any rover-power channel was seen.
     ours: bool,
     foreign_topics: BTreeSet<String>,
+    /// Channels of the summary section, for messages whose channel record was lost.
+    fallback: HashMap<u16, ::mcap::records::Channel>,
     run: RunLog,
 }
 
@@ -137,6 +356,7 @@ impl State {
             channels: HashMap::new(),
             ours: false,
             foreign_topics: BTreeSet::new(),
+            fallback: HashMap::new(),
             run: RunLog::default(),
         }
     }
@@ -149,53 +369,10 @@ impl State {
         }
     }
 
-    /// One top-level record starting at byte `offset`.
-    fn record(&mut self, opcode: u8, data: &[u8], offset: u64) -> Result<(), McapError> {
-        if opcode != op::CHUNK {
-            return self.inner_record(opcode, data, offset);
-        }
-        let (header, records) = match ::mcap::parse_record(opcode, data) {
-            Ok(Record::Chunk { header, data }) => (header, data),
-            Ok(_) => return Err(self.corrupt(offset, "chunk record did not parse".into())),
-            Err(e) => return Err(self.corrupt(offset, format!("chunk: {e}"))),
-        };
-        if !header.compression.is_empty() {
-            return Err(self.corrupt(
-                offset,
-                format!(
-                    "chunk compressed with {:?}: this tool reads uncompressed MCAP (decompress \
-                     it first, e.g. `mcap compress --compression none`)",
-                    header.compression
-                ),
-            ));
-        }
-        if header.uncompressed_size != records.len() as u64 {
-            return Err(self.corrupt(
-                offset,
-                format!(
-                    "uncompressed chunk of {} bytes claims {} bytes uncompressed",
-                    records.len(),
-                    header.uncompressed_size
-                ),
-            ));
-        }
-        if header.uncompressed_crc != 0 {
-            let crc = crc32fast::hash(&records);
-            if crc != header.uncompressed_crc {
-                return Err(self.corrupt(
-                    offset,
-                    format!(
-                        "chunk CRC mismatch (stored {:#010x}, computed {crc:#010x})",
-                        header.uncompressed_crc
-                    ),
-                ));
-            }
-        }
-        let mut rest: &[u8] = &records;
-        while !rest.is_empty() {
-            let Some((&opcode, after)) = rest.split_first() else {
-                break;
-            };
+    /// The records of a verified chunk starting at byte `offset`.
+    fn chunk_records(&mut self, records: &[u8], offset: u64) -> Result<(), McapError> {
+        let mut rest = records;
+        while let Some((&opcode, after)) = rest.split_first() {
             let Some((len, after)) = after.split_first_chunk::<8>() else {
                 return Err(self.corrupt(offset, "chunk ends inside a record header".into()));
             };
@@ -212,6 +389,26 @@ impl State {
         Ok(())
     }
 
+    /// Adds what a message index record after a damaged chunk says it held on the sample
+    /// channel.
+    fn count_index(&self, body: &[u8], skip: &mut Skip) {
+        let Ok(Record::MessageIndex(index)) = ::mcap::parse_record(op::MESSAGE_INDEX, body) else {
+            return;
+        };
+        let Some(indexed) = skip.indexed.as_mut() else {
+            return;
+        };
+        indexed.seen = true;
+        let is_sample = self
+            .channels
+            .get(&index.channel_id)
+            .is_some_and(|(topic, _)| *topic == Topic::Sample);
+        if !is_sample {
+            return;
+        }
+        indexed.samples += index.records.len() as u64;
+    }
+
     /// A record that is not a chunk (in a chunk or at the top level). Records this reader has
     /// no use for (indexes, statistics, attachments, unknown opcodes) are skipped unparsed.
     fn inner_record(&mut self, opcode: u8, data: &[u8], offset: u64) -> Result<(), McapError> {
@@ -223,6 +420,12 @@ impl State {
         match record {
             Record::Channel(channel) => self.channel(channel, offset),
             Record::Message { header, data } => {
+                if !self.channels.contains_key(&header.channel_id) {
+                    // Its channel record was in a damaged chunk: the summary's copy stands in.
+                    if let Some(channel) = self.fallback.remove(&header.channel_id) {
+                        self.channel(channel, offset)?;
+                    }
+                }
                 let Some(&(topic, _)) = self.channels.get(&header.channel_id) else {
                     return Err(self.corrupt(
                         offset,
@@ -304,6 +507,15 @@ impl State {
                         .map_err(|e| bad(self, e.to_string()))?,
                 };
                 let sample = msg.sample();
+                if let Some((column, value)) = sample.out_of_range() {
+                    return Err(bad(
+                        self,
+                        format!(
+                            "{column} = {value} is outside the board's measuring range \
+                             (bus 0 to {BUS_V_MAX} V, current ±{CURRENT_A_MAX} A, all finite)"
+                        ),
+                    ));
+                }
                 if let Some(previous) = self.run.samples.last() {
                     if sample.t_s <= previous.t_s {
                         return Err(bad(

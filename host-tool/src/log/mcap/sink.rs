@@ -8,7 +8,7 @@ use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::{LogEvent, RunLogSink};
 use ::mcap::records::{MessageHeader, Metadata};
-use ::mcap::{WriteOptions, Writer};
+use ::mcap::{Compression, WriteOptions, Writer};
 use model_core::ina226::Scale;
 use model_core::wire::{self, BoardFrame, Hello, Model, Status, MAX_FRAME, PROTOCOL_VERSION};
 use model_core::Sides;
@@ -17,6 +17,9 @@ use std::fmt;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Seek, Write};
 use std::path::Path;
+
+/// zstd level of the chunks (see [`McapSink::with_compression`]).
+const ZSTD_LEVEL: u32 = 9;
 
 /// The channels of a run log (an index into [`McapSink::ids`]).
 #[derive(Debug, Clone, Copy)]
@@ -78,10 +81,22 @@ impl McapSink<BufWriter<File>> {
 }
 
 impl<W: Write + Seek> McapSink<W> {
-    /// Starts an MCAP file in `out` (header, schemas, channels, `rover_power` metadata).
+    /// Starts an MCAP file in `out` (header, schemas, channels, `rover_power` metadata) with
+    /// zstd-compressed chunks.
     pub fn new(out: W) -> Result<Self, McapError> {
+        Self::with_compression(out, Some(Compression::Zstd))
+    }
+
+    /// Like [`McapSink::new`] with the chunks' compression chosen (`None`: uncompressed, as
+    /// files of earlier versions).
+    pub fn with_compression(out: W, compression: Option<Compression>) -> Result<Self, McapError> {
         let options = WriteOptions::new()
-            .compression(None)
+            .compression(compression)
+            // One thread: chunks are small (256 KiB of JSON) and the recorder has its own work.
+            .compression_threads(0)
+            // Level 9: measured on a simulated run, 3.0x against 2.9x at the default 3, at
+            // ~15 MB/s of JSON — 200x a recorder's rate, and a converted hour in ~20 s.
+            .compression_level(ZSTD_LEVEL)
             .profile("")
             .library(format!(
                 "rover-power host-tool {}",

@@ -353,10 +353,26 @@ fn finite() -> impl Strategy<Value = f64> {
     ]
 }
 
+/// Any value the board can measure in a range (the range checks refuse the rest).
+fn within(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    prop_oneof![lo..=hi, Just(lo), Just(hi), Just(0.0)]
+}
+
 fn samples() -> impl Strategy<Value = Vec<RunSample>> {
+    let (bus, current) = (
+        || within(0.0, BUS_V_MAX).boxed(),
+        || within(-CURRENT_A_MAX, CURRENT_A_MAX).boxed(),
+    );
     let row = (
         1e-9..10.0f64,
-        [finite(), finite(), finite(), finite(), finite(), finite()],
+        [
+            bus(),
+            current(),
+            bus(),
+            current(),
+            finite().boxed(),
+            finite().boxed(),
+        ],
         proptest::option::of(finite()),
         proptest::option::of(finite()),
     );
@@ -526,4 +542,141 @@ fn unquoted_and_quoted_rows_read_the_same_also_with_non_utf8_extra_cells() {
     let bad = [&header[..], b"0.5,x,24\xe9,1,24,1,0,0,\n"].concat();
     let e = read_all(&bad).expect_err("bad cell").to_string();
     assert!(e.starts_with("line 2, column 3 (left_bus_v):"), "{e}");
+}
+
+const HEADER_LF: &str =
+    "t_s,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps\n";
+
+fn read_text(text: &str, salvage: bool) -> Result<(Vec<RunSample>, Vec<DroppedRow>), RunCsvError> {
+    let mut reader = RunCsvReader::new(text.as_bytes())?.salvaging(salvage);
+    let rows = reader.by_ref().collect::<Result<Vec<_>, _>>()?;
+    Ok((rows, reader.dropped().to_vec()))
+}
+
+#[test]
+fn a_cut_last_row_is_dropped_with_its_line_and_damage_elsewhere_is_an_error() {
+    let rows = "0,24,1,24,1,0.1,0.1\n0.01,24,1,24,1,0.1,0.1\n";
+    let (got, dropped) = read_text(&format!("{HEADER_LF}{rows}0.02,24,1"), false).expect("cut");
+    assert_eq!(got.len(), 2);
+    assert_eq!(dropped.len(), 1);
+    assert!(dropped[0].cut && dropped[0].line == 4, "{:?}", dropped[0]);
+    assert!(
+        dropped[0].reason.contains("row has 3 cells"),
+        "{:?}",
+        dropped[0]
+    );
+    // A complete last row without its newline is kept.
+    let (got, dropped) =
+        read_text(&format!("{HEADER_LF}{rows}0.02,24,1,24,1,0.1,0.1"), false).expect("whole");
+    assert_eq!((got.len(), dropped.len()), (3, 0));
+    // The same short row in the middle is damage: an error, or dropped with --salvage.
+    let text = format!("{HEADER_LF}0,24,1,24,1,0.1,0.1\n0.01,24,1\n0.02,24,1,24,1,0.1,0.1\n");
+    let e = read_text(&text, false).expect_err("damaged");
+    assert_eq!(e.to_string(), "line 3: row has 3 cells, the header has 7");
+    let (got, dropped) = read_text(&text, true).expect("salvaged");
+    assert_eq!(got.len(), 2);
+    assert!(!dropped[0].cut && dropped[0].line == 3, "{:?}", dropped[0]);
+}
+
+#[test]
+fn impossible_readings_are_errors_naming_line_and_column() {
+    for (cells, column) in [
+        ("0,24,1e308,24,1,0.1,0.1", "column 3 (left_current_a)"),
+        ("0,3.4e38,1,24,1,0.1,0.1", "column 2 (left_bus_v)"),
+        ("0,24,1,-0.5,1,0.1,0.1", "column 4 (right_bus_v)"),
+        ("0,24,1,24,-16.5,0.1,0.1", "column 5 (right_current_a)"),
+    ] {
+        let e = read_text(&format!("{HEADER_LF}{cells}\n"), false).expect_err(cells);
+        let text = e.to_string();
+        assert!(text.starts_with(&format!("line 2, {column}: ")), "{text}");
+        assert!(
+            text.contains("outside the board's measuring range"),
+            "{text}"
+        );
+    }
+    let (got, _) = read_text(
+        &format!("{HEADER_LF}0,40.96,16.384,0,-16.384,0.1,0.1\n"),
+        false,
+    )
+    .expect("full scale is fine");
+    assert_eq!(got.len(), 1);
+}
+
+proptest! {
+    #![proptest_config(crate::log::tests_support::fuzz_config(128))]
+
+    /// Damage rows anywhere: with salvage the reader keeps exactly the rows it did not touch
+    /// (never an invented or altered one) and names every dropped line.
+    #[test]
+    fn salvage_keeps_the_untouched_rows(
+        rows in samples(),
+        hits in proptest::collection::vec(any::<prop::sample::Index>(), 0..4),
+        cut in proptest::option::of(any::<prop::sample::Index>()),
+    ) {
+        let mut text = Vec::new();
+        let mut writer = RunCsvWriter::new(&mut text).expect("header");
+        for r in &rows {
+            writer.write(r).expect("row");
+        }
+        writer.into_inner().expect("flushed");
+        let header_end = text.iter().position(|&b| b == b'\n').expect("header") + 1;
+        // A byte that is no digit, sign, point, comma or line end: any row it hits fails.
+        for at in &hits {
+            let span = text.len() - header_end;
+            if span == 0 {
+                break;
+            }
+            text[header_end + at.index(span)] = b'x';
+        }
+        if let Some(cut) = cut {
+            let n = header_end + cut.index(text.len() - header_end + 1);
+            text.truncate(n);
+        }
+        let mut reader = RunCsvReader::new(&text[..]).expect("header intact").salvaging(true);
+        let got = reader.by_ref().collect::<Result<Vec<_>, _>>();
+        let got = got.map_err(|e| TestCaseError::fail(format!("{e}")))?;
+        // A cut may shorten the last number of a row that stays whole: that row is not checked.
+        let checked = if cut.is_some() { got.len().saturating_sub(1) } else { got.len() };
+        for g in &got[..checked] {
+            prop_assert!(rows.iter().any(|r| same_bits(r, g)), "an altered row came back: {:?}", g);
+        }
+        let lost = rows.len() - got.len();
+        prop_assert!(reader.dropped().len() >= lost.min(1) || cut.is_some());
+        if hits.is_empty() && cut.is_none() {
+            prop_assert_eq!(got.len(), rows.len());
+            prop_assert!(reader.dropped().is_empty());
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// The parallel fast path gives the general reader's samples, bit for bit, or gives up.
+    #[test]
+    fn the_fast_path_reads_what_the_general_reader_reads(rows in samples(), copies in 1usize..4) {
+        let mut text = Vec::new();
+        let mut writer = RunCsvWriter::new(&mut text).expect("header");
+        // Repeated with shifted times: files past the parallel threshold too.
+        let span = rows.last().map_or(0.0, |r| r.t_s) - rows.first().map_or(0.0, |r| r.t_s) + 1.0;
+        let mut all = Vec::new();
+        for k in 0..copies * 12_000 / (rows.len() + 1) + 1 {
+            for r in &rows {
+                let shifted = RunSample { t_s: r.t_s + span * k as f64, ..*r };
+                if all.last().is_none_or(|p: &RunSample| shifted.t_s > p.t_s) {
+                    all.push(shifted);
+                }
+            }
+        }
+        for r in &all {
+            writer.write(r).expect("row");
+        }
+        writer.into_inner().expect("flushed");
+        let general = RunCsvReader::new(&text[..]).expect("header").collect::<Result<Vec<_>, _>>().expect("valid");
+        let fast = super::fast::read(&text).expect("this tool's layout");
+        prop_assert_eq!(fast.len(), general.len());
+        for (a, b) in fast.iter().zip(&general) {
+            prop_assert!(same_bits(a, b), "{:?} vs {:?}", a, b);
+        }
+    }
 }

@@ -1,0 +1,194 @@
+//! Damaged MCAP files: what the reader salvages and what it reports lost.
+
+use super::tests::{read, recorded, sim_run};
+use super::*;
+use ::mcap::records::op;
+use proptest::prelude::*;
+use std::io::Cursor;
+
+/// Offsets of the top-level chunk records of an intact file.
+fn chunk_offsets(bytes: &[u8]) -> Vec<usize> {
+    let mut at = 8;
+    let mut found = Vec::new();
+    while at + 9 <= bytes.len() {
+        let opcode = bytes[at];
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().expect("8 bytes")) as usize;
+        if opcode == op::CHUNK {
+            found.push(at);
+        }
+        if opcode == op::FOOTER {
+            break;
+        }
+        at += 9 + len;
+    }
+    found
+}
+
+/// Whether `part` is `whole` with items left out (nothing invented, order kept).
+fn is_subsequence<T: PartialEq>(part: &[T], whole: &[T]) -> bool {
+    let mut rest = whole.iter();
+    part.iter().all(|p| rest.any(|w| w == p))
+}
+
+/// A run of many chunks: flushed every 40 records, as a recorder does.
+fn many_chunks() -> (RunLog, Vec<u8>) {
+    let (run, _) = sim_run(600);
+    let bytes = recorded(&run, 40, true);
+    (run, bytes)
+}
+
+#[test]
+fn one_flipped_byte_loses_exactly_its_chunk_and_says_how_many_samples() {
+    let (run, bytes) = many_chunks();
+    let chunks = chunk_offsets(&bytes);
+    assert!(chunks.len() > 10, "{} chunks", chunks.len());
+    let full = read(&bytes).expect("intact");
+    assert_eq!(full.run, run);
+    assert!(full.losses.is_empty());
+    for &chunk in &chunks[1..chunks.len() - 1] {
+        let mut damaged = bytes.clone();
+        // Inside the compressed records (past the chunk header's fields).
+        let len = u64::from_le_bytes(bytes[chunk + 1..chunk + 9].try_into().expect("8")) as usize;
+        damaged[chunk + 9 + len / 2] ^= 0x10;
+        let got = read(&damaged).expect("salvaged");
+        assert_eq!(got.truncated, None);
+        assert_eq!(got.losses.len(), 1, "{:?}", got.losses);
+        let loss = &got.losses[0];
+        assert_eq!(loss.start_byte, chunk as u64);
+        let missing = (run.samples.len() - got.run.samples.len()) as u64;
+        assert_eq!(loss.samples, LostSamples::Exact(missing), "{loss}");
+        assert!(is_subsequence(&got.run.samples, &run.samples));
+        assert!(is_subsequence(&got.run.frames, &run.frames));
+        // The lost samples are one contiguous stretch between the reported times.
+        let first_gap = got
+            .run
+            .samples
+            .iter()
+            .zip(&run.samples)
+            .position(|(a, b)| a != b)
+            .unwrap_or(got.run.samples.len());
+        assert_eq!(
+            got.run.samples[first_gap..],
+            run.samples[first_gap + missing as usize..]
+        );
+        if missing > 0 {
+            assert_eq!(
+                loss.after_t_s,
+                first_gap.checked_sub(1).map(|i| run.samples[i].t_s)
+            );
+        }
+    }
+}
+
+#[test]
+fn a_zeroed_block_mid_file_loses_only_what_it_covers() {
+    let (run, bytes) = many_chunks();
+    let chunks = chunk_offsets(&bytes);
+    let mut damaged = bytes.clone();
+    // From inside one chunk to inside the one after next.
+    let (from, to) = (chunks[4] + 20, chunks[6] + 20);
+    damaged[from..to].fill(0);
+    let got = read(&damaged).expect("salvaged");
+    assert!(!got.losses.is_empty());
+    assert!(is_subsequence(&got.run.samples, &run.samples));
+    let missing = (run.samples.len() - got.run.samples.len()) as u64;
+    let reported: u64 = got
+        .losses
+        .iter()
+        .map(|l| match l.samples {
+            LostSamples::Exact(n) | LostSamples::About(n) => n,
+            LostSamples::Unknown => 0,
+        })
+        .sum();
+    assert!(missing > 0);
+    assert!(
+        reported.abs_diff(missing) <= 2,
+        "reported {reported}, missing {missing}: {:?}",
+        got.losses
+    );
+    // Everything after the damage is back.
+    assert_eq!(got.run.samples.last(), run.samples.last());
+}
+
+#[test]
+fn a_zeroed_start_is_salvaged_with_the_summarys_channels() {
+    let (run, bytes) = many_chunks();
+    let chunks = chunk_offsets(&bytes);
+    let mut damaged = bytes.clone();
+    damaged[..chunks[2] + 30].fill(0);
+    let got = read(&damaged).expect("salvaged");
+    assert_eq!(got.losses[0].start_byte, 0, "{:?}", got.losses);
+    assert!(!got.run.samples.is_empty());
+    assert!(is_subsequence(&got.run.samples, &run.samples));
+    assert_eq!(got.run.samples.last(), run.samples.last());
+}
+
+#[test]
+fn uncompressed_and_lz4_chunks_read_as_zstd_ones() {
+    let (run, _) = sim_run(200);
+    for compression in [None, Some(::mcap::Compression::Lz4)] {
+        let bytes = write_mcap_run_with(Cursor::new(Vec::new()), &run, compression)
+            .expect("written")
+            .into_inner();
+        let got = read(&bytes).expect("read");
+        assert_eq!(got.run, run, "{compression:?}");
+        assert!(got.losses.is_empty());
+    }
+}
+
+#[test]
+fn compressed_chunks_are_several_times_smaller() {
+    let (run, _) = sim_run(2000);
+    let size = |c| {
+        write_mcap_run_with(Cursor::new(Vec::new()), &run, c)
+            .expect("written")
+            .into_inner()
+            .len()
+    };
+    let (plain, zstd) = (size(None), size(Some(::mcap::Compression::Zstd)));
+    // JSON of quantised readings and binary frames: ~3x (an hour: ~95 MB instead of ~290).
+    assert!(
+        zstd * 5 < plain * 2,
+        "zstd {zstd} B, uncompressed {plain} B"
+    );
+}
+
+proptest! {
+    #![proptest_config(crate::log::tests_support::fuzz_config(96))]
+
+    /// Flip bytes or zero a block anywhere: the reader never invents or reorders data — what
+    /// it returns is the original with items left out — and one flipped byte never stops it.
+    #[test]
+    fn salvage_returns_only_original_data(
+        flips in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 0..4),
+        zero in proptest::option::of((any::<prop::sample::Index>(), 1usize..5000)),
+    ) {
+        thread_local! {
+            static FILE: (RunLog, Vec<u8>) = many_chunks();
+        }
+        let (run, mut bytes) = FILE.with(Clone::clone);
+        for (at, flip) in &flips {
+            let i = at.index(bytes.len());
+            bytes[i] ^= flip;
+        }
+        if let Some((at, n)) = zero {
+            let i = at.index(bytes.len());
+            let end = (i + n).min(bytes.len());
+            bytes[i..end].fill(0);
+        }
+        match read(&bytes) {
+            Ok(got) => {
+                prop_assert!(is_subsequence(&got.run.samples, &run.samples));
+                prop_assert!(is_subsequence(&got.run.frames, &run.frames));
+                prop_assert!(is_subsequence(&got.run.events, &run.events));
+                if got.losses.is_empty() && got.truncated.is_none() {
+                    prop_assert_eq!(got.run.samples.len(), run.samples.len());
+                }
+            }
+            Err(e) => prop_assert!(
+                flips.len() + usize::from(zero.is_some()) > 1 || matches!(e, McapError::NotMcap { .. }),
+                "one damage stopped the reader: {}", e
+            ),
+        }
+    }
+}

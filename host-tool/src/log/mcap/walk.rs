@@ -1,0 +1,399 @@
+//! Walking an MCAP file's top-level records in order from any `Read + Seek`, with bounded memory
+//! (one record at a time), and salvaging damaged files: a chunk whose CRC or compression does
+//! not check out is skipped, and bytes that hold no record header are skipped up to the next
+//! place where a record header parses and is followed by another one (resync). Each skipped
+//! stretch is reported as a [`Skipped`] for the reader to turn into a loss report.
+
+use ::mcap::records::op;
+use std::io::{self, BufReader, Read, Seek, SeekFrom};
+
+/// Bytes of a record header: opcode (1) + length (8).
+const HEADER_BYTES: u64 = 9;
+
+/// A chunk claiming more than this uncompressed is treated as damaged (the writer's chunks are
+/// 256 KiB; Foxglove's a few MiB), so a damaged size cannot make the reader allocate the disk.
+const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
+/// Opcodes a resync may land on: the records that stand at the top level of a chunked file.
+/// Schema, channel and message records are left out on purpose: inside an uncompressed chunk
+/// they look exactly like top-level records, and a resync must not read a damaged chunk's
+/// unverified insides.
+fn resync_opcode(opcode: u8) -> bool {
+    matches!(
+        opcode,
+        op::HEADER
+            | op::FOOTER
+            | op::CHUNK
+            | op::MESSAGE_INDEX
+            | op::CHUNK_INDEX
+            | op::ATTACHMENT
+            | op::ATTACHMENT_INDEX
+            | op::STATISTICS
+            | op::METADATA
+            | op::METADATA_INDEX
+            | op::SUMMARY_OFFSET
+            | op::DATA_END
+    )
+}
+
+/// Opcodes a well-formed file may hold at the top level: the spec's (0x01–0x0F) and the
+/// private range (0x80–0xFF, skipped unread).
+fn valid_opcode(opcode: u8) -> bool {
+    (0x01..=0x0F).contains(&opcode) || opcode >= 0x80
+}
+
+/// A stretch of the file the walker could not trust.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(super) struct Skipped {
+    /// First byte skipped.
+    pub start_byte: u64,
+    /// One past the last byte skipped.
+    pub end_byte: u64,
+    /// Why.
+    pub detail: String,
+}
+
+/// What [`Walker::next`] found.
+#[derive(Debug)]
+pub(super) enum Step<'a> {
+    /// A record (a chunk comes as its decompressed, CRC-checked records; see [`Walker::chunk`]).
+    Record {
+        opcode: u8,
+        /// Where its header starts.
+        offset: u64,
+        body: &'a [u8],
+    },
+    /// A damaged stretch was skipped; the walk goes on after it.
+    Skipped(Skipped),
+    /// The footer: the file is complete.
+    Footer,
+    /// The file ends without a footer: everything from `complete_bytes` on is a torn record
+    /// (or bytes in which no further record was found).
+    Truncated { complete_bytes: u64 },
+}
+
+/// The top-level records of an MCAP file, one at a time.
+pub(super) struct Walker<R> {
+    input: BufReader<R>,
+    /// The file's length.
+    len: u64,
+    /// Where the next record header starts (`input` is positioned there between steps).
+    pos: u64,
+    body: Vec<u8>,
+    done: bool,
+}
+
+impl<R: Read + Seek> Walker<R> {
+    /// Starts after the magic at `start` (8, or where a resync found the first record of a file
+    /// whose start is damaged).
+    pub(super) fn new(mut input: R, len: u64, start: u64) -> io::Result<Self> {
+        input.seek(SeekFrom::Start(start))?;
+        Ok(Self {
+            // Large reads: the file is read front to back at the disk's pace.
+            input: BufReader::with_capacity(1 << 20, input),
+            len,
+            pos: start,
+            body: Vec::new(),
+            done: false,
+        })
+    }
+
+    /// The next step of the walk; `None` after [`Step::Footer`] or [`Step::Truncated`].
+    pub(super) fn next(&mut self) -> io::Result<Option<Step<'_>>> {
+        if self.done {
+            return Ok(None);
+        }
+        let offset = self.pos;
+        let rest = self.len - offset;
+        if rest < HEADER_BYTES {
+            self.done = true;
+            return Ok(Some(Step::Truncated {
+                complete_bytes: offset,
+            }));
+        }
+        let mut header = [0u8; HEADER_BYTES as usize];
+        self.input.read_exact(&mut header)?;
+        let opcode = header[0];
+        let body_len = u64::from_le_bytes(header[1..].try_into().unwrap_or_default());
+        if !valid_opcode(opcode) || body_len > rest - HEADER_BYTES {
+            return self.after_bad_header(offset, opcode, body_len);
+        }
+        self.pos = offset + HEADER_BYTES + body_len;
+        match opcode {
+            op::FOOTER => {
+                self.done = true;
+                Ok(Some(Step::Footer))
+            }
+            op::CHUNK | op::CHANNEL | op::MESSAGE | op::MESSAGE_INDEX => {
+                let n = usize::try_from(body_len).map_err(io::Error::other)?;
+                self.body.clear();
+                self.body.reserve(n);
+                (&mut self.input)
+                    .take(body_len)
+                    .read_to_end(&mut self.body)?;
+                Ok(Some(Step::Record {
+                    opcode,
+                    offset,
+                    body: &self.body,
+                }))
+            }
+            _ => {
+                // Not needed by the reader (schemas, indexes, statistics, attachments, private
+                // records): skipped unread.
+                self.input
+                    .seek_relative(i64::try_from(body_len).map_err(io::Error::other)?)?;
+                Ok(Some(Step::Record {
+                    opcode,
+                    offset,
+                    body: &[],
+                }))
+            }
+        }
+    }
+
+    /// A header that cannot be a record's: resync after it, or the file ends here.
+    fn after_bad_header(
+        &mut self,
+        offset: u64,
+        opcode: u8,
+        body_len: u64,
+    ) -> io::Result<Option<Step<'_>>> {
+        match self.resync(offset + 1)? {
+            Some(next) => {
+                self.seek(next)?;
+                let detail = if valid_opcode(opcode) {
+                    format!(
+                        "record {opcode:#04x} claims {body_len} bytes, more than the file holds"
+                    )
+                } else {
+                    format!("no record header (opcode {opcode:#04x})")
+                };
+                Ok(Some(Step::Skipped(Skipped {
+                    start_byte: offset,
+                    end_byte: next,
+                    detail: format!("{detail}; resynchronised at byte {next}"),
+                })))
+            }
+            None => {
+                self.done = true;
+                Ok(Some(Step::Truncated {
+                    complete_bytes: offset,
+                }))
+            }
+        }
+    }
+
+    pub(super) fn seek(&mut self, to: u64) -> io::Result<()> {
+        self.input.seek(SeekFrom::Start(to))?;
+        self.pos = to;
+        Ok(())
+    }
+
+    /// The first offset ≥ `from` where a top-level record header parses, fits in the file and is
+    /// followed by another record header that does (or by the end of the file: the footer and
+    /// its magic). Checking two headers in a row makes a false sync in damaged bytes unlikely
+    /// (a length's high bytes must all be zero, twice).
+    pub(super) fn resync(&mut self, from: u64) -> io::Result<Option<u64>> {
+        const WINDOW: usize = 1 << 16;
+        let mut window = vec![0u8; WINDOW + HEADER_BYTES as usize];
+        let mut at = from;
+        while at + HEADER_BYTES <= self.len {
+            self.input.seek(SeekFrom::Start(at))?;
+            let want = usize::try_from((self.len - at).min(window.len() as u64))
+                .map_err(io::Error::other)?;
+            self.input.read_exact(&mut window[..want])?;
+            let scan = want.saturating_sub(HEADER_BYTES as usize - 1).min(WINDOW);
+            for i in 0..scan {
+                if !resync_opcode(window[i]) {
+                    continue;
+                }
+                let candidate = at + i as u64;
+                let len = u64::from_le_bytes(
+                    window[i + 1..i + HEADER_BYTES as usize]
+                        .try_into()
+                        .unwrap_or_default(),
+                );
+                if len > self.len - candidate - HEADER_BYTES {
+                    continue;
+                }
+                if self.followed_by_a_record(window[i], candidate + HEADER_BYTES + len)? {
+                    return Ok(Some(candidate));
+                }
+            }
+            at += scan.max(1) as u64;
+        }
+        Ok(None)
+    }
+
+    /// Whether a record of `opcode` ending at `end` is followed by a plausible record header
+    /// (or, for the footer, by the closing magic at the end of the file).
+    fn followed_by_a_record(&mut self, opcode: u8, end: u64) -> io::Result<bool> {
+        if opcode == op::FOOTER {
+            return Ok(end + ::mcap::MAGIC.len() as u64 == self.len);
+        }
+        if end == self.len {
+            // A record that ends the file: only a truncated file ends without its footer.
+            return Ok(opcode == op::CHUNK);
+        }
+        if end + HEADER_BYTES > self.len {
+            return Ok(false);
+        }
+        self.input.seek(SeekFrom::Start(end))?;
+        let mut header = [0u8; HEADER_BYTES as usize];
+        self.input.read_exact(&mut header)?;
+        let len = u64::from_le_bytes(header[1..].try_into().unwrap_or_default());
+        Ok(resync_opcode(header[0]) && len <= self.len - end - HEADER_BYTES)
+    }
+
+    /// Channel records of the summary section, found through the footer (empty when the footer
+    /// or summary is missing or damaged). They stand in for channel records lost in a damaged
+    /// chunk. Restores the walk position.
+    pub(super) fn summary_channels(&mut self) -> Vec<::mcap::records::Channel> {
+        let mut found = Vec::new();
+        let back = self.pos;
+        let _ = self.read_summary_channels(&mut found);
+        if self.seek(back).is_err() {
+            self.done = true;
+        }
+        found
+    }
+
+    fn read_summary_channels(
+        &mut self,
+        found: &mut Vec<::mcap::records::Channel>,
+    ) -> io::Result<()> {
+        // Footer: opcode, length 20, summary start, summary offset start, CRC; then the magic.
+        const FOOTER: u64 = HEADER_BYTES + 20 + 8;
+        if self.len < FOOTER + 8 {
+            return Ok(());
+        }
+        self.seek(self.len - FOOTER)?;
+        let mut footer = [0u8; FOOTER as usize];
+        self.input.read_exact(&mut footer)?;
+        if footer[0] != op::FOOTER
+            || footer[1..9] != 20u64.to_le_bytes()
+            || &footer[29..] != ::mcap::MAGIC
+        {
+            return Ok(());
+        }
+        let start = u64::from_le_bytes(footer[9..17].try_into().unwrap_or_default());
+        let summary_end = self.len - FOOTER;
+        if start < 8 || start >= summary_end {
+            return Ok(());
+        }
+        self.seek(start)?;
+        let mut at = start;
+        while at + HEADER_BYTES <= summary_end {
+            let mut header = [0u8; HEADER_BYTES as usize];
+            self.input.read_exact(&mut header)?;
+            let len = u64::from_le_bytes(header[1..].try_into().unwrap_or_default());
+            if len > summary_end - at - HEADER_BYTES {
+                break;
+            }
+            if header[0] == op::CHANNEL {
+                let mut body = vec![0u8; usize::try_from(len).map_err(io::Error::other)?];
+                self.input.read_exact(&mut body)?;
+                if let Ok(::mcap::records::Record::Channel(c)) =
+                    ::mcap::parse_record(op::CHANNEL, &body)
+                {
+                    found.push(c);
+                }
+            } else {
+                self.input
+                    .seek_relative(i64::try_from(len).map_err(io::Error::other)?)?;
+            }
+            at += HEADER_BYTES + len;
+        }
+        Ok(())
+    }
+}
+
+/// Why a chunk's records were not read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(super) enum ChunkProblem {
+    /// CRC mismatch, decompression failure, inconsistent sizes: the chunk is skipped.
+    Damaged(String),
+    /// A compression this tool does not read.
+    Unsupported(String),
+}
+
+/// Decodes chunk records, reusing its buffers from one chunk to the next.
+#[derive(Default)]
+pub(super) struct ChunkDecoder {
+    chunk: Vec<u8>,
+    zstd: Option<zstd::bulk::Decompressor<'static>>,
+}
+
+impl ChunkDecoder {
+    /// A chunk record's records, decompressed and CRC-checked; `Err` with why the chunk cannot
+    /// be trusted. An unknown compression is `Ok(Err)` too (the caller decides).
+    pub(super) fn decode(&mut self, body: &[u8]) -> Result<&[u8], ChunkProblem> {
+        let (header, data) = match ::mcap::parse_record(op::CHUNK, body) {
+            Ok(::mcap::records::Record::Chunk { header, data }) => (header, data),
+            Ok(_) => return Err(ChunkProblem::Damaged("chunk record did not parse".into())),
+            Err(e) => return Err(ChunkProblem::Damaged(format!("chunk: {e}"))),
+        };
+        if header.uncompressed_size > MAX_CHUNK_BYTES {
+            return Err(ChunkProblem::Damaged(format!(
+                "chunk claims {} bytes uncompressed",
+                header.uncompressed_size
+            )));
+        }
+        let size = header.uncompressed_size as usize;
+        self.chunk.clear();
+        match header.compression.as_str() {
+            "" => {
+                if data.len() != size {
+                    return Err(ChunkProblem::Damaged(format!(
+                        "uncompressed chunk of {} bytes claims {size} bytes uncompressed",
+                        data.len()
+                    )));
+                }
+                self.chunk.extend_from_slice(&data);
+            }
+            "zstd" => {
+                self.chunk.reserve(size);
+                let zstd = match &mut self.zstd {
+                    Some(z) => z,
+                    None => self.zstd.insert(
+                        zstd::bulk::Decompressor::new()
+                            .map_err(|e| ChunkProblem::Damaged(format!("zstd: {e}")))?,
+                    ),
+                };
+                let n = zstd
+                    .decompress_to_buffer(&data[..], &mut self.chunk)
+                    .map_err(|e| ChunkProblem::Damaged(format!("zstd chunk: {e}")))?;
+                if n != size {
+                    return Err(ChunkProblem::Damaged(format!(
+                        "zstd chunk holds {n} bytes, its header claims {size}"
+                    )));
+                }
+            }
+            "lz4" => {
+                self.chunk.reserve(size);
+                let mut decoder = lz4::Decoder::new(&data[..])
+                    .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;
+                let n = (&mut decoder)
+                    .take(header.uncompressed_size + 1)
+                    .read_to_end(&mut self.chunk)
+                    .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;
+                if n != size {
+                    return Err(ChunkProblem::Damaged(format!(
+                        "lz4 chunk holds {n} bytes, its header claims {size}"
+                    )));
+                }
+            }
+            other => return Err(ChunkProblem::Unsupported(other.to_owned())),
+        }
+        if header.uncompressed_crc != 0 {
+            let crc = crc32fast::hash(&self.chunk);
+            if crc != header.uncompressed_crc {
+                return Err(ChunkProblem::Damaged(format!(
+                    "chunk CRC mismatch (stored {:#010x}, computed {crc:#010x})",
+                    header.uncompressed_crc
+                )));
+            }
+        }
+        Ok(&self.chunk)
+    }
+}
