@@ -99,7 +99,7 @@ pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
     let synthesised_frames =
         to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
     if synthesised_frames {
-        run.frames = crate::replay::synthesise_frames(&run.samples);
+        run.frames = crate::replay::synthesise_frames(&run.samples, None);
     }
     save_run(output, &run)?;
     Ok(Converted {

@@ -546,9 +546,10 @@ impl fmt::Display for ValidationReport {
                 None => writeln!(f, "  {}: no frames (nothing to cross-check)", run.name)?,
                 Some(c) => writeln!(
                     f,
-                    "  {}: {} model frames; max |Δenergy| {}/{} LSB·µs ({:.6}/{:.6} J), max |Δpower| {}/{} LSB, max |Δτ| {:.3e}/{:.3e} W·s/rad ({} compared){}; {} definedness mismatches, {} lost samples, {} board restarts",
+                    "  {}: {} model frames, differing from the host's recomputation: {}; max |Δenergy| {}/{} LSB·µs ({:.6}/{:.6} J), max |Δpower| {}/{} LSB, max |Δτ| {:.3e}/{:.3e} W·s/rad ({} compared){}; {} definedness mismatches, {} lost samples, {} board restarts",
                     run.name,
                     c.model_frames,
+                    c.model_mismatches,
                     c.energy_lsb_us.max_abs.left,
                     c.energy_lsb_us.max_abs.right,
                     c.energy_max_abs_j.left,
