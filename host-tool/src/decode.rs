@@ -443,6 +443,33 @@ impl Summary {
     }
 }
 
+/// What a file that is not a raw capture of the board's stream looks like, with a hint (`None`
+/// for anything else): an MCAP log (its magic bytes) or a text file such as a run CSV (no frame
+/// delimiter and printable text in its first 4 KiB; a capture has a 0x00 every few dozen bytes).
+pub fn foreign_format(bytes: &[u8]) -> Option<&'static str> {
+    const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+    if bytes.starts_with(MCAP_MAGIC) {
+        return Some(
+            "an MCAP run log, not a raw capture of the serial stream: read it with `validate` or \
+             `convert`, or write its byte stream with `replay LOG --to CAPTURE` and decode that",
+        );
+    }
+    let head = &bytes[..bytes.len().min(4096)];
+    let printable = head
+        .iter()
+        .filter(|&&b| {
+            b == b'\n' || b == b'\r' || b == b'\t' || (0x20..0x7f).contains(&b) || b >= 0x80
+        })
+        .count();
+    if head.len() >= 16 && !head.contains(&0) && printable * 100 >= head.len() * 95 {
+        return Some(
+            "a text file (a run CSV?), not a raw capture of the serial stream: read a run CSV with \
+             `validate` or `convert`, or write a capture with `replay RUN.csv --to CAPTURE`",
+        );
+    }
+    None
+}
+
 /// The board's USB serial number as `ports` shows it; `None` for a simulated or synthesised
 /// stream (no unique ID).
 pub fn usb_serial(identity: &BoardIdentity) -> Option<String> {

@@ -186,25 +186,31 @@ pub fn residuals(report: &ValidationReport) -> Chart {
 }
 
 /// Writes the figures of `report` into `dir` as `NAME.png` and `NAME.svg` for each format in
-/// `formats`; the power-vs-time figure is drawn for the first run in `runs` (if any). Returns
-/// the files written.
+/// `formats`: power vs time once per run in `runs` (`power-vs-time` for a single run,
+/// `power-vs-time-STEM` for each of several, STEM the run file's stem), then power vs radius,
+/// torque per side and residuals over all runs. Returns the files written.
 pub fn write_figures(
     report: &ValidationReport,
     runs: &[RunSamples<'_>],
     dir: &Path,
     formats: &[Format],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let mut figures = vec![
-        ("power-vs-radius", Figure::single(power_vs_radius(report))),
-        ("torque-per-side", Figure::single(torque_per_side(report))),
-        ("residuals", Figure::single(residuals(report))),
-    ];
-    if let Some(run) = runs.first() {
-        figures.insert(
-            0,
-            ("power-vs-time", Figure::single(power_vs_time(report, *run))),
-        );
-    }
+    let mut figures: Vec<(String, Figure)> = power_vs_time_names(runs)
+        .into_iter()
+        .zip(runs)
+        .map(|(name, run)| (name, Figure::single(power_vs_time(report, *run))))
+        .collect();
+    figures.extend([
+        (
+            "power-vs-radius".to_owned(),
+            Figure::single(power_vs_radius(report)),
+        ),
+        (
+            "torque-per-side".to_owned(),
+            Figure::single(torque_per_side(report)),
+        ),
+        ("residuals".to_owned(), Figure::single(residuals(report))),
+    ]);
     let mut written = Vec::new();
     for (name, figure) in &figures {
         for format in formats {
@@ -214,6 +220,44 @@ pub fn write_figures(
         }
     }
     Ok(written)
+}
+
+/// The power-vs-time file name of each run: `power-vs-time` for one run; for several,
+/// `power-vs-time-STEM` (characters other than letters, digits, `-` and `_` as `_`), with the
+/// run's number appended where two stems are the same.
+fn power_vs_time_names(runs: &[RunSamples<'_>]) -> Vec<String> {
+    if runs.len() == 1 {
+        return vec!["power-vs-time".to_owned()];
+    }
+    let stems: Vec<String> = runs
+        .iter()
+        .map(|run| {
+            let stem = Path::new(run.name)
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or(run.name);
+            stem.chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, stem)| {
+            if stems.iter().filter(|s| *s == stem).count() > 1 {
+                format!("power-vs-time-{stem}-{}", i + 1)
+            } else {
+                format!("power-vs-time-{stem}")
+            }
+        })
+        .collect()
 }
 
 fn extension(format: Format) -> &'static str {
@@ -239,4 +283,26 @@ fn short_name(name: &str) -> &str {
         .file_name()
         .and_then(|n| n.to_str())
         .unwrap_or(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_run_gets_its_own_power_vs_time_file() {
+        // Issue 11, bug 4: `plot --runs a b c` drew the first run only.
+        let runs = ["x/run-1.mcap", "y/run-2.csv", "z/run-1.csv"]
+            .map(|name| RunSamples { name, samples: &[] });
+        assert_eq!(
+            power_vs_time_names(&runs),
+            [
+                "power-vs-time-run-1-1",
+                "power-vs-time-run-2",
+                "power-vs-time-run-1-3"
+            ]
+        );
+        assert_eq!(power_vs_time_names(&runs[..1]), ["power-vs-time"]);
+        assert!(power_vs_time_names(&[]).is_empty());
+    }
 }

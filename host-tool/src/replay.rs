@@ -17,6 +17,7 @@
 //! `replay → record → validate` finds the same manoeuvres as the original log. Wheel rates are
 //! side speed / wheel radius of the replay's rover (default the Husky A200, as `record`'s).
 
+use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::RunLog;
 use crate::serial::{PtyTask, PtyWriter};
@@ -28,7 +29,6 @@ use model_core::ina226::{
     AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw, BUS_LSB_UV,
     SHUNT_LSB_NV,
 };
-use crate::log::commands::CommandRow;
 use model_core::wire::{
     self, BoardFrame, ChipReading, FirmwareVersion, Hello, Model, Sample, Status, MAX_FRAME,
     MAX_SAMPLE_PERIOD_US, MIN_SAMPLE_PERIOD_US, PROTOCOL_VERSION,
@@ -92,7 +92,10 @@ pub fn synthetic_hello(sample_period_us: u32) -> Hello {
 /// well: at the first sample and wherever `cmd_*` changes, the board's status report of the new
 /// wheel rates (v / wheel radius, [`command_report`]) precedes the sample, and the model frames'
 /// τ ∝ P/ω uses them.
-pub fn synthesise_frames(samples: &[RunSample], commands_for: Option<&Rover>) -> Vec<(f64, BoardFrame)> {
+pub fn synthesise_frames(
+    samples: &[RunSample],
+    commands_for: Option<&Rover>,
+) -> Vec<(f64, BoardFrame)> {
     let Some(first) = samples.first() else {
         return Vec::new();
     };
@@ -251,6 +254,23 @@ pub fn with_command_reports(
     out
 }
 
+/// The commanded speeds of `samples` as command rows: the first sample's, then one at each
+/// change of `cmd_*`.
+pub fn commands_of_samples(samples: &[RunSample]) -> Vec<CommandRow> {
+    let mut rows: Vec<CommandRow> = Vec::new();
+    for s in samples {
+        if rows.last().is_none_or(|r| r.cmd_mps != s.cmd_mps) {
+            rows.push(CommandRow {
+                t_s: s.t_s,
+                cmd_mps: s.cmd_mps,
+                yaw_rad: None,
+                pitch_deg: None,
+            });
+        }
+    }
+    rows
+}
+
 /// One frame in the wire format, delimiter included.
 pub fn encode_frame(frame: &BoardFrame) -> Result<Vec<u8>, wire::EncodeError> {
     let mut buf = [0u8; MAX_FRAME];
@@ -266,6 +286,9 @@ pub fn encode_frame(frame: &BoardFrame) -> Result<Vec<u8>, wire::EncodeError> {
 pub fn frames_of(run: &RunLog, rover: &Rover) -> Result<Vec<(f64, Vec<u8>)>, wire::EncodeError> {
     let frames = if run.frames.is_empty() {
         synthesise_frames(&run.samples, Some(rover))
+    } else if run.commands.is_empty() {
+        // Frames but no command log (e.g. converted from a run CSV): the samples' cmd_*.
+        with_command_reports(&run.frames, &commands_of_samples(&run.samples), rover)
     } else {
         with_command_reports(&run.frames, &run.commands, rover)
     };

@@ -302,3 +302,17 @@ fn the_summary_names_the_board_by_its_usb_serial() {
         "{text}"
     );
 }
+
+#[test]
+fn mcap_and_csv_files_are_recognised_and_captures_are_not() {
+    // Issue 11, bug 5: `decode run.mcap` counted 148 921 bad frames and exited 0.
+    let mut mcap = b"\x89MCAP0\r\n".to_vec();
+    mcap.extend([0u8; 100]);
+    assert!(foreign_format(&mcap).is_some_and(|h| h.contains("MCAP")));
+    let csv = b"t_s,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps\n0,24,1,24,1,0,0\n";
+    assert!(foreign_format(csv).is_some_and(|h| h.contains("CSV")));
+    let hello = BoardFrame::Hello(crate::replay::synthetic_hello(5_000));
+    let capture = crate::replay::encode_frame(&hello).expect("encode");
+    assert_eq!(foreign_format(&capture), None);
+    assert_eq!(foreign_format(b""), None);
+}

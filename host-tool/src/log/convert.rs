@@ -6,7 +6,8 @@
 //! - run CSV → MCAP: the samples exactly on `/rover_power/sample`, plus the wire frames the
 //!   board would have sent for them ([`crate::replay::synthesise_frames`]: a hello, sample
 //!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
-//!   frames), so the file replays like a recording.
+//!   frames, and the board's status report of the commanded wheel rates wherever `cmd_*`
+//!   changes, on the Husky's wheels as `record` assumes), so the file replays like a recording.
 //! - MCAP → MCAP: a clean, finished copy (also the way to repair a file cut short by a killed
 //!   recorder: everything before the cut is kept, with a summary and footer).
 //! - run CSV → run CSV: this tool's canonical column order and number format.
@@ -99,7 +100,8 @@ pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
     let synthesised_frames =
         to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
     if synthesised_frames {
-        run.frames = crate::replay::synthesise_frames(&run.samples, None);
+        run.frames =
+            crate::replay::synthesise_frames(&run.samples, Some(&model_core::Rover::HUSKY_A200));
     }
     save_run(output, &run)?;
     Ok(Converted {

@@ -346,6 +346,14 @@ pub struct RecordSummary {
     pub scale: Scale,
 }
 
+impl RecordSummary {
+    /// Commands sent that the board neither acked nor rejected before the recording ended.
+    pub fn unanswered_commands(&self) -> u64 {
+        self.commands_sent
+            .saturating_sub(self.commands_acked + self.commands_rejected)
+    }
+}
+
 impl fmt::Display for RecordSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let s = &self.stream;

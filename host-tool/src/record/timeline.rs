@@ -99,7 +99,12 @@ impl CommandTimeline {
     /// same time replaces it). Pose rows are not tracked: a learnt row has none.
     pub fn push(&mut self, row: CommandRow) {
         match self.rows.last_mut() {
-            Some(last) if row.t_s <= last.t_s => *last = CommandRow { t_s: last.t_s, ..row },
+            Some(last) if row.t_s <= last.t_s => {
+                *last = CommandRow {
+                    t_s: last.t_s,
+                    ..row
+                }
+            }
             _ => self.rows.push(row),
         }
     }

@@ -311,7 +311,9 @@ fn bad_speed_and_no_reader_are_errors() {
 
 #[test]
 fn an_empty_log_replays_nothing() {
-    assert!(frames_of(&RunLog::default(), &Rover::HUSKY_A200).expect("empty").is_empty());
+    assert!(frames_of(&RunLog::default(), &Rover::HUSKY_A200)
+        .expect("empty")
+        .is_empty());
     assert!(synthesise_frames(&[], None).is_empty());
 }
 
