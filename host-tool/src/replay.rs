@@ -254,23 +254,6 @@ pub fn with_command_reports(
     out
 }
 
-/// The commanded speeds of `samples` as command rows: the first sample's, then one at each
-/// change of `cmd_*`.
-pub fn commands_of_samples(samples: &[RunSample]) -> Vec<CommandRow> {
-    let mut rows: Vec<CommandRow> = Vec::new();
-    for s in samples {
-        if rows.last().is_none_or(|r| r.cmd_mps != s.cmd_mps) {
-            rows.push(CommandRow {
-                t_s: s.t_s,
-                cmd_mps: s.cmd_mps,
-                yaw_rad: None,
-                pitch_deg: None,
-            });
-        }
-    }
-    rows
-}
-
 /// One frame in the wire format, delimiter included.
 pub fn encode_frame(frame: &BoardFrame) -> Result<Vec<u8>, wire::EncodeError> {
     let mut buf = [0u8; MAX_FRAME];
@@ -286,9 +269,6 @@ pub fn encode_frame(frame: &BoardFrame) -> Result<Vec<u8>, wire::EncodeError> {
 pub fn frames_of(run: &RunLog, rover: &Rover) -> Result<Vec<(f64, Vec<u8>)>, wire::EncodeError> {
     let frames = if run.frames.is_empty() {
         synthesise_frames(&run.samples, Some(rover))
-    } else if run.commands.is_empty() {
-        // Frames but no command log (e.g. converted from a run CSV): the samples' cmd_*.
-        with_command_reports(&run.frames, &commands_of_samples(&run.samples), rover)
     } else {
         with_command_reports(&run.frames, &run.commands, rover)
     };

@@ -177,10 +177,14 @@ mod tests {
         assert_eq!((done.from, done.to), (RunFormat::Csv, RunFormat::Mcap));
         assert!(done.synthesised_frames);
         assert_eq!(done.samples, 500);
+        let speeds = 1 + original
+            .windows(2)
+            .filter(|w| w[0].cmd_mps != w[1].cmd_mps)
+            .count();
         assert_eq!(
             done.frames,
-            1 + 500 + 25,
-            "hello, samples, a model frame per 100 ms"
+            1 + 500 + 25 + speeds,
+            "hello, samples, a model frame per 100 ms, the board's report of each commanded speed"
         );
 
         let run = read_mcap_run(&mcap).expect("mcap").run;
