@@ -316,3 +316,21 @@ fn mcap_and_csv_files_are_recognised_and_captures_are_not() {
     assert_eq!(foreign_format(&capture), None);
     assert_eq!(foreign_format(b""), None);
 }
+
+#[test]
+fn json_enum_values_are_kebab_case_and_old_names_still_read() {
+    use model_core::ina226::{AdcConfig, Averaging};
+    use model_core::kinematics::Regime;
+    let json = |v: serde_json::Value| v.to_string();
+    assert_eq!(
+        json(serde_json::to_value(Regime::BelowHalfTrack).expect("json")),
+        "\"below-half-track\""
+    );
+    let adc = serde_json::to_value(AdcConfig::BOARD_DEFAULT).expect("json");
+    assert_eq!(adc["averaging"], "16");
+    assert_eq!(adc["bus_conversion"], "140-us");
+    let old: Averaging = serde_json::from_str("\"X16\"").expect("old name");
+    assert_eq!(old, Averaging::X16);
+    let old: Regime = serde_json::from_str("\"AboveRPrime\"").expect("old name");
+    assert_eq!(old, Regime::AboveRPrime);
+}

@@ -288,8 +288,17 @@ pub const CSV_COLUMNS: [&str; 43] = [
     "hard_ground_residual_fraction",
 ];
 
+/// A CSV number in its shortest form; a value computed in f32 (the board's kinematics) in the
+/// f32's shortest form (`0.3`, not `0.30000001192092896`).
 fn cell(v: Option<f64>) -> String {
-    v.map_or_else(String::new, |v| format!("{v}"))
+    v.map_or_else(String::new, |v| {
+        let single = v as f32;
+        if f64::from(single) == v {
+            format!("{single}")
+        } else {
+            format!("{v}")
+        }
+    })
 }
 
 fn quote(s: &str) -> String {
