@@ -97,7 +97,9 @@ fn event_kinds(events: &[(f64, LogEvent)]) -> Vec<&'static str> {
             LogEvent::BadFrames { .. } => "bad",
             LogEvent::BoardReset => "reset",
             LogEvent::Stopped { .. } => "stopped",
+            LogEvent::WallClock { .. } => "clock",
         })
+        .filter(|kind| *kind != "clock")
         .collect()
 }
 

@@ -25,6 +25,9 @@
 //!   same path is re-opened every [`RecordOptions::retry_every`] until it works
 //!   ([`LogEvent::Reconnected`]) or [`RecordOptions::reconnect_timeout`] passes.
 //! - Crash safety: the sink is flushed every [`RecordOptions::flush_every`].
+//! - Wall time: at the first sample the log gets [`LogEvent::WallClock`], the host's Unix time
+//!   when its bytes were read; run time continues across resets and reconnections by the
+//!   wall-clock gap, so run time + that offset is wall time (to the crystal's drift).
 
 mod clock;
 mod timeline;
@@ -775,6 +778,18 @@ impl<'a, 'o> Recorder<'a, 'o> {
     fn on_sample(&mut self, sample: &Sample, frame: &BoardFrame) -> Result<(), RecordError> {
         let t_s = RunClock::seconds(self.clock.at(sample.t_us));
         self.samples += 1;
+        if self.samples == 1 {
+            // Where run time meets wall time: when the first sample's bytes were read.
+            let read = std::time::SystemTime::now()
+                .checked_sub(self.read_at.elapsed())
+                .and_then(|at| at.duration_since(std::time::UNIX_EPOCH).ok());
+            if let Some(unix) = read {
+                let unix_ns = u64::try_from(unix.as_nanos()).unwrap_or(u64::MAX);
+                self.sink
+                    .event(t_s, &LogEvent::WallClock { unix_ns })
+                    .map_err(RecordError::Sink)?;
+            }
+        }
         self.last_sample_at = Some(self.read_at);
         self.sink.frame(t_s, frame).map_err(RecordError::Sink)?;
         self.chip_faults = sample.chips.map(|c| match c {

@@ -144,7 +144,9 @@ fn kinds(log: &RunLog) -> Vec<&'static str> {
             LogEvent::BadFrames { .. } => "bad",
             LogEvent::BoardReset => "reset",
             LogEvent::Stopped { .. } => "stopped",
+            LogEvent::WallClock { .. } => "clock",
         })
+        .filter(|kind| *kind != "clock")
         .collect()
 }
 
@@ -513,4 +515,28 @@ fn while_waiting_for_a_vanished_device_the_status_says_how_long_and_how_to_stop(
         .iter()
         .filter_map(|s| s.reconnect_left)
         .all(|left| left <= Duration::from_millis(400)));
+}
+
+#[test]
+fn the_log_says_when_the_run_happened() {
+    let before = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("after 1970")
+        .as_nanos() as u64;
+    let (bytes, _) = board_stream(7_000_000, 30, &[]);
+    let (port, _) = script(vec![bytes]);
+    let (result, log, _) = record_ports(&fast_options(), vec![port]);
+    result.expect("recorded");
+    let clocks: Vec<(f64, u64)> = log
+        .events
+        .iter()
+        .filter_map(|(t, e)| match e {
+            LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(clocks.len(), 1, "{:?}", log.events);
+    let (t_s, unix_ns) = clocks[0];
+    assert_eq!(t_s, 0.0, "at the first sample's run time");
+    assert!(unix_ns >= before - 1_000_000_000 && unix_ns <= before + 60_000_000_000);
 }
