@@ -339,11 +339,34 @@ pub fn write_figures(
     dir: &Path,
     formats: &[Format],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let mut figures: Vec<(String, Figure)> = power_vs_time_names(runs)
-        .into_iter()
+    write_figures_with(report, runs, dir, formats, false)
+}
+
+/// [`write_figures`], plus with `per_side` a figure per run of the left and the right power
+/// through each turn (two panels, `power-vs-time-per-side[-STEM]`).
+pub fn write_figures_with(
+    report: &ValidationReport,
+    runs: &[RunSamples<'_>],
+    dir: &Path,
+    formats: &[Format],
+    per_side: bool,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let names = power_vs_time_names(runs);
+    let mut figures: Vec<(String, Figure)> = names
+        .iter()
         .zip(runs)
-        .map(|(name, run)| (name, Figure::single(power_vs_time(report, *run))))
+        .map(|(name, run)| (name.clone(), Figure::single(power_vs_time(report, *run))))
         .collect();
+    if per_side {
+        for (name, run) in names.iter().zip(runs) {
+            let panels = [TurnSide::Left, TurnSide::Right]
+                .map(|side| power_trace_chart(report, *run, PowerTrace::Side(side)));
+            figures.push((
+                name.replacen("power-vs-time", "power-vs-time-per-side", 1),
+                Figure::new("", panels.to_vec(), 2),
+            ));
+        }
+    }
     figures.extend([
         (
             "power-vs-radius".to_owned(),
@@ -454,7 +477,13 @@ mod tests {
     fn the_legend_goes_where_the_data_is_not() {
         let mut chart = Chart::new("t", "x", "y");
         // Data along the top and on the right: the lower left is free.
-        let points = vec![(0.0, 10.0), (5.0, 10.0), (10.0, 10.0), (10.0, 0.0), (10.0, 5.0)];
+        let points = vec![
+            (0.0, 10.0),
+            (5.0, 10.0),
+            (10.0, 10.0),
+            (10.0, 0.0),
+            (10.0, 5.0),
+        ];
         chart
             .series
             .push(Series::new("a", points, SeriesStyle::Points, 0));

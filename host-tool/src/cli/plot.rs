@@ -3,7 +3,7 @@
 use super::output;
 use super::validate::load_and_validate;
 use anyhow::Result;
-use host_tool::figures::write_figures;
+use host_tool::figures::write_figures_with;
 use host_tool::out_dir::write_dir_whole;
 use host_tool::plot::Format;
 use host_tool::rover::load_rover;
@@ -28,6 +28,10 @@ pub struct PlotArgs {
     /// Figure format(s).
     #[arg(long, value_enum, default_value = "both")]
     format: FigureFormat,
+    /// Also draw each run's left and right power through each turn
+    /// (`power-vs-time-per-side[-STEM]`, two panels).
+    #[arg(long)]
+    per_side: bool,
 }
 
 /// Which figure files to write.
@@ -63,8 +67,14 @@ impl PlotArgs {
             load_and_validate(&rover, &self.runs, &ValidateOptions::for_rover(&rover))?;
         let samples = runs.samples();
         let files = write_dir_whole(&self.out, self.force, |staging| {
-            write_figures(&report, &samples, staging, self.format.formats())
-                .map(|files| output::rebased(files, staging, &self.out))
+            write_figures_with(
+                &report,
+                &samples,
+                staging,
+                self.format.formats(),
+                self.per_side,
+            )
+            .map(|files| output::rebased(files, staging, &self.out))
         })?;
         let mut text = String::new();
         for file in files {
