@@ -103,7 +103,7 @@ pub fn power_trace_chart(
             .series
             .push(Series::new(label, points, SeriesStyle::Line, i));
     }
-    chart.legend = least_crowded_corner(&chart);
+    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -188,7 +188,7 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
     ));
     add_regime_markers(&mut chart, report);
     chart.x_range = data_x_range(report);
-    chart.legend = least_crowded_corner(&chart);
+    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -200,40 +200,6 @@ fn data_x_range(report: &ValidationReport) -> Option<(f64, f64)> {
     let lo = xs.fold(f64::NAN, f64::min).min(0.0);
     let pad = 0.05 * (hi - lo);
     (hi.is_finite() && hi > lo).then_some((lo - pad, hi + pad))
-}
-
-/// The legend corner whose quarter of the plot holds the fewest data points.
-fn least_crowded_corner(chart: &Chart) -> Legend {
-    let points: Vec<(f64, f64)> = chart
-        .series
-        .iter()
-        .flat_map(|s| s.points.iter().copied())
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .filter(|(x, _)| chart.x_range.is_none_or(|(lo, hi)| (lo..=hi).contains(x)))
-        .collect();
-    let bounds = |f: fn(&(f64, f64)) -> f64| {
-        points
-            .iter()
-            .map(f)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            })
-    };
-    let (x0, x1) = chart.x_range.unwrap_or_else(|| bounds(|p| p.0));
-    let (y0, y1) = bounds(|p| p.1);
-    let (xm, ym) = (x0 + 0.6 * (x1 - x0), y0 + 0.6 * (y1 - y0));
-    let (xl, yl) = (x0 + 0.4 * (x1 - x0), y0 + 0.4 * (y1 - y0));
-    let count = |f: &dyn Fn(f64, f64) -> bool| points.iter().filter(|(x, y)| f(*x, *y)).count();
-    let corners = [
-        (Legend::UpperRight, count(&|x, y| x >= xm && y >= ym)),
-        (Legend::UpperLeft, count(&|x, y| x <= xl && y >= ym)),
-        (Legend::LowerRight, count(&|x, y| x >= xm && y <= yl)),
-        (Legend::LowerLeft, count(&|x, y| x <= xl && y <= yl)),
-    ];
-    corners
-        .into_iter()
-        .min_by_key(|(_, n)| *n)
-        .map_or(Legend::UpperRight, |(corner, _)| corner)
 }
 
 /// τ ∝ P/ω (Eq 5.14) of the inner and the outer side of every turn against R/R′ (seed Fig 5.6:
@@ -280,7 +246,7 @@ pub fn torque_per_side(report: &ValidationReport) -> Chart {
         1,
     ));
     add_regime_markers(&mut chart, report);
-    chart.legend = least_crowded_corner(&chart);
+    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -487,6 +453,6 @@ mod tests {
         chart
             .series
             .push(Series::new("a", points, SeriesStyle::Points, 0));
-        assert_eq!(least_crowded_corner(&chart), Legend::LowerLeft);
+        assert_eq!(chart.least_crowded_corner(), Legend::LowerLeft);
     }
 }
