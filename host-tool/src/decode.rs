@@ -19,6 +19,7 @@ use model_core::ina226::Scale;
 use model_core::wire::{
     BoardFrame, Command, FrameDecoder, FrameError, Hello, HostFrame, Model, Sample, Status,
 };
+use model_core::Sides;
 use std::fmt;
 
 /// One decoded event of the stream.
@@ -80,6 +81,30 @@ pub struct ModelCheck {
     pub board: Model,
     /// The host's running measurements after the same sample.
     pub host: Snapshot,
+}
+
+impl ModelCheck {
+    /// The one definition of a model frame that differs from the host's recomputation (used by
+    /// `decode`, `record` and `validate`): the energy gained since the segment's `first` model
+    /// frame, the latest power or τ ∝ P/ω per side not exactly equal (board and host run the
+    /// same model-core code on the same registers, so any difference is a lost sample, a
+    /// command whose rates the host did not learn, or a bug).
+    pub fn differs(&self, first: &ModelCheck) -> bool {
+        let gain = |now: Sides<i64>, then: Sides<i64>| {
+            [
+                now.left.wrapping_sub(then.left),
+                now.right.wrapping_sub(then.right),
+            ]
+        };
+        let board_gain = gain(
+            self.board.snapshot.energy_lsb_us,
+            first.board.snapshot.energy_lsb_us,
+        );
+        let host_gain = gain(self.host.energy_lsb_us, first.host.energy_lsb_us);
+        board_gain != host_gain
+            || self.board.snapshot.power_lsb != self.host.power_lsb
+            || self.board.snapshot.torque_proportional != self.host.torque_proportional
+    }
 }
 
 /// One segment of the stream (one boot of the board).
@@ -272,8 +297,19 @@ impl StreamDecoder {
             BoardFrame::Rejected { id: Some(id), .. } => {
                 self.answered(*id);
             }
+            // The board's own report of the wheel rates it uses: exact at this point of the
+            // stream (the board queues its frames in order), whoever commanded them.
+            BoardFrame::Status(status) => {
+                self.measurements.set_wheel_rates(status.wheel_rates_rad_s);
+            }
             _ => {}
         }
+    }
+
+    /// Sets the wheel rates of the host's τ ∝ P/ω from here on (a command's effect that
+    /// [`StreamDecoder::expect_ack`] cannot mirror: a log read back, not a live port).
+    pub fn set_wheel_rates(&mut self, rates_rad_s: Option<Sides<f32>>) {
+        self.measurements.set_wheel_rates(rates_rad_s);
     }
 
     fn on_model(&mut self, model: &Model) {
@@ -283,22 +319,7 @@ impl StreamDecoder {
             host: self.measurements.snapshot(),
         };
         let first = *self.segment.first_model.get_or_insert(check);
-        let gain = |m: &ModelCheck, f: &ModelCheck| {
-            let (b, fb) = (
-                m.board.snapshot.energy_lsb_us,
-                f.board.snapshot.energy_lsb_us,
-            );
-            let (h, fh) = (m.host.energy_lsb_us, f.host.energy_lsb_us);
-            (
-                [b.left.wrapping_sub(fb.left), b.right.wrapping_sub(fb.right)],
-                [h.left.wrapping_sub(fh.left), h.right.wrapping_sub(fh.right)],
-            )
-        };
-        let (board_gain, host_gain) = gain(&check, &first);
-        if board_gain != host_gain
-            || check.board.snapshot.power_lsb != check.host.power_lsb
-            || check.board.snapshot.torque_proportional != check.host.torque_proportional
-        {
+        if check.differs(&first) {
             self.stats.model_mismatches += 1;
         }
         self.segment.last_model = Some(check);
@@ -422,6 +443,33 @@ impl Summary {
     }
 }
 
+/// What a file that is not a raw capture of the board's stream looks like, with a hint (`None`
+/// for anything else): an MCAP log (its magic bytes) or a text file such as a run CSV (no frame
+/// delimiter and printable text in its first 4 KiB; a capture has a 0x00 every few dozen bytes).
+pub fn foreign_format(bytes: &[u8]) -> Option<&'static str> {
+    const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+    if bytes.starts_with(MCAP_MAGIC) {
+        return Some(
+            "an MCAP run log, not a raw capture of the serial stream: read it with `validate` or \
+             `convert`, or write its byte stream with `replay LOG --to CAPTURE` and decode that",
+        );
+    }
+    let head = &bytes[..bytes.len().min(4096)];
+    let printable = head
+        .iter()
+        .filter(|&&b| {
+            b == b'\n' || b == b'\r' || b == b'\t' || (0x20..0x7f).contains(&b) || b >= 0x80
+        })
+        .count();
+    if head.len() >= 16 && !head.contains(&0) && printable * 100 >= head.len() * 95 {
+        return Some(
+            "a text file (a run CSV?), not a raw capture of the serial stream: read a run CSV with \
+             `validate` or `convert`, or write a capture with `replay RUN.csv --to CAPTURE`",
+        );
+    }
+    None
+}
+
 /// The board's USB serial number as `ports` shows it; `None` for a simulated or synthesised
 /// stream (no unique ID).
 pub fn usb_serial(identity: &BoardIdentity) -> Option<String> {
@@ -463,6 +511,11 @@ impl fmt::Display for Summary {
             f,
             "frames {}, samples {}, bad frames {} ({} CRC), lost samples {} in {} gaps",
             s.frames, s.samples, s.bad_frames, s.crc_errors, s.lost_samples, s.gaps
+        )?;
+        writeln!(
+            f,
+            "model frames: {}, differing from the host's recomputation: {}",
+            s.models, s.model_mismatches
         )?;
         if s.board_resets > 0 {
             writeln!(

@@ -149,7 +149,7 @@ pub enum DemoError {
 /// One recorded run.
 #[derive(Debug, Clone)]
 pub struct DemoRun {
-    /// Its name (the MCAP file's path).
+    /// Its name (the MCAP file's name, e.g. `run-1.mcap`).
     pub name: String,
     /// The MCAP recording (frames, samples, commands, events).
     pub mcap: PathBuf,
@@ -323,7 +323,8 @@ fn record_run(
     let mcap = out.join(format!("{stem}.mcap"));
     let csv = out.join(format!("{stem}.csv"));
     let commands_path = out.join(format!("{stem}.commands.csv"));
-    let name = mcap.display().to_string();
+    // Named by file, not path: the output directory may be a staging one (written whole).
+    let name = format!("{stem}.mcap");
 
     let timeline = Arc::new(
         options
@@ -379,6 +380,17 @@ fn record_run(
         return Err(check(format!(
             "{} of {steps} samples arrived ({} lost, {} bad frames)",
             summary.samples, summary.stream.lost_samples, summary.stream.bad_frames
+        )));
+    }
+    // A board far ahead of the recorder (a huge --speed) answers commands after the last
+    // sample, or applies them late: its τ no longer matches the host's. Fail, do not report.
+    if summary.unanswered_commands() > 0 {
+        return Err(check(format!(
+            "{} of {} commands answered by the board before the run ended: at --speed {} the \
+             simulated board runs ahead of the recorder's commands (use a lower --speed)",
+            summary.commands_acked + summary.commands_rejected,
+            summary.commands_sent,
+            options.speed
         )));
     }
     let board_energy = board_run.board_energy_lsb_us();

@@ -21,13 +21,48 @@ pub struct RunSamples<'a> {
     pub samples: &'a [RunSample],
 }
 
+/// Which power a power-vs-time chart draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PowerTrace {
+    /// Left + right.
+    Total,
+    /// One side.
+    Side(TurnSide),
+}
+
+/// A side of the rover, for per-side traces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TurnSide {
+    /// The left drivers.
+    Left,
+    /// The right drivers.
+    Right,
+}
+
 /// Total power against time since the start of each turn of one run, one series per turn
 /// (seed Fig 4.8: on sand, power rises through turns with R ≤ R′).
 pub fn power_vs_time(report: &ValidationReport, run: RunSamples<'_>) -> Chart {
+    power_trace_chart(report, run, PowerTrace::Total)
+}
+
+/// Power of `trace` against time since the start of each turn of one run. Each trace starts
+/// where the drives have come up from standstill (the first sample at half the turn's median
+/// power or more): the step from 0 W at the command change is the drives' response, not the
+/// turn, and would draw a vertical line at every trace's start.
+pub fn power_trace_chart(
+    report: &ValidationReport,
+    run: RunSamples<'_>,
+    trace: PowerTrace,
+) -> Chart {
+    let (what, y_label) = match trace {
+        PowerTrace::Total => ("Power", "left + right power [W]"),
+        PowerTrace::Side(TurnSide::Left) => ("Left power", "left power [W]"),
+        PowerTrace::Side(TurnSide::Right) => ("Right power", "right power [W]"),
+    };
     let mut chart = Chart::new(
-        format!("Power through each turn ({})", short_name(run.name)),
+        format!("{what} through each turn ({})", short_name(run.name)),
         "time since the turn started [s]",
-        "left + right power [W]",
+        y_label,
     );
     let turns = report
         .manoeuvres
@@ -37,12 +72,28 @@ pub fn power_vs_time(report: &ValidationReport, run: RunSamples<'_>) -> Chart {
         let Some(samples) = run.samples.get(turn.first_sample..turn.end_sample) else {
             continue;
         };
-        let points = samples
+        let power = |s: &RunSample| {
+            let p = sample_power_w(s);
+            match trace {
+                PowerTrace::Total => p.left + p.right,
+                PowerTrace::Side(TurnSide::Left) => p.left,
+                PowerTrace::Side(TurnSide::Right) => p.right,
+            }
+        };
+        let mut sorted: Vec<f64> = samples
             .iter()
-            .map(|s| {
-                let p = sample_power_w(s);
-                (s.t_s - turn.t_start_s, p.left + p.right)
-            })
+            .map(power)
+            .filter(|p| p.is_finite())
+            .collect();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+        let start = samples
+            .iter()
+            .position(|s| power(s).abs() >= 0.5 * median.abs())
+            .unwrap_or(0);
+        let points = samples[start..]
+            .iter()
+            .map(|s| (s.t_s - turn.t_start_s, power(s)))
             .collect();
         let label = match turn.r_over_r_prime {
             Some(k) => format!("R = {k:.2} R′"),
@@ -52,7 +103,7 @@ pub fn power_vs_time(report: &ValidationReport, run: RunSamples<'_>) -> Chart {
             .series
             .push(Series::new(label, points, SeriesStyle::Line, i));
     }
-    chart.legend = Legend::UpperRight;
+    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -65,11 +116,6 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
         "R / R′",
         "power [W]",
     );
-    let avg = plot
-        .points
-        .iter()
-        .map(|p| (p.r_over_r_prime, p.avg_power_w.total))
-        .collect();
     let max = plot
         .points
         .iter()
@@ -81,9 +127,40 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
             .filter_map(|c| f(c).map(|y| (c.r_over_r_prime, y)))
             .collect::<Vec<_>>()
     };
-    chart
-        .series
-        .push(Series::new("measured average", avg, SeriesStyle::Points, 0));
+    // One colour per run for the averages, so runs can be told apart.
+    let mut runs: Vec<&str> = Vec::new();
+    for p in &plot.points {
+        if let Some(m) = report.manoeuvres.get(p.manoeuvre) {
+            if !runs.contains(&m.run.as_str()) {
+                runs.push(&m.run);
+            }
+        }
+    }
+    const RUN_COLOURS: [usize; 4] = [0, 4, 5, 6];
+    for (k, run) in runs.iter().enumerate() {
+        let avg = plot
+            .points
+            .iter()
+            .filter(|p| {
+                report
+                    .manoeuvres
+                    .get(p.manoeuvre)
+                    .is_some_and(|m| m.run == *run)
+            })
+            .map(|p| (p.r_over_r_prime, p.avg_power_w.total))
+            .collect();
+        let name = if runs.len() == 1 {
+            "measured average".to_owned()
+        } else {
+            format!("average, {}", short_name(run))
+        };
+        chart.series.push(Series::new(
+            name,
+            avg,
+            SeriesStyle::Points,
+            RUN_COLOURS[k % RUN_COLOURS.len()],
+        ));
+    }
     chart
         .series
         .push(Series::new("measured maximum", max, SeriesStyle::Points, 1));
@@ -98,11 +175,11 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
         "95 % prediction",
         band(1.0),
         SeriesStyle::Line,
-        6,
+        7,
     ));
     chart
         .series
-        .push(Series::new("", band(-1.0), SeriesStyle::Line, 6));
+        .push(Series::new("", band(-1.0), SeriesStyle::Line, 7));
     chart.series.push(Series::new(
         "hard-ground model",
         curve(&|c| c.hard_ground_w),
@@ -110,7 +187,19 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
         3,
     ));
     add_regime_markers(&mut chart, report);
+    chart.x_range = data_x_range(report);
+    chart.legend = chart.least_crowded_corner();
     chart
+}
+
+/// The x range of the measured turns (R/R′), with R′ in it and 5 % padding; `None` without
+/// turns. Model curves beyond the widest turn are not drawn.
+fn data_x_range(report: &ValidationReport) -> Option<(f64, f64)> {
+    let xs = report.plot.points.iter().map(|p| p.r_over_r_prime);
+    let hi = xs.clone().fold(f64::NAN, f64::max).max(1.0);
+    let lo = xs.fold(f64::NAN, f64::min).min(0.0);
+    let pad = 0.05 * (hi - lo);
+    (hi.is_finite() && hi > lo).then_some((lo - pad, hi + pad))
 }
 
 /// τ ∝ P/ω (Eq 5.14) of the inner and the outer side of every turn against R/R′ (seed Fig 5.6:
@@ -123,6 +212,7 @@ pub fn torque_per_side(report: &ValidationReport) -> Chart {
     );
     let mut inner = Vec::new();
     let mut outer = Vec::new();
+    let mut undefined = [0usize; 2];
     for p in &report.plot.points {
         let Some(row) = report.manoeuvres.get(p.manoeuvre) else {
             continue;
@@ -134,25 +224,36 @@ pub fn torque_per_side(report: &ValidationReport) -> Chart {
         };
         inner.extend(i.map(|t| (p.r_over_r_prime, t)));
         outer.extend(o.map(|t| (p.r_over_r_prime, t)));
+        undefined[0] += usize::from(i.is_none());
+        undefined[1] += usize::from(o.is_none());
     }
-    chart
-        .series
-        .push(Series::new("inner side", inner, SeriesStyle::Points, 0));
-    chart
-        .series
-        .push(Series::new("outer side", outer, SeriesStyle::Points, 1));
+    // τ ∝ P/ω is undefined where ω ≈ 0 (the inner side at R′): say so rather than drop points
+    // silently.
+    let name = |side: &str, missing: usize| match missing {
+        0 => format!("{side} side"),
+        n => format!("{side} side ({n} undefined: ω ≈ 0, e.g. inner at R′)"),
+    };
+    chart.series.push(Series::new(
+        name("inner", undefined[0]),
+        inner,
+        SeriesStyle::Points,
+        0,
+    ));
+    chart.series.push(Series::new(
+        name("outer", undefined[1]),
+        outer,
+        SeriesStyle::Points,
+        1,
+    ));
     add_regime_markers(&mut chart, report);
+    chart.legend = chart.least_crowded_corner();
     chart
 }
 
-/// Measured − predicted average power of every turn against R/R′, in % of the prediction, for
-/// the fitted model and the hard-ground model.
-pub fn residuals(report: &ValidationReport) -> Chart {
-    let mut chart = Chart::new(
-        "Where measured power departs from the models",
-        "R / R′",
-        "measured − model [% of model]",
-    );
+/// Measured − predicted average power of every turn against R/R′, in % of the prediction: one
+/// panel per model (the fitted Eq 2.12, the hard-ground model), so each axis holds one
+/// quantity.
+pub fn residuals(report: &ValidationReport) -> Figure {
     let mut fit = Vec::new();
     let mut hard = Vec::new();
     for p in &report.plot.points {
@@ -169,42 +270,80 @@ pub fn residuals(report: &ValidationReport) -> Chart {
             hard.push((p.r_over_r_prime, 100.0 * f));
         }
     }
-    chart.series.push(Series::new(
-        "vs fitted Eq 2.12",
-        fit,
-        SeriesStyle::Points,
+    let panel = |title: &str, y_label: &str, points: Vec<(f64, f64)>, colour: usize| {
+        let mut chart = Chart::new(title, "R / R′", y_label);
+        chart
+            .series
+            .push(Series::new("", points, SeriesStyle::Points, colour));
+        add_regime_markers(&mut chart, report);
+        chart.x_range = data_x_range(report);
+        chart.legend = Legend::Hidden;
+        chart
+    };
+    Figure::new(
+        "Where measured power departs from the models",
+        vec![
+            panel("vs the fitted Eq 2.12", "measured − fit [% of fit]", fit, 2),
+            panel(
+                "vs the hard-ground model (paper Eq 21)",
+                "measured − hard ground [% of hard ground]",
+                hard,
+                3,
+            ),
+        ],
         2,
-    ));
-    chart.series.push(Series::new(
-        "vs hard-ground model",
-        hard,
-        SeriesStyle::Points,
-        3,
-    ));
-    add_regime_markers(&mut chart, report);
-    chart
+    )
 }
 
 /// Writes the figures of `report` into `dir` as `NAME.png` and `NAME.svg` for each format in
-/// `formats`; the power-vs-time figure is drawn for the first run in `runs` (if any). Returns
-/// the files written.
+/// `formats`: power vs time once per run in `runs` (`power-vs-time` for a single run,
+/// `power-vs-time-STEM` for each of several, STEM the run file's stem), then power vs radius,
+/// torque per side and residuals over all runs. Returns the files written.
 pub fn write_figures(
     report: &ValidationReport,
     runs: &[RunSamples<'_>],
     dir: &Path,
     formats: &[Format],
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let mut figures = vec![
-        ("power-vs-radius", Figure::single(power_vs_radius(report))),
-        ("torque-per-side", Figure::single(torque_per_side(report))),
-        ("residuals", Figure::single(residuals(report))),
-    ];
-    if let Some(run) = runs.first() {
-        figures.insert(
-            0,
-            ("power-vs-time", Figure::single(power_vs_time(report, *run))),
-        );
+    write_figures_with(report, runs, dir, formats, false)
+}
+
+/// [`write_figures`], plus with `per_side` a figure per run of the left and the right power
+/// through each turn (two panels, `power-vs-time-per-side[-STEM]`).
+pub fn write_figures_with(
+    report: &ValidationReport,
+    runs: &[RunSamples<'_>],
+    dir: &Path,
+    formats: &[Format],
+    per_side: bool,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let names = power_vs_time_names(runs);
+    let mut figures: Vec<(String, Figure)> = names
+        .iter()
+        .zip(runs)
+        .map(|(name, run)| (name.clone(), Figure::single(power_vs_time(report, *run))))
+        .collect();
+    if per_side {
+        for (name, run) in names.iter().zip(runs) {
+            let panels = [TurnSide::Left, TurnSide::Right]
+                .map(|side| power_trace_chart(report, *run, PowerTrace::Side(side)));
+            figures.push((
+                name.replacen("power-vs-time", "power-vs-time-per-side", 1),
+                Figure::new("", panels.to_vec(), 2),
+            ));
+        }
     }
+    figures.extend([
+        (
+            "power-vs-radius".to_owned(),
+            Figure::single(power_vs_radius(report)),
+        ),
+        (
+            "torque-per-side".to_owned(),
+            Figure::single(torque_per_side(report)),
+        ),
+        ("residuals".to_owned(), residuals(report)),
+    ]);
     let mut written = Vec::new();
     for (name, figure) in &figures {
         for format in formats {
@@ -214,6 +353,44 @@ pub fn write_figures(
         }
     }
     Ok(written)
+}
+
+/// The power-vs-time file name of each run: `power-vs-time` for one run; for several,
+/// `power-vs-time-STEM` (characters other than letters, digits, `-` and `_` as `_`), with the
+/// run's number appended where two stems are the same.
+fn power_vs_time_names(runs: &[RunSamples<'_>]) -> Vec<String> {
+    if runs.len() == 1 {
+        return vec!["power-vs-time".to_owned()];
+    }
+    let stems: Vec<String> = runs
+        .iter()
+        .map(|run| {
+            let stem = Path::new(run.name)
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or(run.name);
+            stem.chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, stem)| {
+            if stems.iter().filter(|s| *s == stem).count() > 1 {
+                format!("power-vs-time-{stem}-{}", i + 1)
+            } else {
+                format!("power-vs-time-{stem}")
+            }
+        })
+        .collect()
 }
 
 fn extension(format: Format) -> &'static str {
@@ -239,4 +416,43 @@ fn short_name(name: &str) -> &str {
         .file_name()
         .and_then(|n| n.to_str())
         .unwrap_or(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_run_gets_its_own_power_vs_time_file() {
+        // Issue 11, bug 4: `plot --runs a b c` drew the first run only.
+        let runs = ["x/run-1.mcap", "y/run-2.csv", "z/run-1.csv"]
+            .map(|name| RunSamples { name, samples: &[] });
+        assert_eq!(
+            power_vs_time_names(&runs),
+            [
+                "power-vs-time-run-1-1",
+                "power-vs-time-run-2",
+                "power-vs-time-run-1-3"
+            ]
+        );
+        assert_eq!(power_vs_time_names(&runs[..1]), ["power-vs-time"]);
+        assert!(power_vs_time_names(&[]).is_empty());
+    }
+
+    #[test]
+    fn the_legend_goes_where_the_data_is_not() {
+        let mut chart = Chart::new("t", "x", "y");
+        // Data along the top and on the right: the lower left is free.
+        let points = vec![
+            (0.0, 10.0),
+            (5.0, 10.0),
+            (10.0, 10.0),
+            (10.0, 0.0),
+            (10.0, 5.0),
+        ];
+        chart
+            .series
+            .push(Series::new("a", points, SeriesStyle::Points, 0));
+        assert_eq!(chart.least_crowded_corner(), Legend::LowerLeft);
+    }
 }

@@ -1,4 +1,5 @@
-//! rover-power host tool, library first: the CLI in `main.rs` only parses arguments.
+//! rover-power host tool, library first: the CLI (`src/cli/<command>.rs`, one args struct with
+//! `run` per command; `main.rs` a flat dispatch) parses arguments, calls in here and prints.
 
 pub mod decode;
 pub mod demo;
@@ -6,12 +7,14 @@ pub mod diagnose;
 pub mod effect_id;
 pub mod figures;
 pub mod log;
+pub mod out_dir;
 pub mod plan;
 pub mod plot;
 pub mod progress;
 pub mod record;
 pub mod replay;
 pub mod rover;
+pub mod runs;
 pub mod serial;
 pub mod sim;
 pub mod validate;

@@ -282,6 +282,84 @@ pub const PANEL_PX: (u32, u32) = (800, 560);
 /// Height of a figure title's band [px].
 const FIGURE_TITLE_PX: u32 = 40;
 
+impl Chart {
+    /// The legend corner whose quarter of the plot holds the fewest data points.
+    pub fn least_crowded_corner(&self) -> Legend {
+        let points: Vec<(f64, f64)> = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .filter(|(x, _)| self.x_range.is_none_or(|(lo, hi)| (lo..=hi).contains(x)))
+            .collect();
+        let bounds = |f: fn(&(f64, f64)) -> f64| {
+            points
+                .iter()
+                .map(f)
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v), hi.max(v))
+                })
+        };
+        let (x0, x1) = self.x_range.unwrap_or_else(|| bounds(|p| p.0));
+        let (y0, y1) = bounds(|p| p.1);
+        let (xm, ym) = (x0 + 0.6 * (x1 - x0), y0 + 0.6 * (y1 - y0));
+        let (xl, yl) = (x0 + 0.4 * (x1 - x0), y0 + 0.4 * (y1 - y0));
+        let count = |f: &dyn Fn(f64, f64) -> bool| points.iter().filter(|(x, y)| f(*x, *y)).count();
+        let corners = [
+            (Legend::UpperRight, count(&|x, y| x >= xm && y >= ym)),
+            (Legend::UpperLeft, count(&|x, y| x <= xl && y >= ym)),
+            (Legend::LowerRight, count(&|x, y| x >= xm && y <= yl)),
+            (Legend::LowerLeft, count(&|x, y| x <= xl && y <= yl)),
+        ];
+        corners
+            .into_iter()
+            .min_by_key(|(_, n)| *n)
+            .map_or(Legend::UpperRight, |(corner, _)| corner)
+    }
+
+    /// Puts the legend in [`Chart::least_crowded_corner`].
+    pub fn place_legend(&mut self) {
+        self.legend = self.least_crowded_corner();
+    }
+
+    /// The y extent of the finite points (inside the x range, if fixed).
+    fn y_extent(&self) -> Option<(f64, f64)> {
+        let ys = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .filter(|(x, y)| {
+                x.is_finite()
+                    && y.is_finite()
+                    && self.x_range.is_none_or(|(lo, hi)| (lo..=hi).contains(x))
+            })
+            .map(|(_, y)| *y);
+        let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
+            (lo.min(y), hi.max(y))
+        });
+        (lo <= hi).then_some((lo, hi))
+    }
+}
+
+impl Figure {
+    /// Gives every panel the same y range (the union of their data, 5 % padding), so panels
+    /// side by side (inner and outer) compare at a glance.
+    pub fn share_y(mut self) -> Self {
+        let extent = self
+            .charts
+            .iter()
+            .filter_map(Chart::y_extent)
+            .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)));
+        if let Some((lo, hi)) = extent {
+            let pad = if hi > lo { 0.05 * (hi - lo) } else { 1.0 };
+            for chart in &mut self.charts {
+                chart.y_range = Some((lo - pad, hi + pad));
+            }
+        }
+        self
+    }
+}
+
 impl Figure {
     /// A grid of `charts`, `columns` per row, with the default panel size.
     pub fn new(title: impl Into<String>, charts: Vec<Chart>, columns: usize) -> Self {
@@ -819,6 +897,22 @@ fn draw_chart<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) 
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn panels_side_by_side_share_one_y_range() {
+        let chart = |ys: &[f64]| {
+            let mut c = Chart::new("p", "x", "y");
+            let points = ys.iter().enumerate().map(|(i, y)| (i as f64, *y)).collect();
+            c.series
+                .push(Series::new("s", points, SeriesStyle::Points, 0));
+            c
+        };
+        let figure = Figure::new("f", vec![chart(&[0.0, 10.0]), chart(&[-20.0, 5.0])], 2).share_y();
+        let ranges: Vec<_> = figure.charts.iter().map(|c| c.y_range).collect();
+        assert_eq!(ranges[0], ranges[1]);
+        let (lo, hi) = ranges[0].expect("range");
+        assert!(lo < -20.0 && hi > 10.0);
+    }
+
     use super::*;
     use proptest::prelude::*;
 

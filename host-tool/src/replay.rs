@@ -7,7 +7,17 @@
 //! model frames every [`MODEL_PERIOD_US`] computed by model-core's own running measurements, as
 //! the firmware does. The synthesised hello reports firmware 0.0.0 so a reader can tell it from
 //! a real board.
+//!
+//! Commanded speeds travel with the stream: a recording's forwarded commands (the MCAP
+//! `/command` topic, or a run CSV's `cmd_*` columns) were host → board bytes, which a replay
+//! cannot send back to the recorder. So after each command takes effect (its ack in a
+//! recording, the change of `cmd_*` in a run CSV) the replay inserts the board's own report of
+//! the wheel rates it now uses, a `Status` frame ([`command_report`]); a recorder without a
+//! commands file takes its commanded speeds from those reports (`crate::record`), so
+//! `replay → record → validate` finds the same manoeuvres as the original log. Wheel rates are
+//! side speed / wheel radius of the replay's rover (default the Husky A200, as `record`'s).
 
+use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::RunLog;
 use crate::serial::{PtyTask, PtyWriter};
@@ -20,10 +30,10 @@ use model_core::ina226::{
     SHUNT_LSB_NV,
 };
 use model_core::wire::{
-    self, BoardFrame, ChipReading, FirmwareVersion, Hello, Model, Sample, MAX_FRAME,
+    self, BoardFrame, ChipReading, FirmwareVersion, Hello, Model, Sample, Status, MAX_FRAME,
     MAX_SAMPLE_PERIOD_US, MIN_SAMPLE_PERIOD_US, PROTOCOL_VERSION,
 };
-use model_core::Sides;
+use model_core::{Rover, Sides};
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -77,7 +87,15 @@ pub fn synthetic_hello(sample_period_us: u32) -> Hello {
 /// (energy integrated by model-core from those registers; τ undefined, as no wheel rates were
 /// commanded to this board). The hello's period is the median sample interval (clamped to
 /// the range a host may configure; 5 ms for fewer than two samples).
-pub fn synthesise_frames(samples: &[RunSample]) -> Vec<(f64, BoardFrame)> {
+///
+/// With `commands_for` a rover, the samples' commanded speeds are commanded to the board as
+/// well: at the first sample and wherever `cmd_*` changes, the board's status report of the new
+/// wheel rates (v / wheel radius, [`command_report`]) precedes the sample, and the model frames'
+/// τ ∝ P/ω uses them.
+pub fn synthesise_frames(
+    samples: &[RunSample],
+    commands_for: Option<&Rover>,
+) -> Vec<(f64, BoardFrame)> {
     let Some(first) = samples.first() else {
         return Vec::new();
     };
@@ -96,12 +114,21 @@ pub fn synthesise_frames(samples: &[RunSample]) -> Vec<(f64, BoardFrame)> {
                     .clamp(MIN_SAMPLE_PERIOD_US, MAX_SAMPLE_PERIOD_US)
             });
     let mut frames = Vec::with_capacity(samples.len() * 11 / 10 + 1);
-    frames.push((first.t_s, BoardFrame::Hello(synthetic_hello(period_us))));
+    let hello = synthetic_hello(period_us);
+    frames.push((first.t_s, BoardFrame::Hello(hello)));
     let mut measurements = RunningMeasurements::new(Scale::BOARD);
     let mut last_model_us: Option<u64> = None;
+    let mut last_cmd: Option<Sides<f64>> = None;
     for (seq, s) in samples.iter().enumerate() {
         let t = t_us(s);
         let seq = seq as u32;
+        if let Some(rover) = commands_for.filter(|_| last_cmd != Some(s.cmd_mps)) {
+            last_cmd = Some(s.cmd_mps);
+            let rates = wheel_rates(s.cmd_mps, rover);
+            measurements.set_wheel_rates(Some(rates));
+            let status = command_report(None, &hello, t, seq, rates);
+            frames.push((s.t_s, BoardFrame::Status(status)));
+        }
         let regs = Sides::new(
             registers_of(s.bus_v.left, s.current_a.left),
             registers_of(s.bus_v.right, s.current_a.right),
@@ -132,6 +159,101 @@ pub fn synthesise_frames(samples: &[RunSample]) -> Vec<(f64, BoardFrame)> {
     frames
 }
 
+/// Wheel rates for side speeds `cmd_mps` [m/s] on `rover`'s wheels [rad/s], as `record`
+/// commands them.
+pub fn wheel_rates(cmd_mps: Sides<f64>, rover: &Rover) -> Sides<f32> {
+    cmd_mps.map(|v| (v / f64::from(rover.wheel_radius_m)) as f32)
+}
+
+/// The board's status report right after it applied `rates`: the latest logged status (or, in
+/// a stream that has none yet, the hello's configuration, running, no faults) with uptime
+/// `uptime_us`, `samples` taken and the new wheel rates.
+pub fn command_report(
+    latest: Option<&Status>,
+    hello: &Hello,
+    uptime_us: u64,
+    samples: u32,
+    rates: Sides<f32>,
+) -> Status {
+    let base = latest.copied().unwrap_or(Status {
+        uptime_us,
+        samples,
+        running: true,
+        i2c_errors: Sides::new(0, 0),
+        reinits: Sides::new(0, 0),
+        last_fault: Sides::new(None, None),
+        queue_drops: 0,
+        rx_errors: 0,
+        adc: hello.adc,
+        sample_period_us: hello.sample_period_us,
+        wheel_rates_rad_s: None,
+    });
+    Status {
+        uptime_us,
+        samples,
+        wheel_rates_rad_s: Some(rates),
+        ..base
+    }
+}
+
+/// A recording's frames with the board's report of each forwarded command's wheel rates
+/// inserted where the board applied it: right after its ack (commands and acks pair up in
+/// order, a rejected command has no report), or, in a log without acks, at the command's time.
+pub fn with_command_reports(
+    frames: &[(f64, BoardFrame)],
+    commands: &[CommandRow],
+    rover: &Rover,
+) -> Vec<(f64, BoardFrame)> {
+    let acked = frames.iter().any(|(_, f)| {
+        matches!(
+            f,
+            BoardFrame::Ack { .. } | BoardFrame::Rejected { id: Some(_), .. }
+        )
+    });
+    let mut pending = commands.iter().peekable();
+    let mut out = Vec::with_capacity(frames.len() + commands.len());
+    let mut hello = synthetic_hello(DEFAULT_SAMPLE_PERIOD_US);
+    let mut latest: Option<Status> = None;
+    let (mut uptime_us, mut next_seq) = (0u64, 0u32);
+    for &(t_s, frame) in frames {
+        let report = |c: &CommandRow, latest: &Option<Status>| {
+            let status = command_report(
+                latest.as_ref(),
+                &hello,
+                uptime_us,
+                next_seq,
+                wheel_rates(c.cmd_mps, rover),
+            );
+            (t_s, BoardFrame::Status(status))
+        };
+        if !acked {
+            while let Some(c) = pending.next_if(|c| c.t_s <= t_s) {
+                out.push(report(c, &latest));
+            }
+        }
+        let answer = match frame {
+            BoardFrame::Ack { .. } if acked => pending.next().map(|c| report(c, &latest)),
+            BoardFrame::Rejected { id: Some(_), .. } if acked => {
+                pending.next();
+                None
+            }
+            _ => None,
+        };
+        match frame {
+            BoardFrame::Hello(h) => hello = h,
+            BoardFrame::Status(st) => latest = Some(st),
+            BoardFrame::Sample(sample) => {
+                uptime_us = sample.t_us;
+                next_seq = sample.seq.wrapping_add(1);
+            }
+            _ => {}
+        }
+        out.push((t_s, frame));
+        out.extend(answer);
+    }
+    out
+}
+
 /// One frame in the wire format, delimiter included.
 pub fn encode_frame(frame: &BoardFrame) -> Result<Vec<u8>, wire::EncodeError> {
     let mut buf = [0u8; MAX_FRAME];
@@ -140,15 +262,15 @@ pub fn encode_frame(frame: &BoardFrame) -> Result<Vec<u8>, wire::EncodeError> {
 }
 
 /// The timed byte stream of a run: its logged frames re-encoded (byte for byte what the board
-/// sent: the encoding is deterministic), or, for a log without frames, the frames synthesised
-/// from its samples ([`synthesise_frames`]). Times are run times [s].
-pub fn frames_of(run: &RunLog) -> Result<Vec<(f64, Vec<u8>)>, wire::EncodeError> {
-    let synthesised;
+/// sent: the encoding is deterministic) with the board's reports of the forwarded commands
+/// ([`with_command_reports`]), or, for a log without frames, the frames synthesised from its
+/// samples with their commanded speeds ([`synthesise_frames`]). Wheel rates are on `rover`'s
+/// wheels. Times are run times [s].
+pub fn frames_of(run: &RunLog, rover: &Rover) -> Result<Vec<(f64, Vec<u8>)>, wire::EncodeError> {
     let frames = if run.frames.is_empty() {
-        synthesised = synthesise_frames(&run.samples);
-        &synthesised
+        synthesise_frames(&run.samples, Some(rover))
     } else {
-        &run.frames
+        with_command_reports(&run.frames, &run.commands, rover)
     };
     frames
         .iter()

@@ -1,5 +1,5 @@
 //! Damaged run logs from the command line: `convert` salvages a damaged MCAP file, says what it
-//! lost and exits 3 (0 with `--salvage`); a run CSV cut inside its last row converts with a
+//! lost and exits 4 (0 with `--salvage`); a run CSV cut inside its last row converts with a
 //! warning naming the line.
 
 mod common;
@@ -87,7 +87,7 @@ fn damaged_mcap_converts_what_survives_and_exits_3_unless_salvage() {
         std::fs::write(&input, &damaged).expect("write");
         let out = dir.join(format!("{}.csv", name.replace(' ', "-")));
         let (code, stderr) = convert(&input, &out, false);
-        assert_eq!(code, Some(3), "{name}: {stderr}");
+        assert_eq!(code, Some(4), "{name}: {stderr}");
         assert!(
             stderr.contains("damaged, skipped bytes"),
             "{name}: {stderr}"

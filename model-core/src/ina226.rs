@@ -97,15 +97,24 @@ impl Scale {
 }
 
 /// Number of samples averaged per result (AVG bits 11–9 of the configuration register).
+/// Serialised as the count (`"16"`); the variant name is accepted when reading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Averaging {
+    #[serde(rename = "1", alias = "X1")]
     X1,
+    #[serde(rename = "4", alias = "X4")]
     X4,
+    #[serde(rename = "16", alias = "X16")]
     X16,
+    #[serde(rename = "64", alias = "X64")]
     X64,
+    #[serde(rename = "128", alias = "X128")]
     X128,
+    #[serde(rename = "256", alias = "X256")]
     X256,
+    #[serde(rename = "512", alias = "X512")]
     X512,
+    #[serde(rename = "1024", alias = "X1024")]
     X1024,
 }
 
@@ -145,15 +154,24 @@ impl Averaging {
 }
 
 /// Conversion time of one shunt or bus measurement (VBUSCT bits 8–6, VSHCT bits 5–3).
+/// Serialised as `"140-us"`; the variant name is accepted when reading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ConversionTime {
+    #[serde(rename = "140-us", alias = "Us140")]
     Us140,
+    #[serde(rename = "204-us", alias = "Us204")]
     Us204,
+    #[serde(rename = "332-us", alias = "Us332")]
     Us332,
+    #[serde(rename = "588-us", alias = "Us588")]
     Us588,
+    #[serde(rename = "1100-us", alias = "Us1100")]
     Us1100,
+    #[serde(rename = "2116-us", alias = "Us2116")]
     Us2116,
+    #[serde(rename = "4156-us", alias = "Us4156")]
     Us4156,
+    #[serde(rename = "8244-us", alias = "Us8244")]
     Us8244,
 }
 

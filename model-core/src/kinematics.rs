@@ -195,19 +195,28 @@ pub fn min_radius_at_constant_forward_speed_m(
 }
 
 /// The regimes of a turn the seed distinguishes (Section 2.1.2 and Chapter 4).
+/// Serialised kebab-case (`"below-half-track"`), the ids the host tool's tables and JSON use;
+/// the variant names are accepted when reading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Regime {
     /// R = 0: both sides at equal and opposite speeds.
+    #[serde(alias = "Point")]
     Point,
     /// 0 < R ≤ B/2: the turning centre lies between the wheel tracks.
+    #[serde(alias = "BelowHalfTrack")]
     BelowHalfTrack,
     /// B/2 < R < R': inner wheels counter-rotate but are dragged forward (β_i > 90°).
+    #[serde(alias = "DraggedInner")]
     DraggedInner,
     /// R = R': inner wheels commanded to stand still.
+    #[serde(alias = "AtRPrime")]
     AtRPrime,
     /// R' < R < straight: both sides run forwards.
+    #[serde(alias = "AboveRPrime")]
     AboveRPrime,
     /// R = ∞ (or beyond the straight threshold).
+    #[serde(alias = "Straight")]
     Straight,
 }
 

@@ -302,3 +302,35 @@ fn the_summary_names_the_board_by_its_usb_serial() {
         "{text}"
     );
 }
+
+#[test]
+fn mcap_and_csv_files_are_recognised_and_captures_are_not() {
+    // Issue 11, bug 5: `decode run.mcap` counted 148 921 bad frames and exited 0.
+    let mut mcap = b"\x89MCAP0\r\n".to_vec();
+    mcap.extend([0u8; 100]);
+    assert!(foreign_format(&mcap).is_some_and(|h| h.contains("MCAP")));
+    let csv = b"t_s,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps\n0,24,1,24,1,0,0\n";
+    assert!(foreign_format(csv).is_some_and(|h| h.contains("CSV")));
+    let hello = BoardFrame::Hello(crate::replay::synthetic_hello(5_000));
+    let capture = crate::replay::encode_frame(&hello).expect("encode");
+    assert_eq!(foreign_format(&capture), None);
+    assert_eq!(foreign_format(b""), None);
+}
+
+#[test]
+fn json_enum_values_are_kebab_case_and_old_names_still_read() {
+    use model_core::ina226::{AdcConfig, Averaging};
+    use model_core::kinematics::Regime;
+    let json = |v: serde_json::Value| v.to_string();
+    assert_eq!(
+        json(serde_json::to_value(Regime::BelowHalfTrack).expect("json")),
+        "\"below-half-track\""
+    );
+    let adc = serde_json::to_value(AdcConfig::BOARD_DEFAULT).expect("json");
+    assert_eq!(adc["averaging"], "16");
+    assert_eq!(adc["bus_conversion"], "140-us");
+    let old: Averaging = serde_json::from_str("\"X16\"").expect("old name");
+    assert_eq!(old, Averaging::X16);
+    let old: Regime = serde_json::from_str("\"AboveRPrime\"").expect("old name");
+    assert_eq!(old, Regime::AboveRPrime);
+}

@@ -5,7 +5,7 @@
 
 use super::cv::HeldOut;
 use super::features::{SideRole, TurnRow};
-use crate::plot::{Chart, Figure, Legend, Marker, Series, SeriesStyle};
+use crate::plot::{Chart, Figure, Marker, Series, SeriesStyle};
 use model_core::Rover;
 
 /// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
@@ -94,6 +94,7 @@ pub fn residuals_vs_radius(
             ));
             chart.series.push(zero_line(rows, ""));
             chart.markers = regime_markers(rover);
+            chart.place_legend();
             chart
         })
         .collect();
@@ -102,6 +103,7 @@ pub fn residuals_vs_radius(
         charts,
         2,
     )
+    .share_y()
 }
 
 /// Growth of average power through each turn (second half minus first half of its steady part)
@@ -131,9 +133,9 @@ pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow]) -> Figure {
                 .series
                 .push(zero_line(rows, "models (constant power)"));
             chart.markers = regime_markers(rover);
-            chart.legend = Legend::UpperRight;
+            chart.place_legend();
             chart
         })
         .collect();
-    Figure::new("Power growth through the turn", charts, 2)
+    Figure::new("Power growth through the turn", charts, 2).share_y()
 }

@@ -6,7 +6,8 @@
 //! - run CSV → MCAP: the samples exactly on `/rover_power/sample`, plus the wire frames the
 //!   board would have sent for them ([`crate::replay::synthesise_frames`]: a hello, sample
 //!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
-//!   frames), so the file replays like a recording.
+//!   frames, and the board's status report of the commanded wheel rates wherever `cmd_*`
+//!   changes, on the Husky's wheels as `record` assumes), so the file replays like a recording.
 //! - MCAP → MCAP: a clean, finished copy (also the way to repair a file cut short by a killed
 //!   recorder: everything before the cut is kept, with a summary and footer; or a damaged one:
 //!   everything outside the damage is kept, and [`Converted::losses`] says what was not).
@@ -115,7 +116,8 @@ pub fn convert_salvaging(
     let synthesised_frames =
         to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
     if synthesised_frames {
-        run.frames = crate::replay::synthesise_frames(&run.samples);
+        run.frames =
+            crate::replay::synthesise_frames(&run.samples, Some(&model_core::Rover::HUSKY_A200));
     }
     save_run(output, &run)?;
     Ok(Converted {
@@ -193,10 +195,14 @@ mod tests {
         assert_eq!((done.from, done.to), (RunFormat::Csv, RunFormat::Mcap));
         assert!(done.synthesised_frames);
         assert_eq!(done.samples, 500);
+        let speeds = 1 + original
+            .windows(2)
+            .filter(|w| w[0].cmd_mps != w[1].cmd_mps)
+            .count();
         assert_eq!(
             done.frames,
-            1 + 500 + 25,
-            "hello, samples, a model frame per 100 ms"
+            1 + 500 + 25 + speeds,
+            "hello, samples, a model frame per 100 ms, the board's report of each commanded speed"
         );
 
         let run = read_mcap_run(&mcap).expect("mcap").run;

@@ -334,6 +334,10 @@ fn describe_event(event: &LogEvent) -> (u8, String) {
             "the board restarted (time and energy start over)".into(),
         ),
         LogEvent::Stopped { reason } => (INFO, format!("recording stopped: {reason}")),
+        LogEvent::WallClock { unix_ns } => (
+            INFO,
+            format!("this sample arrived at Unix time {unix_ns} ns (host clock)"),
+        ),
     }
 }
 

@@ -26,6 +26,9 @@ pub enum LogEvent {
     BoardReset,
     /// The recording stopped (`reason`: Ctrl-C, duration, sample count, device gone).
     Stopped { reason: String },
+    /// The host's wall clock when the sample at this run time arrived (Unix time [ns]): run
+    /// time + (`unix_ns` − this event's run time) is wall time, to the board crystal's drift.
+    WallClock { unix_ns: u64 },
 }
 
 /// A whole recorded run in memory, as read back from any log format.

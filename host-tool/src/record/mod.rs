@@ -16,10 +16,18 @@
 //!   board's ack arrives the host mirrors the rates ([`StreamDecoder::expect_ack`]), so the host's
 //!   τ ∝ P/ω (Eq 5.14) equals the board's in every model frame. After a board reset the rates in
 //!   force are sent again (the rebooted board forgot them).
+//! - Without commands (no `--commands`) the commanded speeds are the board's own: each `Status`
+//!   frame reports the wheel rates the board uses for τ, and a change becomes a command row
+//!   (v = ω · wheel radius, rounded to 1 µm/s) in the log and the samples' `cmd_*` columns. A
+//!   replay reports every command it carries that way (`crate::replay`), so a recording of a
+//!   replay holds the original's commands.
 //! - Unplug: on a vanished device the log gets [`LogEvent::DeviceVanished`] and is flushed; the
 //!   same path is re-opened every [`RecordOptions::retry_every`] until it works
 //!   ([`LogEvent::Reconnected`]) or [`RecordOptions::reconnect_timeout`] passes.
 //! - Crash safety: the sink is flushed every [`RecordOptions::flush_every`].
+//! - Wall time: at the first sample the log gets [`LogEvent::WallClock`], the host's Unix time
+//!   when its bytes were read; run time continues across resets and reconnections by the
+//!   wall-clock gap, so run time + that offset is wall time (to the crystal's drift).
 
 mod clock;
 pub mod stop_signal;
@@ -213,7 +221,10 @@ impl fmt::Display for StopReason {
             StopReason::Interrupted => "interrupted",
             StopReason::Duration => "duration reached",
             StopReason::Samples => "sample count reached",
-            StopReason::DeviceGone => "device gone (reconnect timeout)",
+            StopReason::DeviceGone => {
+                "device gone (not back within the reconnect timeout; a pseudo-terminal such as a \
+                 replay's never comes back)"
+            }
         })
     }
 }
@@ -227,6 +238,8 @@ pub struct RecordStatus {
     pub run_s: f64,
     /// Whether the port is open (false while waiting for a vanished device).
     pub connected: bool,
+    /// While waiting for a vanished device: how much longer the recorder waits for it.
+    pub reconnect_left: Option<Duration>,
     /// Samples received.
     pub samples: u64,
     /// Samples per second of wall time since the previous status.
@@ -293,7 +306,14 @@ impl fmt::Display for RecordStatus {
             }
         }
         if !self.connected {
-            f.write_str("  [device vanished, waiting]")?;
+            match self.reconnect_left {
+                Some(left) => write!(
+                    f,
+                    "  [device vanished: waiting {:.0} s more for it (--reconnect-timeout-s); Ctrl-C stops and keeps the log]",
+                    left.as_secs_f64().ceil()
+                )?,
+                None => f.write_str("  [device vanished; Ctrl-C stops and keeps the log]")?,
+            }
         }
         Ok(())
     }
@@ -328,6 +348,14 @@ pub struct RecordSummary {
     pub run_s: f64,
     /// The scale the registers were read with.
     pub scale: Scale,
+}
+
+impl RecordSummary {
+    /// Commands sent that the board neither acked nor rejected before the recording ended.
+    pub fn unanswered_commands(&self) -> u64 {
+        self.commands_sent
+            .saturating_sub(self.commands_acked + self.commands_rejected)
+    }
 }
 
 impl fmt::Display for RecordSummary {
@@ -474,6 +502,8 @@ struct Recorder<'a, 'o> {
     commands_rejected: u64,
     status_at: Instant,
     status_samples: u64,
+    /// When the device vanished, while it is away.
+    gone_at: Option<Instant>,
 }
 
 impl<'a, 'o> Recorder<'a, 'o> {
@@ -517,6 +547,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             commands_rejected: 0,
             status_at: now,
             status_samples: 0,
+            gone_at: None,
         }
     }
 
@@ -615,13 +646,21 @@ impl<'a, 'o> Recorder<'a, 'o> {
         self.connected = false;
         self.event(LogEvent::DeviceVanished { port: port.clone() })?;
         self.flush()?;
+        self.gone_at = Some(Instant::now());
         let gone_at = Instant::now();
+        // A pseudo-terminal whose writer ended (a replay, the simulator) never comes back; its
+        // number may go to an unrelated program next.
+        let timeout = if is_pty(&port) {
+            Duration::ZERO
+        } else {
+            self.options.reconnect_timeout
+        };
         loop {
             let now = Instant::now();
             if let Some(reason) = self.stop_due(stop, now) {
                 return Ok(Some(reason));
             }
-            if now.duration_since(gone_at) >= self.options.reconnect_timeout {
+            if now.duration_since(gone_at) >= timeout {
                 return Ok(Some(StopReason::DeviceGone));
             }
             if now.duration_since(self.status_at) >= self.options.status_every {
@@ -629,6 +668,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
                 on_status(&status);
             }
             if let Ok(new_port) = (self.open)(&port) {
+                self.gone_at = None;
                 self.reader = PortReader::new(new_port);
                 self.decoder.new_connection();
                 self.connected = true;
@@ -660,7 +700,10 @@ impl<'a, 'o> Recorder<'a, 'o> {
                         self.scale = hello.scale;
                         self.addresses = hello.addresses;
                     }
-                    BoardFrame::Status(status) => self.board_status = Some(*status),
+                    BoardFrame::Status(status) => {
+                        self.board_status = Some(*status);
+                        self.learn_command(status)?;
+                    }
                     BoardFrame::Ack { id } => {
                         let ours = self.answered(*id);
                         self.commands_acked += u64::from(ours);
@@ -698,6 +741,31 @@ impl<'a, 'o> Recorder<'a, 'o> {
         }
     }
 
+    /// Without a commands file: the board's reported wheel rates, when they change, become the
+    /// commanded speeds from now on.
+    fn learn_command(&mut self, status: &Status) -> Result<(), RecordError> {
+        if !self.options.commands.is_empty() {
+            return Ok(());
+        }
+        let Some(rates) = status.wheel_rates_rad_s else {
+            return Ok(());
+        };
+        let r = f64::from(self.options.rover.wheel_radius_m);
+        // ω is an f32 on the wire: rounding to 1 µm/s gives back the commanded decimal speed.
+        let cmd_mps = rates.map(|w| (f64::from(w) * r * 1e6).round() / 1e6);
+        if self.timeline.rows().last().map(|row| row.cmd_mps) == Some(cmd_mps) {
+            return Ok(());
+        }
+        let row = CommandRow {
+            t_s: self.run_s(),
+            cmd_mps,
+            yaw_rad: None,
+            pitch_deg: None,
+        };
+        self.timeline.push(row);
+        self.sink.command(&row).map_err(RecordError::Sink)
+    }
+
     fn answered(&mut self, id: u16) -> bool {
         match self.awaiting.iter().position(|&a| a == id) {
             Some(at) => {
@@ -711,6 +779,18 @@ impl<'a, 'o> Recorder<'a, 'o> {
     fn on_sample(&mut self, sample: &Sample, frame: &BoardFrame) -> Result<(), RecordError> {
         let t_s = RunClock::seconds(self.clock.at(sample.t_us));
         self.samples += 1;
+        if self.samples == 1 {
+            // Where run time meets wall time: when the first sample's bytes were read.
+            let read = std::time::SystemTime::now()
+                .checked_sub(self.read_at.elapsed())
+                .and_then(|at| at.duration_since(std::time::UNIX_EPOCH).ok());
+            if let Some(unix) = read {
+                let unix_ns = u64::try_from(unix.as_nanos()).unwrap_or(u64::MAX);
+                self.sink
+                    .event(t_s, &LogEvent::WallClock { unix_ns })
+                    .map_err(RecordError::Sink)?;
+            }
+        }
         self.last_sample_at = Some(self.read_at);
         self.sink.frame(t_s, frame).map_err(RecordError::Sink)?;
         self.chip_faults = sample.chips.map(|c| match c {
@@ -750,6 +830,9 @@ impl<'a, 'o> Recorder<'a, 'o> {
 
     /// Sends the side speeds in force at `t_s` when they differ from the last ones sent.
     fn forward(&mut self, t_s: f64) -> Result<(), RecordError> {
+        if self.options.commands.is_empty() {
+            return Ok(()); // the timeline holds what the board reported, not ours to send
+        }
         let Some((_, row)) = self.timeline.active(t_s) else {
             return Ok(());
         };
@@ -803,6 +886,11 @@ impl<'a, 'o> Recorder<'a, 'o> {
             elapsed: now.duration_since(self.start),
             run_s: self.run_s(),
             connected: self.connected,
+            reconnect_left: self.gone_at.map(|at| {
+                self.options
+                    .reconnect_timeout
+                    .saturating_sub(now.duration_since(at))
+            }),
             samples: self.samples,
             rate_hz,
             stream: self.decoder.stats(),
@@ -838,6 +926,11 @@ impl<'a, 'o> Recorder<'a, 'o> {
             scale: self.scale,
         }
     }
+}
+
+/// Whether `port` is a pseudo-terminal's slave (`/dev/pts/N`): a hang-up there is final.
+fn is_pty(port: &str) -> bool {
+    port.starts_with("/dev/pts/")
 }
 
 #[cfg(test)]

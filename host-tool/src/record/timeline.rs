@@ -95,6 +95,20 @@ impl CommandTimeline {
         }
     }
 
+    /// Appends a row learnt while recording (`t_s` at or after the last row's; a row at the
+    /// same time replaces it). Pose rows are not tracked: a learnt row has none.
+    pub fn push(&mut self, row: CommandRow) {
+        match self.rows.last_mut() {
+            Some(last) if row.t_s <= last.t_s => {
+                *last = CommandRow {
+                    t_s: last.t_s,
+                    ..row
+                }
+            }
+            _ => self.rows.push(row),
+        }
+    }
+
     /// The rows.
     pub fn rows(&self) -> &[CommandRow] {
         &self.rows
@@ -182,6 +196,17 @@ mod tests {
             let want = fresh(t);
             assert_eq!(format!("{got:?}"), format!("{want:?}"), "at t = {t}");
         }
+    }
+
+    #[test]
+    fn pushed_rows_extend_the_timeline_and_a_row_at_the_same_time_replaces_it() {
+        let mut tl = CommandTimeline::new(Vec::new());
+        tl.push(row(1.0, 0.5, None, None));
+        tl.push(row(1.0, 0.6, None, None));
+        tl.push(row(2.0, 0.7, None, None));
+        assert_eq!(tl.rows().len(), 2);
+        assert_eq!(tl.cmd_mps(1.5), Sides::new(0.6, -0.6));
+        assert_eq!(tl.cmd_mps(2.5), Sides::new(0.7, -0.7));
     }
 
     #[test]

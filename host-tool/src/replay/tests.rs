@@ -55,8 +55,10 @@ fn mcap_of_a_sim_board_replays_its_exact_byte_stream_through_a_pty() {
     let file = write_mcap_run(Cursor::new(Vec::new()), &run)
         .expect("written")
         .into_inner();
-    let loaded = read_mcap_bytes(&file, Path::new("sim.mcap")).expect("read");
-    let frames = frames_of(&loaded.run).expect("encode");
+    let mut loaded = read_mcap_bytes(&file, Path::new("sim.mcap")).expect("read");
+    // Without commands: forwarded commands add the board's reports (next test).
+    loaded.run.commands.clear();
+    let frames = frames_of(&loaded.run, &Rover::HUSKY_A200).expect("encode");
     let replay = ReplayPty::spawn(
         frames,
         ReplayPacing::AsFastAsPossible,
@@ -70,6 +72,88 @@ fn mcap_of_a_sim_board_replays_its_exact_byte_stream_through_a_pty() {
     assert_eq!(bytes, board_bytes, "byte for byte what the board sent");
     assert_eq!(stats.bytes, board_bytes.len() as u64);
     assert_eq!(stats.frames, logged.len() as u64);
+}
+
+#[test]
+fn a_recordings_commands_travel_as_the_boards_status_reports() {
+    // Issue 11, bug 1: a replay dropped the commanded speeds (host → board bytes).
+    let (run, _) = sim_run(400);
+    assert!(!run.commands.is_empty());
+    let frames = frames_of(&run, &Rover::HUSKY_A200).expect("encode");
+    let mut stream = Vec::new();
+    write_stream(&frames, &mut stream).expect("memory");
+    let mut decoded = Vec::new();
+    let mut decoder = crate::decode::StreamDecoder::new();
+    decoder.feed(&stream, |e| {
+        if let Event::Frame(f) = e {
+            decoded.push(f);
+        }
+    });
+    let original: Vec<BoardFrame> = run.frames.iter().map(|(_, f)| *f).collect();
+    let (reports, rest): (Vec<BoardFrame>, Vec<BoardFrame>) =
+        decoded.iter().partition(|f| !original.contains(f));
+    assert_eq!(rest, original, "every original frame, in order");
+    let r = f64::from(Rover::HUSKY_A200.wheel_radius_m);
+    let reported: Vec<Sides<f64>> = reports
+        .iter()
+        .filter_map(|f| match f {
+            BoardFrame::Status(s) => s.wheel_rates_rad_s,
+            _ => None,
+        })
+        .map(|w| w.map(|w| (f64::from(w) * r * 1e6).round() / 1e6))
+        .collect();
+    let commanded: Vec<Sides<f64>> = run.commands.iter().map(|c| c.cmd_mps).collect();
+    assert_eq!(reported, commanded);
+    // (sim_run's commands never reached its board, so its τ is not checked here: the loop
+    // test in tests/loop_cli.rs checks it on a real recording.)
+}
+
+#[test]
+fn csv_samples_replay_with_their_commanded_speeds() {
+    let samples: Vec<RunSample> = (0..400)
+        .map(|i| RunSample {
+            t_s: f64::from(i) * 0.005,
+            bus_v: Sides::new(24.0, 24.0),
+            current_a: Sides::new(2.0, 3.0),
+            cmd_mps: if i < 200 {
+                Sides::new(0.0, 0.0)
+            } else {
+                Sides::new(-0.3, 0.3)
+            },
+            yaw_rad: None,
+            pitch_deg: None,
+        })
+        .collect();
+    let frames = synthesise_frames(&samples, Some(&Rover::HUSKY_A200));
+    let rates: Vec<Option<Sides<f32>>> = frames
+        .iter()
+        .filter_map(|(_, f)| match f {
+            BoardFrame::Status(s) => Some(s.wheel_rates_rad_s),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(rates.len(), 2, "the first speeds and one change");
+    // The model frames' τ uses the commanded rates: τ = P/ω on the turn.
+    let last_model = frames
+        .iter()
+        .rev()
+        .find_map(|(_, f)| match f {
+            BoardFrame::Model(m) => Some(m.snapshot),
+            _ => None,
+        })
+        .expect("model frames");
+    assert!(last_model.torque_proportional.left.is_some());
+    let stream = frames_of(
+        &RunLog {
+            samples,
+            ..RunLog::default()
+        },
+        &Rover::HUSKY_A200,
+    )
+    .expect("encode");
+    let mut bytes = Vec::new();
+    write_stream(&stream, &mut bytes).expect("memory");
+    assert_eq!(Summary::of(&bytes).stats.model_mismatches, 0);
 }
 
 #[test]
@@ -91,7 +175,7 @@ fn csv_samples_replay_as_frames_within_quantisation() {
         samples: samples.clone(),
         ..RunLog::default()
     };
-    let frames = frames_of(&run).expect("encode");
+    let frames = frames_of(&run, &Rover::HUSKY_A200).expect("encode");
     let replay = ReplayPty::spawn(
         frames,
         ReplayPacing::AsFastAsPossible,
@@ -145,10 +229,13 @@ fn synthesised_model_frames_match_the_hosts_recomputation() {
             pitch_deg: None,
         })
         .collect();
-    let frames = frames_of(&RunLog {
-        samples,
-        ..RunLog::default()
-    })
+    let frames = frames_of(
+        &RunLog {
+            samples,
+            ..RunLog::default()
+        },
+        &Rover::HUSKY_A200,
+    )
     .expect("encode");
     let mut stream = Vec::new();
     write_stream(&frames, &mut stream).expect("memory");
@@ -224,8 +311,10 @@ fn bad_speed_and_no_reader_are_errors() {
 
 #[test]
 fn an_empty_log_replays_nothing() {
-    assert!(frames_of(&RunLog::default()).expect("empty").is_empty());
-    assert!(synthesise_frames(&[]).is_empty());
+    assert!(frames_of(&RunLog::default(), &Rover::HUSKY_A200)
+        .expect("empty")
+        .is_empty());
+    assert!(synthesise_frames(&[], None).is_empty());
 }
 
 proptest! {

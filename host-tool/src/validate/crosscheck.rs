@@ -3,6 +3,11 @@
 //! frame the board's snapshot (energy and latest power per side, τ ∝ P/ω per side) is compared
 //! with the host's state at that point of the stream.
 //!
+//! A model frame *differs* by the one definition `decode` and `record` use
+//! ([`crate::decode::ModelCheck::differs`]: energy gained since the segment's first model frame,
+//! latest power or τ not exactly equal); [`CrossCheck::model_mismatches`] counts those frames.
+//! The largest differences below locate them.
+//!
 //! Energy and power compare exactly (integers: power LSB × µs, power LSB); any difference means
 //! samples the board integrated but the host never received (lost frames), a board restart the
 //! host missed, or a bug. τ ∝ P/ω needs the commanded wheel rates the board used (side speed /
@@ -74,6 +79,9 @@ pub struct CrossCheck {
     pub torque_proportional: MaxDiff,
     /// Model frames where one of board and host had a value (power or τ) the other had not.
     pub definedness_mismatches: usize,
+    /// Model frames that differ from the host's recomputation (the one definition,
+    /// [`crate::decode::ModelCheck::differs`], as `decode` and `record` count them).
+    pub model_mismatches: u64,
     /// Samples the decoder knows were lost (sequence gaps): the board integrated them, the
     /// host could not.
     pub lost_samples: u64,
@@ -82,14 +90,9 @@ pub struct CrossCheck {
 }
 
 impl CrossCheck {
-    /// Whether every comparison agreed exactly in energy and power and τ within `tau_tolerance`.
-    pub fn agrees(&self, tau_tolerance: f64) -> bool {
-        let zero = |d: &MaxDiff| d.max_abs.left == 0.0 && d.max_abs.right == 0.0;
-        zero(&self.energy_lsb_us)
-            && zero(&self.power_lsb)
-            && self.torque_proportional.max_abs.left <= tau_tolerance
-            && self.torque_proportional.max_abs.right <= tau_tolerance
-            && self.definedness_mismatches == 0
+    /// Whether no model frame differs from the host's recomputation.
+    pub fn agrees(&self) -> bool {
+        self.model_mismatches == 0
     }
 }
 
@@ -121,7 +124,6 @@ pub fn cross_check(
         )
     });
     let mut pending = commands.iter();
-    let mut acked_rates: Option<Sides<f32>> = None;
     let rates_of = |c: &CommandRow| {
         c.cmd_mps
             .map(|v| (v / f64::from(rover.wheel_radius_m)) as f32)
@@ -140,9 +142,9 @@ pub fn cross_check(
             BoardFrame::Sample(s) => {
                 if last_seq.is_some_and(|last| s.seq < last) {
                     out.lost_samples += dec.stats().lost_samples;
+                    out.model_mismatches += dec.stats().model_mismatches;
                     out.board_restarts += 1;
                     dec = StreamDecoder::new();
-                    acked_rates = None; // the rebooted board forgot them
                     if let Some(h) = &last_hello {
                         feed(&mut dec, h, &mut buf);
                     }
@@ -150,13 +152,13 @@ pub fn cross_check(
                 last_seq = Some(s.seq);
             }
             BoardFrame::Status(st) => {
+                // The board's own report of the rates it uses wins until the next ack (the
+                // decoder applies it too).
                 status_rates = Some((t_s, st.wheel_rates_rad_s));
-                // The board's own report of the rates it uses wins until the next ack.
-                acked_rates = st.wheel_rates_rad_s;
             }
             BoardFrame::Ack { .. } => {
                 if let Some(c) = pending.next() {
-                    acked_rates = Some(rates_of(c));
+                    dec.set_wheel_rates(Some(rates_of(c)));
                 }
             }
             BoardFrame::Rejected { id: Some(_), .. } => {
@@ -164,18 +166,15 @@ pub fn cross_check(
             }
             _ => {}
         }
+        if !acked_mode && matches!(frame, BoardFrame::Model(_)) {
+            dec.set_wheel_rates(wheel_rates_at(t_s, status_rates, commands, rover));
+        }
         feed(&mut dec, frame, &mut buf);
         let BoardFrame::Model(model) = frame else {
             continue;
         };
         out.model_frames += 1;
-        let mut host = dec.measurements().clone();
-        host.set_wheel_rates(if acked_mode {
-            acked_rates
-        } else {
-            wheel_rates_at(t_s, status_rates, commands, rover)
-        });
-        let host = host.snapshot();
+        let host = dec.measurements().snapshot();
         let board = model.snapshot;
         let de = Sides::new(
             host.energy_lsb_us
@@ -228,6 +227,7 @@ pub fn cross_check(
         out.torque_proportional.record(t_s, dt);
     }
     out.lost_samples += dec.stats().lost_samples;
+    out.model_mismatches += dec.stats().model_mismatches;
     let scale = dec.scale();
     out.energy_max_abs_j = max_energy_lsb.map(|e| scale.energy_j(e));
     Some(out)
@@ -241,7 +241,8 @@ fn wheel_rates_at(
     commands: &[CommandRow],
     rover: &Rover,
 ) -> Option<Sides<f32>> {
-    let upto = commands.partition_point(|c| c.t_s <= t_s);
+    // A command logged at the model frame's own time was sent after it: not yet in force.
+    let upto = commands.partition_point(|c| c.t_s < t_s);
     let command = upto.checked_sub(1).map(|i| &commands[i]);
     let from_command = command.map(|c| {
         (
@@ -340,7 +341,7 @@ mod tests {
         assert!(c.model_frames > 3, "{c:?}");
         assert_eq!(c.energy_lsb_us.compared, c.model_frames);
         assert!(c.torque_proportional.compared > 0, "{c:?}");
-        assert!(c.agrees(0.0), "{c:?}");
+        assert!(c.agrees(), "{c:?}");
         assert_eq!(c.lost_samples, 0);
     }
 
@@ -370,7 +371,7 @@ mod tests {
         let c = cross_check(&frames, &[cmd], &Rover::HUSKY_A200).expect("frames");
         assert_eq!(c.lost_samples, 1);
         assert!(c.energy_lsb_us.max_abs.right > 0.0, "{c:?}");
-        assert!(!c.agrees(0.0));
+        assert!(!c.agrees());
     }
 
     #[test]
@@ -384,7 +385,7 @@ mod tests {
         // the rates it really uses: those win, τ agrees.
         let wrong = [command(0.6, 0.6)];
         let c = cross_check(&frames, &wrong, &Rover::HUSKY_A200).expect("frames");
-        assert!(c.agrees(0.0), "{c:?}");
+        assert!(c.agrees(), "{c:?}");
         // Without status frames only the (wrong) command is known: τ differs by half, energy and
         // power still agree exactly.
         let no_status: Vec<_> = frames

@@ -288,8 +288,17 @@ pub const CSV_COLUMNS: [&str; 43] = [
     "hard_ground_residual_fraction",
 ];
 
+/// A CSV number in its shortest form; a value computed in f32 (the board's kinematics) in the
+/// f32's shortest form (`0.3`, not `0.30000001192092896`).
 fn cell(v: Option<f64>) -> String {
-    v.map_or_else(String::new, |v| format!("{v}"))
+    v.map_or_else(String::new, |v| {
+        let single = v as f32;
+        if f64::from(single) == v {
+            format!("{single}")
+        } else {
+            format!("{v}")
+        }
+    })
 }
 
 fn quote(s: &str) -> String {
@@ -546,9 +555,10 @@ impl fmt::Display for ValidationReport {
                 None => writeln!(f, "  {}: no frames (nothing to cross-check)", run.name)?,
                 Some(c) => writeln!(
                     f,
-                    "  {}: {} model frames; max |Δenergy| {}/{} LSB·µs ({:.6}/{:.6} J), max |Δpower| {}/{} LSB, max |Δτ| {:.3e}/{:.3e} W·s/rad ({} compared){}; {} definedness mismatches, {} lost samples, {} board restarts",
+                    "  {}: {} model frames, differing from the host's recomputation: {}; max |Δenergy| {}/{} LSB·µs ({:.6}/{:.6} J), max |Δpower| {}/{} LSB, max |Δτ| {:.3e}/{:.3e} W·s/rad ({} compared){}; {} definedness mismatches, {} lost samples, {} board restarts",
                     run.name,
                     c.model_frames,
+                    c.model_mismatches,
                     c.energy_lsb_us.max_abs.left,
                     c.energy_lsb_us.max_abs.right,
                     c.energy_max_abs_j.left,

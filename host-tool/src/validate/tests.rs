@@ -427,6 +427,9 @@ fn json_and_csv_exports_hold_the_table() {
     let mut csv = Vec::new();
     report.write_csv(&mut csv).expect("vec");
     let text = String::from_utf8(csv).expect("utf-8");
+    // No f32 noise: v_c and the commanded yaw rate come from f32 kinematics (issue 11).
+    assert!(!text.contains("0.30000001192092896"), "{text}");
+    assert!(text.contains(",0.3,0.3,0,0,point,"), "{text}");
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 15);
     assert_eq!(lines[0].split(',').count(), report::CSV_COLUMNS.len());

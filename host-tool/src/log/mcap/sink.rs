@@ -204,7 +204,7 @@ impl<W: Write + Seek> McapSink<W> {
             ("bus_lsb_uv", hello.bus_lsb_uv.to_string()),
             ("address_left", format!("{:#04x}", hello.addresses.left)),
             ("address_right", format!("{:#04x}", hello.addresses.right)),
-            ("adc", format!("{:?}", hello.adc)),
+            ("adc", serde_json::to_string(&hello.adc).unwrap_or_default()),
             ("sample_period_us", hello.sample_period_us.to_string()),
             (
                 "usb_serial",

@@ -1,0 +1,204 @@
+//! `host-tool demo`: the whole pipeline on the simulated board.
+
+use super::output;
+use super::replay::positive_factor;
+use anyhow::{bail, Result};
+use host_tool::demo::{self, DemoOptions, DemoOutcome};
+use host_tool::diagnose::report;
+use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
+use host_tool::progress;
+use host_tool::sim::world::{load_scenario, load_world};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Marks a directory the demo wrote: a later demo replaces it without `--force`.
+const MARKER: &str = ".host-tool-demo";
+
+/// `demo [--out DIR] [--world W.toml] [--scenario S.toml] [--runs N] [--seed N] [--speed K]`.
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// Output directory (written whole or not at all; a previous demo's output is replaced,
+    /// any other non-empty directory needs --force).
+    #[arg(long, default_value = "demo-out")]
+    out: PathBuf,
+    /// Replace a non-empty output directory that a demo did not write.
+    #[arg(long)]
+    force: bool,
+    /// World TOML (default: the built-in sand world, as in worlds/husky-sand.toml).
+    #[arg(long)]
+    world: Option<PathBuf>,
+    /// Scenario TOML (default: the seed's turn set once per run).
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Number of runs.
+    #[arg(long, default_value_t = 3)]
+    runs: u32,
+    /// Noise seed of the first run (run k uses seed + k).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulated seconds per wall-clock second (a board far ahead of the recorder cannot
+    /// answer its commands in time: the demo then fails, naming the run).
+    #[arg(long, default_value_t = 25.0, value_parser = positive_factor)]
+    speed: f64,
+}
+
+impl DemoArgs {
+    /// Runs the demo and prints its tables.
+    pub fn run(self) -> Result<()> {
+        let replace = self.force || self.out.join(MARKER).exists();
+        if !replace && !is_missing_or_empty(&self.out) {
+            bail!(
+                "{}: the output directory exists and is not empty (pass --force to replace it, or --out DIR)",
+                self.out.display()
+            );
+        }
+        let mut options = DemoOptions::new(&self.out);
+        if let Some(path) = &self.world {
+            options.world = load_world(path)?;
+        }
+        if let Some(path) = &self.scenario {
+            options.scenario = load_scenario(path)?;
+        }
+        options.runs = self.runs;
+        options.seed = self.seed;
+        options.speed = self.speed;
+        let started = std::time::Instant::now();
+        output::print(format_args!(
+            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty, {}x real time\n",
+            options.world.rover.track_width_m,
+            options.world.rover.mass_kg,
+            demo::describe_world(&options.world),
+            self.runs,
+            self.speed,
+        ))?;
+        let runs = self.runs;
+        let outcome = write_dir_whole(&self.out, replace, |staging| {
+            let mut staged = options.clone();
+            staged.out_dir = staging.to_owned();
+            let bar = progress::bar(1000, "recording");
+            let mut outcome = demo::run(&staged, &mut |k, duration_s, status| {
+                let done =
+                    (f64::from(k) + (status.run_s / duration_s).clamp(0.0, 1.0)) / f64::from(runs);
+                bar.set_position((1000.0 * done) as u64);
+            })?;
+            bar.finish_and_clear();
+            std::fs::write(staging.join(MARKER), "written by host-tool demo\n").map_err(
+                |source| demo::DemoError::Io {
+                    what: "marking the output directory".into(),
+                    source,
+                },
+            )?;
+            outcome.files = output::rebased(std::mem::take(&mut outcome.files), staging, &self.out);
+            Ok::<_, demo::DemoError>(outcome)
+        })?;
+        output::print(printout(
+            &outcome,
+            &self.out,
+            started.elapsed().as_secs_f64(),
+        ))
+    }
+}
+
+/// What the demo prints after its runs: per run the end-to-end check, the validation report,
+/// the diagnosis table, the plans, the files.
+fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
+    let mut text = String::new();
+    for run in &outcome.runs {
+        let s = &run.summary;
+        let j = |e: i64| s.scale.energy_j(e);
+        let energy = s
+            .segments
+            .last()
+            .map(|g| g.host_energy_lsb_us)
+            .unwrap_or_default();
+        let _ = writeln!(
+            text,
+            "{}: {} samples through the pty, {} lost, {} bad frames, {} of {} commands acked; \
+             energy {:.1} J left / {:.1} J right = the board's own total, bit for bit",
+            run.name,
+            s.samples,
+            s.stream.lost_samples,
+            s.stream.bad_frames,
+            s.commands_acked,
+            s.commands_sent,
+            j(energy[0]),
+            j(energy[1]),
+        );
+    }
+    let _ = writeln!(text);
+    let _ = write!(text, "{}", outcome.report);
+    let _ = writeln!(text);
+    let _ = writeln!(
+        text,
+        "== diagnosis: the hard-ground model (Eq 21 per side) fitted on the runs' straights, point \
+         turns and 2R′ turns; every catalogued effect fitted on training runs and scored on the \
+         withheld run"
+    );
+    let _ = write!(text, "{}", report::table(&outcome.diagnosis));
+    let _ = writeln!(text);
+    let (start_deg, end_deg, distance_m) = demo::PLAN_PATH;
+    let _ = writeln!(
+        text,
+        "== plan: {start_deg}° → {end_deg}° over {distance_m} m on this terrain (paper Eq 23–50; \
+         model file {}/diagnosis/model.toml)",
+        out.display()
+    );
+    let effects = outcome.diagnosis.model_effects();
+    let effects: Vec<&str> = effects.iter().map(|e| e.id()).collect();
+    for (what, p) in [
+        (
+            "hard-ground model fitted to the runs".to_owned(),
+            &outcome.plan_hard_ground,
+        ),
+        (
+            format!("+ diagnosed {}", effects.join(" + ")),
+            &outcome.plan_diagnosed,
+        ),
+    ] {
+        let _ = writeln!(
+            text,
+            "  {what}: CLC R1 = {:.2} m ({:.2} R′), R2 = {:.2} m ({:.2} R′), {:.0} J vs PLP {:.0} J \
+             ({:+.1} %)",
+            p.clc.r1_m,
+            p.clc.r1_m / p.r_prime_m,
+            p.clc.r2_m,
+            p.clc.r2_m / p.r_prime_m,
+            p.clc.energy_j,
+            p.plp.energy_j,
+            -p.saving_pct
+        );
+    }
+    // Issue 18: the diagnosed model's ΔE curve beside thesis Table 6.1 (45° – 10 m – 45°).
+    let sweep = &outcome.sweep_diagnosed;
+    let _ = writeln!(
+        text,
+        "  diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
+         ({:+.1} %); slices of R/R′, model vs measured on sand:",
+        sweep.start_deg,
+        sweep.distance_m,
+        sweep.end_deg,
+        sweep.optimum.r_over_r_prime,
+        sweep.optimum.delta_e_pct
+    );
+    for sl in &sweep.slices {
+        let seed = sl
+            .seed_delta_e_pct
+            .map_or("-".to_owned(), |d| format!("{d:+.2} %"));
+        let _ = writeln!(
+            text,
+            "    {:.1} – {:.1}: {:+6.2} % vs {seed}",
+            sl.lo, sl.hi, sl.model_delta_e_pct
+        );
+    }
+    let _ = writeln!(text);
+    let _ = writeln!(
+        text,
+        "{} files in {} ({elapsed_s:.1} s):",
+        outcome.files.len(),
+        out.display(),
+    );
+    for file in &outcome.files {
+        let _ = writeln!(text, "  {}", file.display());
+    }
+    text
+}

@@ -1,0 +1,184 @@
+//! `host-tool diagnose`: where the hard-ground model departs, which effect, how much it closes.
+
+use super::output::{self, JsonOut};
+use super::validate::load_and_validate;
+use super::Departure;
+use anyhow::{bail, Context, Result};
+use host_tool::diagnose::{self, calibration::Calibration, features::TurnRow, report};
+use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
+use host_tool::rover::load_rover;
+use host_tool::validate::ValidateOptions;
+use model_core::Rover;
+use std::path::PathBuf;
+
+/// `diagnose --rover R.toml [--calibration CAL…] --runs FILES… [...]`.
+#[derive(clap::Args, Debug)]
+pub struct DiagnoseArgs {
+    /// Rover TOML (e.g. rovers/husky-a200.toml).
+    #[arg(long)]
+    rover: PathBuf,
+    /// Calibration runs, .csv or .mcap: their straights, point turns and turns with R ≥ 2R′ fit
+    /// the hard-ground baseline and are not scored (default: those manoeuvres of --runs).
+    #[arg(long, num_args = 1..)]
+    calibration: Vec<PathBuf>,
+    /// Runs to diagnose: run CSVs or MCAP logs, or per-turn summary CSVs (header with
+    /// radius_m,avg_power_w and optional v_c_mps, pitch_deg; e.g. a published table).
+    #[arg(long, num_args = 1.., required = true)]
+    runs: Vec<PathBuf>,
+    #[command(flatten)]
+    json: JsonOut,
+    /// Output directory: diagnosis.md, figures (PNG, SVG) and model.toml for `plan --model`;
+    /// written whole or not at all.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Overwrite an existing --json file and replace a non-empty --out directory.
+    #[arg(long)]
+    force: bool,
+    /// Exit with code 3 when the model departs significantly from the runs (scripted checks).
+    #[arg(long)]
+    fail_on_departure: bool,
+}
+
+/// The diagnosis rows of `paths`: run logs through `validate`, and per-turn summary CSVs
+/// (header with `radius_m` and `avg_power_w`, see `diagnose::summary`) as total-only rows, each
+/// file its own run; plus the summaries' caveats.
+fn diagnosis_rows(
+    rover: &Rover,
+    paths: &[PathBuf],
+    what: &str,
+) -> Result<(Vec<TurnRow>, Vec<String>)> {
+    let (summaries, runs): (Vec<&PathBuf>, Vec<&PathBuf>) = paths
+        .iter()
+        .partition(|p| diagnose::summary::is_summary_file(p));
+    let mut rows = if runs.is_empty() {
+        Vec::new()
+    } else {
+        let runs: Vec<PathBuf> = runs.into_iter().cloned().collect();
+        let (loaded, report) = load_and_validate(rover, &runs, &ValidateOptions::for_rover(rover))
+            .with_context(|| format!("{what} runs"))?;
+        diagnose::features::rows(&report, &loaded.sample_slices())
+    };
+    let mut notes = Vec::new();
+    for path in summaries {
+        let summary = diagnose::summary::load_summary(path)?;
+        let run_index = rows.iter().map(|r| r.run_index + 1).max().unwrap_or(0);
+        let mut of = diagnose::summary::summary_rows(rover, &summary, &path.display().to_string());
+        for row in &mut of {
+            row.run_index = run_index;
+        }
+        rows.extend(of);
+        notes.extend(
+            diagnose::summary::summary_notes(&summary)
+                .into_iter()
+                .map(|n| format!("{}: {n}", path.display())),
+        );
+    }
+    Ok((rows, notes))
+}
+
+impl DiagnoseArgs {
+    /// Diagnoses the runs; prints the table (or writes JSON) and writes --out.
+    pub fn run(self) -> Result<()> {
+        self.json.check(self.force)?;
+        if let Some(dir) = &self.out {
+            if !self.force && !is_missing_or_empty(dir) {
+                bail!(
+                    "{}: the output directory exists and is not empty (pass --force to replace it)",
+                    dir.display()
+                );
+            }
+        }
+        let rover = load_rover(&self.rover)?;
+        // Path-level summaries (thesis Table 6.1) have their own judgement.
+        if self
+            .runs
+            .iter()
+            .any(|p| diagnose::path_table::is_path_table_file(p))
+        {
+            return self.path_table(&rover);
+        }
+        let (rows, notes) = diagnosis_rows(&rover, &self.runs, "diagnosed")?;
+        let cal_rows = if self.calibration.is_empty() {
+            None
+        } else {
+            Some(diagnosis_rows(&rover, &self.calibration, "calibration")?.0)
+        };
+        let calibration = match &cal_rows {
+            Some(rows) => Calibration::Rows(rows),
+            None => Calibration::FromRuns,
+        };
+        let mut diagnosis =
+            diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;
+        // The inputs' caveats first, then the diagnosis' own.
+        diagnosis.notes.splice(0..0, notes);
+        // Files first: a closed stdout (`| head`) must not lose them.
+        let files = match &self.out {
+            Some(dir) => write_dir_whole(dir, self.force, |staging| {
+                report::write_out_dir(staging, &rover, &diagnosis, &rows, calibration)
+                    .map(|files| output::rebased(files, staging, dir))
+            })?,
+            None => Vec::new(),
+        };
+        if !self
+            .json
+            .emit(&diagnosis.to_json(), "diagnosis", self.force)?
+        {
+            let mut text = report::table(&diagnosis).to_string();
+            if !files.is_empty() {
+                text.push('\n');
+            }
+            for file in files {
+                text += &format!("{}\n", file.display());
+            }
+            output::print(text)?;
+        }
+        if self.fail_on_departure && diagnosis.significant {
+            return Err(Departure(format!(
+                "the hard-ground model departs from the runs: {} @ {}",
+                diagnosis.effect, diagnosis.regime
+            ))
+            .into());
+        }
+        Ok(())
+    }
+
+    /// `diagnose` on a path table: every `--runs` file must be one; no calibration runs.
+    fn path_table(&self, rover: &Rover) -> Result<()> {
+        use diagnose::path_table;
+        if let Some(p) = self
+            .runs
+            .iter()
+            .find(|p| !path_table::is_path_table_file(p))
+        {
+            bail!(
+                "{}: a path table (header start_deg,end_deg,…) cannot be diagnosed with runs or \
+                 per-turn summaries; pass them separately",
+                p.display()
+            );
+        }
+        if !self.calibration.is_empty() || self.out.is_some() {
+            bail!(
+                "a path table is judged against paper Table 2's hard-ground model carried over to \
+                 the rover: --calibration and --out do not apply"
+            );
+        }
+        let mut rows = Vec::new();
+        for path in &self.runs {
+            rows.extend(
+                path_table::load_path_table(path).with_context(|| path.display().to_string())?,
+            );
+        }
+        let model = path_table::hard_ground_for(rover);
+        let diagnosis = path_table::diagnose_path_table(&model, &rows)?;
+        if !self
+            .json
+            .emit(&diagnosis.to_json(), "diagnosis", self.force)?
+        {
+            output::print(&diagnosis)?;
+        }
+        if self.fail_on_departure && diagnosis.significant {
+            return Err(Departure("the hard-ground model departs from the path table".into()).into());
+        }
+        Ok(())
+    }
+}

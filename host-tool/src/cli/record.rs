@@ -1,0 +1,116 @@
+//! `host-tool record`: the board's stream from a serial port into a run log.
+
+use super::output::{self, check_new_file, create_parent};
+use anyhow::{bail, Context, Result};
+use host_tool::log::commands::read_commands_csv;
+use host_tool::record::{self, RecordOptions, RecordStatus};
+use host_tool::rover::load_rover;
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// `record --port P --out RUN.mcap|RUN.csv [...]`.
+#[derive(clap::Args, Debug)]
+pub struct RecordArgs {
+    /// The board's port (`/dev/ttyACM0`, `/dev/serial/by-id/...`, a replay's pty).
+    #[arg(long)]
+    port: String,
+    /// The log to write; its extension picks the format (.csv: run CSV + events file).
+    #[arg(long)]
+    out: PathBuf,
+    /// Overwrite an existing log.
+    #[arg(long)]
+    force: bool,
+    /// Stop after this many seconds of wall time.
+    #[arg(long = "duration-s", alias = "duration", value_parser = parse_seconds, value_name = "S")]
+    duration_s: Option<Duration>,
+    /// Stop after this many samples.
+    #[arg(long)]
+    samples: Option<u64>,
+    /// Commands CSV (t_s, cmd_left_mps, cmd_right_mps[, yaw_rad, pitch_deg]): forwarded to the
+    /// board as wheel rates and copied into the log. Without it the commanded speeds are the
+    /// board's own reports (a replay carries the original's that way).
+    #[arg(long)]
+    commands: Option<PathBuf>,
+    /// Rover TOML for the wheel radius (default: the Husky A200).
+    #[arg(long)]
+    rover: Option<PathBuf>,
+    /// Seconds to wait for a vanished device before stopping (a pty is not waited for).
+    #[arg(
+        long = "reconnect-timeout-s",
+        alias = "reconnect-timeout",
+        value_parser = parse_seconds,
+        default_value = "60",
+        value_name = "S"
+    )]
+    reconnect_timeout_s: Duration,
+}
+
+/// A non-negative, finite number of seconds.
+fn parse_seconds(text: &str) -> Result<Duration, String> {
+    let s: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number of seconds"))?;
+    Duration::try_from_secs_f64(s).map_err(|_| format!("{text} s must be finite and >= 0"))
+}
+
+impl RecordArgs {
+    /// Records until stopped; prints the summary.
+    pub fn run(self) -> Result<()> {
+        let mut options = RecordOptions::new(self.port);
+        options.duration = self.duration_s;
+        options.max_samples = self.samples;
+        options.reconnect_timeout = self.reconnect_timeout_s;
+        if let Some(path) = &self.commands {
+            options.commands = read_commands_csv(path)?;
+        }
+        if let Some(path) = &self.rover {
+            options.rover = load_rover(path)?;
+        }
+        options.validate()?;
+        // Ctrl-C, SIGTERM and SIGHUP stop cleanly (footer written, exit 0).
+        let stop = record::stop_signal::install().context("installing the stop-signal handler")?;
+        let mut open = record::serial_opener(options.read_timeout);
+        // The port first: a wrong path leaves no empty log behind.
+        let board = open(&options.port)?;
+        check_new_file(&self.out, self.force)?;
+        create_parent(&self.out)?;
+        let mut sink = record::create_sink(&self.out, self.force)?;
+        let mut stderr = std::io::stderr();
+        // One line rewritten in place on a terminal; a line per report into a file or pipe.
+        let live = stderr.is_terminal();
+        let mut on_status = |status: &RecordStatus| {
+            let _ = if live {
+                write!(stderr, "\r\x1b[2K{status}")
+            } else {
+                writeln!(stderr, "{status}")
+            };
+            let _ = stderr.flush();
+        };
+        eprintln!(
+            "recording {} -> {} (Ctrl-C to stop)",
+            options.port,
+            self.out.display()
+        );
+        let result = record::record_on(
+            &options,
+            board,
+            &mut open,
+            sink.as_mut(),
+            &stop,
+            &mut on_status,
+        );
+        if live {
+            eprintln!();
+        }
+        let summary = result?;
+        output::print(format_args!("{}: {summary}", self.out.display()))?;
+        if summary.samples == 0 {
+            bail!("no samples were recorded");
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,103 @@
+//! `host-tool replay`: a run log as the board's byte stream, into a pty or a capture file.
+
+use super::output::{self, check_new_file, create_parent};
+use anyhow::{anyhow, bail, Context, Result};
+use host_tool::log::convert::same_file;
+use host_tool::log::load::load_salvaging;
+use host_tool::log::write_atomically;
+use host_tool::replay::{frames_of, write_stream, ReplayPacing, ReplayPty};
+use host_tool::rover::load_rover;
+use host_tool::runs::{damage_warnings, truncation_warning};
+use model_core::Rover;
+use std::path::PathBuf;
+
+/// `replay LOG (--to-pty | --to FILE) [--speed K | --as-fast-as-possible] [--rover R.toml]`.
+#[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("target").required(true).args(["to_pty", "to"])))]
+pub struct ReplayArgs {
+    /// The run log (.mcap: its frames byte for byte, plus the board's report of each commanded
+    /// speed after its ack; .csv: frames synthesised from samples and commanded speeds).
+    log: PathBuf,
+    /// Stream into a new pty: prints its path, waits for a reader, streams, hangs up (a
+    /// `record` on it then stops).
+    #[arg(long)]
+    to_pty: bool,
+    /// Write the whole byte stream to this file instead.
+    #[arg(long, value_name = "FILE")]
+    to: Option<PathBuf>,
+    /// Overwrite an existing --to file.
+    #[arg(long)]
+    force: bool,
+    /// Playback speed factor (2 = twice real time).
+    #[arg(long, default_value_t = 1.0, value_parser = positive_factor, value_name = "K")]
+    speed: f64,
+    /// Write as fast as the reader takes the bytes (ignores --speed).
+    #[arg(long)]
+    as_fast_as_possible: bool,
+    /// Rover TOML whose wheel radius turns commanded speeds into the reported wheel rates
+    /// (default: the Husky A200, as `record`'s; give both the same rover).
+    #[arg(long)]
+    rover: Option<PathBuf>,
+}
+
+/// A finite factor > 0.
+pub fn positive_factor(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(k) if k.is_finite() && k > 0.0 => Ok(k),
+        _ => Err(format!(
+            "{text:?} is not a speed factor (a finite number > 0)"
+        )),
+    }
+}
+
+impl ReplayArgs {
+    /// Replays the log.
+    pub fn run(self) -> Result<()> {
+        let rover = match &self.rover {
+            Some(path) => load_rover(path)?,
+            None => Rover::HUSKY_A200,
+        };
+        if let Some(out) = &self.to {
+            if same_file(&self.log, out) {
+                bail!("{}: the output is the input file", out.display());
+            }
+            check_new_file(out, self.force)?;
+        }
+        let loaded = load_salvaging(&self.log, super::salvage())?;
+        if let Some(t) = &loaded.truncated {
+            eprintln!("{}", truncation_warning(&self.log, t));
+        }
+        super::report_damage(
+            &damage_warnings(&self.log, &loaded.losses, &loaded.dropped_rows),
+            loaded.lost_data(),
+        );
+        let frames = frames_of(&loaded.run, &rover).map_err(|e| anyhow!("encoding frames: {e}"))?;
+        if frames.is_empty() {
+            bail!(
+                "{}: nothing to replay (no frames, no samples)",
+                self.log.display()
+            );
+        }
+        if let Some(out) = &self.to {
+            create_parent(out)?;
+            let bytes = write_atomically(out, |w| write_stream(&frames, w))
+                .with_context(|| format!("writing {}", out.display()))?;
+            output::print(format_args!(
+                "{}: {} frames, {bytes} bytes\n",
+                out.display(),
+                frames.len()
+            ))
+        } else {
+            let pacing = if self.as_fast_as_possible {
+                ReplayPacing::AsFastAsPossible
+            } else {
+                ReplayPacing::RealTime { speed: self.speed }
+            };
+            let replay = ReplayPty::spawn(frames, pacing, None)?;
+            output::print(format_args!("{}\n", replay.path()))?;
+            let stats = replay.join().context("replaying into the pty")?;
+            eprintln!("replayed {} frames, {} bytes", stats.frames, stats.bytes);
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! `host-tool validate`: runs against the seed's power models.
+
+use super::output::{self, write_file, JsonOut};
+use super::Departure;
+use anyhow::Result;
+use host_tool::rover::load_rover;
+use host_tool::runs::{truncation_warning, Runs};
+use host_tool::validate::{self, ValidateOptions, ValidationReport};
+use model_core::power::IcrHardGround;
+use std::path::PathBuf;
+
+/// `validate --rover R.toml --runs FILES… [...]`.
+#[derive(clap::Args, Debug)]
+pub struct ValidateArgs {
+    /// Rover TOML (e.g. rovers/husky-a200.toml).
+    #[arg(long)]
+    rover: PathBuf,
+    /// Run logs, .csv or .mcap (each is validated as an independent run).
+    #[arg(long, num_args = 1.., required = true)]
+    runs: Vec<PathBuf>,
+    #[command(flatten)]
+    json: JsonOut,
+    /// Write the per-manoeuvre table as CSV to FILE.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Overwrite existing --json and --csv files.
+    #[arg(long)]
+    force: bool,
+    /// Exit with code 3 when a manoeuvre departs from the fitted model (scripted checks).
+    #[arg(long)]
+    fail_on_departure: bool,
+    /// Heading change of each turn when the runs have no yaw [deg].
+    #[arg(long, default_value_t = validate::DEFAULT_TURN_DEG)]
+    turn_deg: f64,
+    /// Settle time cut from the start of each manoeuvre for the steady statistics [s].
+    #[arg(long, default_value_t = validate::DEFAULT_SETTLE_S)]
+    settle_s: f64,
+    /// Shortest manoeuvre analysed [s].
+    #[arg(long, default_value_t = validate::segment::DEFAULT_MIN_DURATION_S)]
+    min_duration_s: f64,
+    /// Tolerance on the commanded side speeds within one manoeuvre [m/s].
+    #[arg(long, default_value_t = validate::segment::DEFAULT_SPEED_TOLERANCE_MPS)]
+    speed_tolerance_mps: f64,
+    /// Flag manoeuvres whose power departs from the fit by more than this [%] (and lies
+    /// outside the 95 % prediction interval).
+    #[arg(long, default_value_t = 100.0 * validate::DEFAULT_DEPARTURE_FRACTION)]
+    departure_pct: f64,
+    /// Hard-ground reference model as `MU,G_N,BS_M` (friction coefficient, rolling
+    /// resistance [N], the terrain's slip track [m]; geometry and mass from the rover).
+    /// Default: the seed's Husky values (paper Table 2) for the Husky, none otherwise.
+    #[arg(long, value_name = "MU,G_N,BS_M", value_parser = parse_hard_ground, conflicts_with = "no_hard_ground")]
+    hard_ground: Option<[f64; 3]>,
+    /// No hard-ground reference column.
+    #[arg(long)]
+    no_hard_ground: bool,
+}
+
+/// `MU,G_N,BS_M` → three finite positive numbers.
+fn parse_hard_ground(text: &str) -> Result<[f64; 3], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("{v:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [mu, g, bs] if values.iter().all(|v| v.is_finite() && *v > 0.0) => Ok([mu, g, bs]),
+        _ => Err("expected three positive numbers MU,G_N,BS_M (e.g. 0.74,30.85,1.29)".into()),
+    }
+}
+
+/// Loads `paths` and validates them with `options`, warning about truncated files: the
+/// sequence `validate`, `plot` and `diagnose` share.
+pub fn load_and_validate(
+    rover: &model_core::Rover,
+    paths: &[PathBuf],
+    options: &ValidateOptions,
+) -> Result<(Runs, ValidationReport)> {
+    let runs = Runs::load(paths, super::salvage())?;
+    for (path, t) in &runs.truncated {
+        eprintln!("{}", truncation_warning(path, t));
+    }
+    super::report_damage(&runs.damage, runs.lost_data);
+    let report = runs.validate(rover, options)?;
+    Ok((runs, report))
+}
+
+/// Manoeuvres flagged as departing from the fitted model.
+pub fn departures(report: &ValidationReport) -> usize {
+    report.regimes.iter().map(|r| r.flagged).sum()
+}
+
+impl ValidateArgs {
+    /// Validates and prints the table (or writes JSON/CSV).
+    pub fn run(self) -> Result<()> {
+        self.json.check(self.force)?;
+        if let Some(path) = &self.csv {
+            output::check_new_file(path, self.force)?;
+        }
+        let rover = load_rover(&self.rover)?;
+        let mut options = ValidateOptions::for_rover(&rover);
+        options.turn_deg = self.turn_deg;
+        options.settle_s = self.settle_s;
+        options.segment.min_duration_s = self.min_duration_s;
+        options.segment.speed_tolerance_mps = self.speed_tolerance_mps;
+        options.departure_fraction = self.departure_pct / 100.0;
+        if self.no_hard_ground {
+            options.hard_ground = None;
+        } else if let Some([mu, g, bs]) = self.hard_ground {
+            options.hard_ground = Some(IcrHardGround {
+                mu,
+                rolling_resistance_n: g,
+                length_m: f64::from(rover.length_m),
+                width_m: f64::from(rover.track_width_m),
+                mass_kg: f64::from(rover.mass_kg),
+                slip_track_m: bs,
+            });
+        }
+        let (_, report) = load_and_validate(&rover, &self.runs, &options)?;
+        let json_to_stdout = self.json.emit(&report, "report", self.force)?;
+        if let Some(path) = &self.csv {
+            let mut text = Vec::new();
+            report.write_csv(&mut text)?;
+            write_file(path, &text, self.force)?;
+        }
+        if !json_to_stdout {
+            output::print(&report)?;
+        }
+        let flagged = departures(&report);
+        if self.fail_on_departure && flagged > 0 {
+            return Err(
+                Departure(format!("{flagged} manoeuvres depart from the fitted model")).into(),
+            );
+        }
+        Ok(())
+    }
+}
