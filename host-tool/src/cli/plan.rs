@@ -68,8 +68,8 @@ impl PlanArgs {
     /// Plans and prints (or writes) the comparison.
     pub fn run(self) -> Result<()> {
         self.json.check(self.force)?;
-        let (model, source) = match self.model {
-            Some(path) => (plan::load_model(&path)?, ModelSource::File(path)),
+        let (model, source) = match &self.model {
+            Some(path) => (plan::load_model(path)?, ModelSource::File(path.clone())),
             None => {
                 let preset = Preset::from(self.preset);
                 (preset.model(), ModelSource::Preset(preset))

@@ -7,8 +7,6 @@ use host_tool::record::{self, RecordOptions, RecordStatus};
 use host_tool::rover::load_rover;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 
 /// `record --port P --out RUN.mcap|RUN.csv [...]`.
