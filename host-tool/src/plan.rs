@@ -165,6 +165,15 @@ impl EffectTerm {
         if let Some(p) = self.extra_power_w.iter().find(|p| !p.is_finite()) {
             return Err(bad(format!("extra_power_w {p} must be finite")));
         }
+        // Beyond both sides at the board's full scale no measurement could have shown it: a
+        // unit error, and sums of such numbers overflow to inf/NaN in the plan.
+        let max_w = 2.0 * crate::log::run_csv::BUS_V_MAX * crate::log::run_csv::CURRENT_A_MAX;
+        if let Some(p) = self.extra_power_w.iter().find(|p| p.abs() > max_w) {
+            return Err(bad(format!(
+                "extra_power_w {p} W is beyond the rover's measurable power (±{max_w:.0} W: both \
+                 sides at the INA226's full scale)"
+            )));
+        }
         Ok(())
     }
 }
@@ -913,6 +922,10 @@ slip_track_m = 1.29
             (
                 format!("{PRESET_FILE}\n[[effects]]\nname = \"x\"\nr_over_r_prime = []\nextra_power_w = []\n"),
                 "no breakpoints",
+            ),
+            (
+                format!("{PRESET_FILE}\n[[effects]]\nname = \"x\"\nr_over_r_prime = [0.0]\nextra_power_w = [1e308]\n"),
+                "beyond the rover's measurable power",
             ),
             ("not toml at all".into(), "line 1"),
         ];

@@ -333,6 +333,15 @@ impl ChunkDecoder {
             Ok(_) => return Err(ChunkProblem::Damaged("chunk record did not parse".into())),
             Err(e) => return Err(ChunkProblem::Damaged(format!("chunk: {e}"))),
         };
+        // The fields must fill the record exactly: a zeroed chunk header otherwise reads as a
+        // valid empty chunk, and its messages would vanish unreported.
+        let fields = 8 + 8 + 8 + 4 + 4 + header.compression.len() + 8 + data.len();
+        if fields != body.len() {
+            return Err(ChunkProblem::Damaged(format!(
+                "chunk record of {} bytes, its fields account for {fields}",
+                body.len()
+            )));
+        }
         if header.uncompressed_size > MAX_CHUNK_BYTES {
             return Err(ChunkProblem::Damaged(format!(
                 "chunk claims {} bytes uncompressed",
