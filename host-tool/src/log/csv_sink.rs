@@ -242,6 +242,8 @@ mod tests {
             cmd_mps: Sides::new(0.2, 0.4),
             yaw_rad: None,
             pitch_deg: Some(1.5),
+            x_m: None,
+            y_m: None,
         }
     }
 

@@ -322,6 +322,8 @@ mod tests {
                             * ((a + std::f64::consts::PI) / std::f64::consts::TAU).floor()
                     }),
                     pitch_deg: Some(2.0),
+                    x_m: None,
+                    y_m: None,
                 }
             })
             .collect()

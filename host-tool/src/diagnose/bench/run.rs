@@ -61,6 +61,8 @@ pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
                 cmd_mps: timeline.command_at(t_us),
                 yaw_rad: Some(yaw_rad),
                 pitch_deg: Some(pitch_deg),
+                x_m: None,
+                y_m: None,
             }
         })
         .collect()

@@ -24,6 +24,8 @@ fn sample(t_s: f64) -> RunSample {
         cmd_mps: Sides::new(0.1, 0.5),
         yaw_rad: None,
         pitch_deg: None,
+        x_m: None,
+        y_m: None,
     }
 }
 
@@ -376,6 +378,8 @@ fn samples() -> impl Strategy<Value = Vec<RunSample>> {
                 cmd_mps: Sides::new(cl, cr),
                 yaw_rad,
                 pitch_deg,
+                x_m: None,
+                y_m: None,
             });
         }
         out

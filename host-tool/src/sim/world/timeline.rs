@@ -314,6 +314,8 @@ impl Timeline {
                     pitch_deg: Some(
                         pitch + self.noise.pitch_std_deg * gaussian(self.seed, PITCH, t),
                     ),
+                    x_m: None,
+                    y_m: None,
                 }
             })
             .collect()
