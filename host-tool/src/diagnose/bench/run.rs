@@ -46,14 +46,22 @@ pub struct SimulatedDataset {
 }
 
 /// `timeline` sampled at `sample_hz` into run samples (what a recorder would log, without the
-/// board and the pty).
+/// board and the pty). Each tracker fix lands on the first sample at or after it, as the
+/// recorder places them.
 pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
     let step_us = 1_000_000 / sample_hz.max(1);
+    let fix_times = timeline.fix_times_us();
+    let mut next_fix = 0;
     (0..=timeline.duration_us() / step_us)
         .map(|i| {
             let t_us = i * step_us;
             let load = timeline.load_at(t_us);
             let (yaw_rad, pitch_deg) = timeline.pose_at(t_us);
+            let mut fix = None;
+            while let Some(&t_fix) = fix_times.get(next_fix).filter(|&&t| t <= t_us) {
+                fix = timeline.fix_at(t_fix).or(fix);
+                next_fix += 1;
+            }
             RunSample {
                 t_s: t_us as f64 * 1e-6,
                 bus_v: Sides::new(load.left.bus_v, load.right.bus_v),
@@ -61,8 +69,8 @@ pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
                 cmd_mps: timeline.command_at(t_us),
                 yaw_rad: Some(yaw_rad),
                 pitch_deg: Some(pitch_deg),
-                x_m: None,
-                y_m: None,
+                x_m: fix.map(|p| p.0),
+                y_m: fix.map(|p| p.1),
             }
         })
         .collect()

@@ -81,11 +81,13 @@ mod engine;
 pub mod scenario;
 pub mod structure;
 mod timeline;
+pub mod tracker;
 
 pub use effects::EffectId;
 pub use scenario::{load_scenario, parse_scenario, Manoeuvre, ManoeuvreKind, Scenario, Side};
 pub use structure::{DrivePower, PowerSplit, Structure};
 pub use timeline::{ManoeuvreTruth, Timeline, TimelineLoad};
+pub use tracker::Tracker;
 
 use model_core::power::{DcMotor, IcrHardGround};
 use model_core::{Rover, Sides};
@@ -401,6 +403,7 @@ impl Effects {
 /// [motor]                          # torque_constant_nm_per_a, gear_ratio, efficiency, winding_resistance_ohm
 /// [noise]                          # left/right_current_std_a, bus_std_v, yaw_std_rad, pitch_std_deg,
 ///                                  # manoeuvre_power_std, run_power_std (repeat/run variation, 0)
+/// [tracker]                        # offset_m 0.21 (right of centre), rate_hz 5, position_std_m 0.002, dropout 0.05
 /// [structure]                      # split = "threshold" | "regenerating" | "clamped", threshold_radius_m,
 ///                                  # angular_slip 0, drive_power = "electrical" | "mechanical"
 /// [inner-drag]                     # every effect: enabled (ground default) + its parameters
@@ -425,6 +428,8 @@ pub struct WorldConfig {
     pub structure: Structure,
     /// Measurement noise.
     pub noise: Noise,
+    /// The pose tracker's position fixes.
+    pub tracker: Tracker,
     /// The effects.
     pub effects: Effects,
 }
@@ -458,6 +463,7 @@ impl WorldConfig {
             motor: Motor::default(),
             structure: Structure::default(),
             noise: Noise::default(),
+            tracker: Tracker::default(),
             effects,
         }
     }
@@ -479,6 +485,8 @@ impl WorldConfig {
             manoeuvre_power_std: 0.0,
             run_power_std: 0.0,
         };
+        self.tracker.position_std_m = 0.0;
+        self.tracker.dropout = 0.0;
         self
     }
 
@@ -545,6 +553,8 @@ struct WorldToml {
     structure: Structure,
     #[serde(default)]
     noise: Noise,
+    #[serde(default)]
+    tracker: Tracker,
     #[serde(rename = "inner-drag")]
     inner_drag: Option<toml::Table>,
     #[serde(rename = "sinkage-bulldozing")]
@@ -640,6 +650,7 @@ fn resolve(raw: WorldToml, origin: &str, base: Option<&Path>) -> Result<WorldCon
     world.motor = raw.motor;
     world.structure = raw.structure;
     world.noise = raw.noise;
+    world.tracker = raw.tracker;
     let e = &mut world.effects;
     let mut set = |id: EffectId, on: Option<bool>| {
         if let Some(on) = on {
