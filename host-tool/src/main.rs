@@ -673,6 +673,7 @@ fn plot_cmd(rover: &Path, runs: &[PathBuf], out: &Path, format: FigureFormat) ->
 /// file its own run; plus the summaries' caveats.
 fn diagnosis_rows(
     rover: &model_core::Rover,
+    tracker_offset_m: f64,
     paths: &[PathBuf],
     what: &str,
 ) -> Result<(Vec<diagnose::features::TurnRow>, Vec<String>)> {
@@ -683,7 +684,7 @@ fn diagnosis_rows(
         Vec::new()
     } else {
         let runs: Vec<PathBuf> = runs.into_iter().cloned().collect();
-        run_rows(rover, &runs, what)?
+        run_rows(rover, tracker_offset_m, &runs, what)?
     };
     let mut notes = Vec::new();
     for path in summaries {
@@ -705,6 +706,7 @@ fn diagnosis_rows(
 
 fn run_rows(
     rover: &model_core::Rover,
+    tracker_offset_m: f64,
     paths: &[PathBuf],
     what: &str,
 ) -> Result<Vec<diagnose::features::TurnRow>> {
@@ -714,20 +716,25 @@ fn run_rows(
         .zip(&logs)
         .map(|(name, log)| RunInput::from_log(name, log))
         .collect();
-    let report = validate::validate(rover, &inputs, &ValidateOptions::for_rover(rover))
-        .with_context(|| format!("{what} runs"))?;
+    let options = ValidateOptions {
+        tracker_offset_m,
+        ..ValidateOptions::for_rover(rover)
+    };
+    let report =
+        validate::validate(rover, &inputs, &options).with_context(|| format!("{what} runs"))?;
     let samples: Vec<&[host_tool::log::run_csv::RunSample]> =
         logs.iter().map(|l| l.samples.as_slice()).collect();
     Ok(diagnose::features::rows(&report, &samples))
 }
 
 fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
-    let rover = load_rover(&args.rover)?;
-    let (rows, notes) = diagnosis_rows(&rover, &args.runs, "diagnosed")?;
+    let rover_file = host_tool::rover::load_rover_file(&args.rover)?;
+    let (rover, offset) = (rover_file.rover, rover_file.tracker_offset_m);
+    let (rows, notes) = diagnosis_rows(&rover, offset, &args.runs, "diagnosed")?;
     let cal_rows = if args.calibration.is_empty() {
         None
     } else {
-        Some(diagnosis_rows(&rover, &args.calibration, "calibration")?.0)
+        Some(diagnosis_rows(&rover, offset, &args.calibration, "calibration")?.0)
     };
     let calibration = match &cal_rows {
         Some(rows) => Calibration::Rows(rows),
@@ -826,8 +833,10 @@ fn main() -> Result<()> {
             hard_ground,
             no_hard_ground,
         } => {
-            let rover = host_tool::rover::load_rover(&rover)?;
+            let rover_file = host_tool::rover::load_rover_file(&rover)?;
+            let rover = rover_file.rover;
             let mut options = ValidateOptions::for_rover(&rover);
+            options.tracker_offset_m = rover_file.tracker_offset_m;
             options.turn_deg = turn_deg;
             options.settle_s = settle_s;
             options.segment.min_duration_s = min_duration_s;
