@@ -225,6 +225,10 @@ struct DiagnoseBenchArgs {
     /// Write every dataset's result as JSON to FILE (`-` for stdout, then no table is printed).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Keep the simulated tracker's position fixes (5 Hz prism): the diagnosis then places
+    /// turns by their measured R_ACT and sees a measured slip track.
+    #[arg(long)]
+    poses: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -742,7 +746,7 @@ fn diagnose_cmd(args: DiagnoseArgs) -> Result<()> {
     };
     let mut diagnosis =
         diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;
-    diagnosis.notes = notes;
+    diagnosis.notes.extend(notes);
     // Files first: a closed stdout (`| head`) must not lose them.
     let files = match &args.out {
         Some(dir) => report::write_out_dir(dir, &rover, &diagnosis, &rows, calibration)?,
@@ -772,6 +776,7 @@ fn diagnose_bench_cmd(args: DiagnoseBenchArgs) -> Result<()> {
             BenchPartArg::HeldOut => diagnose::bench::PartChoice::HeldOut,
             BenchPartArg::Both => diagnose::bench::PartChoice::Both,
         },
+        poses: args.poses,
     };
     let report = diagnose::bench::run_bench(&options);
     if !emit_json(args.json.as_deref(), &report, "bench")? {

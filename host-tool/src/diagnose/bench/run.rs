@@ -101,26 +101,53 @@ pub fn simulate(spec: &DatasetSpec) -> Result<SimulatedDataset, DatasetError> {
     })
 }
 
-/// The diagnosis' rows of the Husky's `runs` (samples only, as from run CSVs).
+/// The diagnosis' rows of the Husky's `runs` (samples only, as from run CSVs, without their
+/// pose track).
 pub fn rows_of(runs: &[Vec<RunSample>]) -> Result<Vec<TurnRow>, ValidateError> {
-    rows_for(&Rover::HUSKY_A200, runs, "run")
+    rows_for(&Rover::HUSKY_A200, runs, "run", None)
 }
 
-/// The diagnosis' rows of `rover`'s `runs`, named `{prefix}-{k}`.
+/// The diagnosis' rows of `rover`'s `runs`, named `{prefix}-{k}`. With `tracker_offset_m`
+/// the runs' position fixes are used (the tracked point that far right of the centre [m]);
+/// without, they are dropped first, as for runs recorded without a tracker.
 pub fn rows_for(
     rover: &Rover,
     runs: &[Vec<RunSample>],
     prefix: &str,
+    tracker_offset_m: Option<f64>,
 ) -> Result<Vec<TurnRow>, ValidateError> {
+    let stripped: Vec<Vec<RunSample>>;
+    let runs = if tracker_offset_m.is_some() {
+        runs
+    } else {
+        stripped = runs.iter().map(|r| without_positions(r)).collect();
+        &stripped
+    };
     let names: Vec<String> = (0..runs.len()).map(|k| format!("{prefix}-{k}")).collect();
     let inputs: Vec<RunInput<'_>> = runs
         .iter()
         .zip(&names)
         .map(|(s, n)| RunInput::from_samples(n, s))
         .collect();
-    let report = validate::validate(rover, &inputs, &ValidateOptions::for_rover(rover))?;
+    let options = ValidateOptions {
+        tracker_offset_m: tracker_offset_m.unwrap_or(0.0),
+        ..ValidateOptions::for_rover(rover)
+    };
+    let report = validate::validate(rover, &inputs, &options)?;
     let slices: Vec<&[RunSample]> = runs.iter().map(Vec::as_slice).collect();
     Ok(features::rows(&report, &slices))
+}
+
+/// `samples` without their position fixes.
+fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
+    samples
+        .iter()
+        .map(|s| RunSample {
+            x_m: None,
+            y_m: None,
+            ..*s
+        })
+        .collect()
 }
 
 /// What the diagnosis said on one dataset, against its truth.
@@ -215,8 +242,14 @@ pub struct GapNote {
     pub n: usize,
 }
 
-/// Simulates and diagnoses one dataset.
+/// Simulates and diagnoses one dataset (without its pose track; see [`run_dataset_with`]).
 pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
+    run_dataset_with(spec, false)
+}
+
+/// Simulates and diagnoses one dataset; with `poses`, the runs keep the world tracker's
+/// position fixes, so `validate` measures R_ACT and the slip track and the diagnosis uses them.
+pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
     let t0 = Instant::now();
     let mut result = DatasetResult {
         spec: spec.clone(),
@@ -233,11 +266,12 @@ pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
         diagnose_s: 0.0,
     };
     let rover = spec.rover.rover();
+    let offset = poses.then(|| spec.world().tracker.offset_m);
     let rows = simulate(spec).and_then(|d| {
         result.truth = Some(d.truth);
         Ok((
-            rows_for(&rover, &d.calibration, "cal")?,
-            rows_for(&rover, &d.runs, "run")?,
+            rows_for(&rover, &d.calibration, "cal", offset)?,
+            rows_for(&rover, &d.runs, "run", offset)?,
         ))
     });
     result.simulate_s = t0.elapsed().as_secs_f64();
