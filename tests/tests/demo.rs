@@ -168,7 +168,7 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
 /// The demo's runs carry the simulated total station's prism fixes (5 Hz, 0.21 m right of the
 /// centre, 2 mm, 5 % lost): `validate` reports R_ACT for every turn within max(3 cm, 5 %) of the
 /// world's true radius, and each run's measured slip track (Appendix D) within 4 % of the value
-/// of the true radii; the JSON carries both fields.
+/// of the true radii of its turns commanded at R′; the JSON carries both fields.
 fn poses_measure_the_worlds_radius_and_slip_track(
     outcome: &demo::DemoOutcome,
     dir: &std::path::Path,
@@ -197,7 +197,7 @@ fn poses_measure_the_worlds_radius_and_slip_track(
                 m.track
             );
             let (l, r) = (m.cmd_mps.left, m.cmd_mps.right);
-            if (l + r).abs() > 1e-9 {
+            if m.regime == Some(Regime::AtRPrime) {
                 true_tracks.push(2.0 * r_true * (l - r).abs() / (l + r).abs());
             }
         }

@@ -373,12 +373,20 @@ pub fn validate(
 }
 
 /// Appendix D per run: the measured slip track from its turns' R_ACT, then R′_ACT = B_s/2,
-/// each turn's R_ACT/R′_ACT (Table 6.1's axis) and its slip angles (Eq 5.1–5.2).
+/// each turn's R_ACT/R′_ACT (Table 6.1's axis) and its slip angles (Eq 5.1–5.2). R′_ACT is the
+/// radius driven when R′ is commanded (Eq 5.1's definition, Table D.1: B_s = 2 R_ACT there), so
+/// the run's turns commanded at R′ give it when it has any; else all its turns do.
 fn apply_measured_slip_track(report: &mut RunReport, rows: &mut [ManoeuvreRow], rover: &Rover) {
-    let per_turn: Vec<f64> = rows
-        .iter()
-        .filter_map(|r| r.track.as_ref()?.slip_track_m)
-        .collect();
+    let of = |at_r_prime: bool| -> Vec<f64> {
+        rows.iter()
+            .filter(|r| !at_r_prime || r.regime == Some(Regime::AtRPrime))
+            .filter_map(|r| r.track.as_ref()?.slip_track_m)
+            .collect()
+    };
+    let mut per_turn = of(true);
+    if per_turn.is_empty() {
+        per_turn = of(false);
+    }
     let Some(measured) = pose::measured_slip_track(&per_turn) else {
         return;
     };

@@ -116,8 +116,9 @@ pub struct RunReport {
     /// The board's model frames against the host's recomputation; `None` for a run without
     /// frames (a run CSV).
     pub cross_check: Option<CrossCheck>,
-    /// Appendix D: the slip track measured from the turns' R_ACT (median) [m]; runs with
-    /// positions and at least one turn other than a point turn.
+    /// Appendix D: the slip track measured from the turns' R_ACT (median over the turns
+    /// commanded at R′, else over all) [m]; runs with positions and at least one turn other
+    /// than a point turn.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub slip_track_measured_m: Option<f64>,
     /// The same with its spread over the turns.

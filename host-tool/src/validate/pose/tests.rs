@@ -202,8 +202,8 @@ fn slip_track_is_the_median_with_its_spread() {
 
 /// The simulated world's truth recovered through `validate`: each turn's R_ACT within
 /// max(2 cm, 3 %) of the world's true radius and each run's measured slip track within 3 % of
-/// the Appendix D value of the true radii (the terrain's B_s when no angular slip widens the
-/// turns), from the 5 Hz prism track 0.21 m right of the centre with 2 mm noise and 5 % lost
+/// the Appendix D value of the true radii of its turns commanded at R′ (the terrain's B_s when
+/// no angular slip widens the turns), from the 5 Hz prism track 0.21 m right of the centre with 2 mm noise and 5 % lost
 /// fixes.
 #[test]
 fn validate_recovers_the_worlds_radius_and_slip_track() {
@@ -260,9 +260,12 @@ fn validate_recovers_the_worlds_radius_and_slip_track() {
             );
             let speeds =
                 kinematics::SideSpeeds::new(row.cmd_mps.left as f32, row.cmd_mps.right as f32);
-            true_slip_tracks.extend(
-                kinematics::slip_track_from_measured_radius_m(r_true as f32, speeds).map(f64::from),
-            );
+            if row.regime == Some(kinematics::Regime::AtRPrime) {
+                true_slip_tracks.extend(
+                    kinematics::slip_track_from_measured_radius_m(r_true as f32, speeds)
+                        .map(f64::from),
+                );
+            }
             turns += 1;
         }
         assert_eq!(turns, 12, "{name}: every turn analysed");
@@ -287,4 +290,71 @@ fn validate_recovers_the_worlds_radius_and_slip_track() {
             );
         }
     }
+}
+
+/// Runs without positions validate as before: no pose field in the JSON, the CSV's columns
+/// unchanged; with positions, every other figure is the same.
+#[test]
+fn runs_without_positions_validate_as_before() {
+    use crate::diagnose::bench::run::sample_run;
+    use crate::sim::world::{Scenario, WorldConfig};
+    use crate::validate::report::CSV_COLUMNS;
+    use crate::validate::{validate, RunInput, ValidateOptions};
+
+    let world = WorldConfig::sand();
+    let timeline = world
+        .simulate(&Scenario::seed_turns(0.3, 1), 3)
+        .expect("simulates");
+    let with = sample_run(&timeline, 100);
+    let without: Vec<RunSample> = with
+        .iter()
+        .map(|s| RunSample {
+            x_m: None,
+            y_m: None,
+            ..*s
+        })
+        .collect();
+    let options = ValidateOptions {
+        tracker_offset_m: 0.21,
+        ..ValidateOptions::for_rover(&world.rover)
+    };
+    let run = |samples: &[RunSample]| {
+        validate(
+            &world.rover,
+            &[RunInput::from_samples("r", samples)],
+            &options,
+        )
+        .expect("validates")
+    };
+    let (plain, posed) = (run(&without), run(&with));
+    let json = serde_json::to_string(&plain).expect("json");
+    for key in [
+        "r_act_m",
+        "track",
+        "slip_track_measured",
+        "tracker_offset_m",
+    ] {
+        assert!(!json.contains(&format!("\"{key}")), "{key} in {json}");
+    }
+    let mut csv = Vec::new();
+    plain.write_csv(&mut csv).expect("csv");
+    let csv = String::from_utf8(csv).expect("utf8");
+    assert_eq!(csv.lines().next(), Some(CSV_COLUMNS.join(",").as_str()));
+    assert!(!plain.to_string().contains("pose track"));
+    assert_eq!(plain.manoeuvres.len(), posed.manoeuvres.len());
+    for (a, b) in plain.manoeuvres.iter().zip(&posed.manoeuvres) {
+        assert_eq!(a.stats, b.stats);
+        assert_eq!(a.fit, b.fit);
+    }
+    let json = serde_json::to_string(&posed).expect("json");
+    for key in ["r_act_m", "r_act_over_r_prime_act", "slip_track_measured_m"] {
+        assert!(json.contains(&format!("\"{key}\"")), "{key}");
+    }
+    let mut csv = Vec::new();
+    posed.write_csv(&mut csv).expect("csv");
+    let csv = String::from_utf8(csv).expect("utf8");
+    assert!(csv.lines().next().expect("header").ends_with("track_notes"));
+    assert!(posed
+        .to_string()
+        .contains("measured slip track (Appendix D)"));
 }
