@@ -11,11 +11,13 @@
 //! heating, slope) and time-type effects (angular slip, slip track) appear in one unit, and
 //! E = P_eff · T_expected is what a planner needs for an arc.
 //!
-//! Runs with a pose track (`x_m,y_m`) put each turn where it was driven: its regime and R/R′
-//! come from the measured R_ACT and R′_ACT (the run's measured slip track / 2, Appendix D)
-//! instead of the command ([`MeasuredRadius`]); which one a diagnosis used is in its notes
-//! ([`radius_source_note`]). Whether a manoeuvre is a calibration kind stays a property of the
-//! command.
+//! Runs with a pose track (`x_m,y_m`) put each turn where it was driven: its regime comes from
+//! the measured R_ACT and R′_ACT (the run's measured slip track / 2, Appendix D) instead of the
+//! command, and the row carries R_ACT/R′_ACT ([`MeasuredRadius`]); which one a diagnosis used
+//! is in its notes ([`radius_source_note`]). `r_over_r_prime` — the axis of the effect shapes
+//! and of the model file — stays the command's: the planner commands radii, and a term fitted
+//! on measured ratios but tabulated on commanded ones moved the demo's planned arc from 2R′
+//! to 1.6R′. Whether a manoeuvre is a calibration kind stays a property of the command too.
 
 use crate::log::run_csv::RunSample;
 use crate::validate::{ManoeuvreKind, ValidationReport};
@@ -125,7 +127,7 @@ pub struct TurnRow {
     pub calibration_kind: bool,
     /// Per side or the total only.
     pub observed: Observed,
-    /// The turn as measured by a pose track; `None` without one (regime and R/R' are then the
+    /// The turn as measured by a pose track; `None` without one (the regime is then the
     /// command's).
     pub measured: Option<MeasuredRadius>,
 }
@@ -153,8 +155,9 @@ pub fn radius_source_note(rows: &[TurnRow]) -> Option<String> {
     tracks.dedup();
     let list: Vec<String> = tracks.iter().map(|b| format!("{b:.3}")).collect();
     Some(format!(
-        "regimes and R/R' from the measured R_ACT/R'_ACT (pose track) on {} of {turns} turns, \
-         the rest from the command; measured slip track {} m",
+        "regimes from the measured R_ACT/R'_ACT (pose track) on {} of {turns} turns, the rest \
+         from the command (the R/R' axis of the effect terms and the model file stays the \
+         commanded one); measured slip track {} m",
         measured.len(),
         list.join(", ")
     ))
@@ -268,17 +271,15 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
         };
         let r_over_r_prime_cmd = m.r_over_r_prime.unwrap_or(f64::INFINITY);
         let measured = measured_radius(report, run_index, m.r_act_m, m.r_act_over_r_prime_act);
-        let (regime, r_over_r_prime) = match measured {
-            Some(mr) if !straight => (
-                Regime::of(
-                    mr.r_act_m as f32,
-                    &report.rover.with_slip_track(mr.slip_track_m as f32),
-                    &RegimeBounds::default(),
-                ),
-                mr.r_act_over_r_prime_act,
+        let regime = match measured {
+            Some(mr) if !straight => Regime::of(
+                mr.r_act_m as f32,
+                &report.rover.with_slip_track(mr.slip_track_m as f32),
+                &RegimeBounds::default(),
             ),
-            _ => (regime, r_over_r_prime_cmd),
+            _ => regime,
         };
+        let r_over_r_prime = r_over_r_prime_cmd;
         let still = standstill.get(run_index).copied().flatten();
         out.push(TurnRow {
             run: m.run.clone(),
