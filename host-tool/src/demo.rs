@@ -240,7 +240,12 @@ pub fn run(
         .map(|(r, log)| RunInput::from_log(&r.name, log))
         .collect();
     let rover = options.world.rover;
-    let report = validate::validate(&rover, &inputs, &ValidateOptions::for_rover(&rover))?;
+    // The world's tracker follows its prism; validate corrects for where it sits.
+    let validate_options = ValidateOptions {
+        tracker_offset_m: options.world.tracker.offset_m,
+        ..ValidateOptions::for_rover(&rover)
+    };
+    let report = validate::validate(&rover, &inputs, &validate_options)?;
 
     let out = &options.out_dir;
     let text = report.to_string();

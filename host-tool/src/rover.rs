@@ -10,6 +10,10 @@
 //! slip_track_m = 1.1      # B_s, the controller's slip track [m]
 //! ```
 //!
+//! One optional key: `tracker_offset_m`, the lateral offset of the point a pose tracker follows
+//! (the `x_m,y_m` columns of a run) from the rover's centre, positive to the right (the thesis'
+//! prism: 0.21, Fig. 5.3), any finite number, 0 when absent (the tracker reports the centre).
+//!
 //! Integers are accepted for any key (`mass_kg = 63`). Any other key is an error, so that a typo
 //! (`slip_trak_m`) cannot silently leave a value out.
 
@@ -33,6 +37,18 @@ pub const ROVER_KEYS: [&str; 5] = [
     "slip_track_m",
 ];
 
+/// The optional key of a rover TOML: the tracked point's lateral offset [m], right positive.
+pub const TRACKER_OFFSET_KEY: &str = "tracker_offset_m";
+
+/// A rover TOML: the rover, and where on it a pose tracker's point sits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoverFile {
+    /// The rover's geometry.
+    pub rover: Rover,
+    /// Lateral offset of the tracked point from the rover's centre, positive to the right [m].
+    pub tracker_offset_m: f64,
+}
+
 /// What is wrong with the text of a rover TOML.
 #[derive(Debug, thiserror::Error)]
 pub enum RoverTomlError {
@@ -40,7 +56,7 @@ pub enum RoverTomlError {
     #[error("not valid TOML: {0}")]
     Syntax(#[source] Box<toml::de::Error>),
     /// A key that a rover file does not have (usually a typo).
-    #[error("unknown key `{key}` (a rover file has exactly: {})", ROVER_KEYS.join(", "))]
+    #[error("unknown key `{key}` (a rover file has exactly: {}, and optionally {TRACKER_OFFSET_KEY})", ROVER_KEYS.join(", "))]
     UnknownKey {
         /// The key as written.
         key: String,
@@ -62,6 +78,14 @@ pub enum RoverTomlError {
     /// The number is not finite, not > 0, or does not fit the model's `f32`.
     #[error("`{key}` = {value} must be finite and > 0")]
     OutOfRange {
+        /// The key.
+        key: &'static str,
+        /// The value as written (converted to f64).
+        value: f64,
+    },
+    /// The tracker offset is not a finite number.
+    #[error("`{key}` = {value} must be a finite number")]
+    NotFinite {
         /// The key.
         key: &'static str,
         /// The value as written (converted to f64).
@@ -92,27 +116,38 @@ pub enum RoverFileError {
     },
 }
 
-/// Parses the text of a rover TOML.
+/// Parses the text of a rover TOML (the rover only; see [`parse_rover_file`]).
 pub fn parse_rover(text: &str) -> Result<Rover, RoverTomlError> {
+    parse_rover_file(text).map(|f| f.rover)
+}
+
+/// The number at `key` of `table`; `None` when absent.
+fn number(table: &toml::Table, key: &'static str) -> Result<Option<f64>, RoverTomlError> {
+    match table.get(key) {
+        None => Ok(None),
+        Some(toml::Value::Float(x)) => Ok(Some(*x)),
+        // i64 → f64 may round for |i| > 2^53, irrelevant at the f32 the model keeps.
+        Some(toml::Value::Integer(i)) => Ok(Some(*i as f64)),
+        Some(other) => Err(RoverTomlError::NotANumber {
+            key,
+            found: other.type_str(),
+        }),
+    }
+}
+
+/// Parses the text of a rover TOML with its optional tracker offset.
+pub fn parse_rover_file(text: &str) -> Result<RoverFile, RoverTomlError> {
     let table: toml::Table = text
         .parse()
         .map_err(|e| RoverTomlError::Syntax(Box::new(e)))?;
-    if let Some(key) = table.keys().find(|k| !ROVER_KEYS.contains(&k.as_str())) {
+    if let Some(key) = table
+        .keys()
+        .find(|k| !ROVER_KEYS.contains(&k.as_str()) && k.as_str() != TRACKER_OFFSET_KEY)
+    {
         return Err(RoverTomlError::UnknownKey { key: key.clone() });
     }
     let get = |key: &'static str| -> Result<f32, RoverTomlError> {
-        let value = match table.get(key) {
-            None => return Err(RoverTomlError::MissingKey { key }),
-            Some(toml::Value::Float(x)) => *x,
-            // i64 → f64 may round for |i| > 2^53, irrelevant at the f32 the model keeps.
-            Some(toml::Value::Integer(i)) => *i as f64,
-            Some(other) => {
-                return Err(RoverTomlError::NotANumber {
-                    key,
-                    found: other.type_str(),
-                })
-            }
-        };
+        let value = number(&table, key)?.ok_or(RoverTomlError::MissingKey { key })?;
         let narrow = value as f32;
         if value.is_finite() && value > 0.0 && narrow.is_finite() && narrow > 0.0 {
             Ok(narrow)
@@ -120,22 +155,38 @@ pub fn parse_rover(text: &str) -> Result<Rover, RoverTomlError> {
             Err(RoverTomlError::OutOfRange { key, value })
         }
     };
-    Ok(Rover {
+    let rover = Rover {
         track_width_m: get("track_width_m")?,
         length_m: get("length_m")?,
         wheel_radius_m: get("wheel_radius_m")?,
         mass_kg: get("mass_kg")?,
         slip_track_m: get("slip_track_m")?,
+    };
+    let tracker_offset_m = number(&table, TRACKER_OFFSET_KEY)?.unwrap_or(0.0);
+    if !tracker_offset_m.is_finite() {
+        return Err(RoverTomlError::NotFinite {
+            key: TRACKER_OFFSET_KEY,
+            value: tracker_offset_m,
+        });
+    }
+    Ok(RoverFile {
+        rover,
+        tracker_offset_m,
     })
 }
 
-/// Reads and parses a rover TOML file.
+/// Reads and parses a rover TOML file (the rover only; see [`load_rover_file`]).
 pub fn load_rover(path: &Path) -> Result<Rover, RoverFileError> {
+    load_rover_file(path).map(|f| f.rover)
+}
+
+/// Reads and parses a rover TOML file with its optional tracker offset.
+pub fn load_rover_file(path: &Path) -> Result<RoverFile, RoverFileError> {
     let text = std::fs::read_to_string(path).map_err(|source| RoverFileError::Io {
         path: path.to_owned(),
         source,
     })?;
-    parse_rover(&text).map_err(|source| RoverFileError::Invalid {
+    parse_rover_file(&text).map_err(|source| RoverFileError::Invalid {
         path: path.to_owned(),
         source,
     })
@@ -215,6 +266,23 @@ mod tests {
                 "{msg}"
             );
         }
+    }
+
+    #[test]
+    fn tracker_offset_is_optional_signed_and_finite() {
+        assert_eq!(
+            parse_rover_file(HUSKY).expect("valid").tracker_offset_m,
+            0.0
+        );
+        for (written, want) in [("0.21", 0.21), ("-0.1", -0.1), ("0", 0.0)] {
+            let f =
+                parse_rover_file(&format!("{HUSKY}tracker_offset_m = {written}\n")).expect(written);
+            assert_eq!((f.rover, f.tracker_offset_m), (Rover::HUSKY_A200, want));
+        }
+        let e = parse_rover_file(&format!("{HUSKY}tracker_offset_m = nan\n")).expect_err("nan");
+        assert!(e.to_string().contains("tracker_offset_m"), "{e}");
+        let e = parse_rover(&format!("{HUSKY}tracker_ofset_m = 0.2\n")).expect_err("typo");
+        assert!(e.to_string().contains("optionally tracker_offset_m"), "{e}");
     }
 
     #[test]

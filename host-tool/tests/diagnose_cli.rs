@@ -239,6 +239,8 @@ fn diagnose_fails_clearly_on_bad_input() {
             cmd_mps: Sides::new(0.0, 0.0),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         })
         .collect();
     write_run_csv_atomically(&still, &samples).expect("write");

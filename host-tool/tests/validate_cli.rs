@@ -38,6 +38,8 @@ fn write_run(path: &Path, standstill_only: bool) {
                         cmd_mps: Sides::new(vl, vr),
                         yaw_rad: None,
                         pitch_deg: None,
+                        x_m: None,
+                        y_m: None,
                     });
                     t += 0.02;
                 }

@@ -449,6 +449,8 @@ fn forwarded_commands_are_acked_and_the_host_tau_equals_the_boards() {
         cmd_mps: Sides::new(left, right),
         yaw_rad: yaw,
         pitch_deg: None,
+        x_m: None,
+        y_m: None,
     };
     let rows = [
         row(0.0, 0.5, 0.5, Some(0.0)),
@@ -519,6 +521,8 @@ fn the_board_reports_wheel_rates_of_forwarded_commands_in_its_status() {
             cmd_mps: Sides::new(0.33, -0.33),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         }],
         ..options(pty.path())
     };

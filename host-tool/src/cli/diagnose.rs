@@ -6,7 +6,7 @@ use super::Departure;
 use anyhow::{bail, Context, Result};
 use host_tool::diagnose::{self, calibration::Calibration, features::TurnRow, report};
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
-use host_tool::rover::load_rover;
+use host_tool::rover::load_rover_file;
 use host_tool::validate::ValidateOptions;
 use model_core::Rover;
 use std::path::PathBuf;
@@ -44,6 +44,7 @@ pub struct DiagnoseArgs {
 /// file its own run; plus the summaries' caveats.
 fn diagnosis_rows(
     rover: &Rover,
+    tracker_offset_m: f64,
     paths: &[PathBuf],
     what: &str,
 ) -> Result<(Vec<TurnRow>, Vec<String>)> {
@@ -54,8 +55,12 @@ fn diagnosis_rows(
         Vec::new()
     } else {
         let runs: Vec<PathBuf> = runs.into_iter().cloned().collect();
-        let (loaded, report) = load_and_validate(rover, &runs, &ValidateOptions::for_rover(rover))
-            .with_context(|| format!("{what} runs"))?;
+        let options = ValidateOptions {
+            tracker_offset_m,
+            ..ValidateOptions::for_rover(rover)
+        };
+        let (loaded, report) =
+            load_and_validate(rover, &runs, &options).with_context(|| format!("{what} runs"))?;
         diagnose::features::rows(&report, &loaded.sample_slices())
     };
     let mut notes = Vec::new();
@@ -88,7 +93,8 @@ impl DiagnoseArgs {
                 );
             }
         }
-        let rover = load_rover(&self.rover)?;
+        let rover_file = load_rover_file(&self.rover)?;
+        let (rover, offset) = (rover_file.rover, rover_file.tracker_offset_m);
         // Path-level summaries (thesis Table 6.1) have their own judgement.
         if self
             .runs
@@ -97,11 +103,11 @@ impl DiagnoseArgs {
         {
             return self.path_table(&rover);
         }
-        let (rows, notes) = diagnosis_rows(&rover, &self.runs, "diagnosed")?;
+        let (rows, notes) = diagnosis_rows(&rover, offset, &self.runs, "diagnosed")?;
         let cal_rows = if self.calibration.is_empty() {
             None
         } else {
-            Some(diagnosis_rows(&rover, &self.calibration, "calibration")?.0)
+            Some(diagnosis_rows(&rover, offset, &self.calibration, "calibration")?.0)
         };
         let calibration = match &cal_rows {
             Some(rows) => Calibration::Rows(rows),

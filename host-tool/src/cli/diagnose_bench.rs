@@ -25,6 +25,10 @@ pub struct DiagnoseBenchArgs {
     /// Overwrite an existing --json file.
     #[arg(long)]
     force: bool,
+    /// Keep the simulated tracker's position fixes (5 Hz prism): the diagnosis then places
+    /// turns by their measured R_ACT and sees a measured slip track.
+    #[arg(long)]
+    poses: bool,
 }
 
 /// `--part` values.
@@ -48,6 +52,7 @@ impl DiagnoseBenchArgs {
                 BenchPartArg::HeldOut => PartChoice::HeldOut,
                 BenchPartArg::Both => PartChoice::Both,
             },
+            poses: self.poses,
         };
         let report = run_bench(&options);
         if !self.json.emit(&report, "bench", self.force)? {

@@ -3,7 +3,7 @@
 use super::output::{self, write_file, JsonOut};
 use super::Departure;
 use anyhow::Result;
-use host_tool::rover::load_rover;
+use host_tool::rover::load_rover_file;
 use host_tool::runs::{truncation_warning, Runs};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
 use model_core::power::IcrHardGround;
@@ -95,8 +95,10 @@ impl ValidateArgs {
         if let Some(path) = &self.csv {
             output::check_new_file(path, self.force)?;
         }
-        let rover = load_rover(&self.rover)?;
+        let rover_file = load_rover_file(&self.rover)?;
+        let rover = rover_file.rover;
         let mut options = ValidateOptions::for_rover(&rover);
+        options.tracker_offset_m = rover_file.tracker_offset_m;
         options.turn_deg = self.turn_deg;
         options.settle_s = self.settle_s;
         options.segment.min_duration_s = self.min_duration_s;

@@ -10,10 +10,18 @@
 //! 1/(1 − s_ω) when it turns slower (Eq 6.3), so power-type effects (drag, bulldozing, offsets,
 //! heating, slope) and time-type effects (angular slip, slip track) appear in one unit, and
 //! E = P_eff · T_expected is what a planner needs for an arc.
+//!
+//! Runs with a pose track (`x_m,y_m`) put each turn where it was driven: its regime comes from
+//! the measured R_ACT and R′_ACT (the run's measured slip track / 2, Appendix D) instead of the
+//! command, and the row carries R_ACT/R′_ACT ([`MeasuredRadius`]); which one a diagnosis used
+//! is in its notes ([`radius_source_note`]). `r_over_r_prime` — the axis of the effect shapes
+//! and of the model file — stays the command's: the planner commands radii, and a term fitted
+//! on measured ratios but tabulated on commanded ones moved the demo's planned arc from 2R′
+//! to 1.6R′. Whether a manoeuvre is a calibration kind stays a property of the command too.
 
 use crate::log::run_csv::RunSample;
 use crate::validate::{ManoeuvreKind, ValidationReport};
-use model_core::kinematics::{Regime, TurnDirection};
+use model_core::kinematics::{Regime, RegimeBounds, TurnDirection};
 use model_core::Sides;
 use serde::Serialize;
 
@@ -119,6 +127,40 @@ pub struct TurnRow {
     pub calibration_kind: bool,
     /// Per side or the total only.
     pub observed: Observed,
+    /// The turn as measured by a pose track; `None` without one (the regime is then the
+    /// command's).
+    pub measured: Option<MeasuredRadius>,
+}
+
+/// A turn's radius as a pose track measured it (`validate`'s R_ACT, Section 5.1).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MeasuredRadius {
+    /// R_ACT [m].
+    pub r_act_m: f64,
+    /// R_ACT / R'_ACT.
+    pub r_act_over_r_prime_act: f64,
+    /// The run's measured slip track (Appendix D) [m]; 2 R'_ACT.
+    pub slip_track_m: f64,
+}
+
+/// Which radius the rows' regimes and R/R' came from, for a diagnosis' notes.
+pub fn radius_source_note(rows: &[TurnRow]) -> Option<String> {
+    let turns = rows.iter().filter(|r| !r.is_straight()).count();
+    let measured: Vec<&MeasuredRadius> = rows.iter().filter_map(|r| r.measured.as_ref()).collect();
+    if measured.is_empty() {
+        return None;
+    }
+    let mut tracks: Vec<f64> = measured.iter().map(|m| m.slip_track_m).collect();
+    tracks.sort_by(f64::total_cmp);
+    tracks.dedup();
+    let list: Vec<String> = tracks.iter().map(|b| format!("{b:.3}")).collect();
+    Some(format!(
+        "regimes from the measured R_ACT/R'_ACT (pose track) on {} of {turns} turns, the rest \
+         from the command (the R/R' axis of the effect terms and the model file stays the \
+         commanded one); measured slip track {} m",
+        measured.len(),
+        list.join(", ")
+    ))
 }
 
 impl TurnRow {
@@ -227,7 +269,17 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
                 .sum::<f64>()
                 / span.len() as f64
         };
-        let r_over_r_prime = m.r_over_r_prime.unwrap_or(f64::INFINITY);
+        let r_over_r_prime_cmd = m.r_over_r_prime.unwrap_or(f64::INFINITY);
+        let measured = measured_radius(report, run_index, m.r_act_m, m.r_act_over_r_prime_act);
+        let regime = match measured {
+            Some(mr) if !straight => Regime::of(
+                mr.r_act_m as f32,
+                &report.rover.with_slip_track(mr.slip_track_m as f32),
+                &RegimeBounds::default(),
+            ),
+            _ => regime,
+        };
+        let r_over_r_prime = r_over_r_prime_cmd;
         let still = standstill.get(run_index).copied().flatten();
         out.push(TurnRow {
             run: m.run.clone(),
@@ -256,10 +308,26 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
             bus_v,
             sides,
             calibration_kind: straight
-                || regime == Regime::Point
-                || r_over_r_prime >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
+                || m.regime == Some(Regime::Point)
+                || r_over_r_prime_cmd >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
             observed: Observed::Sides,
+            measured: measured.filter(|_| !straight),
         });
     }
     out
+}
+
+/// The turn's measured radius when its run has a measured slip track.
+fn measured_radius(
+    report: &ValidationReport,
+    run_index: usize,
+    r_act_m: Option<f64>,
+    ratio: Option<f64>,
+) -> Option<MeasuredRadius> {
+    let slip_track_m = report.runs.get(run_index)?.slip_track_measured_m?;
+    Some(MeasuredRadius {
+        r_act_m: r_act_m?,
+        r_act_over_r_prime_act: ratio?,
+        slip_track_m,
+    })
 }

@@ -258,6 +258,7 @@ pub fn diagnose_with(
     // A sensor's current offset reads at standstill too (seed Fig 3.3: 0.59 A at rest): when
     // the runs have standstill samples and every side reads no more than a driver's quiescent
     // draw there, a constant extra power in the turns is something else (copper loss, say).
+    notes.extend(features::radius_source_note(rows));
     let offset_seen = offset_seen_at_standstill(rows);
     if !offset_seen {
         notes.push(format!(

@@ -387,6 +387,7 @@ pub fn summary_rows(rover: &Rover, rows: &[SummaryRow], run: &str) -> Vec<TurnRo
                 observed: Observed::Total {
                     avg_power_w: s.avg_power_w,
                 },
+                measured: None,
             }
         })
         .collect()

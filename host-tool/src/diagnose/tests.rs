@@ -176,6 +176,45 @@ fn slip_track_on_the_calibration_is_the_terrains() {
     assert_eq!(d.effect, "none", "{}", summary(&d));
 }
 
+/// The same world with its pose track (the 5 Hz prism, 0.21 m right of the centre): the
+/// calibration turns' constant slip is what the measured slip track (≈ 1.29 m) explains, so it
+/// is not the terrain's; `slip-track` is named, with a higher held-out shrink than the
+/// diagnosis without poses, and the notes say the regimes came from R_ACT.
+#[test]
+fn slip_track_is_named_with_a_pose_track() {
+    let world = WorldConfig::hard_ground().with_effect(EffectId::SlipTrack, true);
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run(&world, &scenario(), 10 + k))
+        .collect();
+    let offset = Some(world.tracker.offset_m);
+    let rows = super::bench::rows_for(&HUSKY, &runs, "run", offset).expect("validates");
+    assert!(rows
+        .iter()
+        .filter(|r| !r.is_straight())
+        .all(|r| r.measured.is_some()));
+    let with = super::diagnose(&HUSKY, &rows).expect("diagnoses");
+    let without = super::diagnose(&HUSKY, &rows_of(&runs)).expect("diagnoses");
+    assert_eq!(with.baseline.turn_slip, 0.0);
+    assert_eq!(with.effect, "slip-track", "{}", summary(&with));
+    let shrink = |d: &super::Diagnosis| {
+        d.candidates
+            .iter()
+            .find(|c| c.effect == EffectId::SlipTrack)
+            .map_or(0.0, |c| c.shrink_pct)
+    };
+    assert!(
+        shrink(&with) > shrink(&without) + 30.0,
+        "{} vs {}",
+        summary(&with),
+        summary(&without)
+    );
+    assert!(
+        with.notes.iter().any(|n| n.contains("measured R_ACT")),
+        "{:?}",
+        with.notes
+    );
+}
+
 fn summary(d: &super::Diagnosis) -> String {
     let c: Vec<String> = d
         .candidates

@@ -20,16 +20,22 @@ pub struct CommandRow {
     pub yaw_rad: Option<f64>,
     /// Pitch [deg], nose-up positive, if tracked.
     pub pitch_deg: Option<f64>,
+    /// The tracked point's x in the fixed frame [m], if the tracker had a fix at `t_s`.
+    pub x_m: Option<f64>,
+    /// The tracked point's y [m], with `x_m`.
+    pub y_m: Option<f64>,
 }
 
 /// The columns of a commands CSV, in the order this tool writes them; the first three are
 /// required. They are the run CSV's columns of the same names (same units and signs).
-pub const COMMAND_COLUMNS: [Column; 5] = [
+pub const COMMAND_COLUMNS: [Column; 7] = [
     Column::TimeS,
     Column::CmdLeftMps,
     Column::CmdRightMps,
     Column::YawRad,
     Column::PitchDeg,
+    Column::XM,
+    Column::YM,
 ];
 
 /// Streaming reader of a commands CSV: an iterator of rows. Stops after the first error.
@@ -37,7 +43,8 @@ pub const COMMAND_COLUMNS: [Column; 5] = [
 /// # Format
 ///
 /// Header row with `t_s,cmd_left_mps,cmd_right_mps` (required, any order) and optionally
-/// `yaw_rad,pitch_deg` (the tracker's pose; cells may be empty); other columns are ignored. The
+/// `yaw_rad,pitch_deg,x_m,y_m` (the tracker's pose; cells may be empty, position cells `NaN`);
+/// other columns are ignored. The
 /// cell, quoting, line-end and error rules are the run CSV's ([`super::run_csv`]): finite
 /// numbers, `t_s` strictly increasing, errors naming line and column.
 #[derive(Debug)]
@@ -69,6 +76,8 @@ impl<R: BufRead> CommandsCsvReader<R> {
             ),
             yaw_rad: t.value(line, Column::YawRad)?,
             pitch_deg: t.value(line, Column::PitchDeg)?,
+            x_m: t.value(line, Column::XM)?,
+            y_m: t.value(line, Column::YM)?,
         };
         self.table.accept_time(line, t_s)?;
         Ok(Some(row))
@@ -90,7 +99,7 @@ impl<R: BufRead> Iterator for CommandsCsvReader<R> {
     }
 }
 
-/// Writes a commands CSV: the header with all five [`COMMAND_COLUMNS`], then one row per
+/// Writes a commands CSV: the header with all seven [`COMMAND_COLUMNS`], then one row per
 /// command; `None` is an empty cell; numbers round-trip bit for bit.
 #[derive(Debug)]
 pub struct CommandsCsvWriter<W: Write> {
@@ -118,6 +127,8 @@ impl<W: Write> CommandsCsvWriter<W> {
             Some(row.cmd_mps.right),
             row.yaw_rad,
             row.pitch_deg,
+            row.x_m,
+            row.y_m,
         ];
         write_row(
             &mut self.out,
@@ -190,6 +201,8 @@ mod tests {
             cmd_mps: Sides::new(left, right),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         }
     }
 

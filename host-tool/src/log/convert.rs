@@ -177,6 +177,8 @@ mod tests {
                     cmd_mps: Sides::new(0.2 * t, -0.3),
                     yaw_rad: (i % 2 == 0).then_some(0.123_456_789 * t),
                     pitch_deg: (i % 5 != 0).then_some(-2.5),
+                    x_m: None,
+                    y_m: None,
                 }
             })
             .collect()

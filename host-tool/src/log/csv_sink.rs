@@ -7,7 +7,7 @@
 //! 200 ms) with one write, so a killed process leaves a valid run CSV up to the last flush. A kill
 //! that lands inside that write can leave the last row cut; the run CSV reader then reports it
 //! (a row with too few cells, or a cell that is not a number), unless the cut falls inside the
-//! last cell of the row — the `pitch_deg` cell, empty unless a tracker's pitch is recorded.
+//! last cell of the row — the `y_m` cell, empty unless a tracker's position is recorded.
 //! [`RunLogSink::finish`] flushes and fsyncs both files.
 
 use super::commands::CommandRow;
@@ -242,6 +242,8 @@ mod tests {
             cmd_mps: Sides::new(0.2, 0.4),
             yaw_rad: None,
             pitch_deg: Some(1.5),
+            x_m: None,
+            y_m: None,
         }
     }
 

@@ -8,7 +8,7 @@
 //!
 //! | topic | schema | what |
 //! |---|---|---|
-//! | `/rover_power/sample` | `rover_power.Sample` | the physical sample: `t_s`, per side (`left`, `right`) `bus_v`, `current_a`, `power_w` (= bus × current), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured |
+//! | `/rover_power/sample` | `rover_power.Sample` | the physical sample: `t_s`, per side (`left`, `right`) `bus_v`, `current_a`, `power_w` (= bus × current), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured; `x_m`, `y_m` when a tracker fix landed on the sample |
 //! | `/rover_power/model` | `rover_power.Model` | the board's on-device model frame: per side `power_w`, `energy_j`, `tau_w_per_rad_s` (τ ∝ P/ω, Eq 5.14), in SI units at the board's scale |
 //! | `/rover_power/status` | `rover_power.Status` | the board's status frame (health counters) |
 //! | `/rover_power/command` | `rover_power.Command` | commanded side speeds and tracked pose |
@@ -204,6 +204,10 @@ struct SampleMsg {
     yaw_rad: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pitch_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    x_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    y_m: Option<f64>,
 }
 
 impl SampleMsg {
@@ -220,6 +224,8 @@ impl SampleMsg {
             right: side(s.bus_v.right, s.current_a.right, s.cmd_mps.right),
             yaw_rad: s.yaw_rad,
             pitch_deg: s.pitch_deg,
+            x_m: s.x_m,
+            y_m: s.y_m,
         }
     }
 
@@ -231,6 +237,8 @@ impl SampleMsg {
             cmd_mps: Sides::new(self.left.cmd_mps, self.right.cmd_mps),
             yaw_rad: self.yaw_rad,
             pitch_deg: self.pitch_deg,
+            x_m: self.x_m,
+            y_m: self.y_m,
         }
     }
 }
@@ -244,6 +252,10 @@ struct CommandMsg {
     yaw_rad: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pitch_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    x_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    y_m: Option<f64>,
 }
 
 impl CommandMsg {
@@ -253,6 +265,8 @@ impl CommandMsg {
             cmd_mps: c.cmd_mps,
             yaw_rad: c.yaw_rad,
             pitch_deg: c.pitch_deg,
+            x_m: c.x_m,
+            y_m: c.y_m,
         }
     }
 
@@ -262,6 +276,8 @@ impl CommandMsg {
             cmd_mps: self.cmd_mps,
             yaw_rad: self.yaw_rad,
             pitch_deg: self.pitch_deg,
+            x_m: self.x_m,
+            y_m: self.y_m,
         }
     }
 }
@@ -352,7 +368,9 @@ mod schema {
     "left": {"$ref": "#/$defs/side"},
     "right": {"$ref": "#/$defs/side"},
     "yaw_rad": {"type": "number", "description": "yaw [rad], counter-clockwise positive"},
-    "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive"}
+    "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive"},
+    "x_m": {"type": "number", "description": "tracked point x in the fixed frame [m], when a fix landed on this sample"},
+    "y_m": {"type": "number", "description": "tracked point y in the fixed frame [m], with x_m"}
   },
   "required": ["t_s", "left", "right"],
   "$defs": {
@@ -447,7 +465,9 @@ mod schema {
       "description": "commanded side speeds [m/s], positive forward"
     },
     "yaw_rad": {"type": "number"},
-    "pitch_deg": {"type": "number"}
+    "pitch_deg": {"type": "number"},
+    "x_m": {"type": "number"},
+    "y_m": {"type": "number"}
   },
   "required": ["t_s", "cmd_mps"]
 }"##;

@@ -5,12 +5,17 @@
 //!
 //! - The first non-blank row is the header. Required columns, in any order:
 //!   `t_s,left_bus_v,left_current_a,right_bus_v,right_current_a,cmd_left_mps,cmd_right_mps`;
-//!   optional: `yaw_rad,pitch_deg`. Other columns are ignored; a known column named twice is an
-//!   error. Names are case-sensitive.
+//!   optional: `yaw_rad,pitch_deg,x_m,y_m`. Other columns are ignored; a known column named twice
+//!   is an error. Names are case-sensitive.
 //! - Units and signs (the format's definition): time in s; bus voltage in V; current in A,
 //!   positive when the motor driver draws from the battery; `cmd_*_mps` the commanded linear speed
 //!   of each side in m/s, positive forward; yaw in rad, counter-clockwise (seen from above)
-//!   positive; pitch in degrees, nose-up positive.
+//!   positive; pitch in degrees, nose-up positive; `x_m,y_m` the tracked point (a prism, an RTK
+//!   antenna, a motion-capture marker) in a fixed right-handed frame, metres, seen from above
+//!   (the yaw's frame: counter-clockwise from +x). A tracker reports at its own rate: rows
+//!   between its fixes leave both cells empty. `x_m` and `y_m` come together (header and row).
+//!   A position cell may read `NaN` (a total station that lost the prism): it is a dropout,
+//!   read as an empty cell.
 //! - Every row has exactly as many cells as the header. Required cells hold a finite number
 //!   (anything Rust's `f64` parser takes: `1`, `-0.5`, `1e-3`); optional cells may be empty
 //!   (→ `None`). NaN and infinities are rejected.
@@ -46,6 +51,20 @@ pub struct RunSample {
     pub yaw_rad: Option<f64>,
     /// Pitch [deg], nose-up positive, if measured.
     pub pitch_deg: Option<f64>,
+    /// Tracked point's x in the fixed frame [m], if a fix landed on this sample.
+    pub x_m: Option<f64>,
+    /// Tracked point's y in the fixed frame [m], if a fix landed on this sample.
+    pub y_m: Option<f64>,
+}
+
+impl RunSample {
+    /// The tracked point (x, y) [m] when both coordinates are present and finite.
+    pub fn position_m(&self) -> Option<(f64, f64)> {
+        match (self.x_m, self.y_m) {
+            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Some((x, y)),
+            _ => None,
+        }
+    }
 }
 
 /// Highest bus voltage the INA226 reads: its bus input's full scale, 32 768 × 1.25 mV [V].
@@ -75,6 +94,10 @@ pub enum Column {
     YawRad,
     /// `pitch_deg` (optional)
     PitchDeg,
+    /// `x_m` (optional, with `y_m`)
+    XM,
+    /// `y_m` (optional, with `x_m`)
+    YM,
 }
 
 impl Column {
@@ -89,9 +112,11 @@ impl Column {
         Column::CmdRightMps,
     ];
     /// The optional columns, in the order this tool writes them (after the required ones).
-    pub const OPTIONAL: [Column; 2] = [Column::YawRad, Column::PitchDeg];
+    pub const OPTIONAL: [Column; 4] = [Column::YawRad, Column::PitchDeg, Column::XM, Column::YM];
+    /// Optional columns whose `NaN` cells read as empty (a tracker's dropout).
+    pub const NAN_IS_EMPTY: [Column; 2] = [Column::XM, Column::YM];
     /// All columns in the order this tool writes them.
-    pub const ALL: [Column; 9] = [
+    pub const ALL: [Column; 11] = [
         Column::TimeS,
         Column::LeftBusV,
         Column::LeftCurrentA,
@@ -101,6 +126,8 @@ impl Column {
         Column::CmdRightMps,
         Column::YawRad,
         Column::PitchDeg,
+        Column::XM,
+        Column::YM,
     ];
 
     /// The column's header name.
@@ -115,6 +142,8 @@ impl Column {
             Column::CmdRightMps => "cmd_right_mps",
             Column::YawRad => "yaw_rad",
             Column::PitchDeg => "pitch_deg",
+            Column::XM => "x_m",
+            Column::YM => "y_m",
         }
     }
 
@@ -221,6 +250,16 @@ pub enum RunCsvError {
         /// 1-based position of its second occurrence.
         second: usize,
     },
+    /// One of a pair of columns that only come together (`x_m`, `y_m`) is in the header alone.
+    #[error("line {line}: column `{present}` needs column `{missing}` in the header too")]
+    UnpairedColumn {
+        /// The header's line.
+        line: u64,
+        /// The column present.
+        present: Column,
+        /// Its partner, absent.
+        missing: Column,
+    },
     /// A row has a different number of cells than the header.
     #[error("line {line}: row has {found} cells, the header has {expected}")]
     CellCount {
@@ -290,7 +329,7 @@ fn cut(text: &str) -> String {
 pub(crate) struct Table<R> {
     records: Records<R>,
     /// Cell position of each column (`None`: an optional column that is absent).
-    positions: [Option<usize>; 9],
+    positions: [Option<usize>; Column::ALL.len()],
     cells: usize,
     previous_t_s: Option<f64>,
 }
@@ -302,7 +341,7 @@ impl<R: BufRead> Table<R> {
         let Some(line) = records.next_record()? else {
             return Err(RunCsvError::NoHeader);
         };
-        let mut positions = [None; 9];
+        let mut positions = [None; Column::ALL.len()];
         for i in 0..records.len() {
             let Some(column) = records.cell_str(i).and_then(Column::from_name) else {
                 continue;
@@ -319,6 +358,15 @@ impl<R: BufRead> Table<R> {
         }
         if let Some(&column) = required.iter().find(|c| positions[c.index()].is_none()) {
             return Err(RunCsvError::MissingColumn { line, column });
+        }
+        for (present, missing) in [(Column::XM, Column::YM), (Column::YM, Column::XM)] {
+            if positions[present.index()].is_some() && positions[missing.index()].is_none() {
+                return Err(RunCsvError::UnpairedColumn {
+                    line,
+                    present,
+                    missing,
+                });
+            }
         }
         Ok(Self {
             cells: records.len(),
@@ -380,7 +428,9 @@ impl<R: BufRead> Table<R> {
             .cell_str(i)
             .and_then(|s| s.parse().ok())
             .ok_or_else(|| err(CellProblem::NotANumber))?;
-        if !value.is_finite() {
+        if value.is_nan() && Column::NAN_IS_EMPTY.contains(&column) {
+            Ok(None)
+        } else if !value.is_finite() {
             Err(err(CellProblem::NotFinite))
         } else if column
             .range()
@@ -486,6 +536,11 @@ impl<R: BufRead> RunCsvReader<R> {
         self.table.has(Column::PitchDeg)
     }
 
+    /// Whether the file has the `x_m,y_m` columns of a tracked point.
+    pub fn has_position(&self) -> bool {
+        self.table.has(Column::XM)
+    }
+
     fn next_sample(&mut self) -> Result<Option<RunSample>, RunCsvError> {
         loop {
             let error = match self.next_row_sample() {
@@ -531,6 +586,8 @@ impl<R: BufRead> RunCsvReader<R> {
             ),
             yaw_rad: t.value(line, Column::YawRad)?,
             pitch_deg: t.value(line, Column::PitchDeg)?,
+            x_m: t.value(line, Column::XM)?,
+            y_m: t.value(line, Column::YM)?,
         };
         self.table.accept_time(line, t_s)?;
         Ok(Some(sample))
@@ -793,7 +850,7 @@ impl<R: BufRead> Records<R> {
     }
 }
 
-/// Writes a run CSV: the header with all nine columns, then one row per sample; `None` is an
+/// Writes a run CSV: the header with all eleven columns, then one row per sample; `None` is an
 /// empty cell. Numbers are written with `f64`'s shortest round-trip representation, so reading
 /// the file back gives the same values bit for bit.
 #[derive(Debug)]
@@ -827,6 +884,8 @@ impl<W: Write> RunCsvWriter<W> {
             Some(sample.cmd_mps.right),
             sample.yaw_rad,
             sample.pitch_deg,
+            sample.x_m,
+            sample.y_m,
         ];
         write_row(
             &mut self.out,

@@ -809,6 +809,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
         ) {
             (Some(left), Some(right)) => {
                 let scale = self.scale;
+                let fix = self.timeline.fix_m(t_s);
                 let row = RunSample {
                     t_s,
                     bus_v: Sides::new(scale.bus_v(left.bus), scale.bus_v(right.bus)),
@@ -819,6 +820,8 @@ impl<'a, 'o> Recorder<'a, 'o> {
                     cmd_mps: self.timeline.cmd_mps(t_s),
                     yaw_rad: self.timeline.yaw_rad(t_s),
                     pitch_deg: self.timeline.pitch_deg(t_s),
+                    x_m: fix.map(|p| p.0),
+                    y_m: fix.map(|p| p.1),
                 };
                 self.sink.sample(&row).map_err(RecordError::Sink)?;
                 self.rows += 1;

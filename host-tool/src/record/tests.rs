@@ -304,18 +304,24 @@ fn commands_are_forwarded_once_per_change_and_copied_into_the_samples() {
             cmd_mps: Sides::new(0.33, 0.66),
             yaw_rad: Some(0.0),
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         },
         CommandRow {
             t_s: 0.05,
             cmd_mps: Sides::new(0.33, 0.66),
             yaw_rad: Some(0.1),
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         },
         CommandRow {
             t_s: 0.1,
             cmd_mps: Sides::new(-0.165, 0.165),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         },
     ];
     let options = RecordOptions {
@@ -371,6 +377,8 @@ fn bad_commands_and_unknown_formats_are_refused_up_front() {
             cmd_mps: Sides::new(0.0, 200.0),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         }],
         ..fast_options()
     };

@@ -1,5 +1,5 @@
 //! The commands file as a function of run time: the commanded side speeds in force at each
-//! sample, and the tracker's pose interpolated between its rows.
+//! sample, the tracker's yaw and pitch interpolated between its rows, and its position fixes.
 
 use crate::log::commands::CommandRow;
 use core::f64::consts::PI;
@@ -16,8 +16,12 @@ pub struct CommandTimeline {
     rows: Vec<CommandRow>,
     yaw: Vec<(f64, f64)>,
     pitch: Vec<(f64, f64)>,
-    /// The previous look-up's `partition_point` in `rows`, `yaw` and `pitch`.
-    hints: [Cell<usize>; 3],
+    /// Position fixes (t_s, x_m, y_m).
+    fixes: Vec<(f64, f64, f64)>,
+    /// The previous look-up's `partition_point` in `rows`, `yaw`, `pitch` and `fixes`.
+    hints: [Cell<usize>; 4],
+    /// Fixes already handed out by [`CommandTimeline::fix_m`].
+    fixes_given: Cell<usize>,
 }
 
 impl PartialEq for CommandTimeline {
@@ -88,8 +92,13 @@ impl CommandTimeline {
                 .collect::<Vec<_>>()
         };
         Self {
+            fixes_given: Cell::new(0),
             yaw: track(|r| r.yaw_rad),
             pitch: track(|r| r.pitch_deg),
+            fixes: rows
+                .iter()
+                .filter_map(|r| Some((r.t_s, r.x_m?, r.y_m?)))
+                .collect(),
             rows,
             hints: Default::default(),
         }
@@ -137,6 +146,22 @@ impl CommandTimeline {
     pub fn pitch_deg(&self, t_s: f64) -> Option<f64> {
         interpolate(&self.pitch, &self.hints[2], t_s, false)
     }
+
+    /// The tracker's newest position fix (x, y) [m] at or before `t_s` that no earlier call
+    /// returned, for samples taken at non-decreasing times. A fix is a measurement of one
+    /// instant, so it lands on one sample (the first at or after it) instead of being
+    /// interpolated into a 200 Hz track the tracker never measured; the ≤ one sample period of
+    /// time shift moves it along the path only (the circle fit does not see it).
+    pub fn fix_m(&self, t_s: f64) -> Option<(f64, f64)> {
+        let fixes = &self.fixes;
+        let n = partition_after(&self.hints[3], fixes.len(), |k| fixes[k].0, t_s);
+        if n <= self.fixes_given.get() {
+            return None;
+        }
+        self.fixes_given.set(n);
+        let &(_, x, y) = fixes.get(n - 1)?;
+        Some((x, y))
+    }
 }
 
 #[cfg(test)]
@@ -149,6 +174,8 @@ mod tests {
             cmd_mps: Sides::new(left, -left),
             yaw_rad: yaw,
             pitch_deg: pitch,
+            x_m: None,
+            y_m: None,
         }
     }
 
@@ -221,6 +248,35 @@ mod tests {
         assert!((tl.yaw_rad(1.0).expect("yaw") - 0.5).abs() < 1e-12);
         assert!((tl.pitch_deg(1.5).expect("pitch") - 3.5).abs() < 1e-12);
         assert_eq!(tl.yaw_rad(5.0), Some(1.0), "held after the last");
+    }
+
+    #[test]
+    fn each_fix_lands_on_one_sample() {
+        let mut rows: Vec<CommandRow> = (0..4)
+            .map(|k| row(f64::from(k) * 0.2, 0.3, None, None))
+            .collect();
+        rows[0].x_m = Some(1.0);
+        rows[0].y_m = Some(2.0);
+        rows[2].x_m = Some(3.0);
+        rows[2].y_m = Some(4.0);
+        rows[3].x_m = Some(5.0); // no y: not a fix
+        let tl = CommandTimeline::new(rows);
+        let got: Vec<Option<(f64, f64)>> = [0.0, 0.005, 0.2, 0.4, 0.405, 0.6, 0.8]
+            .iter()
+            .map(|&t| tl.fix_m(t))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                Some((1.0, 2.0)),
+                None,
+                None,
+                Some((3.0, 4.0)),
+                None,
+                None,
+                None
+            ]
+        );
     }
 
     #[test]

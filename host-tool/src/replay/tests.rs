@@ -168,6 +168,8 @@ fn csv_samples_replay_as_frames_within_quantisation() {
                 cmd_mps: Sides::new(0.4, 0.6),
                 yaw_rad: None,
                 pitch_deg: None,
+                x_m: None,
+                y_m: None,
             }
         })
         .collect();
@@ -227,6 +229,8 @@ fn synthesised_model_frames_match_the_hosts_recomputation() {
             cmd_mps: Sides::new(0.0, 0.0),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         })
         .collect();
     let frames = frames_of(

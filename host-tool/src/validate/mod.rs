@@ -4,12 +4,15 @@
 //! power growth through the turn), the ICR model Eq 2.12 is fitted to the turns' average power
 //! ([`fit`]: c₁, c₂ and c₃ with pitch, 95 % intervals, r²) and compared per manoeuvre and regime
 //! with the measurement and with the hard-ground model (paper Eq 21), and the board's on-device
-//! model frames are checked against the host's recomputation ([`crosscheck`]).
+//! model frames are checked against the host's recomputation ([`crosscheck`]). Runs with a
+//! tracked point's positions (`x_m,y_m`) also get each turn's measured radius R_ACT and the
+//! run's measured slip track ([`pose`], Section 5.1 and Appendix D).
 //!
 //! The one entry point is [`validate`]; runs are independent (nothing is merged across runs).
 
 pub mod crosscheck;
 pub mod fit;
+pub mod pose;
 pub mod report;
 pub mod segment;
 pub mod turns;
@@ -76,6 +79,9 @@ pub struct ValidateOptions {
     pub departure_fraction: f64,
     /// The hard-ground reference model; `None` for no reference.
     pub hard_ground: Option<IcrHardGround>,
+    /// Lateral offset of the tracked point (`x_m,y_m`) from the rover's centre, right
+    /// positive [m] (the rover TOML's `tracker_offset_m`; the thesis' prism: 0.21).
+    pub tracker_offset_m: f64,
 }
 
 impl Default for ValidateOptions {
@@ -86,6 +92,7 @@ impl Default for ValidateOptions {
             turn_deg: DEFAULT_TURN_DEG,
             departure_fraction: DEFAULT_DEPARTURE_FRACTION,
             hard_ground: None,
+            tracker_offset_m: 0.0,
         }
     }
 }
@@ -154,6 +161,7 @@ fn check_options(options: &ValidateOptions) -> Result<(), ValidateError> {
             options.departure_fraction,
             options.departure_fraction > 0.0,
         ),
+        ("tracker_offset_m", options.tracker_offset_m, true),
     ];
     for (name, value, ok) in checks {
         if !(ok && value.is_finite()) {
@@ -178,7 +186,11 @@ pub fn validate(
     let mut run_reports = Vec::with_capacity(runs.len());
     let mut rows = Vec::new();
     let (mut spans, mut standstill, mut too_short) = (0, 0, 0);
+    let mut any_positions = false;
     for run in runs {
+        let has_positions = pose::has_positions(run.samples);
+        any_positions |= has_positions;
+        let first_row = rows.len();
         let segs = segment::segment(run.samples, rover, &options.segment).map_err(|source| {
             ValidateError::Run {
                 name: run.name.to_owned(),
@@ -203,6 +215,8 @@ pub fn validate(
             too_short: 0,
             analysed: 0,
             cross_check: crosscheck::cross_check(run.frames, run.commands, rover),
+            slip_track_measured_m: None,
+            slip_track_measured: None,
         };
         for (index, seg) in segs.iter().enumerate() {
             if seg.kind == ManoeuvreKind::Standstill {
@@ -215,6 +229,20 @@ pub fn validate(
             }
             report.analysed += 1;
             let stats = turns::analyse(run.samples, seg, rover, &turn_options);
+            let track = (has_positions && seg.kind == ManoeuvreKind::Turn).then(|| {
+                let turn = pose::TurnContext {
+                    rover,
+                    cmd_mps: seg.cmd_mps,
+                    direction: seg.direction,
+                    radius_cmd_m: seg.radius_cmd_m,
+                    yaw_rate_cmd_rad_s: stats.yaw_rate_cmd_rad_s,
+                    tracker_offset_m: options.tracker_offset_m,
+                };
+                pose::analyse_track(
+                    turns::steady_part(run.samples, seg, options.settle_s),
+                    &turn,
+                )
+            });
             let speeds = SideSpeeds::new(seg.cmd_mps.left as f32, seg.cmd_mps.right as f32);
             rows.push(ManoeuvreRow {
                 run: run.name.to_owned(),
@@ -235,7 +263,13 @@ pub fn validate(
                 fit: None,
                 hard_ground_w: None,
                 hard_ground_residual_fraction: None,
+                r_act_m: track.as_ref().and_then(|t| t.r_act_m),
+                r_act_over_r_prime_act: None,
+                track,
             });
+        }
+        if has_positions {
+            apply_measured_slip_track(&mut report, &mut rows[first_row..], rover);
         }
         spans += report.segments;
         standstill += report.standstill;
@@ -318,6 +352,7 @@ pub fn validate(
             departure_fraction: options.departure_fraction,
             r_prime_fraction: f64::from(bounds.r_prime_fraction),
             straight_from_m: f64::from(bounds.straight_from_m),
+            tracker_offset_m: any_positions.then_some(options.tracker_offset_m),
         },
         runs: run_reports,
         manoeuvres: rows,
@@ -335,6 +370,40 @@ pub fn validate(
         regimes,
         plot,
     })
+}
+
+/// Appendix D per run: the measured slip track from its turns' R_ACT, then R′_ACT = B_s/2,
+/// each turn's R_ACT/R′_ACT (Table 6.1's axis) and its slip angles (Eq 5.1–5.2). R′_ACT is the
+/// radius driven when R′ is commanded (Eq 5.1's definition, Table D.1: B_s = 2 R_ACT there), so
+/// the run's turns commanded at R′ give it when it has any; else all its turns do.
+fn apply_measured_slip_track(report: &mut RunReport, rows: &mut [ManoeuvreRow], rover: &Rover) {
+    let of = |at_r_prime: bool| -> Vec<f64> {
+        rows.iter()
+            .filter(|r| !at_r_prime || r.regime == Some(Regime::AtRPrime))
+            .filter_map(|r| r.track.as_ref()?.slip_track_m)
+            .collect()
+    };
+    let mut per_turn = of(true);
+    if per_turn.is_empty() {
+        per_turn = of(false);
+    }
+    let Some(measured) = pose::measured_slip_track(&per_turn) else {
+        return;
+    };
+    report.slip_track_measured_m = Some(measured.slip_track_m);
+    report.slip_track_measured = Some(measured);
+    let r_prime_act = measured.slip_track_m / 2.0;
+    for row in rows.iter_mut() {
+        let Some(r_act) = row.r_act_m else { continue };
+        row.r_act_over_r_prime_act = (r_prime_act > 0.0).then(|| r_act / r_prime_act);
+        if let Some(track) = row.track.as_mut() {
+            track.slip_angles_deg = Some(kinematics::slip_angles(
+                r_act as f32,
+                r_prime_act as f32,
+                rover,
+            ));
+        }
+    }
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {

@@ -4,6 +4,7 @@
 
 use super::crosscheck::CrossCheck;
 use super::fit::{Comparison, IcrFit};
+use super::pose::{MeasuredSlipTrack, TrackStats};
 use super::segment::ManoeuvreKind;
 use super::turns::{ManoeuvreStats, SideTotal};
 use model_core::kinematics::{Regime, TurnDirection};
@@ -76,6 +77,17 @@ pub struct ManoeuvreRow {
     pub hard_ground_w: Option<f64>,
     /// (measured − hard-ground) / hard-ground.
     pub hard_ground_residual_fraction: Option<f64>,
+    /// R_ACT: the radius the rover's centre drove, from the pose track (Section 5.1) [m];
+    /// absent for runs without positions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub r_act_m: Option<f64>,
+    /// R_ACT / R′_ACT with R′_ACT = the run's measured slip track / 2 (Table 6.1's axis).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub r_act_over_r_prime_act: Option<f64>,
+    /// The pose track's details (fixes, fit residual, angular slip, wheel speeds, notes);
+    /// turns of runs with positions only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub track: Option<TrackStats>,
 }
 
 /// What one run contributed.
@@ -104,6 +116,14 @@ pub struct RunReport {
     /// The board's model frames against the host's recomputation; `None` for a run without
     /// frames (a run CSV).
     pub cross_check: Option<CrossCheck>,
+    /// Appendix D: the slip track measured from the turns' R_ACT (median over the turns
+    /// commanded at R′, else over all) [m]; runs with positions and at least one turn other
+    /// than a point turn.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slip_track_measured_m: Option<f64>,
+    /// The same with its spread over the turns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slip_track_measured: Option<MeasuredSlipTrack>,
 }
 
 /// Departures from the fitted model, summarised per regime.
@@ -216,6 +236,9 @@ pub struct Settings {
     pub r_prime_fraction: f64,
     /// Radii at or above this are straight [m].
     pub straight_from_m: f64,
+    /// The tracked point's lateral offset, right positive [m]; when some run has positions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracker_offset_m: Option<f64>,
 }
 
 /// Everything `validate` found.
@@ -288,6 +311,24 @@ pub const CSV_COLUMNS: [&str; 43] = [
     "hard_ground_residual_fraction",
 ];
 
+/// The CSV columns [`ValidationReport::write_csv`] adds after [`CSV_COLUMNS`] when some run has
+/// positions (`slip_track_measured_m`: the run's).
+pub const POSE_CSV_COLUMNS: [&str; 13] = [
+    "r_act_m",
+    "r_act_over_r_prime_act",
+    "slip_track_measured_m",
+    "track_fixes",
+    "track_filled",
+    "track_fit_rms_m",
+    "track_swept_deg",
+    "track_yaw_rate_act_rad_s",
+    "track_angular_slip",
+    "track_inner_speed_mps",
+    "track_outer_speed_mps",
+    "track_slip_track_m",
+    "track_notes",
+];
+
 /// A CSV number in its shortest form; a value computed in f32 (the board's kinematics) in the
 /// f32's shortest form (`0.3`, not `0.30000001192092896`).
 fn cell(v: Option<f64>) -> String {
@@ -310,13 +351,32 @@ fn quote(s: &str) -> String {
 }
 
 impl ValidationReport {
-    /// Writes the per-manoeuvre table as CSV (header [`CSV_COLUMNS`]; empty cells for "none").
+    /// Whether some run had positions (the pose columns and table are written).
+    pub fn has_positions(&self) -> bool {
+        self.settings.tracker_offset_m.is_some()
+    }
+
+    /// The run's measured slip track [m].
+    fn slip_track_of(&self, run: &str) -> Option<f64> {
+        self.runs
+            .iter()
+            .find(|r| r.name == run)
+            .and_then(|r| r.slip_track_measured_m)
+    }
+
+    /// Writes the per-manoeuvre table as CSV (header [`CSV_COLUMNS`], then
+    /// [`POSE_CSV_COLUMNS`] when some run has positions; empty cells for "none").
     pub fn write_csv(&self, out: &mut impl Write) -> io::Result<()> {
-        writeln!(out, "{}", CSV_COLUMNS.join(","))?;
+        let poses = self.has_positions();
+        write!(out, "{}", CSV_COLUMNS.join(","))?;
+        if poses {
+            write!(out, ",{}", POSE_CSV_COLUMNS.join(","))?;
+        }
+        writeln!(out)?;
         for m in &self.manoeuvres {
             let s = &m.stats;
             let fit = m.fit.as_ref();
-            let cells = [
+            let mut cells = vec![
                 quote(&m.run),
                 m.segment.to_string(),
                 m.kind.id().to_owned(),
@@ -361,6 +421,28 @@ impl ValidationReport {
                 cell(m.hard_ground_w),
                 cell(m.hard_ground_residual_fraction),
             ];
+            if poses {
+                let t = m.track.as_ref();
+                let speeds = t.and_then(|t| t.wheel_speed_mps);
+                let notes: Vec<String> = t
+                    .map(|t| t.notes.iter().map(ToString::to_string).collect())
+                    .unwrap_or_default();
+                cells.extend([
+                    cell(m.r_act_m),
+                    cell(m.r_act_over_r_prime_act),
+                    cell(self.slip_track_of(&m.run)),
+                    t.map_or_else(String::new, |t| t.fixes.to_string()),
+                    t.map_or_else(String::new, |t| t.filled.to_string()),
+                    cell(t.and_then(|t| t.fit_rms_m)),
+                    cell(t.and_then(|t| t.swept_deg)),
+                    cell(t.and_then(|t| t.yaw_rate_act_rad_s)),
+                    cell(t.and_then(|t| t.angular_slip)),
+                    cell(speeds.map(|v| v.inner)),
+                    cell(speeds.map(|v| v.outer)),
+                    cell(t.and_then(|t| t.slip_track_m)),
+                    quote(&notes.join("; ")),
+                ]);
+            }
             writeln!(out, "{}", cells.join(","))?;
         }
         Ok(())
@@ -371,6 +453,73 @@ impl ValidationReport {
         self.manoeuvres
             .iter()
             .filter(|m| m.fit.is_some_and(|f| f.flagged))
+    }
+}
+
+impl ValidationReport {
+    /// The pose-track table: per turn R_ACT and what the track measured, per run the measured
+    /// slip track.
+    fn fmt_tracks(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "pose track (Section 5.1: Hampel filter and gap filling, circle fit; tracked point {} m right of the centre):",
+            self.settings.tracker_offset_m.unwrap_or(0.0)
+        )?;
+        writeln!(
+            f,
+            "{:<12} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  note",
+            "run", "seg", "dir", "R_cmd[m]", "R_ACT[m]", "R/R'_ACT", "rms[mm]", "fixes", "fill",
+            "θ[°]", "s_ω[%]", "v_i", "v_o", "B_s[m]"
+        )?;
+        for m in self.manoeuvres.iter().filter(|m| m.track.is_some()) {
+            let Some(t) = &m.track else { continue };
+            let name = m.run.rsplit(['/', '\\']).next().unwrap_or(&m.run);
+            let run: String = name
+                .chars()
+                .skip(name.chars().count().saturating_sub(12))
+                .collect();
+            let notes: Vec<String> = t.notes.iter().map(ToString::to_string).collect();
+            writeln!(
+                f,
+                "{:<12} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  {}",
+                run,
+                m.segment,
+                m.direction.map_or("", direction_name),
+                num(m.radius_cmd_m, 3),
+                num(m.r_act_m, 3),
+                num(m.r_act_over_r_prime_act, 2),
+                num(t.fit_rms_m.map(|v| 1e3 * v), 1),
+                t.fixes,
+                t.filled,
+                num(t.swept_deg, 1),
+                pct(t.angular_slip),
+                num(t.wheel_speed_mps.map(|v| v.inner), 3),
+                num(t.wheel_speed_mps.map(|v| v.outer), 3),
+                num(t.slip_track_m, 3),
+                notes.join("; ")
+            )?;
+        }
+        writeln!(f, "  (R'_ACT = measured slip track / 2; rms: fixes from the fitted circle; θ swept about its centre; s_ω Eq 6.3 from the track; v_i, v_o wheel speeds Eq 5.10–5.13 [m/s]; B_s Appendix D per turn)")?;
+        for run in &self.runs {
+            match &run.slip_track_measured {
+                Some(st) => writeln!(
+                    f,
+                    "  {}: measured slip track (Appendix D) {:.3} m (median of {} turns, sd {:.3} m; controller {} m), R'_ACT {:.3} m",
+                    run.name,
+                    st.slip_track_m,
+                    st.turns,
+                    st.spread_m,
+                    self.rover.slip_track_m,
+                    st.slip_track_m / 2.0
+                )?,
+                None => writeln!(
+                    f,
+                    "  {}: no measured slip track (no turn other than a point turn with an R_ACT)",
+                    run.name
+                )?,
+            }
+        }
+        writeln!(f)
     }
 }
 
@@ -465,6 +614,9 @@ impl fmt::Display for ValidationReport {
         }
         writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second vs first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
         writeln!(f)?;
+        if self.has_positions() {
+            self.fmt_tracks(f)?;
+        }
         match (&self.fit, &self.fit_error) {
             (Some(fit), _) => {
                 let c = |c: &super::fit::Coefficient| {

@@ -297,6 +297,8 @@ mod tests {
             cmd_mps: Sides::new(left, right),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         }
     }
 

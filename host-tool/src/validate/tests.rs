@@ -82,6 +82,8 @@ fn synth_run(
                 cmd_mps: Sides::new(f64::from(cmd.left_mps), f64::from(cmd.right_mps)),
                 yaw_rad: m.map_or(Some(wrapped), |m| m.slip.map(|_| wrapped)),
                 pitch_deg: m.and_then(|m| m.pitch_deg),
+                x_m: None,
+                y_m: None,
             });
         };
     for m in manoeuvres {
@@ -467,6 +469,8 @@ fn malformed_input_is_a_clear_error() {
         cmd_mps: Sides::new(0.3, 0.3),
         yaw_rad: None,
         pitch_deg: None,
+        x_m: None,
+        y_m: None,
     }];
     let e = validate(&HUSKY, &[RunInput::from_samples("one.csv", &one)], &opts).expect_err("one");
     assert!(e.to_string().contains("single sample"), "{e}");

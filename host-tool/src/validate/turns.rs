@@ -178,6 +178,23 @@ pub struct TurnOptions {
     pub gap_threshold_s: f64,
 }
 
+/// The steady part of the manoeuvre `segment` of `samples` (the whole run): its samples from
+/// `settle_s` after its start on, or all of them when fewer than two would remain.
+pub fn steady_part<'a>(
+    samples: &'a [RunSample],
+    segment: &Segment,
+    settle_s: f64,
+) -> &'a [RunSample] {
+    let span = &samples[segment.start..segment.end];
+    let settle_from = segment.t_start_s + settle_s;
+    let first_steady = span.partition_point(|s| s.t_s < settle_from);
+    if span.len() - first_steady >= 2 {
+        &span[first_steady..]
+    } else {
+        span
+    }
+}
+
 /// Statistics of the manoeuvre `segment` of `samples` (the whole run).
 pub fn analyse(
     samples: &[RunSample],
@@ -187,13 +204,7 @@ pub fn analyse(
 ) -> ManoeuvreStats {
     let span = &samples[segment.start..segment.end];
     let whole = Integral::of(span, options.gap_threshold_s);
-    let settle_from = segment.t_start_s + options.settle_s;
-    let first_steady = span.partition_point(|s| s.t_s < settle_from);
-    let steady = if span.len() - first_steady >= 2 {
-        &span[first_steady..]
-    } else {
-        span
-    };
+    let steady = steady_part(samples, segment, options.settle_s);
     let steady_int = Integral::of(steady, options.gap_threshold_s);
     let avg = steady_int.average_w(steady);
 
@@ -322,6 +333,8 @@ mod tests {
                             * ((a + std::f64::consts::PI) / std::f64::consts::TAU).floor()
                     }),
                     pitch_deg: Some(2.0),
+                    x_m: None,
+                    y_m: None,
                 }
             })
             .collect()

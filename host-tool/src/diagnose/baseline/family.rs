@@ -117,10 +117,15 @@ pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, Basel
 type Key = Vec<[u64; 4]>;
 
 fn key_of(rover: &Rover, calibration: &[&TurnRow]) -> Key {
+    // The measured slip track decides the turn slip too (`explained_by_slip_track`).
+    let measured = calibration
+        .iter()
+        .find_map(|r| r.measured)
+        .map_or(0, |m| m.slip_track_m.to_bits());
     let mut key = vec![[
         u64::from(rover.slip_track_m.to_bits()),
         u64::from(rover.track_width_m.to_bits()),
-        0,
+        measured,
         0,
     ]];
     key.extend(calibration.iter().map(|r| {
@@ -180,8 +185,29 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
     let mut b = fit_best(rover, calibration, &chosen.0)
         .map_or_else(|| Baseline::fit_plain(rover, calibration), Ok)?;
     b.cv_rmse_w = Some(chosen.1.sqrt());
-    b.turn_slip = constant_turn_slip(&level).unwrap_or(0.0);
+    b.turn_slip = constant_turn_slip(&level)
+        .filter(|&s| !explained_by_slip_track(rover, &level, s))
+        .unwrap_or(0.0);
     Ok(b)
+}
+
+/// Whether the calibration turns' constant slip `slip` is what their pose track measured: a
+/// slip track B_s,meas wider than the controller's makes every turn slower by
+/// 1 − B_s,ctrl/B_s,meas (Eq 2.2, Appendix D). Then it is the `slip-track` effect, seen
+/// directly, not a terrain constant for the baseline to absorb.
+fn explained_by_slip_track(rover: &Rover, level: &[&TurnRow], slip: f64) -> bool {
+    let mut tracks: Vec<f64> = level
+        .iter()
+        .filter(|r| !r.is_straight())
+        .filter_map(|r| Some(r.measured?.slip_track_m))
+        .collect();
+    if tracks.is_empty() {
+        return false;
+    }
+    tracks.sort_by(f64::total_cmp);
+    let measured = tracks[tracks.len() / 2];
+    let implied = 1.0 - f64::from(rover.slip_track_m) / measured;
+    (implied - slip).abs() <= MAX_SLIP_SPREAD
 }
 
 /// Smallest constant slip taken into the baseline (below it, timing noise).

@@ -55,7 +55,9 @@ pub mod table;
 pub mod truth;
 
 pub use family::{generate, scale_effect, DatasetClass, DatasetSpec, Part, RoverKind};
-pub use run::{rows_for, rows_of, run_dataset, sample_run, simulate, DatasetResult};
+pub use run::{
+    rows_for, rows_of, run_dataset, run_dataset_with, sample_run, simulate, DatasetResult,
+};
 pub use table::{tabulate, BenchReport, PartFigures};
 pub use truth::{truth_of, Truth};
 
@@ -117,6 +119,9 @@ pub struct BenchOptions {
     pub threads: usize,
     /// The part(s) to run.
     pub part: PartChoice,
+    /// Whether the runs keep the tracker's position fixes (R_ACT and the measured slip track
+    /// reach the diagnosis); off, the runs are power, commands and yaw only.
+    pub poses: bool,
 }
 
 impl Default for BenchOptions {
@@ -127,6 +132,7 @@ impl Default for BenchOptions {
             seed: 1,
             threads: 2,
             part: PartChoice::Both,
+            poses: false,
         }
     }
 }
@@ -152,7 +158,7 @@ pub fn run_bench(opts: &BenchOptions) -> BenchReport {
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(spec) = specs.get(i) else { break };
-                let result = run_dataset(spec);
+                let result = run_dataset_with(spec, opts.poses);
                 // A poisoned lock only means another worker panicked; its slot stays empty.
                 let mut slots = slots.lock().unwrap_or_else(|p| p.into_inner());
                 slots[i] = Some(result);

@@ -46,14 +46,22 @@ pub struct SimulatedDataset {
 }
 
 /// `timeline` sampled at `sample_hz` into run samples (what a recorder would log, without the
-/// board and the pty).
+/// board and the pty). Each tracker fix lands on the first sample at or after it, as the
+/// recorder places them.
 pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
     let step_us = 1_000_000 / sample_hz.max(1);
+    let fix_times = timeline.fix_times_us();
+    let mut next_fix = 0;
     (0..=timeline.duration_us() / step_us)
         .map(|i| {
             let t_us = i * step_us;
             let load = timeline.load_at(t_us);
             let (yaw_rad, pitch_deg) = timeline.pose_at(t_us);
+            let mut fix = None;
+            while let Some(&t_fix) = fix_times.get(next_fix).filter(|&&t| t <= t_us) {
+                fix = timeline.fix_at(t_fix).or(fix);
+                next_fix += 1;
+            }
             RunSample {
                 t_s: t_us as f64 * 1e-6,
                 bus_v: Sides::new(load.left.bus_v, load.right.bus_v),
@@ -61,6 +69,8 @@ pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
                 cmd_mps: timeline.command_at(t_us),
                 yaw_rad: Some(yaw_rad),
                 pitch_deg: Some(pitch_deg),
+                x_m: fix.map(|p| p.0),
+                y_m: fix.map(|p| p.1),
             }
         })
         .collect()
@@ -91,26 +101,53 @@ pub fn simulate(spec: &DatasetSpec) -> Result<SimulatedDataset, DatasetError> {
     })
 }
 
-/// The diagnosis' rows of the Husky's `runs` (samples only, as from run CSVs).
+/// The diagnosis' rows of the Husky's `runs` (samples only, as from run CSVs, without their
+/// pose track).
 pub fn rows_of(runs: &[Vec<RunSample>]) -> Result<Vec<TurnRow>, ValidateError> {
-    rows_for(&Rover::HUSKY_A200, runs, "run")
+    rows_for(&Rover::HUSKY_A200, runs, "run", None)
 }
 
-/// The diagnosis' rows of `rover`'s `runs`, named `{prefix}-{k}`.
+/// The diagnosis' rows of `rover`'s `runs`, named `{prefix}-{k}`. With `tracker_offset_m`
+/// the runs' position fixes are used (the tracked point that far right of the centre [m]);
+/// without, they are dropped first, as for runs recorded without a tracker.
 pub fn rows_for(
     rover: &Rover,
     runs: &[Vec<RunSample>],
     prefix: &str,
+    tracker_offset_m: Option<f64>,
 ) -> Result<Vec<TurnRow>, ValidateError> {
+    let stripped: Vec<Vec<RunSample>>;
+    let runs = if tracker_offset_m.is_some() {
+        runs
+    } else {
+        stripped = runs.iter().map(|r| without_positions(r)).collect();
+        &stripped
+    };
     let names: Vec<String> = (0..runs.len()).map(|k| format!("{prefix}-{k}")).collect();
     let inputs: Vec<RunInput<'_>> = runs
         .iter()
         .zip(&names)
         .map(|(s, n)| RunInput::from_samples(n, s))
         .collect();
-    let report = validate::validate(rover, &inputs, &ValidateOptions::for_rover(rover))?;
+    let options = ValidateOptions {
+        tracker_offset_m: tracker_offset_m.unwrap_or(0.0),
+        ..ValidateOptions::for_rover(rover)
+    };
+    let report = validate::validate(rover, &inputs, &options)?;
     let slices: Vec<&[RunSample]> = runs.iter().map(Vec::as_slice).collect();
     Ok(features::rows(&report, &slices))
+}
+
+/// `samples` without their position fixes.
+fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
+    samples
+        .iter()
+        .map(|s| RunSample {
+            x_m: None,
+            y_m: None,
+            ..*s
+        })
+        .collect()
 }
 
 /// What the diagnosis said on one dataset, against its truth.
@@ -205,8 +242,14 @@ pub struct GapNote {
     pub n: usize,
 }
 
-/// Simulates and diagnoses one dataset.
+/// Simulates and diagnoses one dataset (without its pose track; see [`run_dataset_with`]).
 pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
+    run_dataset_with(spec, false)
+}
+
+/// Simulates and diagnoses one dataset; with `poses`, the runs keep the world tracker's
+/// position fixes, so `validate` measures R_ACT and the slip track and the diagnosis uses them.
+pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
     let t0 = Instant::now();
     let mut result = DatasetResult {
         spec: spec.clone(),
@@ -223,11 +266,12 @@ pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
         diagnose_s: 0.0,
     };
     let rover = spec.rover.rover();
+    let offset = poses.then(|| spec.world().tracker.offset_m);
     let rows = simulate(spec).and_then(|d| {
         result.truth = Some(d.truth);
         Ok((
-            rows_for(&rover, &d.calibration, "cal")?,
-            rows_for(&rover, &d.runs, "run")?,
+            rows_for(&rover, &d.calibration, "cal", offset)?,
+            rows_for(&rover, &d.runs, "run", offset)?,
         ))
     });
     result.simulate_s = t0.elapsed().as_secs_f64();

@@ -13,6 +13,7 @@ fn both(datasets: usize, seed: u64) -> Vec<DatasetSpec> {
         seed,
         threads: 1,
         part: PartChoice::Both,
+        poses: false,
     })
 }
 
@@ -198,6 +199,7 @@ fn small_bench_tabulates_every_dataset_per_part() {
         seed: 7,
         threads: 2,
         part: PartChoice::Both,
+        poses: false,
     };
     let report = run_bench(&opts);
     assert_eq!(report.datasets.len(), 40);

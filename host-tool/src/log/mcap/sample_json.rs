@@ -21,6 +21,8 @@ pub(super) fn parse_sample_msg(data: &[u8]) -> Option<SampleMsg> {
     let right = c.side()?;
     let yaw_rad = c.optional(",\"yaw_rad\":")?;
     let pitch_deg = c.optional(",\"pitch_deg\":")?;
+    let x_m = c.optional(",\"x_m\":")?;
+    let y_m = c.optional(",\"y_m\":")?;
     c.tag("}")?;
     c.rest.is_empty().then_some(SampleMsg {
         t_s,
@@ -28,6 +30,8 @@ pub(super) fn parse_sample_msg(data: &[u8]) -> Option<SampleMsg> {
         right,
         yaw_rad,
         pitch_deg,
+        x_m,
+        y_m,
     })
 }
 
@@ -291,6 +295,8 @@ mod tests {
                 right,
                 yaw_rad,
                 pitch_deg,
+                x_m: None,
+                y_m: None,
             })
     }
 

@@ -306,6 +306,10 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 sample.yaw_rad.unwrap_or_default(),
                 sample.pitch_deg.unwrap_or_default(),
             ),
+            Sides::new(
+                sample.x_m.unwrap_or_default(),
+                sample.y_m.unwrap_or_default(),
+            ),
         ];
         if values
             .iter()
@@ -334,6 +338,8 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
             .into_iter()
             .chain(row.yaw_rad)
             .chain(row.pitch_deg)
+            .chain(row.x_m)
+            .chain(row.y_m)
             .all(f64::is_finite);
         if !finite {
             return Err(invalid(format!(

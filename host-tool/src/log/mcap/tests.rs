@@ -60,6 +60,8 @@ pub(crate) fn sim_run(steps: u64) -> (RunLog, Vec<u8>) {
                         cmd_mps: Sides::new(0.3, 0.5),
                         yaw_rad: (step % 3 != 0).then_some(0.01 * step as f64),
                         pitch_deg: None,
+                        x_m: None,
+                        y_m: None,
                     });
                 }
                 run.frames.push((t_s, frame));
@@ -72,12 +74,16 @@ pub(crate) fn sim_run(steps: u64) -> (RunLog, Vec<u8>) {
             cmd_mps: Sides::new(0.3, 0.5),
             yaw_rad: Some(0.0),
             pitch_deg: Some(-1.5),
+            x_m: None,
+            y_m: None,
         },
         CommandRow {
             t_s: 0.1,
             cmd_mps: Sides::new(-0.2, 0.2),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         },
     ];
     run.events = vec![

@@ -12,12 +12,17 @@ use model_core::Sides;
 /// Smallest file worth a second thread [bytes].
 const PARALLEL_BYTES: usize = 1 << 20;
 
+/// Columns up to `pitch_deg` (the layout before the tracked point's `x_m,y_m`).
+const WITH_POSE_ANGLES: usize = 9;
+
 /// The samples of a valid run CSV in this tool's layout, or `None` (see the module docs).
 pub(super) fn read(bytes: &[u8]) -> Option<Vec<RunSample>> {
     let header_end = memchr::memchr(b'\n', bytes)?;
+    // The layouts this tool writes: every column, without the tracked point's, the required.
     let columns = match &bytes[..header_end] {
-        h if h == header(&Column::ALL).as_bytes() => 9,
-        h if h == header(&Column::REQUIRED).as_bytes() => 7,
+        h if h == header(&Column::ALL).as_bytes() => Column::ALL.len(),
+        h if h == header(&Column::ALL[..WITH_POSE_ANGLES]).as_bytes() => WITH_POSE_ANGLES,
+        h if h == header(&Column::REQUIRED).as_bytes() => Column::REQUIRED.len(),
         _ => return None,
     };
     let data = &bytes[header_end + 1..];
@@ -90,7 +95,7 @@ fn split_at_lines(data: &[u8], n: usize) -> Vec<&[u8]> {
 fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
     // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows.
     let mut out = Vec::with_capacity(part.len() / 40 + 1);
-    let mut cells = [None::<f64>; 9];
+    let mut cells = [None::<f64>; Column::ALL.len()];
     let mut previous_t_s = f64::NEG_INFINITY;
     for line in part.split(|&b| b == b'\n') {
         if line.is_empty() {
@@ -117,9 +122,14 @@ fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
             (v.is_finite() && in_range).then_some(v)
         };
         let optional = |column: Column| -> Result<Option<f64>, ()> {
-            match cells.get(column as usize).copied().flatten() {
+            if column as usize >= columns {
+                return Ok(None);
+            }
+            match cells[column as usize] {
                 None => Ok(None),
                 Some(v) if v.is_finite() => Ok(Some(v)),
+                // A tracker's dropout.
+                Some(v) if v.is_nan() && Column::NAN_IS_EMPTY.contains(&column) => Ok(None),
                 Some(_) => Err(()),
             }
         };
@@ -128,16 +138,10 @@ fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
             bus_v: Sides::new(value(Column::LeftBusV)?, value(Column::RightBusV)?),
             current_a: Sides::new(value(Column::LeftCurrentA)?, value(Column::RightCurrentA)?),
             cmd_mps: Sides::new(value(Column::CmdLeftMps)?, value(Column::CmdRightMps)?),
-            yaw_rad: if columns == 9 {
-                optional(Column::YawRad).ok()?
-            } else {
-                None
-            },
-            pitch_deg: if columns == 9 {
-                optional(Column::PitchDeg).ok()?
-            } else {
-                None
-            },
+            yaw_rad: optional(Column::YawRad).ok()?,
+            pitch_deg: optional(Column::PitchDeg).ok()?,
+            x_m: optional(Column::XM).ok()?,
+            y_m: optional(Column::YM).ok()?,
         };
         if sample.t_s <= previous_t_s {
             return None;

@@ -24,6 +24,8 @@ fn sample(t_s: f64) -> RunSample {
         cmd_mps: Sides::new(0.1, 0.5),
         yaw_rad: None,
         pitch_deg: None,
+        x_m: None,
+        y_m: None,
     }
 }
 
@@ -43,9 +45,9 @@ fn writer_output_is_the_documented_layout() {
     assert_eq!(
         text,
         format!(
-            "{HEADER},yaw_rad,pitch_deg\n\
-             0,24.1,3.5,24,-0.25,0.1,0.5,,\n\
-             0.005,24.1,3.5,24,-0.25,0.1,0.5,-0.5,\n"
+            "{HEADER},yaw_rad,pitch_deg,x_m,y_m\n\
+             0,24.1,3.5,24,-0.25,0.1,0.5,,,,\n\
+             0.005,24.1,3.5,24,-0.25,0.1,0.5,-0.5,,,\n"
         )
     );
 }
@@ -308,9 +310,9 @@ fn normalize_reorders_and_drops_extra_columns() {
     assert_eq!(
         std::fs::read_to_string(&output).expect("read"),
         format!(
-            "{HEADER},yaw_rad,pitch_deg\n\
-             0,24,1,24.5,2,0.1,0.2,,\n\
-             0.005,24,1.5,24.5,2.5,0.1,0.2,,\n"
+            "{HEADER},yaw_rad,pitch_deg,x_m,y_m\n\
+             0,24,1,24.5,2,0.1,0.2,,,,\n\
+             0.005,24,1.5,24.5,2.5,0.1,0.2,,,,\n"
         )
     );
     assert_eq!(
@@ -392,6 +394,8 @@ fn samples() -> impl Strategy<Value = Vec<RunSample>> {
                 cmd_mps: Sides::new(cl, cr),
                 yaw_rad,
                 pitch_deg,
+                x_m: None,
+                y_m: None,
             });
         }
         out
@@ -679,4 +683,38 @@ proptest! {
             prop_assert!(same_bits(a, b), "{:?} vs {:?}", a, b);
         }
     }
+}
+
+#[test]
+fn positions_read_back_nan_is_a_dropout_and_the_pair_is_required() {
+    let text = format!(
+        "{HEADER},y_m,x_m\n0,24.1,3.5,24,-0.25,0.1,0.5,2.5,-1\n\
+         0.005,24.1,3.5,24,-0.25,0.1,0.5,NaN,nan\n0.01,24.1,3.5,24,-0.25,0.1,0.5,,\n"
+    );
+    let samples: Vec<RunSample> = RunCsvReader::new(text.as_bytes())
+        .expect("header")
+        .collect::<Result<_, _>>()
+        .expect("valid");
+    assert_eq!(samples[0].position_m(), Some((-1.0, 2.5)));
+    assert_eq!((samples[1].x_m, samples[1].y_m), (None, None));
+    assert_eq!(samples[2].position_m(), None);
+    let back = String::from_utf8(to_csv(&samples)).expect("utf8");
+    assert!(
+        back.lines().nth(1).expect("row").ends_with(",-1,2.5"),
+        "{back}"
+    );
+    // NaN stays an error in the other columns.
+    let bad = format!("{HEADER},yaw_rad\n0,24.1,3.5,24,-0.25,0.1,0.5,NaN\n");
+    let e = RunCsvReader::new(bad.as_bytes())
+        .expect("header")
+        .next()
+        .expect("row")
+        .expect_err("NaN yaw");
+    assert!(e.to_string().contains("yaw_rad"), "{e}");
+    let alone = format!("{HEADER},x_m\n");
+    let e = RunCsvReader::new(alone.as_bytes()).expect_err("x without y");
+    assert_eq!(
+        e.to_string(),
+        "line 1: column `x_m` needs column `y_m` in the header too"
+    );
 }

@@ -84,6 +84,15 @@ impl WorldConfig {
         nonneg("noise.bus_std_v", n.bus_std_v)?;
         nonneg("noise.yaw_std_rad", n.yaw_std_rad)?;
         nonneg("noise.pitch_std_deg", n.pitch_std_deg)?;
+        let tr = &self.tracker;
+        if !tr.offset_m.is_finite() {
+            bad("tracker.offset_m", tr.offset_m, "a finite number")?;
+        }
+        nonneg("tracker.rate_hz", tr.rate_hz)?;
+        nonneg("tracker.position_std_m", tr.position_std_m)?;
+        if !(0.0..=0.5).contains(&tr.dropout) {
+            bad("tracker.dropout", tr.dropout, "in [0, 0.5]")?;
+        }
         for (key, v) in [
             ("noise.manoeuvre_power_std", n.manoeuvre_power_std),
             ("noise.run_power_std", n.run_power_std),

@@ -199,6 +199,8 @@ struct Tally {
 struct State {
     t_s: f64,
     yaw_rad: f64,
+    /// The rover centre's position [m] (x east-like, y north-like; yaw 0 faces +x).
+    position_m: (f64, f64),
     distance_m: f64,
     /// Winding temperature above ambient [K].
     heat_k: Sides<f64>,
@@ -240,6 +242,7 @@ pub(crate) fn run(
     let mut state = State {
         t_s: 0.0,
         yaw_rad: 0.0,
+        position_m: (0.0, 0.0),
         distance_m: 0.0,
         heat_k: Sides::new(0.0, 0.0),
     };
@@ -346,7 +349,10 @@ pub(crate) fn run(
             tally.pitch_deg_s += sample.pitch_deg * dt;
             samples.push(sample);
             last = Some(sample);
-            // Advance the pose.
+            // Advance the pose (the heading at mid-step: exact to O(dt³) on an arc).
+            let yaw_mid = state.yaw_rad + 0.5 * yaw_sign * w_true * dt;
+            state.position_m.0 += v_y * yaw_mid.cos() * dt;
+            state.position_m.1 += v_y * yaw_mid.sin() * dt;
             state.yaw_rad += yaw_sign * w_true * dt;
             state.distance_m += v_y.abs() * dt;
             state.t_s += dt;
@@ -357,6 +363,7 @@ pub(crate) fn run(
         if let Some(mut s) = last {
             s.t_us = t_us(state.t_s);
             s.yaw_rad = state.yaw_rad;
+            s.position_m = state.position_m;
             samples.push(s);
         }
         let end_s = state.t_s;
@@ -663,6 +670,7 @@ fn step(
         current_a: current,
         bus_v,
         yaw_rad: state.yaw_rad,
+        position_m: state.position_m,
         pitch_deg,
     };
     Ok((sample, effect_w))

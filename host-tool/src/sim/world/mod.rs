@@ -85,11 +85,13 @@ pub mod path_energy;
 pub mod scenario;
 pub mod structure;
 mod timeline;
+pub mod tracker;
 
 pub use effects::EffectId;
 pub use scenario::{load_scenario, parse_scenario, Manoeuvre, ManoeuvreKind, Scenario, Side};
 pub use structure::{DrivePower, PowerSplit, Structure};
 pub use timeline::{ManoeuvreTruth, Timeline, TimelineLoad};
+pub use tracker::Tracker;
 
 use model_core::power::{DcMotor, IcrHardGround};
 use model_core::{Rover, Sides};
@@ -405,6 +407,7 @@ impl Effects {
 /// [motor]                          # torque_constant_nm_per_a, gear_ratio, efficiency, winding_resistance_ohm
 /// [noise]                          # left/right_current_std_a, bus_std_v, yaw_std_rad, pitch_std_deg,
 ///                                  # manoeuvre_power_std, run_power_std (repeat/run variation, 0)
+/// [tracker]                        # offset_m 0.21 (right of centre), rate_hz 5, position_std_m 0.002, dropout 0.05
 /// [structure]                      # split = "threshold" | "regenerating" | "clamped", threshold_radius_m,
 ///                                  # angular_slip 0, drive_power = "electrical" | "mechanical"
 /// [inner-drag]                     # every effect: enabled (ground default) + its parameters
@@ -429,6 +432,8 @@ pub struct WorldConfig {
     pub structure: Structure,
     /// Measurement noise.
     pub noise: Noise,
+    /// The pose tracker's position fixes.
+    pub tracker: Tracker,
     /// The effects.
     pub effects: Effects,
 }
@@ -465,6 +470,7 @@ impl WorldConfig {
             motor: Motor::default(),
             structure: Structure::default(),
             noise: Noise::default(),
+            tracker: Tracker::default(),
             effects,
         }
     }
@@ -486,6 +492,8 @@ impl WorldConfig {
             manoeuvre_power_std: 0.0,
             run_power_std: 0.0,
         };
+        self.tracker.position_std_m = 0.0;
+        self.tracker.dropout = 0.0;
         self
     }
 
@@ -552,6 +560,8 @@ struct WorldToml {
     structure: Structure,
     #[serde(default)]
     noise: Noise,
+    #[serde(default)]
+    tracker: Tracker,
     #[serde(rename = "inner-drag")]
     inner_drag: Option<toml::Table>,
     #[serde(rename = "sinkage-bulldozing")]
@@ -653,6 +663,7 @@ fn resolve(raw: WorldToml, origin: &str, base: Option<&Path>) -> Result<WorldCon
     world.structure = raw.structure;
     world.noise = raw.noise;
     let ground = world.effects;
+    world.tracker = raw.tracker;
     let e = &mut world.effects;
     let mut set = |id: EffectId, on: Option<bool>| {
         if let Some(on) = on {

@@ -4,7 +4,7 @@
 
 use super::effects::EffectId;
 use super::scenario::ManoeuvreKind;
-use super::{Noise, WorldConfig};
+use super::{Noise, Tracker, WorldConfig};
 use crate::log::commands::CommandRow;
 use crate::sim::board::{LoadSource, SideLoad};
 use model_core::kinematics::{Regime, TurnDirection};
@@ -21,6 +21,8 @@ pub(crate) struct Sample {
     pub bus_v: f64,
     /// True yaw [rad], counter-clockwise positive.
     pub yaw_rad: f64,
+    /// True position of the rover's centre [m].
+    pub position_m: (f64, f64),
     /// True pitch [deg].
     pub pitch_deg: f64,
 }
@@ -111,6 +113,7 @@ pub struct Timeline {
     spans: Vec<SegmentSpan>,
     truths: Vec<ManoeuvreTruth>,
     noise: Noise,
+    tracker: Tracker,
     offset_a: Sides<f64>,
     idle: Sides<SideLoad>,
 }
@@ -122,6 +125,9 @@ const LEFT_BUS: u64 = 3;
 const RIGHT_BUS: u64 = 4;
 const YAW: u64 = 5;
 const PITCH: u64 = 6;
+const FIX_X: u64 = 9;
+const FIX_Y: u64 = 10;
+const FIX_LOST: u64 = 11;
 /// Streams of the terrain variation (`[noise]` run_power_std, manoeuvre_power_std).
 pub(super) const RUN_SCALE: u64 = 7;
 pub(super) const MANOEUVRE_SCALE: u64 = 8;
@@ -142,6 +148,14 @@ pub(super) fn gaussian(seed: u64, stream: u64, t_us: u64) -> f64 {
     let h2 = splitmix64(h1);
     let unit = |h: u64| ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
     (-2.0 * unit(h1).ln()).sqrt() * (2.0 * std::f64::consts::PI * unit(h2)).cos()
+}
+
+/// A uniform deviate in (0, 1) from (seed, stream, t_us) alone, like [`gaussian`].
+fn uniform(seed: u64, stream: u64, t_us: u64) -> f64 {
+    let h = splitmix64(
+        seed ^ splitmix64(stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ splitmix64(t_us)),
+    );
+    ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64
 }
 
 impl Timeline {
@@ -171,6 +185,7 @@ impl Timeline {
             spans,
             truths,
             noise: world.noise,
+            tracker: world.tracker,
             offset_a,
             idle: Sides::new(idle(iq.left), idle(iq.right)),
         }
@@ -219,6 +234,10 @@ impl Timeline {
             ),
             bus_v: lerp(a.bus_v, b.bus_v),
             yaw_rad: lerp(a.yaw_rad, b.yaw_rad),
+            position_m: (
+                lerp(a.position_m.0, b.position_m.0),
+                lerp(a.position_m.1, b.position_m.1),
+            ),
             pitch_deg: lerp(a.pitch_deg, b.pitch_deg),
         })
     }
@@ -273,6 +292,36 @@ impl Timeline {
             .map_or((0.0, 0.0), |s| (s.yaw_rad, s.pitch_deg))
     }
 
+    /// True position of the rover's centre at `t_us` [m] (yaw 0 faces +x).
+    pub fn centre_at(&self, t_us: u64) -> (f64, f64) {
+        self.sample_at(t_us).map_or((0.0, 0.0), |s| s.position_m)
+    }
+
+    /// The world's `[tracker]`.
+    pub fn tracker(&self) -> &Tracker {
+        &self.tracker
+    }
+
+    /// The tracker's fix at `t_us`: the tracked point plus noise, `None` when this fix is lost
+    /// (both drawn from the seed and `t_us`).
+    pub fn fix_at(&self, t_us: u64) -> Option<(f64, f64)> {
+        if uniform(self.seed, FIX_LOST, t_us) < self.tracker.dropout {
+            return None;
+        }
+        let sample = self.sample_at(t_us)?;
+        let (x, y) = self.tracker.point_m(sample.position_m, sample.yaw_rad);
+        let std = self.tracker.position_std_m;
+        Some((
+            x + std * gaussian(self.seed, FIX_X, t_us),
+            y + std * gaussian(self.seed, FIX_Y, t_us),
+        ))
+    }
+
+    /// Every fix time of the run [µs] (lost fixes included; see [`Timeline::fix_at`]).
+    pub fn fix_times_us(&self) -> Vec<u64> {
+        self.tracker.fix_times_us(self.duration_us())
+    }
+
     /// The commanded side speeds in force at `t_us` [m/s].
     pub fn command_at(&self, t_us: u64) -> Sides<f64> {
         let n = self.spans.partition_point(|s| s.start_us <= t_us);
@@ -284,11 +333,14 @@ impl Timeline {
 
     /// The commands CSV of the run: a row at every command change and every 1/`tracker_hz` s
     /// (none in between if `tracker_hz` is not > 0), each with the command in force from then
-    /// on and the tracker's yaw and pitch (true pose plus `[noise]` tracker noise).
+    /// on and the tracker's yaw and pitch (true pose plus `[noise]` tracker noise); rows at the
+    /// `[tracker]`'s fix times also carry its position fix (none where the fix is lost).
     pub fn commands(&self, tracker_hz: f64) -> Vec<CommandRow> {
         let end = self.duration_us();
+        let fix_times = self.fix_times_us();
         let mut times: Vec<u64> = self.spans.iter().map(|s| s.start_us).collect();
         times.push(end);
+        times.extend(&fix_times);
         if tracker_hz.is_finite() && tracker_hz > 0.0 {
             let period_us = 1e6 / tracker_hz;
             let mut k = 0u64;
@@ -307,6 +359,10 @@ impl Timeline {
             .into_iter()
             .map(|t| {
                 let (yaw, pitch) = self.pose_at(t);
+                let fix = fix_times
+                    .binary_search(&t)
+                    .ok()
+                    .and_then(|_| self.fix_at(t));
                 CommandRow {
                     t_s: t as f64 * 1e-6,
                     cmd_mps: self.command_at(t),
@@ -314,6 +370,8 @@ impl Timeline {
                     pitch_deg: Some(
                         pitch + self.noise.pitch_std_deg * gaussian(self.seed, PITCH, t),
                     ),
+                    x_m: fix.map(|p| p.0),
+                    y_m: fix.map(|p| p.1),
                 }
             })
             .collect()
