@@ -21,6 +21,8 @@ fn write_source(path: &std::path::Path) {
             cmd_mps: Sides::new(0.3, 0.3),
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         })
         .collect();
     write_run_csv_atomically(path, &samples).expect("source csv");

@@ -22,6 +22,8 @@ fn write_mcap(dir: &Path) -> (std::path::PathBuf, usize) {
                 cmd_mps: Sides::new(0.3, if (t as u64) % 20 < 10 { 0.3 } else { -0.3 }),
                 yaw_rad: None,
                 pitch_deg: None,
+                x_m: None,
+                y_m: None,
             }
         })
         .collect();

@@ -197,6 +197,8 @@ mod tests {
                     cmd_mps: Sides::new(0.3, 0.3),
                     yaw_rad: None,
                     pitch_deg: None,
+                    x_m: None,
+                    y_m: None,
                 })
                 .collect(),
             ..RunLog::default()

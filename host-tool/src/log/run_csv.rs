@@ -166,7 +166,9 @@ impl Column {
             | Column::CmdLeftMps
             | Column::CmdRightMps
             | Column::YawRad
-            | Column::PitchDeg => None,
+            | Column::PitchDeg
+            | Column::XM
+            | Column::YM => None,
         }
     }
 }
@@ -187,6 +189,8 @@ impl RunSample {
         let optional = [
             (Column::YawRad, self.yaw_rad),
             (Column::PitchDeg, self.pitch_deg),
+            (Column::XM, self.x_m),
+            (Column::YM, self.y_m),
         ];
         values
             .into_iter()
@@ -498,7 +502,8 @@ impl RunCsvError {
             RunCsvError::Io(_)
             | RunCsvError::NoHeader
             | RunCsvError::MissingColumn { .. }
-            | RunCsvError::DuplicateColumn { .. } => None,
+            | RunCsvError::DuplicateColumn { .. }
+            | RunCsvError::UnpairedColumn { .. } => None,
         }
     }
 }

@@ -761,6 +761,8 @@ impl<'a, 'o> Recorder<'a, 'o> {
             cmd_mps,
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         };
         self.timeline.push(row);
         self.sink.command(&row).map_err(RecordError::Sink)

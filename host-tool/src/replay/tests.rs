@@ -122,6 +122,8 @@ fn csv_samples_replay_with_their_commanded_speeds() {
             },
             yaw_rad: None,
             pitch_deg: None,
+            x_m: None,
+            y_m: None,
         })
         .collect();
     let frames = synthesise_frames(&samples, Some(&Rover::HUSKY_A200));

@@ -366,9 +366,14 @@ pub fn time_one_hour_log(spec: &DatasetSpec) -> Result<LongLogTiming, DatasetErr
     let calibration = world.simulate(&long.calibration_scenario(), spec.seed)?;
     let run = world.simulate(&long.test_scenarios()[0], spec.seed.wrapping_add(1))?;
     let samples = [sample_run(&run, spec.sample_hz)];
-    let cal_rows = rows_for(&rover, &[sample_run(&calibration, spec.sample_hz)], "cal")?;
+    let cal_rows = rows_for(
+        &rover,
+        &[sample_run(&calibration, spec.sample_hz)],
+        "cal",
+        None,
+    )?;
     let t0 = Instant::now();
-    let rows = rows_for(&rover, &samples, "run")?;
+    let rows = rows_for(&rover, &samples, "run", None)?;
     let validate_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     crate::diagnose::diagnose_with(&rover, &rows, Calibration::Rows(&cal_rows))?;
