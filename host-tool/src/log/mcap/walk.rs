@@ -122,7 +122,21 @@ impl<R: Read + Seek> Walker<R> {
         match opcode {
             op::FOOTER => {
                 self.done = true;
-                Ok(Some(Step::Footer))
+                // Complete only with the closing magic after it: a file cut inside the magic
+                // lost nothing but was still cut (say so).
+                let magic = ::mcap::MAGIC.len() as u64;
+                let mut tail = [0u8; 8];
+                let whole = self.len - self.pos >= magic
+                    && self.seek(self.pos).is_ok()
+                    && self.input.read_exact(&mut tail[..magic as usize]).is_ok()
+                    && tail[..magic as usize] == ::mcap::MAGIC[..];
+                Ok(Some(if whole {
+                    Step::Footer
+                } else {
+                    Step::Truncated {
+                        complete_bytes: self.pos,
+                    }
+                }))
             }
             op::CHUNK | op::CHANNEL | op::MESSAGE | op::MESSAGE_INDEX => {
                 let n = usize::try_from(body_len).map_err(io::Error::other)?;
