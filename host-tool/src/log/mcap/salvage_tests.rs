@@ -192,3 +192,29 @@ proptest! {
         }
     }
 }
+
+/// A chunk's opcode byte damaged into another valid opcode (a message index, a private record)
+/// is still read as a chunk (its CRC vouches for it); a message index's damaged length no longer
+/// swallows the chunks after it: the damage is reported and everything else comes back (both
+/// found by the bounded fuzz run).
+#[test]
+fn a_damaged_opcode_or_index_length_loses_nothing_silently() {
+    let (run, bytes) = many_chunks();
+    let chunks = chunk_offsets(&bytes);
+    for flip in [0x01, 0x80] {
+        let mut damaged = bytes.clone();
+        damaged[chunks[3]] ^= flip;
+        let got = read(&damaged).expect("read");
+        assert_eq!(got.run.samples, run.samples, "opcode ^ {flip:#x}");
+    }
+    // The message index right after a chunk: its length's second byte.
+    let len = |at: usize| u64::from_le_bytes(bytes[at + 1..at + 9].try_into().expect("8")) as usize;
+    let index = chunks[3] + 9 + len(chunks[3]);
+    assert_eq!(bytes[index], 0x07, "a message index follows the chunk");
+    let mut damaged = bytes.clone();
+    damaged[index + 2] ^= 0x80;
+    let got = read(&damaged).expect("salvaged");
+    assert_eq!(got.run.samples, run.samples);
+    assert_eq!(got.losses.len(), 1, "{:?}", got.losses);
+    assert_eq!(got.losses[0].start_byte, index as u64);
+}

@@ -42,6 +42,45 @@ fn valid_opcode(opcode: u8) -> bool {
     (0x01..=0x0F).contains(&opcode) || opcode >= 0x80
 }
 
+/// Bytes of a chunk body up to its records' length: start and end time, uncompressed size,
+/// CRC, the compression string (at most `zstd`'s 4 bytes) and the records' length.
+const CHUNK_PREFIX_BYTES: u64 = 8 + 8 + 8 + 4 + 4 + 4 + 8;
+
+/// Whether a record body of `body_len` bytes starting with `prefix` has a chunk's exact layout:
+/// a known compression name and a records length that ends exactly at the body's end. No other
+/// record of a well-formed file matches by chance, so a chunk whose opcode byte was flipped into
+/// another valid opcode is still read as a chunk (and then checked by its CRC like any other).
+fn looks_like_chunk(prefix: &[u8], body_len: u64) -> bool {
+    let u32_at = |i: usize| -> Option<u64> {
+        Some(u64::from(u32::from_le_bytes(
+            prefix.get(i..i + 4)?.try_into().ok()?,
+        )))
+    };
+    let u64_at = |i: usize| -> Option<u64> {
+        Some(u64::from_le_bytes(prefix.get(i..i + 8)?.try_into().ok()?))
+    };
+    let Some(name_len) = u32_at(28) else {
+        return false;
+    };
+    if name_len > 4 {
+        return false;
+    }
+    let name_end = 32 + name_len as usize;
+    let known = matches!(prefix.get(32..name_end), Some(b"" | b"zstd" | b"lz4"));
+    known
+        && u64_at(name_end)
+            .is_some_and(|records| (name_end as u64 + 8).checked_add(records) == Some(body_len))
+}
+
+/// Whether `body` is exactly a message index: channel id (2), the entries' byte length (4),
+/// then that many bytes of (log time, offset) pairs of 16 bytes.
+fn is_message_index(body: &[u8]) -> bool {
+    body.get(2..6)
+        .and_then(|b| b.try_into().ok())
+        .map(|b: [u8; 4]| u64::from(u32::from_le_bytes(b)))
+        .is_some_and(|n| n % 16 == 0 && 6 + n == body.len() as u64)
+}
+
 /// A stretch of the file the walker could not trust.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(super) struct Skipped {
@@ -81,6 +120,10 @@ pub(super) struct Walker<R> {
     pos: u64,
     body: Vec<u8>,
     done: bool,
+    /// Where the last record other than a chunk started: its length is checked by nothing, so a
+    /// damaged length may have swallowed the records after it. When the next header is bad the
+    /// resync starts inside that record instead.
+    last_unchecked: Option<u64>,
 }
 
 impl<R: Read + Seek> Walker<R> {
@@ -95,6 +138,7 @@ impl<R: Read + Seek> Walker<R> {
             pos: start,
             body: Vec::new(),
             done: false,
+            last_unchecked: None,
         })
     }
 
@@ -116,8 +160,13 @@ impl<R: Read + Seek> Walker<R> {
         let opcode = header[0];
         let body_len = u64::from_le_bytes(header[1..].try_into().unwrap_or_default());
         if !valid_opcode(opcode) || body_len > rest - HEADER_BYTES {
-            return self.after_bad_header(offset, opcode, body_len);
+            return match self.last_unchecked.take() {
+                // The previous record's length, not this header, may be what is damaged.
+                Some(previous) => self.after_bad_header(previous, opcode, body_len),
+                None => self.after_bad_header(offset, opcode, body_len),
+            };
         }
+        self.last_unchecked = (opcode != op::CHUNK).then_some(offset);
         self.pos = offset + HEADER_BYTES + body_len;
         match opcode {
             op::FOOTER => {
@@ -145,6 +194,24 @@ impl<R: Read + Seek> Walker<R> {
                 (&mut self.input)
                     .take(body_len)
                     .read_to_end(&mut self.body)?;
+                // A chunk whose opcode byte was damaged into another valid one would otherwise
+                // be read as that record and its messages lost without a word.
+                let opcode = if looks_like_chunk(&self.body, body_len) {
+                    op::CHUNK
+                } else {
+                    opcode
+                };
+                // A message index's length is checked by nothing else: one whose body does not
+                // hold exactly its entries has a damaged header (a damaged length would swallow
+                // the chunks after it).
+                if opcode == op::MESSAGE_INDEX && !is_message_index(&self.body) {
+                    self.last_unchecked = None;
+                    let detail = format!(
+                        "message index of {body_len} bytes does not hold its entries (damaged \
+                         length)"
+                    );
+                    return self.resync_after(offset, detail);
+                }
                 Ok(Some(Step::Record {
                     opcode,
                     offset,
@@ -153,9 +220,23 @@ impl<R: Read + Seek> Walker<R> {
             }
             _ => {
                 // Not needed by the reader (schemas, indexes, statistics, attachments, private
-                // records): skipped unread.
+                // records): skipped unread, unless it is a chunk with a damaged opcode byte
+                // (its first fields tell, without reading the rest).
+                let peek = body_len.min(CHUNK_PREFIX_BYTES);
+                self.body.clear();
+                (&mut self.input).take(peek).read_to_end(&mut self.body)?;
+                if looks_like_chunk(&self.body, body_len) {
+                    (&mut self.input)
+                        .take(body_len - peek)
+                        .read_to_end(&mut self.body)?;
+                    return Ok(Some(Step::Record {
+                        opcode: op::CHUNK,
+                        offset,
+                        body: &self.body,
+                    }));
+                }
                 self.input
-                    .seek_relative(i64::try_from(body_len).map_err(io::Error::other)?)?;
+                    .seek_relative(i64::try_from(body_len - peek).map_err(io::Error::other)?)?;
                 Ok(Some(Step::Record {
                     opcode,
                     offset,
@@ -172,16 +253,20 @@ impl<R: Read + Seek> Walker<R> {
         opcode: u8,
         body_len: u64,
     ) -> io::Result<Option<Step<'_>>> {
+        let detail = if valid_opcode(opcode) {
+            format!("record {opcode:#04x} claims {body_len} bytes, more than the file holds")
+        } else {
+            format!("no record header (opcode {opcode:#04x})")
+        };
+        self.resync_after(offset, detail)
+    }
+
+    /// Resyncs after the damaged record at `offset` (`detail`: how it is damaged), or the file
+    /// ends there.
+    fn resync_after(&mut self, offset: u64, detail: String) -> io::Result<Option<Step<'_>>> {
         match self.resync(offset + 1)? {
             Some(next) => {
                 self.seek(next)?;
-                let detail = if valid_opcode(opcode) {
-                    format!(
-                        "record {opcode:#04x} claims {body_len} bytes, more than the file holds"
-                    )
-                } else {
-                    format!("no record header (opcode {opcode:#04x})")
-                };
                 Ok(Some(Step::Skipped(Skipped {
                     start_byte: offset,
                     end_byte: next,
