@@ -183,7 +183,9 @@ impl DiagnoseArgs {
             output::print(&diagnosis)?;
         }
         if self.fail_on_departure && diagnosis.significant {
-            return Err(Departure("the hard-ground model departs from the path table".into()).into());
+            return Err(
+                Departure("the hard-ground model departs from the path table".into()).into(),
+            );
         }
         Ok(())
     }
