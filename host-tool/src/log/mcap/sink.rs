@@ -168,7 +168,7 @@ impl<W: Write + Seek> McapSink<W> {
                 ),
                 (
                     "time".to_owned(),
-                    "publish_time = run time [ns]; log_time = Unix time [ns] (the wall_clock \
+                    "publish_time = run time [ns]; log_time = Unix time [ns] (the wall-clock \
                      event's unix_ns + run time since it; see rover_power.wall_clock), or run \
                      time when the log has no wall clock"
                         .to_owned(),
