@@ -29,6 +29,8 @@
 //! # Ok::<(), host_tool::plot::PlotError>(())
 //! ```
 
+mod glyphs;
+
 use crate::log::{write_atomically, AtomicWriteError};
 use plotters::backend::RGBPixel;
 use plotters::coord::Shift;
@@ -445,7 +447,7 @@ pub fn render_bytes(figure: &Figure, format: Format) -> Result<Vec<u8>, PlotErro
             {
                 let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
                     .map_err(|e| PlotError::Draw(e.to_string()))?;
-                let root = backend.into_drawing_area();
+                let root = glyphs::Glyphs(backend).into_drawing_area();
                 draw_figure(figure, &root).map_err(draw_error)?;
                 root.present().map_err(draw_error)?;
             }
