@@ -5,6 +5,7 @@
 
 use super::cv::HeldOut;
 use super::features::{SideRole, TurnRow};
+use super::gaps::{Gap, Part};
 use crate::plot::{Chart, Figure, Marker, Series, SeriesStyle};
 use model_core::Rover;
 
@@ -51,15 +52,48 @@ fn side_of(row: &TurnRow, role: SideRole) -> usize {
     }
 }
 
+/// The gaps of one side (the baseline's mean effective-power residual per regime, with its 95 %
+/// interval) at the mean R/R′ of their regime's turns; straights are not drawn.
+fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole) -> Series {
+    let part = match role {
+        SideRole::Inner => Part::Inner,
+        SideRole::Outer => Part::Outer,
+    };
+    let (points, intervals) = gaps
+        .iter()
+        .filter(|g| g.side == part)
+        .filter_map(|g| {
+            let xs: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.regime == g.regime && !r.is_straight())
+                .map(|r| r.r_over_r_prime)
+                .collect();
+            let x = xs.iter().sum::<f64>() / xs.len() as f64;
+            // No turn of the regime (straights): no place on the R/R′ axis.
+            (!xs.is_empty()).then_some(((x, g.mean_w), g.ci_w))
+        })
+        .unzip();
+    Series::new(
+        "regime mean gap, 95 % CI (hard-ground)",
+        points,
+        SeriesStyle::Points,
+        2,
+    )
+    .with_intervals(intervals)
+}
+
 /// Held-out effective-power residual of every turn against R/R′, before (the baseline) and
 /// after adding `effect`, inner and outer side in two panels; before and after are drawn
-/// [`DODGE`] left and right of the turn's R/R′. Straights (R/R′ = ∞) are not drawn.
+/// [`DODGE`] left and right of the turn's R/R′, and the `gaps` (per regime and side, the
+/// diagnosis' bootstrap 95 % intervals) as bars at their regime's mean R/R′. Straights
+/// (R/R′ = ∞) are not drawn.
 pub fn residuals_vs_radius(
     rover: &Rover,
     rows: &[TurnRow],
     before: &HeldOut,
     after: &HeldOut,
     effect: &str,
+    gaps: &[Gap],
 ) -> Figure {
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
@@ -92,6 +126,7 @@ pub fn residuals_vs_radius(
                 SeriesStyle::Points,
                 0,
             ));
+            chart.series.push(gap_series(rows, gaps, role));
             chart.series.push(zero_line(rows, ""));
             chart.markers = regime_markers(rover);
             chart.place_legend();

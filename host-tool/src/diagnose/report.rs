@@ -622,10 +622,11 @@ pub fn write_out_dir(
         draw(
             RESIDUALS_FIGURE,
             format!(
-                "Held-out residual of every turn vs R/R′ ({}), before and after adding {label}",
+                "Held-out residual of every turn vs R/R′ ({}), before and after adding {label}; \
+                 bars: each regime's mean gap with its 95 % interval",
                 d.scheme.id()
             ),
-            &figures::residuals_vs_radius(rover, rows, &before, &after, &label),
+            &figures::residuals_vs_radius(rover, rows, &before, &after, &label, &d.gaps),
         )?;
     }
     draw(
