@@ -968,7 +968,6 @@ mod tests {
         let (lo, hi) = shared.charts[0].y_range.expect("range");
         assert!(lo < -40.0 && hi > 90.0);
         // The bar is ink: a figure with it has more elements than one without (same axes).
-        let mut chart = chart;
         chart.y_range = Some((-50.0, 100.0));
         let mut bare = chart.clone();
         bare.series[0].intervals.clear();
