@@ -5,8 +5,9 @@
 
 use super::cv::HeldOut;
 use super::features::{SideRole, TurnRow};
-use super::gaps::{Gap, Part};
+use super::gaps::{regime_side_label, Gap, GroupStat, Part};
 use crate::plot::{Chart, Figure, Marker, Series, SeriesStyle};
+use model_core::kinematics::Regime;
 use model_core::Rover;
 
 /// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
@@ -52,34 +53,53 @@ fn side_of(row: &TurnRow, role: SideRole) -> usize {
     }
 }
 
-/// The gaps of one side (the baseline's mean effective-power residual per regime, with its 95 %
-/// interval) at the mean R/R′ of their regime's turns; straights are not drawn.
-fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole) -> Series {
-    let part = match role {
+/// The part of `role`.
+fn part_of(role: SideRole) -> Part {
+    match role {
         SideRole::Inner => Part::Inner,
         SideRole::Outer => Part::Outer,
-    };
-    let (points, intervals) = gaps
-        .iter()
-        .filter(|g| g.side == part)
-        .filter_map(|g| {
+    }
+}
+
+/// Group means with their 95 % intervals, one per regime, at the mean R/R′ of the regime's turns
+/// plus `dx` (straights, with no place on the R/R′ axis, are left out); points coloured `colour`.
+fn regime_means(
+    rows: &[TurnRow],
+    name: &str,
+    groups: impl Iterator<Item = (Regime, f64, (f64, f64))>,
+    colour: usize,
+    dx: f64,
+) -> Series {
+    let (points, intervals) = groups
+        .filter_map(|(regime, mean, ci)| {
             let xs: Vec<f64> = rows
                 .iter()
-                .filter(|r| r.regime == g.regime && !r.is_straight())
+                .filter(|r| r.regime == regime && !r.is_straight())
                 .map(|r| r.r_over_r_prime)
                 .collect();
             let x = xs.iter().sum::<f64>() / xs.len() as f64;
-            // No turn of the regime (straights): no place on the R/R′ axis.
-            (!xs.is_empty()).then_some(((x, g.mean_w), g.ci_w))
+            (!xs.is_empty()).then_some(((x + dx, mean), ci))
         })
         .unzip();
-    Series::new(
+    Series::new(name, points, SeriesStyle::Points, colour).with_intervals(intervals)
+}
+
+/// The gaps of one side (the baseline's mean effective-power residual per regime, with its 95 %
+/// interval).
+fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole) -> Series {
+    let part = part_of(role);
+    let groups = gaps
+        .iter()
+        .filter(|g| g.side == part)
+        .map(|g| (g.regime, g.mean_w, g.ci_w));
+    // Between the before (−DODGE) and after (+DODGE) points.
+    regime_means(
+        rows,
         "regime mean gap, 95 % CI (hard-ground)",
-        points,
-        SeriesStyle::Points,
+        groups,
         2,
+        0.0,
     )
-    .with_intervals(intervals)
 }
 
 /// Held-out effective-power residual of every turn against R/R′, before (the baseline) and
@@ -143,7 +163,11 @@ pub fn residuals_vs_radius(
 
 /// Growth of average power through each turn (second half minus first half of its steady part)
 /// against R/R′, inner and outer side, with the models' growth (none).
-pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow]) -> Figure {
+///
+/// `phases` are the diagnosis' growth groups per regime and side
+/// ([`super::WhereAnalysis::phase_by_regime_side`]): their means with 95 % bootstrap intervals
+/// are drawn as bars.
+pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow], phases: &[GroupStat]) -> Figure {
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
         .map(|role| {
@@ -164,6 +188,16 @@ pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow]) -> Figure {
             chart
                 .series
                 .push(Series::new("measured", measured, SeriesStyle::Points, 0));
+            let part = part_of(role);
+            let groups = Regime::ALL.into_iter().filter_map(|regime| {
+                let label = regime_side_label(regime, part);
+                let g = phases.iter().find(|g| g.group == label)?;
+                Some((regime, g.mean, g.ci))
+            });
+            chart
+                .series
+                // Beside the turns (a regime of one radius would hide them).
+                .push(regime_means(rows, "regime mean, 95 % CI", groups, 2, DODGE));
             chart
                 .series
                 .push(zero_line(rows, "models (constant power)"));
