@@ -526,14 +526,14 @@ pub struct PlannedPath {
     pub r1_m: f64,
     /// R2 [m] (0: point turn).
     pub r2_m: f64,
-    /// θ_B^P, heading of the line in the path frame [rad].
-    pub line_heading_rad: f64,
+    /// θ_B^P, heading of the line in the path frame [deg] (degrees as the headings given).
+    pub line_heading_deg: f64,
     /// |B1B2| [m].
     pub line_length_m: f64,
-    /// |θ_B − θ_A| [rad].
-    pub first_turn_rad: f64,
-    /// |θ_B − θ_C| [rad].
-    pub second_turn_rad: f64,
+    /// |θ_B − θ_A| [deg].
+    pub first_turn_deg: f64,
+    /// |θ_B − θ_C| [deg].
+    pub second_turn_deg: f64,
     /// B1, end of the first arc, (x^P, y^P) [m] (paper Eq 49).
     pub b1_m: [f64; 2],
     /// B2, start of the second arc, (x^P, y^P) [m] (paper Eq 49).
@@ -548,15 +548,21 @@ impl PlannedPath {
             energy_j: path.energy_j(law),
             r1_m: path.r1_m,
             r2_m: path.r2_m,
-            line_heading_rad: path.line_heading_rad,
+            line_heading_deg: degrees(path.line_heading_rad),
             line_length_m: path.line_length_m,
-            first_turn_rad: path.first_turn_rad,
-            second_turn_rad: path.second_turn_rad,
+            first_turn_deg: degrees(path.first_turn_rad),
+            second_turn_deg: degrees(path.second_turn_rad),
             b1_m: [path.b1.x_m, path.b1.y_m],
             b2_m: [path.b2.x_m, path.b2.y_m],
             duration_s: law.path_duration_s(path),
         }
     }
+}
+
+/// An angle [rad] in degrees to 1e-9° (far below any heading's meaning): 60° given comes back
+/// as 60, not 59.99999999999999.
+fn degrees(rad: f64) -> f64 {
+    (rad.to_degrees() * 1e9).round() / 1e9
 }
 
 /// The result of `plan`: the optimal CLC path (paper Eq 46) and the PLP path between the same
@@ -681,13 +687,13 @@ impl fmt::Display for PlanReport {
         writeln!(
             f,
             "{:<4}  {:>10}  {:>7}  {:>7}  {:>9}  {:>8}  {:>7}",
-            "path", "energy J", "R1 m", "R2 m", "θ_B rad", "line m", "time s"
+            "path", "energy J", "R1 m", "R2 m", "θ_B °", "line m", "time s"
         )?;
         for (name, p) in [("CLC", &self.clc), ("PLP", &self.plp)] {
             writeln!(
                 f,
-                "{name:<4}  {:>10.2}  {:>7.3}  {:>7.3}  {:>9.4}  {:>8.3}  {:>7.1}",
-                p.energy_j, p.r1_m, p.r2_m, p.line_heading_rad, p.line_length_m, p.duration_s
+                "{name:<4}  {:>10.2}  {:>7.3}  {:>7.3}  {:>9.2}  {:>8.3}  {:>7.1}",
+                p.energy_j, p.r1_m, p.r2_m, p.line_heading_deg, p.line_length_m, p.duration_s
             )?;
         }
         writeln!(
@@ -712,13 +718,22 @@ mod tests {
         assert!((r.clc.energy_j - 965.83).abs() < 0.1, "{r:?}");
         assert!((r.plp.energy_j - 1004.38).abs() < 0.1, "{r:?}");
         assert!((r.clc.r1_m - 0.645).abs() < 1e-3 && (r.clc.r2_m - 0.645).abs() < 1e-3);
-        assert!((r.clc.line_heading_rad - -0.0417).abs() < 1e-3, "{r:?}");
+        // Table 3 gives θ_B in rad; the report in degrees, as the headings.
+        assert!(
+            (r.clc.line_heading_deg.to_radians() - -0.0417).abs() < 1e-3,
+            "{r:?}"
+        );
+        assert!((r.clc.first_turn_deg - (45.0 - r.clc.line_heading_deg)).abs() < 1e-9);
         let r = husky(60.0, 30.0, 8.0);
         assert!((r.clc.energy_j - 851.21).abs() < 0.1, "{r:?}");
         assert!((r.plp.energy_j - 880.98).abs() < 0.1, "{r:?}");
         assert!((r.clc.r1_m - 0.645).abs() < 1e-3 && (r.clc.r2_m - 0.645).abs() < 1e-3);
-        assert!((r.clc.line_heading_rad - -0.0577).abs() < 1e-3, "{r:?}");
-        assert_eq!(r.plp.line_heading_rad, 0.0);
+        assert!(
+            (r.clc.line_heading_deg.to_radians() - -0.0577).abs() < 1e-3,
+            "{r:?}"
+        );
+        assert_eq!(r.plp.line_heading_deg, 0.0);
+        assert_eq!((r.plp.first_turn_deg, r.plp.second_turn_deg), (60.0, 30.0));
         assert!((r.saving_j - (880.98 - 851.21)).abs() < 0.2);
         assert!((r.saving_pct - 100.0 * r.saving_j / r.plp.energy_j).abs() < 1e-12);
     }
@@ -756,7 +771,7 @@ mod tests {
         let left = husky(60.0, 30.0, 8.0);
         let right = husky(-60.0, -30.0, 8.0);
         assert!((left.clc.energy_j - right.clc.energy_j).abs() < 1e-9);
-        assert!((left.clc.line_heading_rad + right.clc.line_heading_rad).abs() < 1e-12);
+        assert!((left.clc.line_heading_deg + right.clc.line_heading_deg).abs() < 1e-12);
     }
 
     #[test]
@@ -950,7 +965,8 @@ slip_track_m = 1.29
             "965.8",
             "1004.38",
             "0.645",
-            "-0.0417",
+            // Table 3's θ_B = −0.0417 rad, in degrees as the headings.
+            "-2.39",
             "saves 38.5",
         ] {
             assert!(text.contains(needle), "{needle:?} not in\n{text}");

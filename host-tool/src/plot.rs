@@ -29,6 +29,8 @@
 //! # Ok::<(), host_tool::plot::PlotError>(())
 //! ```
 
+mod glyphs;
+
 use crate::log::{write_atomically, AtomicWriteError};
 use plotters::backend::RGBPixel;
 use plotters::coord::Shift;
@@ -162,6 +164,9 @@ pub struct Series {
     pub style: SeriesStyle,
     /// Index into [`PALETTE`] (wraps).
     pub colour: usize,
+    /// Vertical interval (low, high) of each point, drawn as a bar with caps (empty: none;
+    /// otherwise one per point, a non-finite end draws no bar).
+    pub intervals: Vec<(f64, f64)>,
 }
 
 impl Series {
@@ -177,7 +182,14 @@ impl Series {
             points,
             style,
             colour,
+            intervals: Vec::new(),
         }
+    }
+
+    /// The same series with a vertical interval per point (e.g. a 95 % CI).
+    pub fn with_intervals(mut self, intervals: Vec<(f64, f64)>) -> Self {
+        self.intervals = intervals;
+        self
     }
 }
 
@@ -333,7 +345,8 @@ impl Chart {
                     && y.is_finite()
                     && self.x_range.is_none_or(|(lo, hi)| (lo..=hi).contains(x))
             })
-            .map(|(_, y)| *y);
+            .map(|(_, y)| *y)
+            .chain(interval_ends(self));
         let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
             (lo.min(y), hi.max(y))
         });
@@ -445,7 +458,7 @@ pub fn render_bytes(figure: &Figure, format: Format) -> Result<Vec<u8>, PlotErro
             {
                 let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (w, h))
                     .map_err(|e| PlotError::Draw(e.to_string()))?;
-                let root = backend.into_drawing_area();
+                let root = glyphs::Glyphs(backend).into_drawing_area();
                 draw_figure(figure, &root).map_err(draw_error)?;
                 root.present().map_err(draw_error)?;
             }
@@ -582,9 +595,20 @@ fn ranges(chart: &Chart) -> Result<(Span, Span), PlotError> {
     };
     let y = match chart.y_range {
         Some(r) => Some(checked_range("y", r)?),
-        None => auto_range(points().map(|p| p.1)),
+        None => auto_range(points().map(|p| p.1).chain(interval_ends(chart))),
     };
     Ok((x.unwrap_or((0.0, 1.0)), y.unwrap_or((0.0, 1.0))))
+}
+
+/// The finite ends of the intervals of drawable points (they widen the y range).
+fn interval_ends(chart: &Chart) -> impl Iterator<Item = f64> + '_ {
+    chart
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().zip(&s.intervals))
+        .filter(|(&p, _)| drawable(p))
+        .flat_map(|(_, &(lo, hi))| [lo, hi])
+        .filter(|v| v.is_finite() && v.abs() <= MAX_ABS_COORDINATE)
 }
 
 /// Clips the segment a–b to the box (Liang–Barsky); `None` if it lies outside.
@@ -829,6 +853,23 @@ fn draw_chart<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) 
                 .collect();
             has_data |= !dots.is_empty();
             ctx.draw_series(dots.into_iter().map(|p| Circle::new(p, 3, dot)))?;
+            // Interval bars, clipped to the panel, with caps 1 % of the x span wide.
+            let cap = 0.01 * (x.1 - x.0);
+            for (&(px, _), &(lo, hi)) in s.points.iter().zip(&s.intervals) {
+                let bar = [
+                    ((px, lo), (px, hi)),
+                    ((px - cap, lo), (px + cap, lo)),
+                    ((px - cap, hi), (px + cap, hi)),
+                ];
+                if !(drawable((px, lo)) && drawable((px, hi))) {
+                    continue;
+                }
+                for (a, b) in bar {
+                    if let Some((a, b)) = clip_segment(a, b, x, y) {
+                        ctx.draw_series(LineSeries::new([a, b], c.stroke_width(1)))?;
+                    }
+                }
+            }
         }
     }
 
@@ -911,6 +952,29 @@ mod tests {
         assert_eq!(ranges[0], ranges[1]);
         let (lo, hi) = ranges[0].expect("range");
         assert!(lo < -20.0 && hi > 10.0);
+    }
+
+    #[test]
+    fn interval_bars_widen_the_y_range_and_are_drawn() {
+        let mut chart = Chart::new("p", "x", "y");
+        chart.series.push(
+            Series::new("ci", vec![(0.0, 1.0), (1.0, 2.0)], SeriesStyle::Points, 0)
+                .with_intervals(vec![(-40.0, 3.0), (f64::NEG_INFINITY, 90.0)]),
+        );
+        // A non-finite end draws no bar but its finite end still counts.
+        let (_, (lo, hi)) = ranges(&chart).expect("ranges");
+        assert!(lo <= -40.0 && hi >= 90.0, "{lo} {hi}");
+        let shared = Figure::new("f", vec![chart.clone()], 1).share_y();
+        let (lo, hi) = shared.charts[0].y_range.expect("range");
+        assert!(lo < -40.0 && hi > 90.0);
+        // The bar is ink: a figure with it has more elements than one without (same axes).
+        chart.y_range = Some((-50.0, 100.0));
+        let mut bare = chart.clone();
+        bare.series[0].intervals.clear();
+        let with = render_bytes(&Figure::single(chart), Format::Svg).expect("svg");
+        let without = render_bytes(&Figure::single(bare), Format::Svg).expect("svg");
+        let lines = |b: &[u8]| String::from_utf8_lossy(b).matches('<').count();
+        assert!(lines(&with) >= lines(&without) + 3, "bar and two caps");
     }
 
     use super::*;

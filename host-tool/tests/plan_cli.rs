@@ -38,7 +38,7 @@ fn preset_json_has_table_3() {
     assert!((number(&v, "/clc/r1_m") - 0.645).abs() < 1e-3, "{v}");
     assert!((number(&v, "/clc/r2_m") - 0.645).abs() < 1e-3, "{v}");
     assert!(
-        (number(&v, "/clc/line_heading_rad") + 0.0417).abs() < 1e-3,
+        (number(&v, "/clc/line_heading_deg").to_radians() + 0.0417).abs() < 1e-3,
         "{v}"
     );
     assert_eq!(v["preset"], "husky-hard-ground");
@@ -76,7 +76,16 @@ fn table_and_json_file() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for needle in ["CLC", "PLP", "851.2", "880.98", "0.0577", "saves 29.78 J"] {
+    // θ_B in degrees as the headings: 0.0577 rad of Table 3 is 3.30°.
+    for needle in [
+        "CLC",
+        "PLP",
+        "851.2",
+        "880.98",
+        "θ_B °",
+        " 3.30 ",
+        "saves 29.78 J",
+    ] {
         assert!(stdout.contains(needle), "{needle:?} not in\n{stdout}");
     }
     let v: serde_json::Value =

@@ -5,7 +5,9 @@
 
 use super::cv::HeldOut;
 use super::features::{SideRole, TurnRow};
+use super::gaps::{regime_side_label, Gap, GroupStat, Part};
 use crate::plot::{Chart, Figure, Marker, Series, SeriesStyle};
+use model_core::kinematics::Regime;
 use model_core::Rover;
 
 /// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
@@ -51,15 +53,67 @@ fn side_of(row: &TurnRow, role: SideRole) -> usize {
     }
 }
 
+/// The part of `role`.
+fn part_of(role: SideRole) -> Part {
+    match role {
+        SideRole::Inner => Part::Inner,
+        SideRole::Outer => Part::Outer,
+    }
+}
+
+/// Group means with their 95 % intervals, one per regime, at the mean R/R′ of the regime's turns
+/// plus `dx` (straights, with no place on the R/R′ axis, are left out); points coloured `colour`.
+fn regime_means(
+    rows: &[TurnRow],
+    name: &str,
+    groups: impl Iterator<Item = (Regime, f64, (f64, f64))>,
+    colour: usize,
+    dx: f64,
+) -> Series {
+    let (points, intervals) = groups
+        .filter_map(|(regime, mean, ci)| {
+            let xs: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.regime == regime && !r.is_straight())
+                .map(|r| r.r_over_r_prime)
+                .collect();
+            let x = xs.iter().sum::<f64>() / xs.len() as f64;
+            (!xs.is_empty()).then_some(((x + dx, mean), ci))
+        })
+        .unzip();
+    Series::new(name, points, SeriesStyle::Points, colour).with_intervals(intervals)
+}
+
+/// The gaps of one side (the baseline's mean effective-power residual per regime, with its 95 %
+/// interval).
+fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole) -> Series {
+    let part = part_of(role);
+    let groups = gaps
+        .iter()
+        .filter(|g| g.side == part)
+        .map(|g| (g.regime, g.mean_w, g.ci_w));
+    // Between the before (−DODGE) and after (+DODGE) points.
+    regime_means(
+        rows,
+        "regime mean gap, 95 % CI (hard-ground)",
+        groups,
+        2,
+        0.0,
+    )
+}
+
 /// Held-out effective-power residual of every turn against R/R′, before (the baseline) and
 /// after adding `effect`, inner and outer side in two panels; before and after are drawn
-/// [`DODGE`] left and right of the turn's R/R′. Straights (R/R′ = ∞) are not drawn.
+/// [`DODGE`] left and right of the turn's R/R′, and the `gaps` (per regime and side, the
+/// diagnosis' bootstrap 95 % intervals) as bars at their regime's mean R/R′. Straights
+/// (R/R′ = ∞) are not drawn.
 pub fn residuals_vs_radius(
     rover: &Rover,
     rows: &[TurnRow],
     before: &HeldOut,
     after: &HeldOut,
     effect: &str,
+    gaps: &[Gap],
 ) -> Figure {
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
@@ -92,6 +146,7 @@ pub fn residuals_vs_radius(
                 SeriesStyle::Points,
                 0,
             ));
+            chart.series.push(gap_series(rows, gaps, role));
             chart.series.push(zero_line(rows, ""));
             chart.markers = regime_markers(rover);
             chart.place_legend();
@@ -108,7 +163,11 @@ pub fn residuals_vs_radius(
 
 /// Growth of average power through each turn (second half minus first half of its steady part)
 /// against R/R′, inner and outer side, with the models' growth (none).
-pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow]) -> Figure {
+///
+/// `phases` are the diagnosis' growth groups per regime and side
+/// ([`super::WhereAnalysis::phase_by_regime_side`]): their means with 95 % bootstrap intervals
+/// are drawn as bars.
+pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow], phases: &[GroupStat]) -> Figure {
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
         .map(|role| {
@@ -129,6 +188,16 @@ pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow]) -> Figure {
             chart
                 .series
                 .push(Series::new("measured", measured, SeriesStyle::Points, 0));
+            let part = part_of(role);
+            let groups = Regime::ALL.into_iter().filter_map(|regime| {
+                let label = regime_side_label(regime, part);
+                let g = phases.iter().find(|g| g.group == label)?;
+                Some((regime, g.mean, g.ci))
+            });
+            chart
+                .series
+                // Beside the turns (a regime of one radius would hide them).
+                .push(regime_means(rows, "regime mean, 95 % CI", groups, 2, DODGE));
             chart
                 .series
                 .push(zero_line(rows, "models (constant power)"));

@@ -346,6 +346,11 @@ pub struct GroupStat {
 /// A group's observations.
 type Values = Vec<Obs>;
 
+/// The [`GroupStat::group`] of a regime and side: `regime/side` (`dragged-inner/inner`).
+pub fn regime_side_label(regime: Regime, part: Part) -> String {
+    format!("{}/{}", regime.id(), part.id())
+}
+
 fn stat(
     group: String,
     values: &Values,
@@ -404,7 +409,7 @@ fn grouped(
     let regime_stats = by_regime
         .into_iter()
         .filter_map(|((regime, part), v)| {
-            let label = format!("{}/{}", regime.id(), part.id());
+            let label = regime_side_label(regime, part);
             stat(label, &v, floor, group_seed(prefix, regime, part), tests)
         })
         .collect();

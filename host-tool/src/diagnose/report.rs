@@ -622,16 +622,19 @@ pub fn write_out_dir(
         draw(
             RESIDUALS_FIGURE,
             format!(
-                "Held-out residual of every turn vs R/R′ ({}), before and after adding {label}",
+                "Held-out residual of every turn vs R/R′ ({}), before and after adding {label}; \
+                 bars: each regime's mean gap with its 95 % interval",
                 d.scheme.id()
             ),
-            &figures::residuals_vs_radius(rover, rows, &before, &after, &label),
+            &figures::residuals_vs_radius(rover, rows, &before, &after, &label, &d.gaps),
         )?;
     }
     draw(
         GROWTH_FIGURE,
-        "Power growth through each turn (second half − first half) vs R/R′".to_owned(),
-        &figures::growth_vs_radius(rover, rows),
+        "Power growth through each turn (second half − first half) vs R/R′; bars: each regime's \
+         mean with its 95 % interval"
+            .to_owned(),
+        &figures::growth_vs_radius(rover, rows, &d.where_.phase_by_regime_side),
     )?;
     // A fitted base the planner cannot use (e.g. G < 0 when the plain split misfits a rover
     // with large motor losses) costs the model file, not the report.

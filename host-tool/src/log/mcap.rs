@@ -15,11 +15,16 @@
 //! | `/rover_power/event` | `foxglove.Log` | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
 //! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v<PROTOCOL_VERSION>`, now v2: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
 //!
-//! `log_time` and `publish_time` are the run time in ns (the host has no other clock in the
-//! log). Frames are stored as bytes, so their run time is kept to the nanosecond; samples,
-//! commands and events carry their exact `t_s` in the JSON as well. Metadata records:
-//! `rover_power` (protocol version, frame encoding, writer) at the start, and
-//! `rover_power.board` at each hello frame (firmware, scale, LSBs, chip addresses, period).
+//! `publish_time` is the run time in ns; `log_time` is Unix time in ns, the host's clock: the
+//! [`LogEvent::WallClock`] anchor (when the first sample's bytes were read) plus the run time
+//! since it. Messages before the anchor are held by the sink until it comes, so one file has one
+//! clock; a log without a wall-clock event (a converted CSV without its events) keeps
+//! `log_time` = run time, as files written before this did. The reader takes run time from
+//! `publish_time`, so it reads both. Frames are stored as bytes, so their run time is kept to
+//! the nanosecond; samples, commands and events carry their exact `t_s` in the JSON as well. Metadata records:
+//! `rover_power` (protocol version, frame encoding, writer) at the start,
+//! `rover_power.wall_clock` (`unix_ns`, `at_t_s`, `unix_ns_at_run_zero`) when the wall clock is
+//! known, and `rover_power.board` at each hello frame (firmware, scale, LSBs, chip addresses, period).
 //!
 //! The model and status channels are views of the frames for plotting; the reader rebuilds a
 //! [`RunLog`] from the frame, sample, command and event channels. Other topics in the file
@@ -113,14 +118,14 @@ pub enum McapError {
         detail: String,
     },
     /// A rover-power message does not hold what its channel promises.
-    #[error("{}: {topic} message at log time {log_time_ns} ns: {detail}", path.display())]
+    #[error("{}: {topic} message at run time {run_time_ns} ns: {detail}", path.display())]
     BadMessage {
         /// The file.
         path: PathBuf,
         /// The message's topic.
         topic: String,
-        /// The message's log time.
-        log_time_ns: u64,
+        /// The message's run time (its `publish_time`).
+        run_time_ns: u64,
         /// What is wrong.
         detail: String,
     },
@@ -141,8 +146,8 @@ pub enum McapError {
     Write(#[from] ::mcap::McapError),
 }
 
-/// Writes a whole [`RunLog`] as MCAP into `out`, records in time order (frames before samples
-/// at equal times); returns the finished writer.
+/// Writes a whole [`RunLog`] as MCAP into `out`, records in time order (events, then frames,
+/// then samples at equal times); returns the finished writer.
 pub fn write_mcap_run<W: io::Write + io::Seek>(out: W, run: &RunLog) -> Result<W, McapError> {
     write_mcap_run_with(out, run, Some(::mcap::Compression::Zstd))
 }
@@ -163,10 +168,12 @@ pub fn write_mcap_run_with<W: io::Write + io::Seek>(
     let mut items: Vec<(f64, Item<'_>)> = Vec::with_capacity(
         run.frames.len() + run.samples.len() + run.commands.len() + run.events.len(),
     );
+    // Events first at equal times: the wall-clock anchor comes with the first sample, before
+    // it, as the recorder writes it.
+    items.extend(run.events.iter().map(|(t, e)| (*t, Item::Event(e))));
     items.extend(run.frames.iter().map(|(t, f)| (*t, Item::Frame(f))));
     items.extend(run.samples.iter().map(|s| (s.t_s, Item::Sample(s))));
     items.extend(run.commands.iter().map(|c| (c.t_s, Item::Command(c))));
-    items.extend(run.events.iter().map(|(t, e)| (*t, Item::Event(e))));
     // Stable: within one kind the order is the log's.
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut sink = McapSink::with_compression(out, compression)?;

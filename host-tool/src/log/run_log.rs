@@ -9,25 +9,32 @@ use std::io;
 
 /// Something that happened to the stream, marked in the log at the run time it happened.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
+/// Kinds are kebab-case (`wall-clock`), as every enum value in JSON; logs written before that
+/// spelt them snake_case (`wall_clock`), still read.
+#[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum LogEvent {
     /// The recording started on `port`.
     Started { port: String },
     /// The device vanished (unplugged, port closed): nothing arrives until [`LogEvent::Reconnected`].
+    #[serde(alias = "device_vanished")]
     DeviceVanished { port: String },
     /// The device is back on `port` after `offline_s` seconds of wall time.
     Reconnected { port: String, offline_s: f64 },
     /// `missing` samples after sequence number `after_seq` never arrived (a gap in `seq`).
+    #[serde(alias = "samples_lost")]
     SamplesLost { after_seq: u32, missing: u32 },
     /// Frames that failed to decode (corrupted or truncated bytes) since the previous event.
+    #[serde(alias = "bad_frames")]
     BadFrames { count: u64 },
     /// The board restarted (a hello, or `seq` back to 0): its time and energy start over; the
     /// run's time base continues from here.
+    #[serde(alias = "board_reset")]
     BoardReset,
     /// The recording stopped (`reason`: Ctrl-C, duration, sample count, device gone).
     Stopped { reason: String },
     /// The host's wall clock when the sample at this run time arrived (Unix time [ns]): run
     /// time + (`unix_ns` − this event's run time) is wall time, to the board crystal's drift.
+    #[serde(alias = "wall_clock")]
     WallClock { unix_ns: u64 },
 }
 
@@ -89,5 +96,38 @@ impl RunLogSink for RunLog {
 
     fn flush(&mut self) -> io::Result<()> {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LogEvent;
+
+    #[test]
+    fn event_kinds_are_kebab_case_and_the_old_spelling_still_reads() {
+        let clock = LogEvent::WallClock { unix_ns: 7 };
+        let json = serde_json::to_string(&clock).expect("serialises");
+        assert_eq!(json, r#"{"kind":"wall-clock","unix_ns":7}"#);
+        let old: LogEvent =
+            serde_json::from_str(r#"{"kind":"wall_clock","unix_ns":7}"#).expect("old spelling");
+        assert_eq!(old, clock);
+        for (old, new) in [
+            (
+                r#"{"kind":"device_vanished","port":"p"}"#,
+                "device-vanished",
+            ),
+            (
+                r#"{"kind":"samples_lost","after_seq":1,"missing":2}"#,
+                "samples-lost",
+            ),
+            (r#"{"kind":"bad_frames","count":3}"#, "bad-frames"),
+            (r#"{"kind":"board_reset"}"#, "board-reset"),
+            (r#"{"kind":"started","port":"p"}"#, "started"),
+        ] {
+            let event: LogEvent = serde_json::from_str(old).expect(old);
+            let again = serde_json::to_value(&event).expect("serialises");
+            assert_eq!(again["kind"], new);
+            assert_eq!(serde_json::from_value::<LogEvent>(again).ok(), Some(event));
+        }
     }
 }

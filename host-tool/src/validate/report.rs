@@ -299,7 +299,7 @@ pub const CSV_COLUMNS: [&str; 43] = [
     "mean_pitch_deg",
     "first_half_total_w",
     "second_half_total_w",
-    "growth_fraction",
+    "growth_w",
     "gaps",
     "in_fit",
     "predicted_w",
@@ -410,7 +410,7 @@ impl ValidationReport {
                 cell(s.mean_pitch_deg),
                 cell(s.phases.map(|p| p.first_half_w.total)),
                 cell(s.phases.map(|p| p.second_half_w.total)),
-                cell(s.phases.and_then(|p| p.growth_fraction)),
+                cell(s.phases.map(|p| p.growth_w)),
                 s.gaps.to_string(),
                 m.in_fit.to_string(),
                 cell(fit.map(|f| f.predicted_w)),
@@ -574,7 +574,7 @@ impl fmt::Display for ValidationReport {
             f,
             "{:<12} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
             "run", "seg", "dir", "R_cmd[m]", "R/R'", "regime", "dur[s]", "exp[s]", "s_ω[%]",
-            "P_L[W]", "P_R[W]", "P[W]", "Pmax[W]", "E[J]", "τ_L", "τ_R", "θ[°]", "grow[%]",
+            "P_L[W]", "P_R[W]", "P[W]", "Pmax[W]", "E[J]", "τ_L", "τ_R", "θ[°]", "grow[W]",
             "pred[W]", "res[%]", "HG[%]", "flag"
         )?;
         for m in &self.manoeuvres {
@@ -605,14 +605,14 @@ impl fmt::Display for ValidationReport {
                 num(s.torque_proportional.left, 2),
                 num(s.torque_proportional.right, 2),
                 num(s.mean_pitch_deg, 1),
-                pct(s.phases.and_then(|p| p.growth_fraction)),
+                num(s.phases.map(|p| p.growth_w), 1),
                 num(m.fit.map(|c| c.predicted_w), 1),
                 pct(m.fit.and_then(|c| c.residual_fraction)),
                 pct(m.hard_ground_residual_fraction),
                 if m.fit.is_some_and(|c| c.flagged) { "DEP" } else if m.in_fit { "fit" } else { "" }
             )?;
         }
-        writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second vs first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
+        writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second minus first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
         writeln!(f)?;
         if self.has_positions() {
             self.fmt_tracks(f)?;

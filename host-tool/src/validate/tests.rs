@@ -425,6 +425,18 @@ fn json_and_csv_exports_hold_the_table() {
         .as_array()
         .is_some_and(|c| c.len() == CURVE_POINTS));
     assert!(json["runs"][0]["cross_check"].is_null());
+    // Growth through the turn in one unit (W), as diagnose reports it.
+    let phases = &rows[0]["phases"];
+    assert_eq!(
+        phases["growth_w"].as_f64(),
+        Some(
+            phases["second_half_w"]["total"].as_f64().expect("W")
+                - phases["first_half_w"]["total"].as_f64().expect("W")
+        ),
+        "{phases}"
+    );
+    assert!(phases.get("growth_fraction").is_none(), "{phases}");
+    assert!(report.to_string().contains("grow[W]"));
 
     let mut csv = Vec::new();
     report.write_csv(&mut csv).expect("vec");
@@ -434,6 +446,7 @@ fn json_and_csv_exports_hold_the_table() {
     assert!(text.contains(",0.3,0.3,0,0,point,"), "{text}");
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 15);
+    assert!(lines[0].contains(",growth_w,") && !lines[0].contains("fraction,gaps"));
     assert_eq!(lines[0].split(',').count(), report::CSV_COLUMNS.len());
     // The run name with a comma is quoted; every row has every column.
     assert!(

@@ -46,10 +46,9 @@ pub struct PhaseStats {
     pub first_half_w: SideTotal,
     /// Average power in the second half [W].
     pub second_half_w: SideTotal,
-    /// Second minus first half, total power [W].
+    /// Second minus first half, total power [W] (growth is in W everywhere: validate,
+    /// diagnose, their tables, CSVs and JSON).
     pub growth_w: f64,
-    /// `growth_w` relative to the first half's total; `None` when that is zero.
-    pub growth_fraction: Option<f64>,
 }
 
 /// What one manoeuvre measured.
@@ -288,7 +287,6 @@ fn phases(steady: &[RunSample], gap_threshold_s: f64) -> Option<PhaseStats> {
         first_half_w,
         second_half_w,
         growth_w,
-        growth_fraction: (first_half_w.total != 0.0).then(|| growth_w / first_half_w.total),
     })
 }
 
@@ -431,7 +429,7 @@ mod tests {
         // Halves average 110 W and 130 W.
         assert!((ph.first_half_w.total - 110.0).abs() < 0.2, "{ph:?}");
         assert!((ph.second_half_w.total - 130.0).abs() < 0.2, "{ph:?}");
-        assert!((ph.growth_fraction.expect("nonzero") - 20.0 / 110.0).abs() < 0.01);
+        assert!((ph.growth_w - 20.0).abs() < 0.2, "{ph:?}");
     }
 
     #[test]

@@ -435,7 +435,9 @@ impl State {
                         ),
                     ));
                 };
-                self.message(topic, header.channel_id, header.log_time, &data)
+                // Run time is `publish_time`: `log_time` is Unix time in files since the wall-clock
+                // anchor, and the same as `publish_time` in older ones.
+                self.message(topic, header.channel_id, header.publish_time, &data)
             }
             _ => Ok(()),
         }
@@ -485,7 +487,7 @@ impl State {
         &mut self,
         topic: Topic,
         channel_id: u16,
-        log_time_ns: u64,
+        run_time_ns: u64,
         data: &[u8],
     ) -> Result<(), McapError> {
         // Built only on the error path (the topic's name is looked up then).
@@ -496,7 +498,7 @@ impl State {
                 .get(&channel_id)
                 .map(|(_, name)| name.clone())
                 .unwrap_or_default(),
-            log_time_ns,
+            run_time_ns,
             detail,
         };
         match topic {
@@ -564,7 +566,7 @@ impl State {
                 let frame: BoardFrame = wire::decode_frame(copy)
                     .map_err(|e| bad(self, format!("frame does not decode: {e}")))?;
                 // Division is correctly rounded: a time of whole nanoseconds comes back exactly.
-                self.run.frames.push((log_time_ns as f64 / 1e9, frame));
+                self.run.frames.push((run_time_ns as f64 / 1e9, frame));
             }
             Topic::Skipped => {}
         }

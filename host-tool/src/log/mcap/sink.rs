@@ -44,6 +44,35 @@ pub struct McapSink<W: Write + Seek> {
     /// The latest hello's scale (the board's until one arrives), for the model channel.
     scale: Scale,
     last_sample_t_s: Option<f64>,
+    /// How `log_time` is stamped.
+    clock: LogClock,
+}
+
+/// Most messages held while no wall-clock event has come (a run's start before its first
+/// sample: hello, status, start event). Past it, or at a sample without an anchor, the log has
+/// no wall clock and goes on run time.
+const HELD_MAX: usize = 4096;
+
+/// Where a message's `log_time` comes from (`publish_time` is always run time).
+#[derive(Debug)]
+enum LogClock {
+    /// No [`LogEvent::WallClock`] yet: messages wait, so every `log_time` in the file is on
+    /// one clock (Unix time once it comes, run time if it never does).
+    Waiting(Vec<Held>),
+    /// Unix time of run time 0 [ns]: `log_time` = this + run time.
+    Unix(i128),
+    /// The log has no wall clock: `log_time` = run time.
+    Run,
+}
+
+/// A message written before the wall clock was known.
+#[derive(Debug)]
+struct Held {
+    channel: Ch,
+    t_s: f64,
+    data: Vec<u8>,
+    /// An event's JSON holds its `log_time` (foxglove.Log `timestamp`): rebuilt on release.
+    event: Option<LogEvent>,
 }
 
 impl<W: Write + Seek> fmt::Debug for McapSink<W> {
@@ -137,7 +166,13 @@ impl<W: Write + Seek> McapSink<W> {
                     "writer".to_owned(),
                     format!("host-tool {}", env!("CARGO_PKG_VERSION")),
                 ),
-                ("time".to_owned(), "log_time = run time [ns]".to_owned()),
+                (
+                    "time".to_owned(),
+                    "publish_time = run time [ns]; log_time = Unix time [ns] (the wall-clock \
+                     event's unix_ns + run time since it; see rover_power.wall_clock), or run \
+                     time when the log has no wall clock"
+                        .to_owned(),
+                ),
             ]),
         })?;
         Ok(McapSink {
@@ -146,12 +181,15 @@ impl<W: Write + Seek> McapSink<W> {
             sequence: [0; 6],
             scale: Scale::BOARD,
             last_sample_t_s: None,
+            clock: LogClock::Waiting(Vec::new()),
         })
     }
 
     /// Writes the summary section and footer and hands back the output, flushed. (Dropping the
     /// sink does the same, ignoring errors.)
     pub fn finish(mut self) -> Result<W, McapError> {
+        self.release_held(LogClock::Run)
+            .map_err(::mcap::McapError::Io)?;
         self.writer.finish()?;
         let mut out = self.writer.into_inner();
         out.flush().map_err(::mcap::McapError::Io)?;
@@ -162,8 +200,47 @@ impl<W: Write + Seek> McapSink<W> {
         Ok(self.writer.flush()?)
     }
 
-    pub(super) fn write(&mut self, channel: Ch, t_s: f64, data: &[u8]) -> io::Result<u64> {
-        let log_time = log_time_ns(t_s)?;
+    /// Writes one message at run time `t_s` (held while the wall clock is not known yet).
+    pub(super) fn write(&mut self, channel: Ch, t_s: f64, data: &[u8]) -> io::Result<()> {
+        self.write_or_hold(channel, t_s, data, None)
+    }
+
+    fn write_or_hold(
+        &mut self,
+        channel: Ch,
+        t_s: f64,
+        data: &[u8],
+        event: Option<&LogEvent>,
+    ) -> io::Result<()> {
+        let run_ns = run_time_ns(t_s)?;
+        let log_time = match &mut self.clock {
+            // The recorder's anchor comes with the first sample; a sample without one means
+            // this log has no wall clock.
+            LogClock::Waiting(held) if held.len() < HELD_MAX && !matches!(channel, Ch::Sample) => {
+                held.push(Held {
+                    channel,
+                    t_s,
+                    data: data.to_vec(),
+                    event: event.cloned(),
+                });
+                return Ok(());
+            }
+            LogClock::Waiting(_) => {
+                self.release_held(LogClock::Run)?;
+                run_ns
+            }
+            LogClock::Unix(zero) => unix_log_time(*zero, run_ns),
+            LogClock::Run => run_ns,
+        };
+        let rebuilt;
+        let data = match event {
+            Some(event) => {
+                rebuilt = serde_json::to_vec(&EventMsg::of(t_s, log_time, event))
+                    .map_err(io::Error::other)?;
+                &rebuilt[..]
+            }
+            None => data,
+        };
         let sequence = self.sequence[channel as usize];
         self.sequence[channel as usize] = sequence.wrapping_add(1);
         self.writer
@@ -172,12 +249,44 @@ impl<W: Write + Seek> McapSink<W> {
                     channel_id: self.ids[channel as usize],
                     sequence,
                     log_time,
-                    publish_time: log_time,
+                    publish_time: run_ns,
                 },
                 data,
             )
+            .map_err(into_io)
+    }
+
+    /// Leaves [`LogClock::Waiting`] for `clock` and writes the held messages on it.
+    fn release_held(&mut self, clock: LogClock) -> io::Result<()> {
+        let LogClock::Waiting(held) = std::mem::replace(&mut self.clock, clock) else {
+            return Ok(());
+        };
+        for h in held {
+            self.write_or_hold(h.channel, h.t_s, &h.data, h.event.as_ref())?;
+        }
+        Ok(())
+    }
+
+    /// The wall clock became known: a metadata record for tools that read no events, then
+    /// every held message on Unix time.
+    fn anchor(&mut self, t_s: f64, unix_ns: u64) -> io::Result<()> {
+        if !matches!(self.clock, LogClock::Waiting(_)) {
+            // One clock per file: a later anchor (or one after the file went on run time)
+            // stays an event only.
+            return Ok(());
+        }
+        let zero = i128::from(unix_ns) - i128::from(run_time_ns(t_s)?);
+        self.writer
+            .write_metadata(&Metadata {
+                name: "rover_power.wall_clock".into(),
+                metadata: BTreeMap::from([
+                    ("unix_ns".to_owned(), unix_ns.to_string()),
+                    ("at_t_s".to_owned(), t_s.to_string()),
+                    ("unix_ns_at_run_zero".to_owned(), zero.to_string()),
+                ]),
+            })
             .map_err(into_io)?;
-        Ok(log_time)
+        self.release_held(LogClock::Unix(zero))
     }
 
     fn write_json(
@@ -187,7 +296,7 @@ impl<W: Write + Seek> McapSink<W> {
         message: &impl serde::Serialize,
     ) -> io::Result<()> {
         let data = serde_json::to_vec(message).map_err(io::Error::other)?;
-        self.write(channel, t_s, &data).map(|_| ())
+        self.write(channel, t_s, &data)
     }
 
     fn hello(&mut self, t_s: f64, hello: &Hello) -> io::Result<()> {
@@ -358,9 +467,11 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 ));
             }
         }
-        let log_time = log_time_ns(t_s)?;
-        let msg = EventMsg::of(t_s, log_time, event);
-        self.write_json(Ch::Event, t_s, &msg)
+        if let LogEvent::WallClock { unix_ns } = event {
+            self.anchor(t_s, *unix_ns)?;
+        }
+        // The JSON (with its foxglove.Log time stamp) is built when the log time is known.
+        self.write_or_hold(Ch::Event, t_s, &[], Some(event))
     }
 
     fn flush(&mut self) -> io::Result<()> {
@@ -369,12 +480,13 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
 
     /// Writes the summary section and footer (the sink takes no more records afterwards).
     fn finish(&mut self) -> io::Result<()> {
+        self.release_held(LogClock::Run)?;
         self.writer.finish().map(drop).map_err(into_io)
     }
 }
 
-/// MCAP log time [ns] of a run time [s]: finite, ≥ 0 and below 2^64 ns (584 years).
-pub(super) fn log_time_ns(t_s: f64) -> io::Result<u64> {
+/// MCAP publish time [ns] of a run time [s]: finite, ≥ 0 and below 2^64 ns (584 years).
+pub(super) fn run_time_ns(t_s: f64) -> io::Result<u64> {
     let ns = (t_s * 1e9).round();
     if t_s.is_finite() && t_s >= 0.0 && ns < u64::MAX as f64 {
         Ok(ns as u64)
@@ -383,6 +495,12 @@ pub(super) fn log_time_ns(t_s: f64) -> io::Result<u64> {
             "run time {t_s} s cannot be an MCAP log time (finite, ≥ 0)"
         )))
     }
+}
+
+/// MCAP log time [ns] on the Unix clock: Unix time of run time 0 plus the run time, within
+/// the u64 range.
+fn unix_log_time(zero_ns: i128, run_ns: u64) -> u64 {
+    (zero_ns + i128::from(run_ns)).clamp(0, i128::from(u64::MAX)) as u64
 }
 
 fn invalid(message: String) -> io::Error {

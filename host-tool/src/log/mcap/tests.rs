@@ -178,6 +178,82 @@ fn round_trip_keeps_everything() {
     assert_eq!(back.run, run);
 }
 
+/// Every message's (log_time, publish_time, foxglove.Log timestamp in ns if an event).
+fn times(bytes: &[u8]) -> Vec<(u64, u64, Option<u64>)> {
+    ::mcap::MessageStream::new(bytes)
+        .expect("stream")
+        .map(|m| {
+            let m = m.expect("message");
+            let stamp = (m.channel.topic == TOPIC_EVENT).then(|| {
+                let v: serde_json::Value = serde_json::from_slice(&m.data).expect("JSON");
+                let t = &v["timestamp"];
+                t["sec"].as_u64().expect("sec") * 1_000_000_000 + t["nsec"].as_u64().expect("ns")
+            });
+            (m.log_time, m.publish_time, stamp)
+        })
+        .collect()
+}
+
+#[test]
+fn log_time_is_unix_time_from_the_wall_clock_anchor_and_publish_time_run_time() {
+    let (mut run, _) = sim_run(40);
+    let first_t_s = run.samples[0].t_s;
+    let unix_ns = 1_795_000_000_123_456_789;
+    run.events
+        .insert(1, (first_t_s, LogEvent::WallClock { unix_ns }));
+    let zero = unix_ns - sink::run_time_ns(first_t_s).expect("time");
+    let check = |bytes: &[u8]| {
+        let times = times(bytes);
+        assert!(times.len() > 40);
+        for (log_time, publish_time, stamp) in times {
+            // Messages before the anchor (the start event at 0, hello) are on Unix time too.
+            assert_eq!(log_time, zero + publish_time);
+            assert!(stamp.is_none_or(|s| s == log_time));
+        }
+        let back = read(bytes).expect("readable");
+        assert_eq!(back.run.samples, run.samples);
+        back.run
+    };
+    // Converted whole, and written live (flushes in between), as the recorder does: the
+    // anchor before its sample.
+    assert_eq!(check(&to_bytes(&run)), run);
+    let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
+    sink.event(0.0, &run.events[0].1).expect("event");
+    sink.frame(run.frames[0].0, &run.frames[0].1)
+        .expect("hello");
+    sink.flush().expect("flush");
+    sink.event(first_t_s, &run.events[1].1).expect("anchor");
+    for s in &run.samples {
+        sink.sample(s).expect("sample");
+        sink.flush().expect("flush");
+    }
+    let bytes = sink.finish().expect("finish").into_inner();
+    let live = check(&bytes);
+    assert_eq!(live.events, run.events[..2]);
+    assert_eq!(live.frames, run.frames[..1], "frames keep their run time");
+    let summary = ::mcap::Summary::read(&bytes)
+        .expect("summary")
+        .expect("present");
+    assert!(summary
+        .metadata_indexes
+        .iter()
+        .any(|m| m.name == "rover_power.wall_clock"));
+}
+
+#[test]
+fn without_a_wall_clock_log_time_stays_run_time_as_in_older_files() {
+    let (run, _) = sim_run(40);
+    for bytes in [to_bytes(&run), recorded(&run, 7, true)] {
+        for (log_time, publish_time, _) in times(&bytes) {
+            assert_eq!(log_time, publish_time);
+        }
+        assert_eq!(read(&bytes).expect("readable").run.samples, run.samples);
+    }
+    // An older file's frames: log_time = publish_time = run time, read as run time.
+    let back = read(&to_bytes(&run)).expect("readable");
+    assert_eq!(back.run.frames, run.frames);
+}
+
 #[test]
 fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
     let (run, _) = sim_run(100);
@@ -219,7 +295,7 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
                 serde_json::from_slice(&message.data).expect("JSON message");
             assert!(value.is_object());
             let t_s = value["t_s"].as_f64().expect("t_s");
-            assert_eq!(sink::log_time_ns(t_s).expect("time"), message.log_time);
+            assert_eq!(sink::run_time_ns(t_s).expect("time"), message.publish_time);
             if message.channel.topic == TOPIC_MODEL {
                 models += 1;
                 assert!(value["left"]["energy_j"].is_number());
@@ -430,7 +506,7 @@ fn a_bad_frame_message_names_its_topic_and_time() {
     let e = read(&bytes).expect_err("bad frame");
     assert_eq!(
         e.to_string(),
-        "test.mcap: /rover_power/frame message at log time 1500000000 ns: frame does not decode: invalid COBS encoding"
+        "test.mcap: /rover_power/frame message at run time 1500000000 ns: frame does not decode: invalid COBS encoding"
     );
 }
 
