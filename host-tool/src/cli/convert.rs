@@ -3,6 +3,7 @@
 use super::output::{self, check_new_file, create_parent};
 use anyhow::{bail, Result};
 use host_tool::log::convert::{convert_salvaging, same_file};
+use host_tool::log::load::lost_data;
 use host_tool::runs::{damage_warnings, truncation_warning};
 use std::path::PathBuf;
 
@@ -30,10 +31,9 @@ impl ConvertArgs {
         if let Some(t) = &done.truncated {
             eprintln!("{}", truncation_warning(&self.input, t));
         }
-        let lost = !done.losses.is_empty() || done.dropped_rows.iter().any(|r| !r.cut);
         super::report_damage(
             &damage_warnings(&self.input, &done.losses, &done.dropped_rows),
-            lost,
+            lost_data(&done.losses, &done.dropped_rows),
         );
         let mut line = format!(
             "{} ({}) -> {} ({}): {} samples",

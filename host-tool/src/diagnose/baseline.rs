@@ -180,24 +180,19 @@ pub fn quiescent_draw_w(row: &TurnRow, side: usize) -> f64 {
     }
 }
 
+/// A side's regressors of a and G before the split: the skid feature and |V|.
+fn plain_regressors(row: &TurnRow, side: usize) -> [f64; 2] {
+    [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()]
+}
+
 /// A side's regressors [a, G, c] given the previous iteration's fit (`None`: the first pass).
-fn current_regressors(
-    prev: Option<&Baseline>,
-    row: &TurnRow,
-    side: usize,
-    structure: Structure,
-) -> [f64; 3] {
-    let x = [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()];
+fn current_regressors(prev: Option<&Baseline>, row: &TurnRow, side: usize) -> [f64; 3] {
+    let x = plain_regressors(row, side);
     let Some(prev) = prev else {
         return [x[0], x[1], 0.0];
     };
     let motor = prev.motor_power_w(row, side);
-    let raw = prev.skid_force_n * x[0] + prev.rolling_resistance_n * x[1];
-    // A side predicted to generate returns only its fraction (clamped: nothing).
-    let scale = match structure.split {
-        Split::Returning { fraction } if raw < 0.0 => fraction,
-        _ => 1.0,
-    };
+    let scale = prev.split_scale(x);
     [
         x[0] * scale,
         x[1] * scale,
@@ -264,7 +259,7 @@ impl Baseline {
         for i in 0..iterations {
             // The first pass fits the unclamped, copper-free regressors.
             let prev = (i > 0).then_some(&current);
-            let x_of = |row: &TurnRow, side: usize| current_regressors(prev, row, side, structure);
+            let x_of = |row: &TurnRow, side: usize| current_regressors(prev, row, side);
             // The first pass has no copper regressor yet (it comes from the previous fit).
             let result = if structure.copper_loss && i > 0 {
                 solve::<3>(calibration, |r, s| x_of(r, s))
@@ -318,13 +313,29 @@ impl Baseline {
         }
     }
 
+    /// The factor the split applies to a side whose plain regressors are `x`: a side predicted
+    /// to generate returns only its fraction (clamped: nothing), any other side 1.
+    fn split_scale(&self, x: [f64; 2]) -> f64 {
+        let raw = self.skid_force_n * x[0] + self.rolling_resistance_n * x[1];
+        match self.structure.split {
+            Split::Returning { fraction } if raw < 0.0 => fraction,
+            _ => 1.0,
+        }
+    }
+
     /// The motor power of one side (the split applied, before copper loss) [W].
     fn motor_power_w(&self, row: &TurnRow, side: usize) -> f64 {
-        let raw = self.skid_force_n * skid_feature_mps(row, side)
-            + self.rolling_resistance_n * row.sides[side].cmd_mps.abs();
-        match self.structure.split {
-            Split::Returning { fraction } if raw < 0.0 => raw * fraction,
-            _ => raw,
+        let x = plain_regressors(row, side);
+        (self.skid_force_n * x[0] + self.rolling_resistance_n * x[1]) * self.split_scale(x)
+    }
+
+    /// Expected over actual duration of `row`: a turn takes 1/(1 − s₀) of its expected time
+    /// with the calibration's constant slip, so its effective power is P/(1 − s₀).
+    fn turn_time_factor(&self, row: &TurnRow) -> f64 {
+        if row.is_straight() || !row.turned_from_yaw || self.turn_slip == 0.0 {
+            1.0
+        } else {
+            1.0 / (1.0 - self.turn_slip)
         }
     }
 
@@ -345,30 +356,23 @@ impl Baseline {
     /// The model's effective power E/T_expected of one side: its power over the turn's time
     /// with the calibration's constant slip [W].
     pub fn effective_side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
-        let p = self.side_power_w(row, side);
-        if row.is_straight() || !row.turned_from_yaw || self.turn_slip == 0.0 {
-            p
-        } else {
-            p / (1.0 - self.turn_slip)
-        }
+        self.side_power_w(row, side) * self.turn_time_factor(row)
     }
 
     /// Standard error of [`effective_side_power_w`](Self::effective_side_power_w) from the
     /// uncertainty of a and G (the copper coefficient's is left out) [W]: every diagnosed row
     /// shares it, so a gap must exceed it as well as the rows' own spread.
     pub fn effective_side_power_se_w(&self, row: &TurnRow, side: usize) -> f64 {
-        let x = [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()];
-        let raw = self.skid_force_n * x[0] + self.rolling_resistance_n * x[1];
-        let mut scale = match self.structure.split {
-            Split::Returning { fraction } if raw < 0.0 => fraction,
-            _ => 1.0,
-        };
-        if !(row.is_straight() || !row.turned_from_yaw || self.turn_slip == 0.0) {
-            scale /= 1.0 - self.turn_slip;
-        }
+        let x = plain_regressors(row, side);
+        let scale = self.split_scale(x) * self.turn_time_factor(row);
         let c = &self.covariance;
         let v = x[0] * x[0] * c[0][0] + 2.0 * x[0] * x[1] * c[0][1] + x[1] * x[1] * c[1][1];
         scale.abs() * v.max(0.0).sqrt()
+    }
+
+    /// The same for both sides together (their errors move together: the same a and G) [W].
+    pub fn effective_power_se_w(&self, row: &TurnRow) -> f64 {
+        self.effective_side_power_se_w(row, 0) + self.effective_side_power_se_w(row, 1)
     }
 
     /// Measured effective minus model effective power, per side (inner/outer order of the

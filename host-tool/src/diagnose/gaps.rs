@@ -111,10 +111,12 @@ pub struct Gap {
 fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64, f64)> {
     let res = baseline.observed_residuals_w(row);
     if res.is_total() {
-        let se = (0..2)
-            .map(|k| baseline.effective_side_power_se_w(row, k))
-            .sum();
-        vec![(Part::Total, res[0], baseline.power_w(row), se)]
+        vec![(
+            Part::Total,
+            res[0],
+            baseline.power_w(row),
+            baseline.effective_power_se_w(row),
+        )]
     } else {
         row.sides
             .iter()
@@ -294,9 +296,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             let r = row.effective_power_w() - model_w;
             out.push(TurnResidual {
                 model_w,
-                model_se_w: (0..2)
-                    .map(|k| baseline.effective_side_power_se_w(row, k))
-                    .sum(),
+                model_se_w: baseline.effective_power_se_w(row),
                 avg_power_w: r,
                 effective_power_w: r,
                 ..base(Part::Total)

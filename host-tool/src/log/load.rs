@@ -133,8 +133,14 @@ impl LoadedRun {
     /// Whether data inside the file was lost to damage (not counting a cut end: a truncated
     /// MCAP file or a cut last CSV row, which a killed recorder leaves).
     pub fn lost_data(&self) -> bool {
-        !self.losses.is_empty() || self.dropped_rows.iter().any(|r| !r.cut)
+        lost_data(&self.losses, &self.dropped_rows)
     }
+}
+
+/// Whether a read lost data inside the file: a skipped MCAP stretch or a damaged (not cut)
+/// CSV row.
+pub fn lost_data(losses: &[Loss], dropped_rows: &[DroppedRow]) -> bool {
+    !losses.is_empty() || dropped_rows.iter().any(|r| !r.cut)
 }
 
 /// Loads the run log at `path` (`.mcap` or `.csv`), reporting a truncated or damaged MCAP file
