@@ -1,8 +1,13 @@
 //! `host-tool diagnose-bench`: `diagnose` checked blind on datasets from the world family.
 
 use super::output::{self, JsonOut};
+use anyhow::Context;
 use anyhow::Result;
-use host_tool::diagnose::bench::{run_bench, BenchOptions, PartChoice};
+use host_tool::diagnose::bench::{
+    dump::dump_dataset, generate_all, run_bench, BenchOptions, PartChoice,
+};
+use host_tool::log::run_csv::CURRENT_A_MAX;
+use std::path::{Path, PathBuf};
 
 /// `diagnose-bench [--datasets N] [--seed S] [--part P] [--threads T] [--json FILE|-]`.
 #[derive(clap::Args, Debug)]
@@ -29,6 +34,14 @@ pub struct DiagnoseBenchArgs {
     /// turns by their measured R_ACT and sees a measured slip track.
     #[arg(long)]
     poses: bool,
+    /// Instead of running the bench, write each dataset (or only `--only`'s) to
+    /// DIR/<part>-<index>/ as run CSVs, rover.toml and dataset.json (spec, truth and the
+    /// `diagnose` command the bench runs), to read a miss with the ordinary commands.
+    #[arg(long, value_name = "DIR")]
+    dump: Option<PathBuf>,
+    /// With --dump: only the dataset of this index (the `index` of the --json report).
+    #[arg(long, value_name = "INDEX", requires = "dump")]
+    only: Option<usize>,
 }
 
 /// `--part` values.
@@ -54,10 +67,46 @@ impl DiagnoseBenchArgs {
             },
             poses: self.poses,
         };
+        if let Some(dir) = &self.dump {
+            return dump(&options, dir, self.only);
+        }
         let report = run_bench(&options);
         if !self.json.emit(&report, "bench", self.force)? {
             output::print(&report)?;
         }
         Ok(())
     }
+}
+
+/// `--dump DIR [--only INDEX]`: each chosen dataset into its own directory under `dir`.
+fn dump(options: &BenchOptions, dir: &Path, only: Option<usize>) -> Result<()> {
+    let specs: Vec<_> = generate_all(options)
+        .into_iter()
+        .filter(|s| only.is_none_or(|i| s.index == i))
+        .collect();
+    anyhow::ensure!(
+        !specs.is_empty(),
+        "no dataset has index {}",
+        only.unwrap_or(0)
+    );
+    for spec in &specs {
+        let sub = dir.join(format!("{}-{}", spec.part.id(), spec.index));
+        std::fs::create_dir_all(&sub).with_context(|| format!("creating {}", sub.display()))?;
+        let dumped = dump_dataset(spec, &sub, options.poses)
+            .with_context(|| format!("dataset {}", sub.display()))?;
+        println!(
+            "{}: {} ({})",
+            sub.display(),
+            spec.class.label(),
+            spec.structure_label
+        );
+        println!("  cd {} && {}", sub.display(), dumped.diagnose);
+        if let Some(peak) = dumped.over_range_a {
+            println!(
+                "  note: its currents reach {peak:.1} A, beyond the INA226 board's ±{CURRENT_A_MAX} A: \
+                 `diagnose` refuses these files (the bench hands its samples to the diagnosis directly)"
+            );
+        }
+    }
+    Ok(())
 }

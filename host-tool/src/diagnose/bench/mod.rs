@@ -49,6 +49,7 @@
 //! all rows (goal ≥ 70 %), the confusion matrix, per structure and per class; and the
 //! diagnosis time per dataset (goal < 20 ms).
 
+pub mod dump;
 pub mod family;
 pub mod run;
 pub mod table;

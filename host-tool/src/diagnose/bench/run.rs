@@ -139,7 +139,7 @@ pub fn rows_for(
 }
 
 /// `samples` without their position fixes.
-fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
+pub(super) fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
     samples
         .iter()
         .map(|s| RunSample {
