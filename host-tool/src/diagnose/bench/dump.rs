@@ -129,24 +129,25 @@ mod tests {
             .find(|s| s.rover == RoverKind::HuskyA200 && s.effect().is_none())
             .expect("a Husky dataset without effect");
         let dir = crate::log::tests_support::TempDir::new("bench-dump");
-        let dumped = dump_dataset(spec, dir.path(), false).unwrap();
+        let dumped = dump_dataset(spec, dir.path(), false).expect("dumps");
         assert_eq!(
             dumped.over_range_a, None,
             "the Husky stays in the board's range"
         );
         let cmd = dumped.diagnose;
         assert!(cmd.contains("--calibration cal-0.csv cal-1.csv"), "{cmd}");
-        let data = simulate(spec).unwrap();
-        let back = crate::log::run_csv::read_run_csv(&dir.path().join("run-0.csv")).unwrap();
+        let data = simulate(spec).expect("simulates");
+        let back =
+            crate::log::run_csv::read_run_csv(&dir.path().join("run-0.csv")).expect("reads back");
         assert_eq!(back.len(), data.runs[0].len());
         assert!(
             back.iter().all(|s| s.x_m.is_none()),
             "positions only with poses"
         );
         let json: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.path().join("dataset.json")).unwrap(),
+            &std::fs::read_to_string(dir.path().join("dataset.json")).expect("dataset.json"),
         )
-        .unwrap();
+        .expect("JSON");
         assert_eq!(json["truth"]["effect"], "none");
     }
 }
