@@ -191,12 +191,11 @@ fn current_regressors(prev: Option<&Baseline>, row: &TurnRow, side: usize) -> [f
     let Some(prev) = prev else {
         return [x[0], x[1], 0.0];
     };
-    let motor = prev.motor_power_w(row, side);
     let scale = prev.split_scale(x);
     [
         x[0] * scale,
         x[1] * scale,
-        copper_regressor(motor, row, side),
+        copper_regressor(prev.shaft_power_w(x), row, side),
     ]
 }
 
@@ -323,10 +322,16 @@ impl Baseline {
         }
     }
 
+    /// The wheels' power of a side with plain regressors `x`, before the split [W]: its force
+    /// times its speed, negative when the side is driven by the ground.
+    fn shaft_power_w(&self, x: [f64; 2]) -> f64 {
+        self.skid_force_n * x[0] + self.rolling_resistance_n * x[1]
+    }
+
     /// The motor power of one side (the split applied, before copper loss) [W].
     fn motor_power_w(&self, row: &TurnRow, side: usize) -> f64 {
         let x = plain_regressors(row, side);
-        (self.skid_force_n * x[0] + self.rolling_resistance_n * x[1]) * self.split_scale(x)
+        self.shaft_power_w(x) * self.split_scale(x)
     }
 
     /// Expected over actual duration of `row`: a turn takes 1/(1 − s₀) of its expected time
@@ -342,9 +347,11 @@ impl Baseline {
     /// The model's power of one side of `row` [W]: motor power, copper loss and the side's
     /// measured standstill draw ([`quiescent_draw_w`]).
     pub fn side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
-        let motor = self.motor_power_w(row, side);
-        motor
-            + self.copper_w_per_n2 * copper_regressor(motor, row, side)
+        let x = plain_regressors(row, side);
+        // Copper loss follows the torque, which a generating side has too, whatever the
+        // driver does with the generated power.
+        self.motor_power_w(row, side)
+            + self.copper_w_per_n2 * copper_regressor(self.shaft_power_w(x), row, side)
             + quiescent_draw_w(row, side)
     }
 
