@@ -232,7 +232,7 @@ impl BrakedInner {
     /// about 11 % dearer than PLP (thesis Table 6.1: +14.38 %) while P(R') stays below the
     /// dragged-inner peak P(2R'/3) (Fig 4.9), 14 % above P(0); held while |V_i| < 0.04 m/s
     /// (Fig 6.11's rolling cases: 0.02 and 0.04 m/s; Table 5.2: the seed set's nearest turns, 2R'/3
-    /// and 4R'/3, command 0.08 and 0.07 m/s and are not held), i.e. 0.88 R' < R < 1.15 R' at
+    /// and 4R'/3, command 0.08 and 0.07 m/s and are not held), i.e. 0.87 R' < R < 1.15 R' at
     /// v_c = 0.3 m/s.
     pub const SAND: Self = Self {
         resistance_n: 60.0,
