@@ -71,12 +71,13 @@
 //! - Section 6.2 / Fig 6.7–6.8, Chapter 7: turns slower than commanded, the angular slip at R'
 //!   40 % above R = 0's, the time offset at least double the hard ground's (`angular-slip`,
 //!   `slip-track` 1.21 m vs hard ground 1.29 m);
-//! - Section 6.1 / Table 6.1: the 45° – 10 m – 45° CLC path cheapest at 2R' < R < 2.5R'
-//!   (`angular-slip` falling as (R'/R)³ above R' on sand) and, around R', dearer than PLP
-//!   (`braked-inner`: Section 6.2, Fig 6.10–6.11, the held inner wheels plough, 60 N each while
-//!   |V_i| < 0.04 m/s); every slice within ±5 points of the table (README's calibration table);
-//!   the price: P(R') 14 % above P(0), below the 2R'/3 peak (Section 6.2 says "there isn't a
-//!   large difference" between them).
+//! - Section 6.2 / Fig 4.8: P(R') close to P(0) (`braked-inner` kept small, 15 N per held
+//!   wheel, held while |V_i| < 0.04 m/s, Fig 6.11).
+//! - Section 6.1 / Table 6.1: the 45° – 10 m – 45° CLC path cheapest at 2R' < R < 2.5R' and
+//!   dearer than PLP at R' (`angular-slip` falling as (R'/R)³ above R' on sand); the slice
+//!   around R' stays below the table's +14 % unless the held wheels plough harder
+//!   (`worlds/husky-sand-table-6.1.toml`, 60 N: every slice within ±5 points, at the cost of
+//!   P(R') ≈ P(0)); see the README's calibration table.
 //!
 //! The numbers the tests measure are in this module's tests (`calibration_*`).
 

@@ -579,14 +579,22 @@ fn table_6_1(world: &WorldConfig) -> Vec<super::path_energy::PathDeltaE> {
     super::path_energy::path_delta_e(&sc, t.manoeuvres(), f64::from(world.rover.r_prime_m()))
 }
 
+/// Thesis Table 6.1's slice means (45° – 10 m – 45° on sand) [%].
+const TABLE_6_1_PCT: [f64; 5] = [4.55, 14.38, -8.63, -13.2, -12.03];
+
+/// The Table 6.1-tuned sand world (`worlds/husky-sand-table-6.1.toml`).
+fn table_6_1_world() -> WorldConfig {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    load_world(&root.join("worlds/husky-sand-table-6.1.toml")).expect("loads")
+}
+
 #[test]
 fn table_6_1_sand_world_matches_the_thesis_slices() {
     // Thesis Table 6.1 (45° – 10 m – 45° on sand): slice means +4.55, +14.38, −8.63, −13.2,
     // −12.03 %. The sand world, driven through CLC paths at the slice centres and the PLP path
-    // (three repeats), gives +0.71, +10.99, −10.82, −11.51, −11.17 %: every slice within ±5
-    // points, the optimum in 2R' < R < 2.5R' and CLC dearer than PLP around R'. Around R' the
-    // held inner wheels plough (`braked-inner`, 60 N); the angular slip alone cannot get there
-    // (see `table_6_1_the_held_inner_wheels_make_r_prime_dearer`).
+    // (three repeats), gives +0.71, +3.55, −10.82, −11.51, −11.17 %: four slices within ±5
+    // points, the optimum in 2R' < R < 2.5R' and CLC dearer than PLP around R', but the slice
+    // around R' 10.8 points short (the trade-off: `table_6_1_world_meets_every_slice_*`).
     let got = table_6_1(&WorldConfig::sand());
     let x: Vec<f64> = got.iter().map(|p| p.r_over_r_prime).collect();
     assert_eq!(x, [0.25, 1.0, 1.75, 2.25, 2.75]);
@@ -594,13 +602,15 @@ fn table_6_1_sand_world_matches_the_thesis_slices() {
     for p in &got {
         assert_eq!(p.delta_e_pct.len(), 3);
     }
-    for (got, want) in d.iter().zip([0.71, 10.99, -10.82, -11.51, -11.17]) {
+    for (got, want) in d.iter().zip([0.71, 3.55, -10.82, -11.51, -11.17]) {
         assert!((got - want).abs() < 0.05, "{d:?}");
     }
-    let seed = [4.55, 14.38, -8.63, -13.2, -12.03];
-    for (g, s) in d.iter().zip(seed) {
-        assert!((g - s).abs() <= 5.0, "{d:?} vs {seed:?}");
-    }
+    let within: Vec<bool> = d
+        .iter()
+        .zip(TABLE_6_1_PCT)
+        .map(|(g, s)| (g - s).abs() <= 5.0)
+        .collect();
+    assert_eq!(within, [true, false, true, true, true], "{d:?}");
     let best = d.iter().cloned().fold(f64::INFINITY, f64::min);
     assert_eq!(best, d[3], "optimum in the 2–2.5 R' slice: {d:?}");
     assert!(d[1] > 0.0, "CLC dearer than PLP around R': {d:?}");
@@ -611,6 +621,50 @@ fn table_6_1_sand_world_matches_the_thesis_slices() {
         .filter_map(|p| p.r_act_over_r_prime_act)
         .collect();
     assert!((ract[3] - 1.57).abs() < 0.01, "{ract:?}");
+}
+
+#[test]
+fn table_6_1_world_meets_every_slice_at_the_cost_of_p_r_prime() {
+    // Section 6.2: the R' turn's held inner wheels plough like a braked wheel (Fig 6.10–6.11).
+    // At 60 N per wheel (the sand world: 15 N) the driven table gives +0.71, +10.99, −10.82,
+    // −11.51, −11.17 %: every slice within ±5 points, the optimum in 2 – 2.5 R', CLC dearer
+    // than PLP around R'.
+    let world = table_6_1_world();
+    let mut expected = WorldConfig::sand();
+    expected.effects.braked_inner.resistance_n = 60.0;
+    assert_eq!(
+        world, expected,
+        "the sand world but for the held wheels' resistance"
+    );
+    let d: Vec<f64> = table_6_1(&world)
+        .iter()
+        .map(|p| p.mean_delta_e_pct)
+        .collect();
+    for (got, want) in d.iter().zip([0.71, 10.99, -10.82, -11.51, -11.17]) {
+        assert!((got - want).abs() < 0.05, "{d:?}");
+    }
+    for (g, s) in d.iter().zip(TABLE_6_1_PCT) {
+        assert!((g - s).abs() <= 5.0, "{d:?} vs {TABLE_6_1_PCT:?}");
+    }
+    let best = d.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert_eq!(best, d[3], "{d:?}");
+    assert!(d[1] > 0.0, "{d:?}");
+    // The price in the laboratory figures: P(R') 14 % above P(0) (sand world 0.97; Section 6.2:
+    // "there isn't a large difference"), still below the 2R'/3 peak (Fig 4.9); no other turn of
+    // the seed set changes (their inner sides turn at ≥ 0.07 m/s, Table 5.2).
+    let p_of = |w: &WorldConfig| -> Vec<f64> {
+        seed_set(w, 1).manoeuvres()[..6]
+            .iter()
+            .map(|m| m.avg_total_power_w())
+            .collect()
+    };
+    let (tuned, sand) = (p_of(&world), p_of(&WorldConfig::sand()));
+    assert!((tuned[3] / tuned[0] - 1.14).abs() < 0.01, "{tuned:?}");
+    assert!((sand[3] / sand[0] - 0.97).abs() < 0.01, "{sand:?}");
+    assert!(tuned[3] < tuned[2], "{tuned:?}");
+    for i in [0, 1, 2, 4, 5] {
+        assert_eq!(tuned[i], sand[i], "{i}");
+    }
 }
 
 /// ΔE [%] of the 45° – 10 m – 45° CLC path at each R/R' of `ks` against PLP (one repeat).
@@ -629,37 +683,14 @@ fn clc_delta_e(world: &WorldConfig, ks: &[f64]) -> Vec<f64> {
 }
 
 #[test]
-fn table_6_1_the_held_inner_wheels_make_r_prime_dearer() {
-    // Section 6.2: the R' turn's inner wheels are held and dragged like a braked wheel, which
-    // ploughs far more sand than a rolling one (Fig 6.10: the largest tangential resistance at
-    // R'; Fig 6.11). With the sandbox's figures otherwise fixed, that resistance is what makes
-    // the R' CLC path dearer than PLP: at the held-inner default (15 N) +3.6 %, at the sand
-    // world's 60 N +11.0 % (Table 6.1: +14.38 %).
-    let sand = WorldConfig::sand();
-    let mut light = sand;
-    light.effects.braked_inner.resistance_n = 15.0;
-    let at_r_prime = |w: &WorldConfig| clc_delta_e(w, &[1.0])[0];
-    assert!((at_r_prime(&light) - 3.55).abs() < 0.05);
-    assert!((at_r_prime(&sand) - 10.99).abs() < 0.05);
-    // The price in the seed set: P(R') 14 % above P(0), still below the dragged-inner peak at
-    // 2R'/3 (Fig 4.9); no other turn changes (their inner sides turn at ≥ 0.07 m/s, Table 5.2).
-    let t = seed_set(&sand, 1);
-    let p: Vec<f64> = t.manoeuvres()[..6]
-        .iter()
-        .map(|m| m.avg_total_power_w())
-        .collect();
-    assert!((p[3] / p[0] - 1.14).abs() < 0.01, "{p:?}");
-    assert!(p[3] < p[2], "{p:?}");
-    let l = seed_set(&light, 1);
-    for (i, (a, b)) in t.manoeuvres().iter().zip(l.manoeuvres()).enumerate() {
-        assert_eq!(i == 3, power_changed(a, b), "{}", a.label);
-    }
-    // Radius-dependent: held while |V_i| < 0.04 m/s, so a CLC arc near R' ploughs too (less),
+fn braked_inner_holds_the_inner_wheels_near_r_prime() {
+    // Held while |V_i| < 0.04 m/s (Fig 6.11): a CLC arc near R' ploughs too (less than at R'),
     // one at 0.8 R' or 1.25 R' does not.
-    let mut at_r_prime_only = sand;
+    let world = table_6_1_world();
+    let mut at_r_prime_only = world;
     at_r_prime_only.effects.braked_inner.held_speed_mps = 0.0;
     let ks = [0.8, 0.95, 1.0, 1.05, 1.25];
-    let (band, only) = (clc_delta_e(&sand, &ks), clc_delta_e(&at_r_prime_only, &ks));
+    let (band, only) = (clc_delta_e(&world, &ks), clc_delta_e(&at_r_prime_only, &ks));
     for i in [0, 2, 4] {
         assert!((band[i] - only[i]).abs() < 1e-9, "{band:?} vs {only:?}");
     }
@@ -670,6 +701,14 @@ fn table_6_1_the_held_inner_wheels_make_r_prime_dearer() {
     // A sand world file that leaves the band out keeps the sand's; a negative one is refused.
     let w = parse_world("ground = \"sand\"\n[braked-inner]\nresistance_n = 20.0\n").expect("valid");
     assert_eq!(w.effects.braked_inner.held_speed_mps, 0.04);
+    assert_eq!(
+        parse_world("")
+            .expect("hard")
+            .effects
+            .braked_inner
+            .held_speed_mps,
+        0.0
+    );
     let e = parse_world("[braked-inner]\nheld_speed_mps = -0.1\n").expect_err("negative");
     assert!(e.to_string().contains("braked-inner.held_speed_mps"), "{e}");
 }
