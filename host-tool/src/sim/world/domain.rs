@@ -143,6 +143,7 @@ impl WorldConfig {
             pos("slip-track.slip_track_m", b)?;
         }
         nonneg("braked-inner.resistance_n", e.braked_inner.resistance_n)?;
+        nonneg("braked-inner.held_speed_mps", e.braked_inner.held_speed_mps)?;
         fin("current-offset.left_a", e.current_offset.left_a)?;
         fin("current-offset.right_a", e.current_offset.right_a)?;
         let mh = &e.motor_heating;

@@ -565,14 +565,15 @@ fn step(
         }
         supply(EffectId::SinkageBulldozing, total_w, &mut dtau);
     }
-    if plant.on(EffectId::BrakedInner) && v.inner == 0.0 && w_true != 0.0 {
-        let f = world.effects.braked_inner.resistance_n;
+    let held = world.effects.braked_inner.held_fraction(v.inner);
+    if plant.on(EffectId::BrakedInner) && held > 0.0 && w_true != 0.0 {
+        let f = world.effects.braked_inner.resistance_n * held;
         let v_i = speed(0);
         if v.outer != 0.0 {
             dtau[EffectId::BrakedInner as usize][1] += 2.0 * f * v_i * r / v.outer;
         }
         if v_i > 0.0 {
-            // Holding the rolling component of the drag, at stall.
+            // The inner motors hold the rolling component of the drag (at stall for V_i = 0).
             dtau[EffectId::BrakedInner as usize][0] += -r * 2.0 * f * wheel_v[0].1 / v_i;
         }
     }
