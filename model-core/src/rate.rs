@@ -51,14 +51,21 @@ pub const fn bits_to_ns(bits: u32) -> u64 {
 }
 
 impl AdcConfig {
-    /// The shortest sampling period with this averaging [µs]: the bus floor, or the conversion
-    /// period plus [`CONVERSION_MARGIN_PERCENT`] (rounded up), whichever is longer.
-    pub const fn min_sample_period_us(&self) -> u32 {
+    /// The conversion period plus [`CONVERSION_MARGIN_PERCENT`], rounded up [µs]: after this long
+    /// the chip has completed a result with these settings, and a read this long after the
+    /// previous one sees a new result.
+    pub const fn conversion_wait_us(&self) -> u32 {
         let conversion = self.update_period_us() as u64;
-        let with_margin = (conversion * (100 + CONVERSION_MARGIN_PERCENT as u64)).div_ceil(100);
-        if with_margin > MIN_SAMPLE_PERIOD_US as u64 {
-            // At most 1024 × 2 × 8244 µs × 1.1 ≈ 18.6 s: fits u32.
-            with_margin as u32
+        // At most 1024 × 2 × 8244 µs × 1.1 ≈ 18.6 s: fits u32.
+        ((conversion * (100 + CONVERSION_MARGIN_PERCENT as u64)).div_ceil(100)) as u32
+    }
+
+    /// The shortest sampling period with this averaging [µs]: the bus floor, or
+    /// [`Self::conversion_wait_us`], whichever is longer.
+    pub const fn min_sample_period_us(&self) -> u32 {
+        let wait = self.conversion_wait_us();
+        if wait > MIN_SAMPLE_PERIOD_US {
+            wait
         } else {
             MIN_SAMPLE_PERIOD_US
         }
