@@ -208,8 +208,11 @@ mod target {
             BusVoltageRaw(0x2570),
             CalibrationRaw(0x0A00),
         );
-        let truncated =
-            Registers::derived(ShuntVoltageRaw(-1), BusVoltageRaw(19_200), CalibrationRaw(2047));
+        let truncated = Registers::derived(
+            ShuntVoltageRaw(-1),
+            BusVoltageRaw(19_200),
+            CalibrationRaw(2047),
+        );
         let clamped = Registers::derived(
             ShuntVoltageRaw(i16::MIN),
             BusVoltageRaw(0x7FFF),
