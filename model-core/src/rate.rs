@@ -39,10 +39,11 @@ pub const MIN_SAMPLE_PERIOD_US: u32 = 500;
 /// 32 ms at 2 kHz, at 1.5 SCL periods per sample on average.
 pub const CALIBRATION_CHECK_EVERY: u32 = 64;
 
-/// Margin on the chip's conversion period [%]. The chip converts on its own oscillator, whose
-/// conversion times the datasheet gives as typical values (Table 7.5, "Conversion time"); a
-/// sampling period 10 % longer than the nominal period sees a new result at every read even
-/// with a chip running 9 % slow.
+/// Margin on the chip's conversion period [%]. The chip converts on its own oscillator: the
+/// datasheet's electrical characteristics (SBOS547, t_CT) give each conversion time as typical
+/// and a maximum 10 % longer (140 µs typ, 154 µs max; … 8.244 ms, 9.068 ms), so a sampling
+/// period 10 % longer than the nominal conversion period sees a new result at every read even
+/// from the slowest chip (a fast chip only leaves more results unread).
 pub const CONVERSION_MARGIN_PERCENT: u32 = 10;
 
 /// Bus time of `bits` SCL periods at [`SCL_HZ`] [ns].

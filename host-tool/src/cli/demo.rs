@@ -78,11 +78,12 @@ impl DemoArgs {
         }
         let started = std::time::Instant::now();
         output::print(format_args!(
-            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty, {}x real time\n",
+            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty at {} Hz, {}x real time\n",
             options.world.rover.track_width_m,
             options.world.rover.mass_kg,
             demo::describe_world(&options.world),
             self.runs,
+            1e6 / f64::from(options.sampler.sample_period_us.max(1)),
             self.speed,
         ))?;
         let runs = self.runs;

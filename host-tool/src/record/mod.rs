@@ -741,7 +741,10 @@ impl<'a, 'o> Recorder<'a, 'o> {
                     }
                     BoardFrame::Ack { id } => {
                         if self.configure_id == Some(*id) {
+                            // The board re-announces itself: the log's board metadata gets the
+                            // new period and averaging.
                             self.configure_id = None;
+                            self.send_host_command(Command::GetHello);
                         }
                         let ours = self.answered(*id);
                         self.commands_acked += u64::from(ours);
@@ -895,21 +898,26 @@ impl<'a, 'o> Recorder<'a, 'o> {
         if hello.sample_period_us == sample_period_us && hello.adc == adc {
             return Ok(());
         }
+        // A device going away gets the command again at its next hello.
+        if let Some(id) = self.send_host_command(command) {
+            self.configure_id = Some(id);
+        }
+        Ok(())
+    }
+
+    /// Sends a command of the recorder's own (not a commands-file row); its id, if it went out.
+    fn send_host_command(&mut self, command: Command) -> Option<u16> {
         self.next_id = self.next_id.wrapping_add(1);
         let frame = HostFrame {
             id: self.next_id,
             command,
         };
         let mut buf = [0u8; wire::MAX_FRAME];
-        let Ok(n) = wire::encode(&frame, &mut buf) else {
-            return Ok(()); // every HostFrame fits (model-core tests it)
-        };
-        // A device going away gets the command again at its next hello.
-        if self.reader.port_mut().write_all(&buf[..n]).is_ok() {
-            self.decoder.expect_ack(frame);
-            self.configure_id = Some(frame.id);
-        }
-        Ok(())
+        // Every HostFrame fits (model-core tests it).
+        let n = wire::encode(&frame, &mut buf).ok()?;
+        self.reader.port_mut().write_all(&buf[..n]).ok()?;
+        self.decoder.expect_ack(frame);
+        Some(frame.id)
     }
 
     /// Sends the side speeds in force at `t_s` when they differ from the last ones sent.

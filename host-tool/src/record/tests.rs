@@ -556,7 +556,9 @@ fn rate_hz_configures_the_board_at_its_hello_and_refuses_what_it_cannot_sustain(
         ..fast_options()
     };
     let (bytes, _) = board_stream(0, 10, &[]);
-    let (port, written) = script(vec![bytes]);
+    // The board acks the Configure (id 1): the recorder asks for its hello again.
+    let ack = encode_all(&[BoardFrame::Ack { id: 1 }]);
+    let (port, written) = script(vec![bytes, ack]);
     let (result, _, _) = record_ports(&options, vec![port]);
     result.expect("recorded");
     let mut sent = Vec::new();
@@ -567,7 +569,11 @@ fn rate_hz_configures_the_board_at_its_hello_and_refuses_what_it_cannot_sustain(
         adc: AdcConfig::smoothest_for_period(500).expect("2 kHz"),
         sample_period_us: 500,
     };
-    assert_eq!(sent.iter().map(|f| f.command).collect::<Vec<_>>(), [want]);
+    assert_eq!(
+        sent.iter().map(|f| f.command).collect::<Vec<_>>(),
+        [want, Command::GetHello]
+    );
+    assert_eq!(sent[0].id, 1);
 
     // The board's own period: nothing to send.
     let same = RecordOptions {
