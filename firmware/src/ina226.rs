@@ -221,7 +221,8 @@ impl Ina226 {
         self.write(i2c, Register::Configuration, CONFIG_RESET)
     }
 
-    /// Whether a new conversion finished since the last call (reading clears the flag).
+    /// Whether a new conversion finished since the last call (reading clears the flag). The
+    /// sampler does not poll it (a third read per sample); bring-up and tests do.
     pub fn conversion_ready<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
         Ok(self.read(i2c, Register::MaskEnable)? & MASK_CVRF != 0)
     }

@@ -81,9 +81,12 @@ pub enum ChipFault {
 /// One chip's part of a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ChipReading {
-    /// A new conversion result since the previous read (conversion-ready flag set).
+    /// A new conversion result since the previous read (the board reads no sooner than the
+    /// conversion period allows; firmware before issue 13 polled the conversion-ready flag).
+    /// Current and power are the board's Eq 3–4 on shunt and bus, bit-identical to the chip's.
     Fresh(Registers),
-    /// No new result since the previous read: the same averaged values, read again.
+    /// No new result since the previous read: the same averaged values, read again (sent by
+    /// firmware before issue 13; still decoded for its logs).
     Stale(Registers),
     /// No reading this period.
     Failed(ChipFault),
