@@ -277,6 +277,10 @@ impl Sampler {
                 // Start) so the host mirrors it on the Stop ack whatever the running state was.
                 self.running = false;
                 self.measurements.pause();
+                // Results converted during the pause were not skipped by the sampler.
+                for chip in [&mut self.chips.left, &mut self.chips.right] {
+                    chip.last_read_us = None;
+                }
                 Ok(())
             }
             Command::GetStatus | Command::GetHello => Ok(()),
@@ -637,6 +641,8 @@ mod tests {
             s.model().expect("sampled").snapshot.energy_lsb_us.left,
             before + 3840 * 5_000
         );
+        // Nor does the pause count as results the sampler skipped.
+        assert_eq!(s.skipped_results(), Sides::new(0, 0));
         i2c.done();
     }
 
