@@ -140,7 +140,7 @@ echo "instructions between markers (K = $k): update+encode $n1, update only $n2,
     "loop and inputs only $n3"
 awk -v n1="$n1" -v n2="$n2" -v n3="$n3" -v k="$k" 'BEGIN {
     printf "instructions per sample: update+encode %.1f, update only %.1f\n", n1 / k, n2 / k
-    printf "  (both include the bench loop and making the readings: %.1f per sample alone)\n",
-        n3 / k
+    printf "  (both include deriving current and power from shunt and bus (Eq 3-4), the bench\n"
+    printf "  loop and making the shunt and bus reads: %.1f per sample alone)\n", n3 / k
 }'
 echo "done in $((SECONDS - start)) s"

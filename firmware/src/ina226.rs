@@ -4,7 +4,8 @@
 
 use embedded_hal::i2c::{ErrorKind, I2c, NoAcknowledgeSource};
 use model_core::ina226::{
-    AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
+    AdcConfig, BusVoltageRaw, CalibrationRaw, CurrentRaw, PowerRaw, Registers, Scale,
+    ShuntVoltageRaw,
 };
 use model_core::wire::ChipFault;
 
@@ -37,6 +38,8 @@ const CONFIG_FIXED_BITS: u16 = 0b100 << 12;
 const MODE_SHUNT_BUS_CONTINUOUS: u16 = 0b111;
 /// Mask/Enable register: conversion-ready flag (cleared by reading the register).
 const MASK_CVRF: u16 = 1 << 3;
+/// Configuration register after a power-on or reset: AVG 1, 1.1 ms + 1.1 ms, continuous.
+pub const CONFIG_POWER_ON: u16 = 0x4127;
 
 /// Numerator of the calibration equation (datasheet Eq 1, CAL = 0.00512 / (I_LSB · R_shunt))
 /// with I_LSB in nA and R in µΩ: 0.00512 / (1e-9 · 1e-6) = 5.12e12.
@@ -88,10 +91,9 @@ impl Calibration {
         self.scale
     }
 
-    /// What the current register must hold for a shunt reading (datasheet Eq 3), used to spot a
-    /// chip that lost its calibration: shunt × CAL / 2048.
-    pub fn expected_current(&self, shunt: ShuntVoltageRaw) -> i32 {
-        i32::from(shunt.0) * i32::from(self.value) / 2048
+    /// The register value.
+    pub const fn raw(&self) -> CalibrationRaw {
+        CalibrationRaw(self.value)
     }
 }
 
@@ -140,12 +142,29 @@ pub fn fault_of<E: embedded_hal::i2c::Error>(e: &E) -> ChipFault {
     }
 }
 
+/// One sample's reading of a chip ([`Ina226::read_measurement`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Measurement {
+    /// Shunt and bus as read; current and power computed as the chip does.
+    pub registers: Registers,
+    /// The calibration register, when the read-back was asked for.
+    pub calibration: Option<CalibrationRaw>,
+    /// The short read returned the configuration register's power-on value: a chip that reset
+    /// points at register 00h, so the value may not be the register meant. The caller checks
+    /// the calibration before trusting it (a genuine reading of 0x4127 is rare and costs one
+    /// extra read).
+    pub suspect_reset: bool,
+}
+
 /// One INA226 at a 7-bit address.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Ina226 {
     address: u8,
     calibration: Calibration,
     adc: AdcConfig,
+    /// The register the chip points at, as far as this driver knows (`None` after a failed
+    /// transaction: the pointer byte may or may not have landed).
+    pointer: Option<Register>,
 }
 
 impl Ina226 {
@@ -154,6 +173,7 @@ impl Ina226 {
             address,
             calibration,
             adc,
+            pointer: None,
         }
     }
 
@@ -201,7 +221,8 @@ impl Ina226 {
         self.write(i2c, Register::Configuration, CONFIG_RESET)
     }
 
-    /// Whether a new conversion finished since the last call (reading clears the flag).
+    /// Whether a new conversion finished since the last call (reading clears the flag). The
+    /// sampler does not poll it (a third read per sample); bring-up and tests do.
     pub fn conversion_ready<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
         Ok(self.read(i2c, Register::MaskEnable)? & MASK_CVRF != 0)
     }
@@ -211,7 +232,8 @@ impl Ina226 {
         Ok(self.read(i2c, Register::Calibration)? == 0)
     }
 
-    /// Reads shunt, bus, current and power.
+    /// Reads all four measurement registers as the chip holds them (shunt, bus, current,
+    /// power): what [`Self::read_measurement`] computes, for checks.
     pub fn read_registers<I: I2c>(&mut self, i2c: &mut I) -> Result<Registers, I::Error> {
         Ok(Registers {
             shunt: ShuntVoltageRaw(self.read(i2c, Register::ShuntVoltage)? as i16),
@@ -221,27 +243,73 @@ impl Ina226 {
         })
     }
 
-    /// Whether a set of registers shows a chip that forgot its calibration: with CAL = 0 the
-    /// current register stays 0 whatever the shunt voltage. Free (no bus traffic) and catches a
-    /// reset at the first sample with load.
-    pub fn registers_show_reset(&self, regs: &Registers) -> bool {
-        regs.current.0 == 0 && self.calibration.expected_current(regs.shunt) != 0
+    /// One sample: shunt and bus in two reads, the one the chip already points at first (a
+    /// short read, no pointer byte), with the calibration read-back between them when asked
+    /// (so the pointer ends on a measurement register and the next sample's first read is short
+    /// again). Current and power are the chip's own Eq 3–4 on what was read, with this
+    /// driver's CAL ([`Registers::derived`]).
+    pub fn read_measurement<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        check_calibration: bool,
+    ) -> Result<Measurement, I::Error> {
+        let (first, second) = match self.pointer {
+            Some(Register::BusVoltage) => (Register::BusVoltage, Register::ShuntVoltage),
+            _ => (Register::ShuntVoltage, Register::BusVoltage),
+        };
+        let retained = self.pointer == Some(first);
+        let first_value = self.read(i2c, first)?;
+        let calibration = if check_calibration {
+            Some(CalibrationRaw(self.read(i2c, Register::Calibration)?))
+        } else {
+            None
+        };
+        let second_value = self.read(i2c, second)?;
+        let (shunt, bus) = if first == Register::ShuntVoltage {
+            (first_value, second_value)
+        } else {
+            (second_value, first_value)
+        };
+        Ok(Measurement {
+            registers: Registers::derived(
+                ShuntVoltageRaw(shunt as i16),
+                BusVoltageRaw(bus),
+                self.calibration.raw(),
+            ),
+            calibration,
+            suspect_reset: retained && first_value == CONFIG_POWER_ON,
+        })
     }
 
-    pub fn read<I: I2c>(&self, i2c: &mut I, register: Register) -> Result<u16, I::Error> {
+    /// Reads a register, sending the pointer only when the chip points elsewhere.
+    pub fn read<I: I2c>(&mut self, i2c: &mut I, register: Register) -> Result<u16, I::Error> {
         let mut buf = [0u8; 2];
-        i2c.write_read(self.address, &[register as u8], &mut buf)?;
+        let result = if self.pointer == Some(register) {
+            i2c.read(self.address, &mut buf)
+        } else {
+            i2c.write_read(self.address, &[register as u8], &mut buf)
+        };
+        self.pointer = result.is_ok().then_some(register);
+        result?;
         Ok(u16::from_be_bytes(buf))
     }
 
     pub fn write<I: I2c>(
-        &self,
+        &mut self,
         i2c: &mut I,
         register: Register,
         value: u16,
     ) -> Result<(), I::Error> {
         let [hi, lo] = value.to_be_bytes();
-        i2c.write(self.address, &[register as u8, hi, lo])
+        let result = i2c.write(self.address, &[register as u8, hi, lo]);
+        self.pointer = result.is_ok().then_some(register);
+        result
+    }
+
+    /// Forgets where the chip points (it may have reset: its pointer is then 00h), so the next
+    /// read sends its pointer.
+    pub fn forget_pointer(&mut self) {
+        self.pointer = None;
     }
 }
 
@@ -309,17 +377,68 @@ mod tests {
         chip.init(&mut i2c).expect("init");
         assert!(chip.conversion_ready(&mut i2c).expect("read"));
         let regs = chip.read_registers(&mut i2c).expect("read");
-        assert!(!chip.registers_show_reset(&regs));
         assert!((EXAMPLE.shunt_v(regs.shunt) - 0.020).abs() < 1e-12);
         assert!((EXAMPLE.bus_v(regs.bus) - 11.98).abs() < 1e-9);
         assert!((EXAMPLE.current_a(regs.current) - 10.0).abs() < 1e-12);
         assert!((EXAMPLE.power_w(regs.signed_power_lsb()) - 119.8).abs() < 1e-9);
         // The chip's own arithmetic (datasheet Eq 3 and 4) reproduces its registers.
-        assert_eq!(chip.calibration().expected_current(regs.shunt), 0x2710);
         assert_eq!(
-            i32::from(regs.current.0) * i32::from(regs.bus.0) / 20_000,
-            0x12B8
+            Registers::derived(regs.shunt, regs.bus, chip.calibration().raw()),
+            regs
         );
+        i2c.done();
+    }
+
+    #[test]
+    fn a_measurement_is_two_reads_the_first_without_pointer() {
+        let addr = 0x40;
+        let mut i2c = Mock::new(&[
+            // Pointer unknown: both reads send it.
+            read(addr, Register::ShuntVoltage, 0x1F40),
+            read(addr, Register::BusVoltage, 0x2570),
+            // The chip points at bus: read it without a pointer, then shunt.
+            T::read(addr, 0x2571u16.to_be_bytes().to_vec()),
+            read(addr, Register::ShuntVoltage, 0xE0C0),
+            // Points at shunt; the calibration read-back goes between the two.
+            T::read(addr, 0x1F40u16.to_be_bytes().to_vec()),
+            read(addr, Register::Calibration, 0x0A00),
+            read(addr, Register::BusVoltage, 0x2570),
+            // A failed read forgets the pointer.
+            T::read(addr, vec![0, 0]).with_error(ErrorKind::Bus),
+            read(addr, Register::ShuntVoltage, 0x1F40),
+            read(addr, Register::BusVoltage, 0x2570),
+            // A chip that reset points at its configuration register (00h).
+            T::read(addr, CONFIG_POWER_ON.to_be_bytes().to_vec()),
+            read(addr, Register::ShuntVoltage, 0x0100),
+        ]);
+        let example = Calibration::new(EXAMPLE).expect("fits");
+        let mut chip = Ina226::new(addr, example, AdcConfig::BOARD_DEFAULT);
+        let m = chip.read_measurement(&mut i2c, false).expect("read");
+        assert_eq!(
+            m.registers,
+            Registers {
+                shunt: ShuntVoltageRaw(0x1F40),
+                bus: BusVoltageRaw(0x2570),
+                current: CurrentRaw(0x2710),
+                power: PowerRaw(0x12B8),
+            }
+        );
+        assert_eq!((m.calibration, m.suspect_reset), (None, false));
+        let m = chip.read_measurement(&mut i2c, false).expect("read");
+        assert_eq!(m.registers.shunt, ShuntVoltageRaw(-8000));
+        assert_eq!(
+            m.registers.current,
+            CurrentRaw(-10_000),
+            "sign of the shunt"
+        );
+        assert_eq!(m.registers.bus, BusVoltageRaw(0x2571));
+        let m = chip.read_measurement(&mut i2c, true).expect("read");
+        assert_eq!(m.calibration, Some(CalibrationRaw(0x0A00)));
+        assert_eq!(m.registers.power, PowerRaw(0x12B8));
+        assert!(chip.read_measurement(&mut i2c, false).is_err());
+        chip.read_measurement(&mut i2c, false).expect("read");
+        let m = chip.read_measurement(&mut i2c, false).expect("read");
+        assert!(m.suspect_reset);
         i2c.done();
     }
 
@@ -402,26 +521,17 @@ mod tests {
     }
 
     #[test]
-    fn reset_is_detected_from_calibration_or_registers() {
+    fn reset_is_detected_from_calibration() {
         let mut i2c = Mock::new(&[
             write(0x40, Register::Configuration, 0x8000),
             read(0x40, Register::Calibration, 0x0000),
-            read(0x40, Register::Calibration, 0x0800),
+            // Pointer still on CAL: no pointer byte.
+            T::read(0x40, vec![0x08, 0x00]),
         ]);
         let mut chip = Ina226::new(0x40, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
         chip.reset(&mut i2c).expect("write");
         assert!(chip.calibration_lost(&mut i2c).expect("read"));
         assert!(!chip.calibration_lost(&mut i2c).expect("read"));
-        // With CAL = 2048 the current register equals the shunt register; 0 current under load
-        // means the calibration is gone.
-        let lost = Registers {
-            shunt: ShuntVoltageRaw(400),
-            current: CurrentRaw(0),
-            ..Default::default()
-        };
-        assert!(chip.registers_show_reset(&lost));
-        let idle = Registers::default();
-        assert!(!chip.registers_show_reset(&idle));
         i2c.done();
     }
 }

@@ -1,5 +1,5 @@
-//! The board's logic, independent of the STM32: the INA226 driver, the sampler that polls both
-//! chips and feeds model-core's running measurements, and the link that frames everything for USB
+//! The board's logic, independent of the STM32: the INA226 driver, the sampler that reads both
+//! chips on a timed schedule and feeds model-core's running measurements, and the link that frames everything for USB
 //! and takes host commands. `main.rs` only wires these to the HAL; the simulated board of the host
 //! tool runs the same code against a simulated I²C bus.
 #![cfg_attr(not(test), no_std)]

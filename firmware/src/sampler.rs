@@ -6,6 +6,7 @@ use embedded_hal::i2c::I2c;
 use model_core::board_id::BoardIdentity;
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{AdcConfig, BUS_LSB_UV, SHUNT_LSB_NV};
+use model_core::rate::CALIBRATION_CHECK_EVERY;
 use model_core::wire::{
     ChipFault, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
     PROTOCOL_VERSION,
@@ -16,9 +17,6 @@ use model_core::Sides;
 pub const BOARD_ADDRESSES: Sides<u8> = Sides::new(0x40, 0x45);
 /// Default sampling period: one fresh 4.48 ms result per read (200 Hz).
 pub const DEFAULT_SAMPLE_PERIOD_US: u32 = 5_000;
-/// Calibration is read back every this many samples (the register check in each sample only
-/// sees a reset while current flows).
-const CALIBRATION_CHECK_EVERY: u32 = 256;
 
 /// This firmware's version, from Cargo.
 pub fn firmware_version() -> FirmwareVersion {
@@ -50,9 +48,25 @@ impl SamplerConfig {
         sample_period_us: DEFAULT_SAMPLE_PERIOD_US,
         identity: BoardIdentity::UNKNOWN,
     };
+
+    /// The board sampling every `sample_period_us` with the smoothest averaging that period
+    /// allows ([`AdcConfig::smoothest_for_period`]); `None` where `Configure` would refuse it.
+    pub fn with_period(sample_period_us: u32) -> Option<SamplerConfig> {
+        let adc = AdcConfig::smoothest_for_period(sample_period_us)?;
+        let config = SamplerConfig {
+            adc,
+            sample_period_us,
+            ..Self::BOARD
+        };
+        let configure = Command::Configure {
+            adc,
+            sample_period_us,
+        };
+        configure.validate().ok().map(|()| config)
+    }
 }
 
-/// One chip and what the sampler knows of its health.
+/// One chip and what the sampler knows of its health and its conversions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Chip {
     driver: Ina226,
@@ -60,8 +74,14 @@ struct Chip {
     ready: bool,
     /// Has been ready at least once (a later init is a re-initialisation).
     was_ready: bool,
-    /// Initialised, but no conversion has completed with the new settings yet.
-    awaiting_conversion: bool,
+    /// When the chip started converting with its current settings (writing the configuration
+    /// restarts the cycle); `None`: restarted by a command, taken as the next sample's time.
+    cycle_start_us: Option<u64>,
+    /// Time of the latest read that returned a result.
+    last_read_us: Option<u64>,
+    /// Results the chip completed that no read returned, counted from the nominal conversion
+    /// period (a period longer than the chip's, or a period missed).
+    skipped_results: u32,
     errors: u32,
     reinits: u32,
     last_fault: Option<ChipFault>,
@@ -73,7 +93,9 @@ impl Chip {
             driver,
             ready: false,
             was_ready: false,
-            awaiting_conversion: false,
+            cycle_start_us: None,
+            last_read_us: None,
+            skipped_results: 0,
             errors: 0,
             reinits: 0,
             last_fault: None,
@@ -96,7 +118,17 @@ impl Chip {
         ChipReading::Failed(fault)
     }
 
-    fn read<I: I2c>(&mut self, i2c: &mut I, check_calibration: bool) -> ChipReading {
+    /// Its settings were written: the next result with them is a whole conversion period away.
+    fn restart_conversions(&mut self, t_us: Option<u64>) {
+        self.cycle_start_us = t_us;
+        self.last_read_us = None;
+    }
+
+    /// Reads the chip at `t_us`. Timed, not polled: the first result is read once the
+    /// conversion period (with its margin) has passed since the settings were written, and the
+    /// sample period is at least that long (`Command::validate`), so each read returns a result
+    /// no earlier read returned, whole (the chip swaps in a result only once it is averaged).
+    fn read<I: I2c>(&mut self, i2c: &mut I, t_us: u64, check_calibration: bool) -> ChipReading {
         if !self.ready {
             if let Err(e) = self.driver.init(i2c) {
                 return self.fail(e.fault());
@@ -106,52 +138,47 @@ impl Chip {
             }
             self.ready = true;
             self.was_ready = true;
-            // Writing the configuration cleared the conversion-ready flag; the current and power
-            // registers still hold a result computed with the old calibration.
-            self.awaiting_conversion = true;
-        } else if check_calibration {
-            match self.driver.calibration_lost(i2c) {
-                Ok(true) => return self.lost_calibration(),
-                Ok(false) => {}
-                Err(e) => return self.fail(crate::ina226::fault_of(&e)),
-            }
+            self.restart_conversions(Some(t_us));
         }
-        let fresh = match self.driver.conversion_ready(i2c) {
-            Ok(fresh) => fresh,
+        let adc = self.driver.adc();
+        let start = *self.cycle_start_us.get_or_insert(t_us);
+        if t_us < start.saturating_add(u64::from(adc.conversion_wait_us())) {
+            // No bus traffic: nothing valid to read yet.
+            return self.fail(ChipFault::AwaitingConversion);
+        }
+        let measurement = match self.driver.read_measurement(i2c, check_calibration) {
+            Ok(m) => m,
             Err(e) => return self.fail(crate::ina226::fault_of(&e)),
         };
-        if self.awaiting_conversion {
-            if !fresh {
-                return self.fail(ChipFault::AwaitingConversion);
-            }
-            self.awaiting_conversion = false;
-        }
-        let regs = match self.driver.read_registers(i2c) {
-            Ok(regs) => regs,
-            Err(e) => return self.fail(crate::ina226::fault_of(&e)),
-        };
-        if self.driver.registers_show_reset(&regs) {
-            // Only a suspicion: shunt and current are read in separate transactions and a result
-            // lands every 4.48 ms against 5 ms reads, so at idle about 1 read in 20 pairs a new
-            // shunt value with the previous (zero) current. CAL reads 0 only after a reset.
-            match self.driver.calibration_lost(i2c) {
-                Ok(true) => return self.lost_calibration(),
-                Ok(false) => {}
+        let lost = match measurement.calibration {
+            Some(cal) => cal.0 == 0,
+            // The short read may have read register 00h of a chip that reset: CAL says.
+            None if measurement.suspect_reset => match self.driver.calibration_lost(i2c) {
+                Ok(lost) => lost,
                 Err(e) => return self.fail(crate::ina226::fault_of(&e)),
-            }
+            },
+            None => false,
+        };
+        if lost {
+            return self.lost_calibration();
         }
+        let update_us = u64::from(adc.update_period_us().max(1));
+        let results_by = |t: u64| t.saturating_sub(start) / update_us;
+        if let Some(previous) = self.last_read_us {
+            let new_results = results_by(t_us).saturating_sub(results_by(previous));
+            let skipped = u32::try_from(new_results.saturating_sub(1)).unwrap_or(u32::MAX);
+            self.skipped_results = self.skipped_results.saturating_add(skipped);
+        }
+        self.last_read_us = Some(t_us);
         self.last_fault = None;
-        if fresh {
-            ChipReading::Fresh(regs)
-        } else {
-            ChipReading::Stale(regs)
-        }
+        ChipReading::Fresh(measurement.registers)
     }
 
-    /// The chip reset: its current and power registers are meaningless until it is set up again
-    /// (next period).
+    /// The chip reset: its settings are the power-on defaults until it is set up again (next
+    /// period), and it points at register 00h.
     fn lost_calibration(&mut self) -> ChipReading {
         self.ready = false;
+        self.driver.forget_pointer();
         self.fail(ChipFault::ResetDetected)
     }
 }
@@ -187,10 +214,13 @@ impl Sampler {
         if !self.running {
             return None;
         }
-        let check = self.seq.is_multiple_of(CALIBRATION_CHECK_EVERY);
+        // Each chip's read-back in its own sample, half a cycle apart.
+        let phase = self.seq % CALIBRATION_CHECK_EVERY;
         let chips = Sides::new(
-            self.chips.left.read(i2c, check),
-            self.chips.right.read(i2c, check),
+            self.chips.left.read(i2c, t_us, phase == 0),
+            self.chips
+                .right
+                .read(i2c, t_us, phase == CALIBRATION_CHECK_EVERY / 2),
         );
         self.measurements.update(t_us, chips.map(|c| c.registers()));
         let sample = Sample {
@@ -214,6 +244,7 @@ impl Sampler {
                 self.sample_period_us = sample_period_us;
                 let mut outcome = Ok(());
                 for chip in [&mut self.chips.left, &mut self.chips.right] {
+                    chip.restart_conversions(None);
                     if let Err(e) = chip.driver.configure(i2c, adc) {
                         // Re-initialised (with the new settings) at the next period.
                         chip.ready = false;
@@ -246,6 +277,10 @@ impl Sampler {
                 // Start) so the host mirrors it on the Stop ack whatever the running state was.
                 self.running = false;
                 self.measurements.pause();
+                // Results converted during the pause were not skipped by the sampler.
+                for chip in [&mut self.chips.left, &mut self.chips.right] {
+                    chip.last_read_us = None;
+                }
                 Ok(())
             }
             Command::GetStatus | Command::GetHello => Ok(()),
@@ -310,83 +345,133 @@ impl Sampler {
     pub fn last_faults(&self) -> Sides<Option<ChipFault>> {
         self.chips.map(|c| c.last_fault)
     }
+
+    /// Results each chip completed that no read returned (from the nominal conversion period:
+    /// a sample period longer than the chip's conversion period skips some by design).
+    pub fn skipped_results(&self) -> Sides<u32> {
+        self.chips.map(|c| c.skipped_results)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ina226::Register;
+    use crate::ina226::{Register, CONFIG_POWER_ON};
     use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
     use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 
-    fn read(addr: u8, reg: Register, value: u16) -> T {
-        T::write_read(addr, vec![reg as u8], value.to_be_bytes().to_vec())
+    const L: u8 = 0x40;
+    const R: u8 = 0x45;
+    /// The board's period (5 ms) against its 4.48 ms conversions (4.928 ms with the margin).
+    const P: u64 = DEFAULT_SAMPLE_PERIOD_US as u64;
+
+    /// The transactions a chip should see, with the register it points at, so the scripts
+    /// follow the driver's short reads.
+    struct Script {
+        addr: u8,
+        pointer: Option<Register>,
     }
 
-    fn write(addr: u8, reg: Register, value: u16) -> T {
-        let [hi, lo] = value.to_be_bytes();
-        T::write(addr, vec![reg as u8, hi, lo])
-    }
+    impl Script {
+        fn new(addr: u8) -> Self {
+            Self {
+                addr,
+                pointer: None,
+            }
+        }
 
-    fn init(addr: u8) -> Vec<T> {
-        vec![
-            read(addr, Register::ManufacturerId, 0x5449),
-            read(addr, Register::DieId, 0x2260),
-            write(addr, Register::Configuration, 0x4407),
-            write(addr, Register::Calibration, 2048),
-        ]
-    }
+        fn read(&mut self, reg: Register, value: u16) -> T {
+            let bytes = value.to_be_bytes().to_vec();
+            let t = if self.pointer == Some(reg) {
+                T::read(self.addr, bytes)
+            } else {
+                T::write_read(self.addr, vec![reg as u8], bytes)
+            };
+            self.pointer = Some(reg);
+            t
+        }
 
-    /// A reading of `amps` at 24 V: on our board the current register equals the shunt register.
-    fn reading(addr: u8, fresh: bool, amps: f64) -> Vec<T> {
-        let lsb = (amps / 0.0005).round() as i16;
-        let bus = 19_200u16; // 24 V
-        let power = (i32::from(lsb).unsigned_abs() * u32::from(bus) / 20_000) as u16;
-        vec![
-            read(addr, Register::MaskEnable, if fresh { 0x0008 } else { 0 }),
-            read(addr, Register::ShuntVoltage, lsb as u16),
-            read(addr, Register::BusVoltage, bus),
-            read(addr, Register::Current, lsb as u16),
-            read(addr, Register::Power, power),
-        ]
-    }
+        fn write(&mut self, reg: Register, value: u16) -> T {
+            let [hi, lo] = value.to_be_bytes();
+            self.pointer = Some(reg);
+            T::write(self.addr, vec![reg as u8, hi, lo])
+        }
 
-    fn cal_ok(addr: u8) -> T {
-        read(addr, Register::Calibration, 2048)
+        fn init(&mut self) -> Vec<T> {
+            self.init_with(0x4407)
+        }
+
+        fn init_with(&mut self, config: u16) -> Vec<T> {
+            vec![
+                self.read(Register::ManufacturerId, 0x5449),
+                self.read(Register::DieId, 0x2260),
+                self.write(Register::Configuration, config),
+                self.write(Register::Calibration, 2048),
+            ]
+        }
+
+        /// A sample's reads of `amps` at 24 V (on our board the shunt register counts current
+        /// LSBs), the calibration read-back between them when given.
+        fn measure(&mut self, amps: f64, calibration: Option<u16>) -> Vec<T> {
+            let shunt = (amps / 0.0005).round() as i16 as u16;
+            let (first, second) = match self.pointer {
+                Some(Register::BusVoltage) => (Register::BusVoltage, Register::ShuntVoltage),
+                _ => (Register::ShuntVoltage, Register::BusVoltage),
+            };
+            let value = |reg| {
+                if reg == Register::BusVoltage {
+                    19_200
+                } else {
+                    shunt
+                }
+            };
+            let mut tx = vec![self.read(first, value(first))];
+            if let Some(cal) = calibration {
+                tx.push(self.read(Register::Calibration, cal));
+            }
+            tx.push(self.read(second, value(second)));
+            tx
+        }
     }
 
     #[test]
     fn first_sample_initialises_both_chips_and_counts() {
-        let mut tx = init(0x40);
-        tx.extend(reading(0x40, true, 2.0));
-        tx.extend(init(0x45));
-        // No conversion since the configuration write: nothing valid to read yet.
-        tx.push(read(0x45, Register::MaskEnable, 0));
-        tx.extend(reading(0x40, true, 2.0));
-        tx.extend(reading(0x45, true, -1.0));
-        tx.extend(reading(0x40, false, 2.0));
-        tx.extend(reading(0x45, true, -1.0));
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend(r.init());
+        for _ in 0..2 {
+            tx.extend(l.measure(2.0, None));
+            tx.extend(r.measure(-1.0, None));
+        }
+        // Two periods missed: 4 results came and went, 2 unread.
+        tx.extend(l.measure(2.0, None));
+        tx.extend(r.measure(-1.0, None));
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
-        let first = s.sample(&mut i2c, 1_000).expect("running");
+        let first = s.sample(&mut i2c, 0).expect("running");
         assert_eq!(first.seq, 0);
-        assert!(matches!(first.chips.left, ChipReading::Fresh(_)));
-        assert_eq!(
-            first.chips.right,
-            ChipReading::Failed(ChipFault::AwaitingConversion)
+        // No conversion since the configuration write: nothing valid to read, so no read.
+        let waiting = ChipReading::Failed(ChipFault::AwaitingConversion);
+        assert_eq!(first.chips, Sides::new(waiting, waiting));
+        let second = s.sample(&mut i2c, P).expect("running");
+        assert_eq!((second.seq, second.t_us), (1, P));
+        let want = model_core::ina226::Registers::derived(
+            model_core::ina226::ShuntVoltageRaw(4000),
+            model_core::ina226::BusVoltageRaw(19_200),
+            crate::ina226::BOARD_CALIBRATION.raw(),
         );
-        let second = s.sample(&mut i2c, 6_000).expect("running");
-        assert_eq!((second.seq, second.t_us), (1, 6_000));
-        assert!(matches!(second.chips.right, ChipReading::Fresh(_)));
-        let third = s.sample(&mut i2c, 11_000).expect("running");
-        assert!(
-            matches!(third.chips.left, ChipReading::Stale(_)),
-            "re-read without a new conversion"
-        );
+        assert_eq!(second.chips.left, ChipReading::Fresh(want));
+        assert_eq!(want.power.0, 3840, "48 W in 12.5 mW LSBs");
+        assert!(matches!(second.chips.right, ChipReading::Fresh(r) if r.current.0 == -2000));
+        s.sample(&mut i2c, 2 * P).expect("running");
         let snap = s.model().expect("sampled").snapshot;
-        // 48 W for 10 ms on the left; −24 W for 5 ms on the right (its first reading anchors time).
+        // 48 W and −24 W for 5 ms (the first reading anchors time).
         assert_eq!(snap.power_lsb, Sides::new(Some(3840), Some(-1920)));
-        assert_eq!(snap.energy_lsb_us, Sides::new(3840 * 10_000, -1920 * 5_000));
+        assert_eq!(snap.energy_lsb_us, Sides::new(3840 * 5_000, -1920 * 5_000));
+        assert_eq!(s.skipped_results(), Sides::new(0, 0));
+        s.sample(&mut i2c, 5 * P).expect("running");
+        // Results at k × 4.48 ms: the 3rd (13.44 ms) was read at 15 ms; 4th–6th came by 25 ms.
+        assert_eq!(s.skipped_results(), Sides::new(2, 2));
         assert_eq!(s.i2c_errors(), Sides::new(0, 0));
         i2c.done();
     }
@@ -394,24 +479,30 @@ mod tests {
     #[test]
     fn a_nacking_chip_does_not_stop_the_other_and_recovers() {
         let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
-        let mut tx = init(0x40);
-        tx.extend(reading(0x40, true, 1.0));
-        tx.push(read(0x45, Register::ManufacturerId, 0).with_error(nack)); // right absent
-        tx.extend(reading(0x40, true, 1.0));
-        tx.push(read(0x45, Register::ManufacturerId, 0).with_error(nack));
-        tx.extend(reading(0x40, true, 1.0));
-        tx.extend(init(0x45)); // right plugged in
-        tx.extend(reading(0x45, true, 1.0));
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.push(T::write_read(R, vec![0xFE], vec![0, 0]).with_error(nack)); // right absent
+        tx.extend(l.measure(1.0, None));
+        tx.push(T::write_read(R, vec![0xFE], vec![0, 0]).with_error(nack));
+        tx.extend(l.measure(1.0, None));
+        tx.extend(r.init()); // right plugged in
+        tx.extend(l.measure(1.0, None));
+        tx.extend(r.measure(1.0, None));
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
-        for k in 0..3u64 {
-            let sample = s.sample(&mut i2c, k * 5_000).expect("running");
+        s.sample(&mut i2c, 0);
+        for k in 1..4u64 {
+            let sample = s.sample(&mut i2c, k * P).expect("running");
             assert!(
                 matches!(sample.chips.left, ChipReading::Fresh(_)),
                 "left keeps streaming"
             );
-            let right_failed = sample.chips.right == ChipReading::Failed(ChipFault::AddressNack);
-            assert_eq!(right_failed, k < 2, "sample {k}: {:?}", sample.chips.right);
+            let right = match k {
+                1 => ChipReading::Failed(ChipFault::AddressNack),
+                2 => ChipReading::Failed(ChipFault::AwaitingConversion),
+                _ => sample.chips.right,
+            };
+            assert_eq!(sample.chips.right, right, "sample {k}");
         }
         assert_eq!(s.i2c_errors(), Sides::new(0, 2));
         assert_eq!(s.last_faults(), Sides::new(None, None));
@@ -421,32 +512,38 @@ mod tests {
     }
 
     #[test]
-    fn a_reset_chip_is_detected_and_reinitialised() {
-        let mut tx = init(0x40);
-        tx.extend(reading(0x40, true, 1.0));
-        tx.extend(init(0x45));
-        tx.extend(reading(0x45, true, 1.0));
-        // Left browns out: CAL = 0 → current register 0 under load.
-        tx.push(read(0x40, Register::MaskEnable, 0x0008));
-        tx.push(read(0x40, Register::ShuntVoltage, 2000));
-        tx.push(read(0x40, Register::BusVoltage, 19_200));
-        tx.push(read(0x40, Register::Current, 0));
-        tx.push(read(0x40, Register::Power, 0));
-        tx.push(read(0x40, Register::Calibration, 0)); // confirmed
-        tx.extend(reading(0x45, true, 1.0));
-        tx.extend(init(0x40));
-        tx.extend(reading(0x40, true, 1.0));
-        tx.extend(reading(0x45, true, 1.0));
+    fn a_reset_chip_is_found_by_its_short_read_and_reinitialised() {
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend(r.init());
+        tx.extend(l.measure(1.0, None));
+        tx.extend(r.measure(1.0, None));
+        // Left browns out: it points at register 00h, which holds its power-on configuration.
+        tx.push(T::read(L, CONFIG_POWER_ON.to_be_bytes().to_vec()));
+        tx.push(T::write_read(L, vec![0x01], vec![0x07, 0xD0]));
+        tx.push(T::write_read(L, vec![0x05], vec![0, 0])); // CAL 0: confirmed
+        tx.extend(r.measure(1.0, None));
+        l.pointer = None;
+        tx.extend(l.init());
+        tx.extend(r.measure(1.0, None));
+        tx.extend(l.measure(1.0, None));
+        tx.extend(r.measure(1.0, None));
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
         s.sample(&mut i2c, 0);
-        let lost = s.sample(&mut i2c, 5_000).expect("running");
+        s.sample(&mut i2c, P);
+        let lost = s.sample(&mut i2c, 2 * P).expect("running");
         assert_eq!(
             lost.chips.left,
             ChipReading::Failed(ChipFault::ResetDetected)
         );
         assert!(matches!(lost.chips.right, ChipReading::Fresh(_)));
-        let back = s.sample(&mut i2c, 10_000).expect("running");
+        let setup = s.sample(&mut i2c, 3 * P).expect("running");
+        assert_eq!(
+            setup.chips.left,
+            ChipReading::Failed(ChipFault::AwaitingConversion)
+        );
+        let back = s.sample(&mut i2c, 4 * P).expect("running");
         assert!(matches!(back.chips.left, ChipReading::Fresh(_)));
         assert_eq!(s.reinits(), Sides::new(1, 0));
         assert_eq!(s.i2c_errors(), Sides::new(0, 0));
@@ -454,81 +551,84 @@ mod tests {
     }
 
     #[test]
-    fn a_conversion_landing_between_shunt_and_current_is_not_a_reset() {
-        let mut tx = init(0x40);
-        tx.extend(reading(0x40, true, 0.0));
-        tx.extend(init(0x45));
-        tx.extend(reading(0x45, true, 0.0));
-        // Idle: the shunt register already holds the next result (+3 LSB of offset), the current
-        // register still the previous one (0). CAL reads back fine: no reset.
-        tx.push(read(0x40, Register::MaskEnable, 0x0008));
-        tx.push(read(0x40, Register::ShuntVoltage, 3));
-        tx.push(read(0x40, Register::BusVoltage, 19_200));
-        tx.push(read(0x40, Register::Current, 0));
-        tx.push(read(0x40, Register::Power, 0));
-        tx.push(cal_ok(0x40));
-        tx.extend(reading(0x45, true, 0.0));
+    fn a_reading_that_looks_like_a_reset_is_checked_and_kept() {
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend(r.init());
+        tx.extend(l.measure(0.0, None));
+        tx.extend(r.measure(0.0, None));
+        // 0x4127 on the bus register (20.85 V) is a genuine reading: CAL is fine.
+        tx.push(T::read(L, CONFIG_POWER_ON.to_be_bytes().to_vec()));
+        tx.push(T::write_read(L, vec![0x01], vec![0, 3]));
+        tx.push(T::write_read(L, vec![0x05], 2048u16.to_be_bytes().to_vec()));
+        tx.extend(r.measure(0.0, None));
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
         s.sample(&mut i2c, 0);
-        let straddled = s.sample(&mut i2c, 5_000).expect("running");
-        assert!(matches!(straddled.chips.left, ChipReading::Fresh(r) if r.shunt.0 == 3));
+        s.sample(&mut i2c, P);
+        let checked = s.sample(&mut i2c, 2 * P).expect("running");
+        assert!(
+            matches!(checked.chips.left, ChipReading::Fresh(r) if r.bus.0 == CONFIG_POWER_ON && r.shunt.0 == 3)
+        );
         assert_eq!(s.reinits(), Sides::new(0, 0));
         assert_eq!(s.last_faults(), Sides::new(None, None));
         i2c.done();
     }
 
     #[test]
-    fn calibration_is_read_back_periodically() {
-        let mut tx = Vec::new();
-        for addr in [0x40, 0x45] {
-            tx.extend(init(addr));
-            tx.extend(reading(addr, true, 0.0));
+    fn calibration_is_read_back_periodically_one_chip_per_sample() {
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend(r.init());
+        let half = CALIBRATION_CHECK_EVERY / 2;
+        for seq in 1..=CALIBRATION_CHECK_EVERY {
+            tx.extend(l.measure(0.0, (seq == CALIBRATION_CHECK_EVERY).then_some(2048)));
+            // An idle right chip that reset keeps reading plausible values: CAL shows it.
+            tx.extend(r.measure(0.0, (seq == half).then_some(0)));
+            if seq == half {
+                break;
+            }
         }
-        for _ in 1..CALIBRATION_CHECK_EVERY {
-            tx.extend(reading(0x40, true, 0.0));
-            tx.extend(reading(0x45, true, 0.0));
-        }
-        tx.push(cal_ok(0x40));
-        tx.extend(reading(0x40, true, 0.0));
-        tx.push(read(0x45, Register::Calibration, 0)); // idle chip that reset: no load to show it
-        tx.extend(reading(0x40, true, 0.0));
-        tx.extend(init(0x45));
-        tx.extend(reading(0x45, true, 0.0));
+        r.pointer = None;
+        tx.extend(l.measure(0.0, None));
+        tx.extend(r.init());
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
-        for k in 0..CALIBRATION_CHECK_EVERY {
-            s.sample(&mut i2c, u64::from(k) * 5_000);
+        for seq in 0..half {
+            let sample = s.sample(&mut i2c, u64::from(seq) * P).expect("running");
+            assert_ne!(
+                sample.chips.right,
+                ChipReading::Failed(ChipFault::ResetDetected)
+            );
         }
-        let check = s.sample(&mut i2c, 0).expect("running");
+        let check = s.sample(&mut i2c, u64::from(half) * P).expect("running");
         assert_eq!(
             check.chips.right,
             ChipReading::Failed(ChipFault::ResetDetected)
         );
-        s.sample(&mut i2c, 5_000);
+        s.sample(&mut i2c, u64::from(half + 1) * P);
         assert_eq!(s.reinits(), Sides::new(0, 1));
         i2c.done();
     }
 
     #[test]
     fn energy_does_not_accumulate_across_stop_and_start() {
-        let mut tx = Vec::new();
-        for addr in [0x40, 0x45] {
-            tx.extend(init(addr));
-            tx.extend(reading(addr, true, 2.0));
-        }
-        for _ in 0..3 {
-            tx.extend(reading(0x40, true, 2.0));
-            tx.extend(reading(0x45, true, 2.0));
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend(r.init());
+        for _ in 0..4 {
+            tx.extend(l.measure(2.0, None));
+            tx.extend(r.measure(2.0, None));
         }
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
         s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, 5_000);
+        s.sample(&mut i2c, P);
+        s.sample(&mut i2c, 2 * P);
         let before = s.model().expect("sampled").snapshot.energy_lsb_us.left;
         assert_eq!(before, 3840 * 5_000);
         assert_eq!(s.apply(&mut i2c, &Command::Stop), Ok(()));
-        assert!(s.sample(&mut i2c, 10_000).is_none());
+        assert!(s.sample(&mut i2c, 3 * P).is_none());
         assert_eq!(s.apply(&mut i2c, &Command::Start), Ok(()));
         // A 60 s pause: the first reading after Start adds nothing, the next one 5 ms.
         s.sample(&mut i2c, 60_000_000);
@@ -541,49 +641,68 @@ mod tests {
             s.model().expect("sampled").snapshot.energy_lsb_us.left,
             before + 3840 * 5_000
         );
+        // Nor does the pause count as results the sampler skipped.
+        assert_eq!(s.skipped_results(), Sides::new(0, 0));
         i2c.done();
     }
 
     #[test]
     fn commands_change_sampling() {
-        let tx = [
-            write(0x40, Register::Configuration, 0x4FFF),
-            write(0x45, Register::Configuration, 0x4FFF).with_error(ErrorKind::Bus),
-        ];
+        let quad = AdcConfig {
+            averaging: model_core::ina226::Averaging::X4,
+            ..AdcConfig::BOARD_DEFAULT
+        };
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend(r.init());
+        tx.extend(l.measure(1.0, None));
+        tx.extend(r.measure(1.0, None));
+        tx.push(l.write(Register::Configuration, 0x4207));
+        tx.push(T::write(R, vec![0x00, 0x42, 0x07]).with_error(ErrorKind::Bus));
+        // The left chip restarted its conversions: 1.12 ms, 1.232 ms with the margin.
+        r.pointer = None;
+        tx.extend(r.init_with(0x4207));
+        tx.extend(l.measure(1.0, None));
+        tx.extend(r.measure(1.0, None));
         let mut i2c = Mock::new(&tx);
         let mut s = Sampler::new(SamplerConfig::BOARD);
+        s.sample(&mut i2c, 0);
+        s.sample(&mut i2c, P);
         let slowest = AdcConfig {
             averaging: model_core::ina226::Averaging::X1024,
             bus_conversion: model_core::ina226::ConversionTime::Us8244,
             shunt_conversion: model_core::ina226::ConversionTime::Us8244,
         };
-        assert_eq!(
-            s.apply(
-                &mut i2c,
-                &Command::Configure {
-                    adc: slowest,
-                    sample_period_us: 1_000
-                }
-            ),
-            Err(Rejection::OutOfRange)
-        );
+        let configure = |adc, sample_period_us| Command::Configure {
+            adc,
+            sample_period_us,
+        };
+        // The bus cannot go faster, the averaging cannot fill the period, or both.
+        for (adc, period) in [(quad, 499), (quad, 1_231), (slowest, 1_000_000)] {
+            assert_eq!(
+                s.apply(&mut i2c, &configure(adc, period)),
+                Err(Rejection::OutOfRange),
+                "{period} µs"
+            );
+        }
         assert_eq!(
             s.sample_period_us(),
             DEFAULT_SAMPLE_PERIOD_US,
             "refused command changes nothing"
         );
         assert_eq!(
-            s.apply(
-                &mut i2c,
-                &Command::Configure {
-                    adc: slowest,
-                    sample_period_us: 500_000
-                }
-            ),
+            s.apply(&mut i2c, &configure(quad, 1_250)),
             Err(Rejection::Chip(ChipFault::Bus))
         );
-        assert_eq!(s.sample_period_us(), 500_000);
-        assert_eq!(s.hello().adc, slowest);
+        assert_eq!(s.sample_period_us(), 1_250);
+        assert_eq!(s.hello().adc, quad);
+        let t = P + 1_250;
+        let after = s.sample(&mut i2c, t).expect("running");
+        let waiting = ChipReading::Failed(ChipFault::AwaitingConversion);
+        assert_eq!(after.chips, Sides::new(waiting, waiting));
+        let fresh = s.sample(&mut i2c, t + 1_250).expect("running");
+        assert!(matches!(fresh.chips.left, ChipReading::Fresh(_)));
+        assert!(matches!(fresh.chips.right, ChipReading::Fresh(_)));
         assert_eq!(s.apply(&mut i2c, &Command::Stop), Ok(()));
         assert!(s.sample(&mut i2c, 0).is_none());
         assert_eq!(
@@ -592,5 +711,17 @@ mod tests {
         );
         assert_eq!(s.measurements().wheel_rates(), Some(Sides::new(0.0, 3.6)));
         i2c.done();
+    }
+
+    #[test]
+    fn configurations_for_a_period() {
+        let fast = SamplerConfig::with_period(500).expect("2 kHz");
+        assert_eq!(fast.adc.update_period_us(), 408);
+        assert_eq!(
+            SamplerConfig::with_period(DEFAULT_SAMPLE_PERIOD_US),
+            Some(SamplerConfig::BOARD)
+        );
+        assert_eq!(SamplerConfig::with_period(499), None);
+        assert_eq!(SamplerConfig::with_period(2_000_000), None);
     }
 }

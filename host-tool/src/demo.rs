@@ -58,6 +58,9 @@ pub struct DemoOptions {
     /// Simulated seconds per wall-clock second: the board's stream is paced like the real
     /// board, only faster, so forwarded commands stay close to live.
     pub speed: f64,
+    /// The simulated board's sampling (`--rate-hz`: [`SamplerConfig::with_period`]); the
+    /// recorder asks for the same period, as `record --rate-hz` does.
+    pub sampler: SamplerConfig,
 }
 
 impl DemoOptions {
@@ -72,6 +75,7 @@ impl DemoOptions {
             runs: 3,
             seed: 1,
             speed: 25.0,
+            sampler: SamplerConfig::BOARD,
         }
     }
 }
@@ -339,7 +343,7 @@ fn record_run(
     let commands = timeline.commands(TRACKER_HZ);
     write_commands_csv_atomically(&commands_path, &commands)?;
 
-    let config = SamplerConfig::BOARD;
+    let config = options.sampler;
     let steps = timeline.duration_us() / u64::from(config.sample_period_us) + 1;
     let mut board = SimBoard::new(config);
     board.set_load(timeline.load_source());
@@ -354,6 +358,7 @@ fn record_run(
     record_options.commands = commands;
     record_options.rover = options.world.rover;
     record_options.max_samples = Some(steps);
+    record_options.sample_period_us = Some(config.sample_period_us);
     // The board hangs up after its last step; anything longer than a few periods is a fault.
     record_options.reconnect_timeout = Duration::from_secs(2);
     let mut open = record::serial_opener(record_options.read_timeout);

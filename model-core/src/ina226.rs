@@ -35,7 +35,29 @@ pub struct Registers {
     pub power: PowerRaw,
 }
 
+/// Calibration register (05h): CAL of datasheet Eq 1, 15 bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct CalibrationRaw(pub u16);
+
 impl Registers {
+    /// The current and power registers as the chip computes them from shunt and bus with
+    /// `cal`, so the board reads two registers instead of four.
+    ///
+    /// Datasheet Eq 3: current = shunt × CAL / 2048, an integer division truncating toward zero
+    /// (−1 × 2047 / 2048 = 0), clamped to the register's i16 range (the chip sets OVF there).
+    /// Eq 4: power = |current| × bus / 20000, truncated; at most 32768 × 32767 / 20000, a u16.
+    pub fn derived(shunt: ShuntVoltageRaw, bus: BusVoltageRaw, cal: CalibrationRaw) -> Registers {
+        let current = i32::from(shunt.0) * i32::from(cal.0) / 2048;
+        let current = current.clamp(i32::from(i16::MIN), i32::from(i16::MAX));
+        let power = current.unsigned_abs() * u32::from(bus.0) / 20_000;
+        Registers {
+            shunt,
+            bus,
+            current: CurrentRaw(current as i16),
+            power: PowerRaw(power as u16),
+        }
+    }
+
     /// Power with its sign taken from the current register, in power LSBs (the power register
     /// holds |I|·V only).
     pub fn signed_power_lsb(&self) -> i32 {
@@ -276,6 +298,41 @@ mod tests {
         regs.power = PowerRaw(u16::MAX);
         regs.current = CurrentRaw(i16::MIN);
         assert_eq!(regs.signed_power_lsb(), -65_535);
+    }
+
+    #[test]
+    fn derived_registers_follow_eq_3_and_4() {
+        // Datasheet worked example (7.5.1): CAL 0x0A00, 20 mV shunt, 11.98 V bus → 10 A, 119.8 W.
+        let example = Registers::derived(
+            ShuntVoltageRaw(0x1F40),
+            BusVoltageRaw(0x2570),
+            CalibrationRaw(0x0A00),
+        );
+        assert_eq!(example.current, CurrentRaw(0x2710));
+        assert_eq!(example.power, PowerRaw(0x12B8));
+        // Truncation toward zero, not flooring: −1 × 2047 / 2048 is 0, −3 × 2049 / 2048 is −3.
+        let cal = |c| CalibrationRaw(c);
+        let bus = BusVoltageRaw(19_200);
+        assert_eq!(
+            Registers::derived(ShuntVoltageRaw(-1), bus, cal(2047)).current,
+            CurrentRaw(0)
+        );
+        assert_eq!(
+            Registers::derived(ShuntVoltageRaw(-3), bus, cal(2049)).current,
+            CurrentRaw(-3)
+        );
+        // Overflow clamps; power of the clamped current, never wrapped.
+        let full = Registers::derived(
+            ShuntVoltageRaw(i16::MIN),
+            BusVoltageRaw(0x7FFF),
+            cal(0x7FFF),
+        );
+        assert_eq!(full.current, CurrentRaw(i16::MIN));
+        assert_eq!(full.power, PowerRaw((32_768u32 * 0x7FFF / 20_000) as u16));
+        assert_eq!(full.signed_power_lsb(), -53_685);
+        // A chip that lost its calibration (CAL 0) computes nothing.
+        let lost = Registers::derived(ShuntVoltageRaw(4000), bus, cal(0));
+        assert_eq!((lost.current, lost.power), (CurrentRaw(0), PowerRaw(0)));
     }
 
     #[test]

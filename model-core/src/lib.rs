@@ -16,6 +16,7 @@ pub mod ina226;
 pub mod kinematics;
 pub mod paths;
 pub mod power;
+pub mod rate;
 pub mod search;
 pub mod soil;
 #[cfg(test)]

@@ -81,9 +81,12 @@ pub enum ChipFault {
 /// One chip's part of a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ChipReading {
-    /// A new conversion result since the previous read (conversion-ready flag set).
+    /// A new conversion result since the previous read (the board reads no sooner than the
+    /// conversion period allows; firmware before issue 13 polled the conversion-ready flag).
+    /// Current and power are the board's Eq 3–4 on shunt and bus, bit-identical to the chip's.
     Fresh(Registers),
-    /// No new result since the previous read: the same averaged values, read again.
+    /// No new result since the previous read: the same averaged values, read again (sent by
+    /// firmware before issue 13; still decoded for its logs).
     Stale(Registers),
     /// No reading this period.
     Failed(ChipFault),
@@ -170,9 +173,9 @@ pub enum BoardFrame {
     },
 }
 
-/// Shortest sampling period a host may configure [µs]: two chips × five register reads take
-/// about 1.2 ms at 400 kHz.
-pub const MIN_SAMPLE_PERIOD_US: u32 = 2_000;
+/// Shortest sampling period a host may configure [µs] (2 kHz, the I²C bus's limit; a slower
+/// averaging raises it: [`AdcConfig::min_sample_period_us`]).
+pub use crate::rate::MIN_SAMPLE_PERIOD_US;
 /// Longest sampling period a host may configure [µs].
 pub const MAX_SAMPLE_PERIOD_US: u32 = 1_000_000;
 /// Largest commanded wheel rate accepted [rad/s] (≈ 165 m/s on a Husky wheel: clearly bogus).
@@ -181,7 +184,8 @@ pub const MAX_WHEEL_RATE_RAD_S: f32 = 1_000.0;
 /// What the host can ask of the board.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Command {
-    /// Set averaging, conversion times and the sampling period (MIN..=MAX_SAMPLE_PERIOD_US).
+    /// Set averaging, conversion times and the sampling period: at most MAX_SAMPLE_PERIOD_US,
+    /// at least `adc.min_sample_period_us()` (the bus's limit, or the averaging's when longer).
     Configure {
         adc: AdcConfig,
         sample_period_us: u32,
@@ -207,8 +211,9 @@ impl Command {
     pub fn validate(&self) -> Result<(), Rejection> {
         let ok = match self {
             Command::Configure {
-                sample_period_us, ..
-            } => (MIN_SAMPLE_PERIOD_US..=MAX_SAMPLE_PERIOD_US).contains(sample_period_us),
+                adc,
+                sample_period_us,
+            } => (adc.min_sample_period_us()..=MAX_SAMPLE_PERIOD_US).contains(sample_period_us),
             Command::SetWheelRates(rates) => [rates.left, rates.right]
                 .iter()
                 .all(|w| w.is_finite() && libm::fabsf(*w) <= MAX_WHEEL_RATE_RAD_S),
@@ -584,21 +589,23 @@ mod tests {
     #[test]
     fn out_of_range_commands_are_refused() {
         let adc = AdcConfig::BOARD_DEFAULT;
+        let configure = |adc, sample_period_us| Command::Configure {
+            adc,
+            sample_period_us,
+        };
+        // The board default's 16 × 280 µs averaging needs 4928 µs (10 % margin).
+        assert_eq!(configure(adc, 4_927).validate(), Err(Rejection::OutOfRange));
+        assert_eq!(configure(adc, 4_928).validate(), Ok(()));
+        // Without averaging the bus sets the floor: 2 kHz.
+        let fast = AdcConfig {
+            averaging: Averaging::X1,
+            ..adc
+        };
+        assert_eq!(configure(fast, 499).validate(), Err(Rejection::OutOfRange));
+        assert_eq!(configure(fast, 500).validate(), Ok(()));
         assert_eq!(
-            Command::Configure {
-                adc,
-                sample_period_us: 1_999
-            }
-            .validate(),
+            configure(fast, MAX_SAMPLE_PERIOD_US + 1).validate(),
             Err(Rejection::OutOfRange)
-        );
-        assert_eq!(
-            Command::Configure {
-                adc,
-                sample_period_us: 2_000
-            }
-            .validate(),
-            Ok(())
         );
         assert_eq!(
             Command::SetWheelRates(Sides::new(f32::NAN, 0.0)).validate(),

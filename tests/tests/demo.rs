@@ -55,8 +55,13 @@ distance_m = 1.0
 kind = "point-turn"
 "#;
 
+/// The demos run one at a time: each paces a simulated board against its recorder, and two at
+/// once on a loaded machine let a board run ahead of its recorder's commands.
+static ONE_DEMO_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
+    let _one = ONE_DEMO_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = TempDir::new("demo");
     let mut options = DemoOptions::new(&dir.0);
     options.world = WorldConfig::sand();
@@ -219,4 +224,40 @@ fn poses_measure_the_worlds_radius_and_slip_track(
     let json = std::fs::read_to_string(dir.join("report.json")).expect("report.json");
     assert!(json.contains("\"r_act_m\"") && json.contains("\"slip_track_measured_m\""));
     assert!(json.contains("\"r_act_over_r_prime_act\""));
+}
+
+/// Issue 13: the demo at the bus's limit, 2 kHz, through the pty: every sample arrives, the
+/// host's energy is the board's (`demo::run` refuses a run where it is not), and the report
+/// carries the rate achieved and the samples lost.
+#[test]
+fn demo_at_2_khz_loses_nothing_and_reports_its_rate() {
+    let _one = ONE_DEMO_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = TempDir::new("demo-2khz");
+    let mut options = DemoOptions::new(&dir.0);
+    options.scenario = parse_scenario(SHORT_SCENARIO).expect("scenario");
+    options.runs = 1;
+    options.speed = 25.0;
+    options.sampler = firmware::sampler::SamplerConfig::with_period(500).expect("2 kHz");
+    let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
+    let run = &outcome.runs[0];
+    assert_eq!(run.summary.stream.lost_samples, 0);
+    assert_eq!(run.summary.stream.bad_frames, 0);
+    assert!(run.summary.incomplete_samples <= 1, "{:?}", run.summary);
+    assert!(run.summary.samples > 50_000, "{:?}", run.summary);
+    let report = &outcome.report.runs[0];
+    assert_eq!(report.lost_samples, Some(0));
+    assert!(
+        (report.sample_rate_hz - 2_000.0).abs() < 0.01,
+        "{}",
+        report.sample_rate_hz
+    );
+    let json = std::fs::read_to_string(dir.0.join("report.json")).expect("report.json");
+    let field = |name: &str| -> f64 {
+        let key = format!("\"{name}\": ");
+        let at = json.find(&key).expect(name) + key.len();
+        let end = json[at..].find([',', '\n']).expect("value") + at;
+        json[at..end].trim().parse().expect("a number")
+    };
+    assert!((field("sample_rate_hz") - 2_000.0).abs() < 0.01);
+    assert_eq!(field("lost_samples"), 0.0);
 }

@@ -537,3 +537,43 @@ fn the_board_reports_wheel_rates_of_forwarded_commands_in_its_status() {
     });
     assert_eq!(reported, Some(options.wheel_rates(Sides::new(0.33, -0.33))));
 }
+
+/// Issue 13: `record --rate-hz 2000` against the board at its default 200 Hz: the recorder
+/// configures it at its hello, the board answers and samples every 500 µs from then on, and
+/// nothing is lost on the way: every sample arrives and the host's energy is the board's.
+#[test]
+fn rate_hz_reconfigures_the_board_and_every_sample_still_arrives() {
+    const STEPS: u64 = 4_000;
+    let dir = TempDir::new("rate");
+    let out = dir.join("run.csv");
+    let pty = PtyBoard::spawn(sim_board(), STEPS, Pacing::Scaled(20.0)).expect("pty");
+    let options = RecordOptions {
+        sample_period_us: Some(500),
+        ..options(pty.path())
+    };
+    let stop = AtomicBool::new(false);
+    let summary = record_to_csv(&options, &out, &stop, |_| {});
+    let run = pty.join().expect("writer");
+
+    assert_eq!(summary.samples, STEPS);
+    let s = summary.stream;
+    assert_eq!((s.lost_samples, s.bad_frames, s.board_resets), (0, 0, 0));
+    // Power-up, and the sample at which the new averaging started converting.
+    assert_eq!(summary.incomplete_samples, 2);
+    assert_eq!(
+        summary.segments[0].host_energy_lsb_us,
+        run.board_energy_lsb_us()
+    );
+    assert_eq!(s.model_mismatches, 0);
+    let rows = read_run_csv(&out).expect("valid run CSV");
+    let fast = rows
+        .windows(2)
+        .filter(|w| ((w[1].t_s - w[0].t_s) - 0.000_5).abs() < 1e-9)
+        .count() as u64;
+    assert!(
+        fast > STEPS - 100,
+        "{fast} of {} intervals at 500 µs",
+        rows.len()
+    );
+    assert_strictly_increasing(&rows);
+}

@@ -29,7 +29,7 @@ mod target {
 
     use model_core::energy::{EnergyAccumulator, RunningMeasurements};
     use model_core::ina226::{
-        BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
+        BusVoltageRaw, CalibrationRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
     };
     use model_core::kinematics::{
         side_speeds_for, slip_angles, slip_track_from_measured_radius_m, turning_radius_m,
@@ -200,6 +200,41 @@ mod target {
             format_args!("{:?} (want None, Some(-3.4375))", tau),
         );
 
+        // Datasheet Eq 3–4 on the M4, worked example (7.5.1): CAL 0x0A00, shunt 0x1F40 (20 mV),
+        // bus 0x2570 (11.98 V) → current 0x2710 (10 A), power 0x12B8 (119.8 W); −1 × 2047 /
+        // 2048 truncates to 0; full scale clamps to −32768 with power 32768 × 32767 / 20000.
+        let example = Registers::derived(
+            ShuntVoltageRaw(0x1F40),
+            BusVoltageRaw(0x2570),
+            CalibrationRaw(0x0A00),
+        );
+        let truncated = Registers::derived(
+            ShuntVoltageRaw(-1),
+            BusVoltageRaw(19_200),
+            CalibrationRaw(2047),
+        );
+        let clamped = Registers::derived(
+            ShuntVoltageRaw(i16::MIN),
+            BusVoltageRaw(0x7FFF),
+            CalibrationRaw(0x7FFF),
+        );
+        c.check(
+            "derived current and power (Eq 3-4)",
+            example.current.0 == 0x2710
+                && example.power.0 == 0x12B8
+                && truncated.current.0 == 0
+                && clamped.current.0 == i16::MIN
+                && clamped.power.0 == 53_685,
+            format_args!(
+                "{} / {}, {}, {} / {} (want 10000 / 4792, 0, -32768 / 53685)",
+                example.current.0,
+                example.power.0,
+                truncated.current.0,
+                clamped.current.0,
+                clamped.power.0
+            ),
+        );
+
         // u64 µs counter wrapping on a 32-bit core: (u64::MAX − 999) → 1000 is 2000 µs at 10 LSB.
         let mut acc = EnergyAccumulator::default();
         acc.add(u64::MAX - 999, 10);
@@ -326,26 +361,34 @@ mod target {
         black_box(6u32);
     }
 
-    /// One sample's readings: register values that change every sample, with both current signs.
-    /// Made in the loop (a few dozen instructions, in registers, straight into `update`'s
-    /// argument): copying them from a precomputed table costs more, a `__aeabi_memcpy` per sample.
+    /// One sample's reads: shunt and bus per chip (all the board reads), values that change
+    /// every sample, with both current signs. Made in the loop (a few dozen instructions, in
+    /// registers): copying them from a precomputed table costs more, a `__aeabi_memcpy` per
+    /// sample.
+    #[inline(always)]
+    fn reads(k: u32) -> Sides<(ShuntVoltageRaw, BusVoltageRaw)> {
+        let k16 = k as u16;
+        Sides::new(
+            (
+                ShuntVoltageRaw(((k16 * 7) & 0x3FFF) as i16),
+                BusVoltageRaw(19_000 + (k16 & 0x3FF)),
+            ),
+            (
+                ShuntVoltageRaw(-(((k16 * 5) & 0x3FFF) as i16)),
+                BusVoltageRaw(19_500 - (k16 & 0x1FF)),
+            ),
+        )
+    }
+
+    /// The board's own current and power from the reads (datasheet Eq 3–4, the chip's integer
+    /// arithmetic), as the sampler computes them every sample.
     #[inline(always)]
     fn varying(k: u32) -> Sides<Option<Registers>> {
-        let k16 = k as u16;
-        let left = Registers {
-            shunt: ShuntVoltageRaw(((k16 * 7) & 0x3FFF) as i16),
-            bus: BusVoltageRaw(19_000 + (k16 & 0x3FF)),
-            current: CurrentRaw(((k16 * 13) as i16).wrapping_sub(2000)),
-            power: PowerRaw(3000 + (k16 & 0x7FF)),
-        };
-        let right = Registers {
-            shunt: ShuntVoltageRaw(-(((k16 * 5) & 0x3FFF) as i16)),
-            bus: BusVoltageRaw(19_500 - (k16 & 0x1FF)),
-            current: CurrentRaw((2000u16.wrapping_sub(k16 * 11)) as i16),
-            power: PowerRaw(2500 + (k16 & 0x3FF)),
-        };
-        Sides::new(Some(left), Some(right))
+        reads(k).map(|(shunt, bus)| Some(Registers::derived(shunt, bus, BOARD_CAL)))
     }
+
+    /// The board's calibration register (5 mΩ, 0.5 mA LSB).
+    const BOARD_CAL: CalibrationRaw = CalibrationRaw(2048);
 
     /// What the board does per sample: update the running measurements and frame the sample.
     fn bench_update_and_encode(m: &mut RunningMeasurements) -> usize {
@@ -388,7 +431,7 @@ mod target {
         bench_inputs_begin();
         for k in 0..K {
             black_box(u64::from(k) * 5_000);
-            black_box(varying(k));
+            black_box(reads(k));
         }
         bench_inputs_end();
     }

@@ -3,6 +3,7 @@
 use super::output;
 use super::replay::positive_factor;
 use anyhow::{bail, Result};
+use firmware::sampler::SamplerConfig;
 use host_tool::demo::{self, DemoOptions, DemoOutcome};
 use host_tool::diagnose::report;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
@@ -40,6 +41,10 @@ pub struct DemoArgs {
     /// answer its commands in time: the demo then fails, naming the run).
     #[arg(long, default_value_t = 25.0, value_parser = positive_factor)]
     speed: f64,
+    /// The simulated board's sample rate [Hz] (up to 2000), with the smoothest averaging it
+    /// allows; default: the board's 200 Hz.
+    #[arg(long = "rate-hz", value_parser = super::record::parse_rate_hz, value_name = "HZ")]
+    rate_hz: Option<u32>,
 }
 
 impl DemoArgs {
@@ -62,13 +67,23 @@ impl DemoArgs {
         options.runs = self.runs;
         options.seed = self.seed;
         options.speed = self.speed;
+        if let Some(period_us) = self.rate_hz {
+            options.sampler = SamplerConfig::with_period(period_us).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--rate-hz: {:.1} Hz is above the board's {:.0} Hz (the I²C bus's limit) or below 1 Hz",
+                    1e6 / f64::from(period_us.max(1)),
+                    1e6 / f64::from(model_core::rate::MIN_SAMPLE_PERIOD_US)
+                )
+            })?;
+        }
         let started = std::time::Instant::now();
         output::print(format_args!(
-            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty, {}x real time\n",
+            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty at {} Hz, {}x real time\n",
             options.world.rover.track_width_m,
             options.world.rover.mass_kg,
             demo::describe_world(&options.world),
             self.runs,
+            1e6 / f64::from(options.sampler.sample_period_us.max(1)),
             self.speed,
         ))?;
         let runs = self.runs;

@@ -44,6 +44,22 @@ pub struct RecordArgs {
         value_name = "S"
     )]
     reconnect_timeout_s: Duration,
+    /// Configure the board to sample at this rate [Hz] (up to 2000, the I²C bus's limit), with
+    /// the smoothest averaging the rate allows; without it the board keeps its own (200 Hz).
+    #[arg(long = "rate-hz", value_parser = parse_rate_hz, value_name = "HZ")]
+    rate_hz: Option<u32>,
+}
+
+/// A sampling rate [Hz] as the board's period [µs].
+pub fn parse_rate_hz(text: &str) -> Result<u32, String> {
+    let hz: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a rate in Hz"))?;
+    match model_core::rate::period_for_rate_us(hz) {
+        0 => Err(format!("{text} Hz must be a finite number > 0")),
+        period_us => Ok(period_us),
+    }
 }
 
 /// A non-negative, finite number of seconds.
@@ -62,6 +78,7 @@ impl RecordArgs {
         options.duration = self.duration_s;
         options.max_samples = self.samples;
         options.reconnect_timeout = self.reconnect_timeout_s;
+        options.sample_period_us = self.rate_hz;
         if let Some(path) = &self.commands {
             options.commands = read_commands_csv(path)?;
         }

@@ -24,6 +24,9 @@
 //! - Unplug: on a vanished device the log gets [`LogEvent::DeviceVanished`] and is flushed; the
 //!   same path is re-opened every [`RecordOptions::retry_every`] until it works
 //!   ([`LogEvent::Reconnected`]) or [`RecordOptions::reconnect_timeout`] passes.
+//! - Rate ([`RecordOptions::sample_period_us`], `--rate-hz`): at each hello whose period differs
+//!   the board gets `Configure` with that period and the smoothest averaging it allows
+//!   ([`AdcConfig::smoothest_for_period`]); a refusal ends the recording with an error.
 //! - Crash safety: the sink is flushed every [`RecordOptions::flush_every`].
 //! - Wall time: at the first sample the log gets [`LogEvent::WallClock`], the host's Unix time
 //!   when its bytes were read; run time continues across resets and reconnections by the
@@ -43,7 +46,7 @@ use crate::log::mcap::{McapError, McapSink};
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::{LogEvent, RunLogSink};
 use crate::serial::{self, PortReader, ReadOutcome, SerialError};
-use model_core::ina226::Scale;
+use model_core::ina226::{AdcConfig, Scale};
 use model_core::wire::{self, BoardFrame, ChipFault, Command, HostFrame, Sample, Status};
 use model_core::{Rover, Sides};
 use std::fmt;
@@ -123,6 +126,8 @@ pub struct RecordOptions {
     pub flush_every: Duration,
     /// Interval between live status reports.
     pub status_every: Duration,
+    /// The sampling period to configure the board to [µs] (`--rate-hz`); `None`: the board's.
+    pub sample_period_us: Option<u32>,
 }
 
 impl RecordOptions {
@@ -140,7 +145,32 @@ impl RecordOptions {
             read_timeout: Duration::from_millis(50),
             flush_every: Duration::from_millis(200),
             status_every: Duration::from_millis(500),
+            sample_period_us: None,
         }
+    }
+
+    /// The `Configure` command for [`Self::sample_period_us`] (`None` without one), or why the
+    /// board would refuse it.
+    pub fn configure_command(&self) -> Result<Option<Command>, RecordError> {
+        let Some(sample_period_us) = self.sample_period_us else {
+            return Ok(None);
+        };
+        let refused = || {
+            RecordError::Options(format!(
+                "a sampling period of {sample_period_us} µs ({:.1} Hz) is outside what the board sustains: {} µs ({:.0} Hz, the I²C bus's limit) to {} µs",
+                1e6 / f64::from(sample_period_us.max(1)),
+                wire::MIN_SAMPLE_PERIOD_US,
+                1e6 / f64::from(wire::MIN_SAMPLE_PERIOD_US),
+                wire::MAX_SAMPLE_PERIOD_US
+            ))
+        };
+        let adc = AdcConfig::smoothest_for_period(sample_period_us).ok_or_else(refused)?;
+        let command = Command::Configure {
+            adc,
+            sample_period_us,
+        };
+        command.validate().map_err(|_| refused())?;
+        Ok(Some(command))
     }
 
     /// The wheel rates [rad/s] for side speeds `v_mps` on this rover.
@@ -151,6 +181,7 @@ impl RecordOptions {
 
     /// Checks that every command row turns into wheel rates the board accepts.
     pub fn validate(&self) -> Result<(), RecordError> {
+        self.configure_command()?;
         if !(self.rover.wheel_radius_m.is_finite() && self.rover.wheel_radius_m > 0.0) {
             return Err(RecordError::Options(format!(
                 "wheel radius {} m must be finite and > 0",
@@ -498,6 +529,8 @@ struct Recorder<'a, 'o> {
     next_id: u16,
     awaiting: Vec<u16>,
     commands_sent: u64,
+    /// The id of the `Configure` sent for `--rate-hz`, until the board answers it.
+    configure_id: Option<u16>,
     commands_acked: u64,
     commands_rejected: u64,
     status_at: Instant,
@@ -543,6 +576,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             next_id: 0,
             awaiting: Vec::new(),
             commands_sent: 0,
+            configure_id: None,
             commands_acked: 0,
             commands_rejected: 0,
             status_at: now,
@@ -699,16 +733,32 @@ impl<'a, 'o> Recorder<'a, 'o> {
                     BoardFrame::Hello(hello) => {
                         self.scale = hello.scale;
                         self.addresses = hello.addresses;
+                        self.configure_rate(hello)?;
                     }
                     BoardFrame::Status(status) => {
                         self.board_status = Some(*status);
                         self.learn_command(status)?;
                     }
                     BoardFrame::Ack { id } => {
+                        if self.configure_id == Some(*id) {
+                            // The board re-announces itself: the log's board metadata gets the
+                            // new period and averaging.
+                            self.configure_id = None;
+                            self.send_host_command(Command::GetHello);
+                        }
                         let ours = self.answered(*id);
                         self.commands_acked += u64::from(ours);
                     }
-                    BoardFrame::Rejected { id: Some(id), .. } => {
+                    BoardFrame::Rejected {
+                        id: Some(id),
+                        reason,
+                    } => {
+                        if self.configure_id == Some(*id) {
+                            return Err(RecordError::Options(format!(
+                                "the board refused sampling every {} µs: {reason:?}",
+                                self.options.sample_period_us.unwrap_or(0)
+                            )));
+                        }
                         let ours = self.answered(*id);
                         self.commands_rejected += u64::from(ours);
                     }
@@ -831,6 +881,43 @@ impl<'a, 'o> Recorder<'a, 'o> {
             _ => self.incomplete += 1,
         }
         self.forward(t_s)
+    }
+
+    /// `--rate-hz`: configures a board whose hello announces another period or averaging.
+    fn configure_rate(&mut self, hello: &wire::Hello) -> Result<(), RecordError> {
+        let Some(command) = self.options.configure_command()? else {
+            return Ok(());
+        };
+        let Command::Configure {
+            adc,
+            sample_period_us,
+        } = command
+        else {
+            return Ok(());
+        };
+        if hello.sample_period_us == sample_period_us && hello.adc == adc {
+            return Ok(());
+        }
+        // A device going away gets the command again at its next hello.
+        if let Some(id) = self.send_host_command(command) {
+            self.configure_id = Some(id);
+        }
+        Ok(())
+    }
+
+    /// Sends a command of the recorder's own (not a commands-file row); its id, if it went out.
+    fn send_host_command(&mut self, command: Command) -> Option<u16> {
+        self.next_id = self.next_id.wrapping_add(1);
+        let frame = HostFrame {
+            id: self.next_id,
+            command,
+        };
+        let mut buf = [0u8; wire::MAX_FRAME];
+        // Every HostFrame fits (model-core tests it).
+        let n = wire::encode(&frame, &mut buf).ok()?;
+        self.reader.port_mut().write_all(&buf[..n]).ok()?;
+        self.decoder.expect_ack(frame);
+        Some(frame.id)
     }
 
     /// Sends the side speeds in force at `t_s` when they differ from the last ones sent.

@@ -548,3 +548,63 @@ fn the_log_says_when_the_run_happened() {
     assert_eq!(t_s, 0.0, "at the first sample's run time");
     assert!(unix_ns >= before - 1_000_000_000 && unix_ns <= before + 60_000_000_000);
 }
+
+#[test]
+fn rate_hz_configures_the_board_at_its_hello_and_refuses_what_it_cannot_sustain() {
+    let options = RecordOptions {
+        sample_period_us: Some(500),
+        ..fast_options()
+    };
+    let (bytes, _) = board_stream(0, 10, &[]);
+    // The board acks the Configure (id 1): the recorder asks for its hello again.
+    let ack = encode_all(&[BoardFrame::Ack { id: 1 }]);
+    let (port, written) = script(vec![bytes, ack]);
+    let (result, _, _) = record_ports(&options, vec![port]);
+    result.expect("recorded");
+    let mut sent = Vec::new();
+    wire::FrameDecoder::new().feed::<HostFrame>(&written.lock().expect("lock"), |f| {
+        sent.push(f.expect("valid"));
+    });
+    let want = Command::Configure {
+        adc: AdcConfig::smoothest_for_period(500).expect("2 kHz"),
+        sample_period_us: 500,
+    };
+    assert_eq!(
+        sent.iter().map(|f| f.command).collect::<Vec<_>>(),
+        [want, Command::GetHello]
+    );
+    assert_eq!(sent[0].id, 1);
+
+    // The board's own period: nothing to send.
+    let same = RecordOptions {
+        sample_period_us: Some(5_000),
+        ..fast_options()
+    };
+    let (bytes, _) = board_stream(0, 10, &[]);
+    let (port, written) = script(vec![bytes]);
+    record_ports(&same, vec![port]).0.expect("recorded");
+    assert!(written.lock().expect("lock").is_empty());
+
+    // Faster than the bus, or a period the averaging cannot have: refused before recording.
+    for period in [499, 2_000_000] {
+        let bad = RecordOptions {
+            sample_period_us: Some(period),
+            ..fast_options()
+        };
+        let err = bad.validate().expect_err("refused");
+        assert!(err.to_string().contains("2000 Hz"), "{err}");
+    }
+
+    // A board that refuses it ends the recording with the reason.
+    let (mut bytes, _) = board_stream(0, 3, &[]);
+    bytes.extend(encode_all(&[BoardFrame::Rejected {
+        id: Some(1),
+        reason: wire::Rejection::OutOfRange,
+    }]));
+    let (port, _) = script(vec![bytes]);
+    let err = record_ports(&options, vec![port]).0.expect_err("refused");
+    assert!(
+        err.to_string().contains("refused sampling every 500 µs"),
+        "{err}"
+    );
+}

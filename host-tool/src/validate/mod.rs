@@ -203,10 +203,18 @@ pub fn validate(
             turn_deg: options.turn_deg,
             gap_threshold_s,
         };
+        let duration_s = run.samples[run.samples.len() - 1].t_s - run.samples[0].t_s;
+        let cross_check = crosscheck::cross_check(run.frames, run.commands, rover);
         let mut report = RunReport {
             name: run.name.to_owned(),
             samples: run.samples.len(),
-            duration_s: run.samples[run.samples.len() - 1].t_s - run.samples[0].t_s,
+            duration_s,
+            sample_rate_hz: if duration_s > 0.0 {
+                (run.samples.len() - 1) as f64 / duration_s
+            } else {
+                0.0
+            },
+            lost_samples: cross_check.as_ref().map(|c| c.lost_samples),
             has_yaw: run.samples.iter().all(|s| s.yaw_rad.is_some()),
             has_pitch: run.samples.iter().any(|s| s.pitch_deg.is_some()),
             gap_threshold_s,
@@ -214,7 +222,7 @@ pub fn validate(
             standstill: 0,
             too_short: 0,
             analysed: 0,
-            cross_check: crosscheck::cross_check(run.frames, run.commands, rover),
+            cross_check,
             slip_track_measured_m: None,
             slip_track_measured: None,
         };

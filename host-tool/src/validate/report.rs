@@ -99,6 +99,12 @@ pub struct RunReport {
     pub samples: usize,
     /// First to last sample [s].
     pub duration_s: f64,
+    /// Samples per second achieved: intervals between the first and last sample over their
+    /// span [Hz] (0 for fewer than two samples).
+    pub sample_rate_hz: f64,
+    /// Samples the host knows were lost (sequence gaps in the board's frames); `None` for a run
+    /// without frames (a run CSV).
+    pub lost_samples: Option<u64>,
     /// Whether every sample has a yaw.
     pub has_yaw: bool,
     /// Whether any sample has a pitch.
