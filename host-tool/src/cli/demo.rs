@@ -10,6 +10,8 @@ use host_tool::progress;
 use host_tool::sim::world::{load_scenario, load_world};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 /// Marks a directory the demo wrote: a later demo replaces it without `--force`.
 const MARKER: &str = ".host-tool-demo";
@@ -37,9 +39,14 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Simulated seconds per wall-clock second (a board far ahead of the recorder cannot
-    /// answer its commands in time: the demo then fails, naming the run).
-    #[arg(long, default_value_t = 25.0, value_parser = positive_factor)]
-    speed: f64,
+    /// answer its commands in time: the demo then fails, naming the run) [default: 25; 1 with
+    /// --serve, to watch it as it would happen].
+    #[arg(long, value_parser = positive_factor)]
+    speed: Option<f64>,
+    /// With --serve: the runs are served live to Foxglove as they are recorded; the demo
+    /// starts when the first viewer subscribes.
+    #[command(flatten)]
+    serve: super::serve::ServeArgs,
 }
 
 impl DemoArgs {
@@ -61,7 +68,16 @@ impl DemoArgs {
         }
         options.runs = self.runs;
         options.seed = self.seed;
-        options.speed = self.speed;
+        let live = self.serve.start()?.map(Arc::new);
+        options.speed = self
+            .speed
+            .unwrap_or(if live.is_some() { 1.0 } else { 25.0 });
+        if let Some(server) = &live {
+            eprintln!("waiting for a viewer to subscribe (Ctrl-C to give up)");
+            server.wait_for_subscriber(None, &AtomicBool::new(false));
+            options.live = Some(server.clone());
+        }
+        let speed = options.speed;
         let started = std::time::Instant::now();
         output::print(format_args!(
             "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty, {}x real time\n",
@@ -69,7 +85,7 @@ impl DemoArgs {
             options.world.rover.mass_kg,
             demo::describe_world(&options.world),
             self.runs,
-            self.speed,
+            speed,
         ))?;
         let runs = self.runs;
         let outcome = write_dir_whole(&self.out, replace, |staging| {
@@ -90,7 +106,11 @@ impl DemoArgs {
             )?;
             outcome.files = output::rebased(std::mem::take(&mut outcome.files), staging, &self.out);
             Ok::<_, demo::DemoError>(outcome)
-        })?;
+        });
+        // The options' handle is gone with the runs: the server is ours again to stop.
+        drop(options);
+        super::serve::finish(live.and_then(Arc::into_inner));
+        let outcome = outcome?;
         output::print(printout(
             &outcome,
             &self.out,

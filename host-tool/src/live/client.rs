@@ -79,7 +79,11 @@ impl LiveClient {
         };
         client.server_info = match client.next()? {
             Incoming::Op(info @ ServerOp::ServerInfo { .. }) => info,
-            other => return Err(protocol(format!("expected serverInfo first, got {other:?}"))),
+            other => {
+                return Err(protocol(format!(
+                    "expected serverInfo first, got {other:?}"
+                )))
+            }
         };
         client.channels = match client.next()? {
             Incoming::Op(ServerOp::Advertise { channels }) => channels,

@@ -86,7 +86,8 @@ pub fn resolve_addr(text: &str) -> Result<SocketAddr, LiveError> {
 impl LiveServer {
     /// Listens on `addr` and starts accepting viewers.
     pub fn bind(addr: SocketAddr, options: LiveOptions) -> Result<Self, LiveError> {
-        let listener = TcpListener::bind(addr).map_err(|source| LiveError::Bind { addr, source })?;
+        let listener =
+            TcpListener::bind(addr).map_err(|source| LiveError::Bind { addr, source })?;
         let addr = listener
             .local_addr()
             .map_err(|source| LiveError::Bind { addr, source })?;
@@ -122,7 +123,10 @@ impl LiveServer {
     /// [`crate::log::run_log::LogEvent::WallClock`] anchor plus run time), the host's clock
     /// before the anchor comes.
     pub fn recording_sink(&self) -> LiveSink {
-        LiveSink::new(self.hub.clone(), LiveClock::Recording { zero_unix_ns: None })
+        LiveSink::new(
+            self.hub.clone(),
+            LiveClock::Recording { zero_unix_ns: None },
+        )
     }
 
     /// A sink for a paced replay: run time `t0_s` is stamped now, later times at `speed`.

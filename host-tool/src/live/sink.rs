@@ -153,11 +153,12 @@ impl RunLogSink for LiveSink {
     }
 }
 
-/// A recording's file sink with the live view beside it: every record goes to the file first
-/// (its errors are the recording's), then to the viewers (which cannot fail or wait).
+/// A recording's file sink with the live view beside it (if one is served): every record goes
+/// to the file first (its errors are the recording's), then to the viewers (which cannot fail
+/// or wait).
 pub struct LiveTee<'a> {
     file: &'a mut dyn RunLogSink,
-    live: LiveSink,
+    live: Option<LiveSink>,
 }
 
 impl fmt::Debug for LiveTee<'_> {
@@ -170,30 +171,37 @@ impl fmt::Debug for LiveTee<'_> {
 
 impl<'a> LiveTee<'a> {
     /// `file`, and `live` beside it.
-    pub fn new(file: &'a mut dyn RunLogSink, live: LiveSink) -> Self {
+    pub fn new(file: &'a mut dyn RunLogSink, live: Option<LiveSink>) -> Self {
         Self { file, live }
+    }
+
+    fn live(&mut self, publish: impl FnOnce(&mut LiveSink) -> io::Result<()>) -> io::Result<()> {
+        match &mut self.live {
+            Some(live) => publish(live),
+            None => Ok(()),
+        }
     }
 }
 
 impl RunLogSink for LiveTee<'_> {
     fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
         self.file.frame(t_s, frame)?;
-        self.live.frame(t_s, frame)
+        self.live(|l| l.frame(t_s, frame))
     }
 
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
         self.file.sample(sample)?;
-        self.live.sample(sample)
+        self.live(|l| l.sample(sample))
     }
 
     fn command(&mut self, row: &CommandRow) -> io::Result<()> {
         self.file.command(row)?;
-        self.live.command(row)
+        self.live(|l| l.command(row))
     }
 
     fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
         self.file.event(t_s, event)?;
-        self.live.event(t_s, event)
+        self.live(|l| l.event(t_s, event))
     }
 
     fn flush(&mut self) -> io::Result<()> {

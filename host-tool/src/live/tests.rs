@@ -60,7 +60,9 @@ fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
 fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_clock_stamps() {
     let server = LiveServer::bind(loopback(), LiveOptions::default()).expect("bind");
     let mut client = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
-    assert!(matches!(&client.server_info, ServerOp::ServerInfo { capabilities, .. } if capabilities.is_empty()));
+    assert!(
+        matches!(&client.server_info, ServerOp::ServerInfo { capabilities, .. } if capabilities.is_empty())
+    );
     let sample = client.channel(TOPIC_SAMPLE).expect("advertised").clone();
     assert_eq!(sample.schema, SAMPLE_CHANNEL.schema);
     assert_eq!(sample.schema_name, "rover_power.Sample");
@@ -85,7 +87,10 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
         assert_eq!(d.timestamp_ns, unix_zero + (s.t_s * 1e9).round() as u64);
         let json: serde_json::Value = serde_json::from_slice(&d.payload).expect("JSON");
         assert_eq!(json["t_s"].as_f64(), Some(s.t_s));
-        assert_eq!(json["left"]["power_w"].as_f64(), Some(s.bus_v.left * s.current_a.left));
+        assert_eq!(
+            json["left"]["power_w"].as_f64(),
+            Some(s.bus_v.left * s.current_a.left)
+        );
     }
 
     // Unsubscribed: the samples stop; the status channel, subscribed after, comes through.
@@ -95,7 +100,11 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
         server.subscribed_channels() == [LiveChannel::Status]
     });
     for s in samples(50, 0.005) {
-        sink.sample(&RunSample { t_s: s.t_s + 10.0, ..s }).expect("sample");
+        sink.sample(&RunSample {
+            t_s: s.t_s + 10.0,
+            ..s
+        })
+        .expect("sample");
     }
     let status = command_report(
         None,
@@ -104,7 +113,8 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
         2_200,
         Sides::new(1.0, 1.0),
     );
-    sink.frame(11.0, &BoardFrame::Status(status)).expect("status");
+    sink.frame(11.0, &BoardFrame::Status(status))
+        .expect("status");
     let d = data(&mut client);
     assert_eq!(d.subscription_id, 9);
     let json: serde_json::Value = serde_json::from_slice(&d.payload).expect("JSON");
@@ -147,7 +157,10 @@ fn a_client_without_the_foxglove_subprotocol_is_refused_and_reported() {
     wait_for("the report", || !server.reports().is_empty());
     let report = &server.reports()[0];
     assert!(
-        report.ended.as_deref().is_some_and(|e| e.contains(SUBPROTOCOL)),
+        report
+            .ended
+            .as_deref()
+            .is_some_and(|e| e.contains(SUBPROTOCOL)),
         "{report:?}"
     );
 }
@@ -186,7 +199,9 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     let server = LiveServer::bind(loopback(), options).expect("bind");
     let mut stalled = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
     for c in LiveChannel::ALL {
-        stalled.subscribe(c.id(), c.json().topic).expect("subscribe");
+        stalled
+            .subscribe(c.id(), c.json().topic)
+            .expect("subscribe");
     }
     // A second viewer vanishes a moment into the run (no close handshake).
     let mut vanishing = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
@@ -207,7 +222,7 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     std::fs::create_dir_all(&dir).expect("dir");
     let path = dir.join("run.mcap");
     let mut file = record::create_sink(&path, true).expect("sink");
-    let mut tee = LiveTee::new(file.as_mut(), server.recording_sink());
+    let mut tee = LiveTee::new(file.as_mut(), Some(server.recording_sink()));
     let port: Box<dyn BoardPort> = Box::new(Stream(io::Cursor::new(bytes)));
     let mut open = |p: &str| -> Result<Box<dyn BoardPort>, SerialError> {
         Err(SerialError::Open {

@@ -110,7 +110,10 @@ fn handshake(stream: TcpStream, cx: &ViewerContext) -> Result<WebSocket<TcpStrea
 
 /// Accepts clients that speak `foxglove.websocket.v1` and names it in the response.
 #[allow(clippy::result_large_err)] // tungstenite's callback signature
-fn choose_subprotocol(request: &Request, mut response: Response) -> Result<Response, ErrorResponse> {
+fn choose_subprotocol(
+    request: &Request,
+    mut response: Response,
+) -> Result<Response, ErrorResponse> {
     let offered = request
         .headers()
         .get_all("Sec-WebSocket-Protocol")

@@ -204,10 +204,12 @@ pub fn write_mcap_run_with<W: io::Write + io::Seek>(
 ) -> Result<W, McapError> {
     let mut sink = McapSink::with_compression(out, compression)?;
     for (t_s, record) in run.in_time_order() {
-        record.write_to(t_s, &mut sink).map_err(|e| match e.kind() {
-            io::ErrorKind::InvalidInput => McapError::Refused(e.to_string()),
-            _ => McapError::Write(::mcap::McapError::Io(e)),
-        })?;
+        record
+            .write_to(t_s, &mut sink)
+            .map_err(|e| match e.kind() {
+                io::ErrorKind::InvalidInput => McapError::Refused(e.to_string()),
+                _ => McapError::Write(::mcap::McapError::Io(e)),
+            })?;
     }
     sink.finish()
 }
