@@ -93,6 +93,7 @@ impl LiveChannel {
 #[cfg(test)]
 mod tests {
     use super::LiveChannel;
+    use serde_json::Value;
 
     #[test]
     fn ids_topics_and_bits_round_trip() {
@@ -110,5 +111,54 @@ mod tests {
         }
         assert_eq!(LiveChannel::from_id(0), None);
         assert_eq!(LiveChannel::from_id(LiveChannel::COUNT as u32 + 1), None);
+    }
+
+    /// The schema node a field path (`left.power_w`) names, following `$ref`s.
+    fn field<'a>(schema: &'a Value, node: &'a Value, path: &str) -> Option<&'a Value> {
+        let mut node = node;
+        for name in path.split('.') {
+            if let Some(target) = node["$ref"].as_str() {
+                let def = target.strip_prefix("#/$defs/")?;
+                node = &schema["$defs"][def];
+            }
+            node = node["properties"].get(name)?;
+        }
+        Some(node)
+    }
+
+    #[test]
+    fn the_foxglove_layout_plots_numbers_the_channels_schemas_define() {
+        let layout: Value =
+            serde_json::from_str(include_str!("../../../foxglove/rover-power.json"))
+                .expect("layout is JSON");
+        let panels = layout["configById"].as_object().expect("panels");
+        let mut plotted = 0;
+        for (id, config) in panels {
+            if id.starts_with("RosOut!") {
+                assert_eq!(config["topicToRender"], LiveChannel::Event.json().topic);
+                continue;
+            }
+            assert!(id.starts_with("Plot!"), "{id}");
+            for path in config["paths"].as_array().expect("paths") {
+                let value = path["value"].as_str().expect("path");
+                let (topic, fields) = value.split_once('.').expect("topic.field");
+                let channel = LiveChannel::from_topic(topic).expect(value);
+                let schema: Value = serde_json::from_str(channel.json().schema).expect("schema");
+                let node = field(&schema, &schema, fields).unwrap_or_else(|| panic!("{value}"));
+                let kind = node["type"].to_string();
+                assert!(
+                    kind.contains("number") || kind.contains("integer"),
+                    "{value}: {kind}"
+                );
+                plotted += 1;
+            }
+        }
+        // Power ×2, energy ×3, τ ×2, six counters.
+        assert_eq!(plotted, 13);
+        // The panels named in the layout tree are the configured ones.
+        let tree = layout["layout"].to_string();
+        for id in panels.keys() {
+            assert!(tree.contains(&format!("\"{id}\"")), "{id} not placed");
+        }
     }
 }
