@@ -191,7 +191,7 @@ fn spawn_viewer(addr: SocketAddr) -> JoinHandle<u64> {
                 }
             }
             let mut got = 0;
-            while let Ok(incoming) = client.next() {
+            while let Ok(incoming) = client.read() {
                 match incoming {
                     Incoming::Data(d) => {
                         if serde_json::from_slice::<serde_json::Value>(&d.payload).is_ok() {

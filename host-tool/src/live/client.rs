@@ -21,7 +21,7 @@ pub struct Received {
     pub payload: Vec<u8>,
 }
 
-/// What [`LiveClient::next`] got.
+/// What [`LiveClient::read`] got.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Incoming {
     /// A binary message data frame.
@@ -77,7 +77,7 @@ impl LiveClient {
             },
             channels: Vec::new(),
         };
-        client.server_info = match client.next()? {
+        client.server_info = match client.read()? {
             Incoming::Op(info @ ServerOp::ServerInfo { .. }) => info,
             other => {
                 return Err(protocol(format!(
@@ -85,7 +85,7 @@ impl LiveClient {
                 )))
             }
         };
-        client.channels = match client.next()? {
+        client.channels = match client.read()? {
             Incoming::Op(ServerOp::Advertise { channels }) => channels,
             other => return Err(protocol(format!("expected advertise, got {other:?}"))),
         };
@@ -131,7 +131,7 @@ impl LiveClient {
     }
 
     /// The next frame from the server (waits at most the connect timeout).
-    pub fn next(&mut self) -> Result<Incoming, LiveError> {
+    pub fn read(&mut self) -> Result<Incoming, LiveError> {
         loop {
             let message = match self.ws.read() {
                 Ok(m) => m,

@@ -40,7 +40,7 @@ fn samples(n: u32, dt_s: f64) -> Vec<RunSample> {
 
 fn data(client: &mut LiveClient) -> Received {
     loop {
-        match client.next().expect("a frame") {
+        match client.read().expect("a frame") {
             Incoming::Data(d) => return d,
             Incoming::Op(_) => continue,
             Incoming::Closed => panic!("closed"),
@@ -138,7 +138,7 @@ fn ops_the_server_does_not_offer_are_answered_with_a_warning() {
         .send_text(r#"{"op":"subscribe","subscriptions":[{"id":1,"channelId":99}]}"#.into())
         .expect("send");
     for expected in ["not supported", "no channel 99"] {
-        match client.next().expect("an op") {
+        match client.read().expect("an op") {
             Incoming::Op(ServerOp::Status { level, message }) => {
                 assert_eq!(level, status_level::WARNING);
                 assert!(message.contains(expected), "{message}");
@@ -213,7 +213,7 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     });
     let vanisher = std::thread::spawn(move || {
         for _ in 0..100 {
-            let _ = vanishing.next();
+            let _ = vanishing.read();
         }
         drop(vanishing);
     });
