@@ -5,6 +5,7 @@
 mod common;
 use common::{host_tool, temp_dir};
 
+use host_tool::live::client::{Incoming, LiveClient};
 use host_tool::log::mcap::read_mcap_run;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Read};
@@ -164,5 +165,96 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
         .expect("stderr");
     assert!(status.success(), "{stderr}");
     assert!(stderr.contains("0 dropped"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn record_serve_shows_the_recording_live_and_the_log_is_whole() {
+    let dir = temp_dir("live-cli-record");
+    let source = dir.join("source.csv");
+    // 20 s at 200 Hz, replayed at 4x: ~5 s of recording.
+    let samples: Vec<host_tool::log::run_csv::RunSample> = (0..4_000)
+        .map(|i| host_tool::log::run_csv::RunSample {
+            t_s: f64::from(i) * 0.005,
+            bus_v: model_core::Sides::new(24.0, 24.1),
+            current_a: model_core::Sides::new(2.0 + f64::from(i % 7) * 0.01, 2.5),
+            cmd_mps: model_core::Sides::new(0.3, 0.3),
+            yaw_rad: None,
+            pitch_deg: None,
+            x_m: None,
+            y_m: None,
+        })
+        .collect();
+    host_tool::log::run_csv::write_run_csv_atomically(&source, &samples).expect("source");
+    let mut replay = Server(
+        host_tool()
+            .arg("replay")
+            .arg(&source)
+            .args(["--to-pty", "--speed", "4"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("replay"),
+    );
+    let mut pty = String::new();
+    BufReader::new(replay.0.stdout.take().expect("stdout"))
+        .read_line(&mut pty)
+        .expect("pty path");
+    let out = dir.join("rec.mcap");
+    let mut record = Server(
+        host_tool()
+            .args([
+                "record",
+                "--port",
+                pty.trim(),
+                "--serve",
+                "127.0.0.1:0",
+                "--out",
+            ])
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("record"),
+    );
+    let mut stderr = BufReader::new(record.0.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    let addr = loop {
+        line.clear();
+        assert!(
+            stderr.read_line(&mut line).expect("stderr") > 0,
+            "no address"
+        );
+        if let Some(rest) = line.strip_prefix("live view: ws://") {
+            break rest.split_whitespace().next().expect("addr").to_owned();
+        }
+    };
+    let mut client = LiveClient::connect(addr.parse().expect("addr"), Duration::from_secs(20))
+        .expect("connects");
+    client
+        .subscribe(1, "/rover_power/model")
+        .expect("subscribe");
+    let mut energies = Vec::new();
+    while energies.len() < 10 {
+        match client.read().expect("a message") {
+            Incoming::Data(d) => {
+                let json: Value = serde_json::from_slice(&d.payload).expect("JSON");
+                energies.push(json["total_energy_j"].as_f64().expect("energy"));
+            }
+            Incoming::Op(_) => {}
+            Incoming::Closed => break,
+        }
+    }
+    assert!(energies.len() >= 10, "{energies:?}");
+    assert!(energies.windows(2).all(|w| w[1] >= w[0]), "{energies:?}");
+
+    let status = record.0.wait().expect("record ends");
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).expect("stderr");
+    assert!(status.success(), "{rest}");
+    assert!(rest.contains("viewer 127.0.0.1:"), "{rest}");
+    let back = read_mcap_run(&out).expect("log");
+    assert!(back.truncated.is_none());
+    assert_eq!(back.run.samples.len(), samples.len());
     let _ = std::fs::remove_dir_all(&dir);
 }
