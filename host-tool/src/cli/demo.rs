@@ -43,8 +43,8 @@ pub struct DemoArgs {
     /// --serve, to watch it as it would happen].
     #[arg(long, value_parser = positive_factor)]
     speed: Option<f64>,
-    /// With --serve: the runs are served live to Foxglove as they are recorded; the demo
-    /// starts when the first viewer subscribes.
+    // --serve: the runs are served live to Foxglove as they are recorded; the demo starts
+    // when the first viewer subscribes.
     #[command(flatten)]
     serve: super::serve::ServeArgs,
 }

@@ -43,9 +43,9 @@ pub struct ReplayArgs {
     /// (default: the Husky A200, as `record`'s; give both the same rover).
     #[arg(long)]
     rover: Option<PathBuf>,
-    /// With --serve: the log's messages to Foxglove at real time (or --speed K), stamped as
-    /// happening now; starts when the first viewer subscribes (write `replay LOG --serve`, the
-    /// log first).
+    // --serve: the log's messages to Foxglove at real time (or --speed K), stamped as
+    // happening now; starts when the first viewer subscribes (`replay LOG --serve`, the log
+    // first: `--serve LOG` would read LOG as the address).
     #[command(flatten)]
     serve: super::serve::ServeArgs,
 }

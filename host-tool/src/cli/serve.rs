@@ -11,7 +11,7 @@ pub struct ServeArgs {
     /// Serve the data live to Foxglove (WebSocket protocol foxglove.websocket.v1) on ADDR
     /// (default 127.0.0.1:8765; 0.0.0.0:8765 for viewers on the network). Read-only: viewers
     /// subscribe, the board is not commanded from them. A slow viewer loses messages, never
-    /// the log.
+    /// the log. `replay` and `demo` start when the first viewer subscribes.
     #[arg(
         long,
         value_name = "ADDR",
