@@ -280,3 +280,48 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     drop(stalled);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_viewer_whose_socket_takes_nothing_past_the_stall_timeout_is_disconnected() {
+    let options = LiveOptions {
+        queue_len: 64,
+        stall_timeout: Duration::from_millis(300),
+        ..LiveOptions::default()
+    };
+    let server = LiveServer::bind(loopback(), options).expect("bind");
+    let mut client = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
+    client.subscribe(1, TOPIC_SAMPLE).expect("subscribe");
+    wait_for("the subscription", || {
+        !server.subscribed_channels().is_empty()
+    });
+    let mut sink = server.recording_sink();
+    // Far more than the sockets hold, until the viewer is let go (or 10 s).
+    let start = Instant::now();
+    let mut t_s = 0.0;
+    while server.viewers() > 0 {
+        assert!(
+            start.elapsed() < TIMEOUT,
+            "never disconnected: {:?}",
+            server.reports()
+        );
+        for s in samples(1_000, 0.0005) {
+            sink.sample(&RunSample {
+                t_s: t_s + s.t_s,
+                ..s
+            })
+            .expect("sample");
+        }
+        t_s += 0.5;
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let report = &server.reports()[0];
+    assert!(
+        report
+            .ended
+            .as_deref()
+            .is_some_and(|e| e.contains("took nothing")),
+        "{report:?}"
+    );
+    assert!(report.dropped > 0, "{report:?}");
+    drop(client);
+}
