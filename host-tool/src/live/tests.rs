@@ -185,9 +185,9 @@ impl Write for Stream {
 
 #[test]
 fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() {
-    // 60 000 samples at 2 kHz (30 s of run time, ~12 MB of JSON per viewer), recorded as fast
+    // 120 000 samples at 2 kHz (60 s of run time, ~24 MB of JSON per viewer), recorded as fast
     // as the recorder can read them: far more than the sockets and a 256-message queue hold.
-    let source = samples(60_000, 0.0005);
+    let source = samples(120_000, 0.0005);
     let mut bytes = Vec::new();
     for (_, frame) in synthesise_frames(&source, None) {
         bytes.extend(encode_frame(&frame).expect("encodes"));
@@ -248,7 +248,7 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     drop(file);
     vanisher.join().expect("vanisher");
 
-    assert_eq!(summary.samples, 60_000);
+    assert_eq!(summary.samples, 120_000);
     let back = read_mcap_run(&path).expect("reads");
     assert!(back.truncated.is_none() && back.losses.is_empty());
     assert_eq!(back.run.samples.len(), source.len());
