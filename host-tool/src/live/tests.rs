@@ -259,6 +259,7 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     }
 
     let live = server.finish(Duration::ZERO);
+    eprintln!("{live}");
     let stalled_report = live
         .viewers
         .iter()
