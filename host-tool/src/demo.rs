@@ -15,6 +15,7 @@ use crate::diagnose::report::{self as diagnosis_report, ReportError, MODEL_FILE}
 use crate::diagnose::{self, DiagnoseError, Diagnosis};
 use crate::effect_id::EffectId;
 use crate::figures::{write_figures, RunSamples};
+use crate::live::{LiveServer, LiveTee};
 use crate::log::commands::write_commands_csv_atomically;
 use crate::log::convert::{convert, ConvertError};
 use crate::log::load::{load_run, LoadError};
@@ -61,6 +62,8 @@ pub struct DemoOptions {
     /// The simulated board's sampling (`--rate-hz`: [`SamplerConfig::with_period`]); the
     /// recorder asks for the same period, as `record --rate-hz` does.
     pub sampler: SamplerConfig,
+    /// The live view the recordings are also served to (`demo --serve`).
+    pub live: Option<Arc<LiveServer>>,
 }
 
 impl DemoOptions {
@@ -76,6 +79,7 @@ impl DemoOptions {
             seed: 1,
             speed: 25.0,
             sampler: SamplerConfig::BOARD,
+            live: None,
         }
     }
 }
@@ -362,17 +366,19 @@ fn record_run(
     // The board hangs up after its last step; anything longer than a few periods is a fault.
     record_options.reconnect_timeout = Duration::from_secs(2);
     let mut open = record::serial_opener(record_options.read_timeout);
-    let mut sink = record::create_sink(&mcap, true)?;
+    let mut file = record::create_sink(&mcap, true)?;
+    let live = options.live.as_ref().map(|server| server.recording_sink());
+    let mut sink = LiveTee::new(file.as_mut(), live);
     let stop = AtomicBool::new(false);
     let duration_s = timeline.duration_s();
     let summary = record::record(
         &record_options,
         &mut open,
-        sink.as_mut(),
+        &mut sink,
         &stop,
         &mut |status| on_status(duration_s, status),
     )?;
-    drop(sink);
+    drop(file);
     let board_run = pty.join().map_err(|source| DemoError::Io {
         what: "running the simulated board".into(),
         source,

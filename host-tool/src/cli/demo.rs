@@ -11,6 +11,8 @@ use host_tool::progress;
 use host_tool::sim::world::{load_scenario, load_world};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 /// Marks a directory the demo wrote: a later demo replaces it without `--force`.
 const MARKER: &str = ".host-tool-demo";
@@ -38,9 +40,14 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Simulated seconds per wall-clock second (a board far ahead of the recorder cannot
-    /// answer its commands in time: the demo then fails, naming the run).
-    #[arg(long, default_value_t = 25.0, value_parser = positive_factor)]
-    speed: f64,
+    /// answer its commands in time: the demo then fails, naming the run) [default: 25; 1 with
+    /// --serve, to watch it as it would happen].
+    #[arg(long, value_parser = positive_factor)]
+    speed: Option<f64>,
+    // --serve: the runs are served live to Foxglove as they are recorded; the demo starts
+    // when the first viewer subscribes.
+    #[command(flatten)]
+    serve: super::serve::ServeArgs,
     /// The simulated board's sample rate [Hz] (up to 2000), with the smoothest averaging it
     /// allows; default: the board's 200 Hz.
     #[arg(long = "rate-hz", value_parser = super::record::parse_rate_hz, value_name = "HZ")]
@@ -66,7 +73,6 @@ impl DemoArgs {
         }
         options.runs = self.runs;
         options.seed = self.seed;
-        options.speed = self.speed;
         if let Some(period_us) = self.rate_hz {
             options.sampler = SamplerConfig::with_period(period_us).ok_or_else(|| {
                 anyhow::anyhow!(
@@ -76,6 +82,16 @@ impl DemoArgs {
                 )
             })?;
         }
+        let live = self.serve.start()?.map(Arc::new);
+        options.speed = self
+            .speed
+            .unwrap_or(if live.is_some() { 1.0 } else { 25.0 });
+        if let Some(server) = &live {
+            eprintln!("waiting for a viewer to subscribe (Ctrl-C to give up)");
+            server.wait_for_subscriber(None, &AtomicBool::new(false));
+            options.live = Some(server.clone());
+        }
+        let speed = options.speed;
         let started = std::time::Instant::now();
         output::print(format_args!(
             "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty at {} Hz, {}x real time\n",
@@ -84,7 +100,7 @@ impl DemoArgs {
             demo::describe_world(&options.world),
             self.runs,
             1e6 / f64::from(options.sampler.sample_period_us.max(1)),
-            self.speed,
+            speed,
         ))?;
         let runs = self.runs;
         let outcome = write_dir_whole(&self.out, replace, |staging| {
@@ -105,7 +121,11 @@ impl DemoArgs {
             )?;
             outcome.files = output::rebased(std::mem::take(&mut outcome.files), staging, &self.out);
             Ok::<_, demo::DemoError>(outcome)
-        })?;
+        });
+        // The options' handle is gone with the runs: the server is ours again to stop.
+        drop(options);
+        super::serve::finish(live.and_then(Arc::into_inner));
+        let outcome = outcome?;
         output::print(printout(
             &outcome,
             &self.out,

@@ -12,6 +12,7 @@ pub mod plot;
 pub mod ports;
 pub mod record;
 pub mod replay;
+pub mod serve;
 pub mod validate;
 
 use clap::{Parser, Subcommand};

@@ -2,6 +2,7 @@
 
 use super::output::{self, check_new_file, create_parent};
 use anyhow::{bail, Context, Result};
+use host_tool::live::{LiveServer, LiveTee};
 use host_tool::log::commands::read_commands_csv;
 use host_tool::record::{self, RecordOptions, RecordStatus};
 use host_tool::rover::load_rover;
@@ -48,6 +49,8 @@ pub struct RecordArgs {
     /// the smoothest averaging the rate allows; without it the board keeps its own (200 Hz).
     #[arg(long = "rate-hz", value_parser = parse_rate_hz, value_name = "HZ")]
     rate_hz: Option<u32>,
+    #[command(flatten)]
+    serve: super::serve::ServeArgs,
 }
 
 /// A sampling rate [Hz] as the board's period [µs].
@@ -92,8 +95,15 @@ impl RecordArgs {
         // The port first: a wrong path leaves no empty log behind.
         let board = open(&options.port)?;
         check_new_file(&self.out, self.force)?;
+        // Before the log: an address in use leaves no empty log behind.
+        let live_server = self.serve.start()?;
         create_parent(&self.out)?;
-        let mut sink = record::create_sink(&self.out, self.force)?;
+        let mut file = record::create_sink(&self.out, self.force)?;
+        // The viewers beside the file, never ahead of it.
+        let mut sink = LiveTee::new(
+            file.as_mut(),
+            live_server.as_ref().map(LiveServer::recording_sink),
+        );
         let mut stderr = std::io::stderr();
         // One line rewritten in place on a terminal; a line per report into a file or pipe.
         let live = stderr.is_terminal();
@@ -110,14 +120,9 @@ impl RecordArgs {
             options.port,
             self.out.display()
         );
-        let result = record::record_on(
-            &options,
-            board,
-            &mut open,
-            sink.as_mut(),
-            &stop,
-            &mut on_status,
-        );
+        let result =
+            record::record_on(&options, board, &mut open, &mut sink, &stop, &mut on_status);
+        super::serve::finish(live_server);
         if live {
             eprintln!();
         }

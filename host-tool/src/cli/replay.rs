@@ -2,18 +2,22 @@
 
 use super::output::{self, check_new_file, create_parent};
 use anyhow::{anyhow, bail, Context, Result};
+use host_tool::live::serve_run;
 use host_tool::log::convert::same_file;
 use host_tool::log::load::load_salvaging;
+use host_tool::log::run_log::RunLog;
 use host_tool::log::write_atomically;
+use host_tool::record::stop_signal;
 use host_tool::replay::{frames_of, write_stream, ReplayPacing, ReplayPty};
 use host_tool::rover::load_rover;
 use host_tool::runs::{damage_warnings, truncation_warning};
 use model_core::Rover;
 use std::path::PathBuf;
 
-/// `replay LOG (--to-pty | --to FILE) [--speed K | --as-fast-as-possible] [--rover R.toml]`.
+/// `replay LOG (--to-pty | --to FILE | --serve [ADDR]) [--speed K | --as-fast-as-possible]
+/// [--rover R.toml]`.
 #[derive(clap::Args, Debug)]
-#[command(group(clap::ArgGroup::new("target").required(true).args(["to_pty", "to"])))]
+#[command(group(clap::ArgGroup::new("target").required(true).args(["to_pty", "to", "serve"])))]
 pub struct ReplayArgs {
     /// The run log (.mcap: its frames byte for byte, plus the board's report of each commanded
     /// speed after its ack; .csv: frames synthesised from samples and commanded speeds).
@@ -31,13 +35,19 @@ pub struct ReplayArgs {
     /// Playback speed factor (2 = twice real time).
     #[arg(long, default_value_t = 1.0, value_parser = positive_factor, value_name = "K")]
     speed: f64,
-    /// Write as fast as the reader takes the bytes (ignores --speed).
-    #[arg(long)]
+    /// Write as fast as the reader takes the bytes (ignores --speed; not with --serve, whose
+    /// viewers see time pass).
+    #[arg(long, conflicts_with = "serve")]
     as_fast_as_possible: bool,
     /// Rover TOML whose wheel radius turns commanded speeds into the reported wheel rates
     /// (default: the Husky A200, as `record`'s; give both the same rover).
     #[arg(long)]
     rover: Option<PathBuf>,
+    // --serve: the log's messages to Foxglove at real time (or --speed K), stamped as
+    // happening now; starts when the first viewer subscribes (`replay LOG --serve`, the log
+    // first: `--serve LOG` would read LOG as the address).
+    #[command(flatten)]
+    serve: super::serve::ServeArgs,
 }
 
 /// A finite factor > 0.
@@ -71,6 +81,9 @@ impl ReplayArgs {
             &damage_warnings(&self.log, &loaded.losses, &loaded.dropped_rows),
             loaded.lost_data(),
         );
+        if self.serve.serve.is_some() {
+            return self.serve_live(&loaded.run, &rover);
+        }
         let frames = frames_of(&loaded.run, &rover).map_err(|e| anyhow!("encoding frames: {e}"))?;
         if frames.is_empty() {
             bail!(
@@ -99,5 +112,33 @@ impl ReplayArgs {
             eprintln!("replayed {} frames, {} bytes", stats.frames, stats.bytes);
             Ok(())
         }
+    }
+
+    /// `--serve`: waits for a viewer's subscription, then publishes the log paced.
+    fn serve_live(&self, run: &RunLog, rover: &Rover) -> Result<()> {
+        if run.samples.is_empty() && run.frames.is_empty() {
+            bail!(
+                "{}: nothing to replay (no frames, no samples)",
+                self.log.display()
+            );
+        }
+        let stop = stop_signal::install().context("installing the stop-signal handler")?;
+        let server = self.serve.start()?.context("--serve")?;
+        // The address on stdout (a script or test connects to it), the rest on stderr.
+        output::print(format_args!("ws://{}\n", server.local_addr()))?;
+        eprintln!("waiting for a viewer to subscribe (Ctrl-C to stop)");
+        if !server.wait_for_subscriber(None, &stop) {
+            super::serve::finish(Some(server));
+            return Ok(());
+        }
+        let stats = serve_run(&server, run, rover, self.speed, &stop);
+        eprintln!(
+            "served {} records ({:.1} s of the run){}",
+            stats.records,
+            stats.run_s,
+            if stats.stopped { ", stopped" } else { "" }
+        );
+        super::serve::finish(Some(server));
+        Ok(())
     }
 }

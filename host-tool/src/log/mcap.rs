@@ -59,6 +59,7 @@ mod walk;
 
 pub use read::{read_mcap_bytes, read_mcap_run, Loss, LostSamples, McapRun, Truncation};
 pub use sink::McapSink;
+pub(crate) use sink::{ModelMsg, StatusMsg};
 
 use super::commands::CommandRow;
 use super::run_csv::RunSample;
@@ -80,6 +81,49 @@ pub const TOPIC_COMMAND: &str = "/rover_power/command";
 pub const TOPIC_EVENT: &str = "/rover_power/event";
 /// Topic of the raw wire frames.
 pub const TOPIC_FRAME: &str = "/rover_power/frame";
+
+/// A JSON channel of a run log: the MCAP file declares these and the live server
+/// (`crate::live`) advertises the same, so one Foxglove layout reads both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JsonChannel {
+    /// The topic.
+    pub topic: &'static str,
+    /// The schema's name.
+    pub schema_name: &'static str,
+    /// The JSON schema (`jsonschema` encoding).
+    pub schema: &'static str,
+}
+
+/// [`TOPIC_SAMPLE`]'s channel.
+pub const SAMPLE_CHANNEL: JsonChannel = JsonChannel {
+    topic: TOPIC_SAMPLE,
+    schema_name: "rover_power.Sample",
+    schema: schema::SAMPLE,
+};
+/// [`TOPIC_MODEL`]'s channel.
+pub const MODEL_CHANNEL: JsonChannel = JsonChannel {
+    topic: TOPIC_MODEL,
+    schema_name: "rover_power.Model",
+    schema: schema::MODEL,
+};
+/// [`TOPIC_STATUS`]'s channel.
+pub const STATUS_CHANNEL: JsonChannel = JsonChannel {
+    topic: TOPIC_STATUS,
+    schema_name: "rover_power.Status",
+    schema: schema::STATUS,
+};
+/// [`TOPIC_COMMAND`]'s channel.
+pub const COMMAND_CHANNEL: JsonChannel = JsonChannel {
+    topic: TOPIC_COMMAND,
+    schema_name: "rover_power.Command",
+    schema: schema::COMMAND,
+};
+/// [`TOPIC_EVENT`]'s channel.
+pub const EVENT_CHANNEL: JsonChannel = JsonChannel {
+    topic: TOPIC_EVENT,
+    schema_name: "foxglove.Log",
+    schema: schema::EVENT,
+};
 
 /// Target size of a chunk before it is written even without a flush [bytes].
 pub const CHUNK_BYTES: u64 = 256 * 1024;
@@ -158,36 +202,14 @@ pub fn write_mcap_run_with<W: io::Write + io::Seek>(
     run: &RunLog,
     compression: Option<::mcap::Compression>,
 ) -> Result<W, McapError> {
-    use super::run_log::RunLogSink;
-    enum Item<'a> {
-        Frame(&'a model_core::wire::BoardFrame),
-        Sample(&'a RunSample),
-        Command(&'a CommandRow),
-        Event(&'a LogEvent),
-    }
-    let mut items: Vec<(f64, Item<'_>)> = Vec::with_capacity(
-        run.frames.len() + run.samples.len() + run.commands.len() + run.events.len(),
-    );
-    // Events first at equal times: the wall-clock anchor comes with the first sample, before
-    // it, as the recorder writes it.
-    items.extend(run.events.iter().map(|(t, e)| (*t, Item::Event(e))));
-    items.extend(run.frames.iter().map(|(t, f)| (*t, Item::Frame(f))));
-    items.extend(run.samples.iter().map(|s| (s.t_s, Item::Sample(s))));
-    items.extend(run.commands.iter().map(|c| (c.t_s, Item::Command(c))));
-    // Stable: within one kind the order is the log's.
-    items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut sink = McapSink::with_compression(out, compression)?;
-    for (t_s, item) in items {
-        let written = match item {
-            Item::Frame(f) => sink.frame(t_s, f),
-            Item::Sample(s) => sink.sample(s),
-            Item::Command(c) => sink.command(c),
-            Item::Event(e) => sink.event(t_s, e),
-        };
-        written.map_err(|e| match e.kind() {
-            io::ErrorKind::InvalidInput => McapError::Refused(e.to_string()),
-            _ => McapError::Write(::mcap::McapError::Io(e)),
-        })?;
+    for (t_s, record) in run.in_time_order() {
+        record
+            .write_to(t_s, &mut sink)
+            .map_err(|e| match e.kind() {
+                io::ErrorKind::InvalidInput => McapError::Refused(e.to_string()),
+                _ => McapError::Write(::mcap::McapError::Io(e)),
+            })?;
     }
     sink.finish()
 }
@@ -203,7 +225,7 @@ struct SampleSide {
 
 /// A `/rover_power/sample` message.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-struct SampleMsg {
+pub(crate) struct SampleMsg {
     t_s: f64,
     left: SampleSide,
     right: SampleSide,
@@ -218,7 +240,7 @@ struct SampleMsg {
 }
 
 impl SampleMsg {
-    fn of(s: &RunSample) -> Self {
+    pub(crate) fn of(s: &RunSample) -> Self {
         let side = |bus_v: f64, current_a: f64, cmd_mps: f64| SampleSide {
             bus_v,
             current_a,
@@ -252,7 +274,7 @@ impl SampleMsg {
 
 /// A `/rover_power/command` message.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-struct CommandMsg {
+pub(crate) struct CommandMsg {
     t_s: f64,
     cmd_mps: Sides<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -266,7 +288,7 @@ struct CommandMsg {
 }
 
 impl CommandMsg {
-    fn of(c: &CommandRow) -> Self {
+    pub(crate) fn of(c: &CommandRow) -> Self {
         CommandMsg {
             t_s: c.t_s,
             cmd_mps: c.cmd_mps,
@@ -299,7 +321,7 @@ struct FoxgloveTime {
 /// A `/rover_power/event` message: a `foxglove.Log` line (Foxglove's Log panel shows it) plus
 /// the structured event and its exact run time.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-struct EventMsg {
+pub(crate) struct EventMsg {
     t_s: f64,
     event: LogEvent,
     #[serde(default)]
@@ -318,7 +340,7 @@ struct EventMsg {
 }
 
 impl EventMsg {
-    fn of(t_s: f64, log_time_ns: u64, event: &LogEvent) -> Self {
+    pub(crate) fn of(t_s: f64, log_time_ns: u64, event: &LogEvent) -> Self {
         let (level, message) = describe_event(event);
         EventMsg {
             t_s,

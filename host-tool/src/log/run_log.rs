@@ -52,6 +52,49 @@ pub struct RunLog {
     pub events: Vec<(f64, LogEvent)>,
 }
 
+/// One record of a [`RunLog`], borrowed (see [`RunLog::in_time_order`]).
+#[derive(Debug, Clone, Copy)]
+pub enum Record<'a> {
+    /// A wire frame.
+    Frame(&'a BoardFrame),
+    /// A physical sample.
+    Sample(&'a RunSample),
+    /// A forwarded command.
+    Command(&'a CommandRow),
+    /// An event.
+    Event(&'a LogEvent),
+}
+
+impl RunLog {
+    /// Every record with its run time [s], in the order a recorder writes them: by time;
+    /// at equal times events first (the wall-clock anchor comes before the first sample, as the
+    /// recorder writes it), then frames, samples, commands; within one kind the log's order.
+    pub fn in_time_order(&self) -> Vec<(f64, Record<'_>)> {
+        let mut items: Vec<(f64, Record<'_>)> = Vec::with_capacity(
+            self.frames.len() + self.samples.len() + self.commands.len() + self.events.len(),
+        );
+        items.extend(self.events.iter().map(|(t, e)| (*t, Record::Event(e))));
+        items.extend(self.frames.iter().map(|(t, f)| (*t, Record::Frame(f))));
+        items.extend(self.samples.iter().map(|s| (s.t_s, Record::Sample(s))));
+        items.extend(self.commands.iter().map(|c| (c.t_s, Record::Command(c))));
+        // Stable: within one kind the order is the log's.
+        items.sort_by(|a, b| a.0.total_cmp(&b.0));
+        items
+    }
+}
+
+impl Record<'_> {
+    /// Writes this record (at run time `t_s`) into `sink`.
+    pub fn write_to(&self, t_s: f64, sink: &mut (impl RunLogSink + ?Sized)) -> io::Result<()> {
+        match *self {
+            Record::Frame(f) => sink.frame(t_s, f),
+            Record::Sample(s) => sink.sample(s),
+            Record::Command(c) => sink.command(c),
+            Record::Event(e) => sink.event(t_s, e),
+        }
+    }
+}
+
 /// Where a recording goes as it happens. Implementations write through (or buffer at most until
 /// [`RunLogSink::flush`]), so a killed process leaves a readable file up to the last flush.
 pub trait RunLogSink {

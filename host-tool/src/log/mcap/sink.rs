@@ -1,8 +1,8 @@
 //! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
 
 use super::{
-    frame_encoding, schema, CommandMsg, EventMsg, McapError, SampleMsg, CHUNK_BYTES, TOPIC_COMMAND,
-    TOPIC_EVENT, TOPIC_FRAME, TOPIC_MODEL, TOPIC_SAMPLE, TOPIC_STATUS,
+    frame_encoding, CommandMsg, EventMsg, JsonChannel, McapError, SampleMsg, CHUNK_BYTES,
+    COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL, TOPIC_FRAME,
 };
 use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
@@ -137,15 +137,15 @@ impl<W: Write + Seek> McapSink<W> {
             .disable_seeking(true);
         let mut writer = Writer::with_options(out, options)?;
         let no_metadata = BTreeMap::new();
-        let mut json_channel = |name: &str, schema: &str, topic: &str| -> Result<u16, McapError> {
-            let schema_id = writer.add_schema(name, "jsonschema", schema.as_bytes())?;
-            Ok(writer.add_channel(schema_id, topic, "json", &no_metadata)?)
+        let mut json_channel = |c: JsonChannel| -> Result<u16, McapError> {
+            let schema_id = writer.add_schema(c.schema_name, "jsonschema", c.schema.as_bytes())?;
+            Ok(writer.add_channel(schema_id, c.topic, "json", &no_metadata)?)
         };
-        let sample = json_channel("rover_power.Sample", schema::SAMPLE, TOPIC_SAMPLE)?;
-        let model = json_channel("rover_power.Model", schema::MODEL, TOPIC_MODEL)?;
-        let status = json_channel("rover_power.Status", schema::STATUS, TOPIC_STATUS)?;
-        let command = json_channel("rover_power.Command", schema::COMMAND, TOPIC_COMMAND)?;
-        let event = json_channel("foxglove.Log", schema::EVENT, TOPIC_EVENT)?;
+        let sample = json_channel(SAMPLE_CHANNEL)?;
+        let model = json_channel(MODEL_CHANNEL)?;
+        let status = json_channel(STATUS_CHANNEL)?;
+        let command = json_channel(COMMAND_CHANNEL)?;
+        let event = json_channel(EVENT_CHANNEL)?;
         let frame_metadata = BTreeMap::from([
             (
                 "format".to_owned(),
@@ -335,7 +335,7 @@ impl<W: Write + Seek> McapSink<W> {
 
 /// A `/rover_power/model` message.
 #[derive(serde::Serialize)]
-struct ModelMsg {
+pub(crate) struct ModelMsg {
     t_s: f64,
     board_t_us: u64,
     seq: u32,
@@ -352,7 +352,7 @@ struct ModelSide {
 }
 
 impl ModelMsg {
-    fn of(t_s: f64, model: &Model, scale: Scale) -> Self {
+    pub(crate) fn of(t_s: f64, model: &Model, scale: Scale) -> Self {
         let s = &model.snapshot;
         let side = |power: Option<i32>, energy: i64, tau: Option<f32>| ModelSide {
             power_w: power.map(|p| scale.power_w(p)),
@@ -380,10 +380,10 @@ impl ModelMsg {
 
 /// A `/rover_power/status` message.
 #[derive(serde::Serialize)]
-struct StatusMsg<'a> {
-    t_s: f64,
+pub(crate) struct StatusMsg<'a> {
+    pub(crate) t_s: f64,
     #[serde(flatten)]
-    status: &'a Status,
+    pub(crate) status: &'a Status,
 }
 
 impl<W: Write + Seek> RunLogSink for McapSink<W> {

@@ -1,0 +1,250 @@
+//! [`LiveServer`]: the listening socket, its accept thread and one thread per viewer.
+
+use super::channels::LiveChannel;
+use super::hub::{Hub, ViewerReport};
+use super::sink::{LiveClock, LiveSink};
+use super::viewer::{self, ViewerContext};
+use super::{LiveError, LiveOptions};
+use std::fmt;
+use std::io;
+use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// How often the accept thread looks for new viewers and for the stop flag.
+const ACCEPT_POLL: Duration = Duration::from_millis(20);
+
+/// The Foxglove WebSocket server of the live view (see the [module docs](super)).
+pub struct LiveServer {
+    addr: SocketAddr,
+    hub: Arc<Hub>,
+    stop: Arc<AtomicBool>,
+    accept: Option<JoinHandle<()>>,
+}
+
+impl fmt::Debug for LiveServer {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("LiveServer")
+            .field("addr", &self.addr)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What the viewers got, when the server stopped.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LiveSummary {
+    /// The address served.
+    pub addr: SocketAddr,
+    /// Messages published to at least one subscribed viewer.
+    pub published: u64,
+    /// Every viewer that connected.
+    pub viewers: Vec<ViewerReport>,
+}
+
+impl LiveSummary {
+    /// Messages dropped for all viewers together.
+    pub fn dropped(&self) -> u64 {
+        self.viewers.iter().map(|v| v.dropped).sum()
+    }
+}
+
+impl fmt::Display for LiveSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "live view ws://{}: {} viewer(s), {} messages published, {} dropped for slow viewers",
+            self.addr,
+            self.viewers.len(),
+            self.published,
+            self.dropped()
+        )?;
+        for v in &self.viewers {
+            write!(f, "\n  {v}")?;
+        }
+        Ok(())
+    }
+}
+
+/// The address of `--serve ADDR`: `HOST:PORT`, `[V6]:PORT`, or a bare port on the loopback.
+pub fn resolve_addr(text: &str) -> Result<SocketAddr, LiveError> {
+    let text = text.trim();
+    let bad = |detail: String| LiveError::Address {
+        addr: text.to_owned(),
+        detail,
+    };
+    if let Ok(port) = text.parse::<u16>() {
+        return Ok(SocketAddr::from(([127, 0, 0, 1], port)));
+    }
+    text.to_socket_addrs()
+        .map_err(|e| bad(e.to_string()))?
+        .next()
+        .ok_or_else(|| bad("names no address".into()))
+}
+
+impl LiveServer {
+    /// Listens on `addr` and starts accepting viewers.
+    pub fn bind(addr: SocketAddr, options: LiveOptions) -> Result<Self, LiveError> {
+        let listener =
+            TcpListener::bind(addr).map_err(|source| LiveError::Bind { addr, source })?;
+        let addr = listener
+            .local_addr()
+            .map_err(|source| LiveError::Bind { addr, source })?;
+        listener
+            .set_nonblocking(true)
+            .map_err(|source| LiveError::Bind { addr, source })?;
+        let hub = Arc::new(Hub::default());
+        let stop = Arc::new(AtomicBool::new(false));
+        let cx = ViewerContext {
+            hub: hub.clone(),
+            stop: stop.clone(),
+            options,
+            session_id: format!("{}-{}", std::process::id(), unix_now_ns()),
+        };
+        let accept = std::thread::Builder::new()
+            .name("live-accept".into())
+            .spawn(move || accept_loop(&listener, cx))
+            .map_err(|source| LiveError::Bind { addr, source })?;
+        Ok(Self {
+            addr,
+            hub,
+            stop,
+            accept: Some(accept),
+        })
+    }
+
+    /// The address it listens on (the port chosen when bound to port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// A sink for a recording: time stamps are the log's wall clock (its
+    /// [`crate::log::run_log::LogEvent::WallClock`] anchor plus run time), the host's clock
+    /// before the anchor comes.
+    pub fn recording_sink(&self) -> LiveSink {
+        LiveSink::new(
+            self.hub.clone(),
+            LiveClock::Recording { zero_unix_ns: None },
+        )
+    }
+
+    /// A sink for a paced replay: run time `t0_s` is stamped now, later times at `speed`.
+    pub fn replay_sink(&self, t0_s: f64, speed: f64) -> LiveSink {
+        LiveSink::new(
+            self.hub.clone(),
+            LiveClock::Replay {
+                zero_unix_ns: i128::from(unix_now_ns()),
+                t0_s,
+                speed,
+            },
+        )
+    }
+
+    /// The channels some viewer subscribes to now.
+    pub fn subscribed_channels(&self) -> Vec<LiveChannel> {
+        let mask = self.hub.subscribed();
+        LiveChannel::ALL
+            .into_iter()
+            .filter(|c| mask & c.bit() != 0)
+            .collect()
+    }
+
+    /// Viewers connected now.
+    pub fn viewers(&self) -> usize {
+        self.hub.viewers()
+    }
+
+    /// Waits until some viewer subscribes to a channel, up to `limit`, or until `stop` is
+    /// set; true if one did.
+    pub fn wait_for_subscriber(&self, limit: Option<Duration>, stop: &AtomicBool) -> bool {
+        let start = Instant::now();
+        while self.hub.subscribed() == 0 {
+            if stop.load(Ordering::Relaxed) || limit.is_some_and(|l| start.elapsed() >= l) {
+                return false;
+            }
+            std::thread::sleep(ACCEPT_POLL);
+        }
+        true
+    }
+
+    /// What each viewer got so far.
+    pub fn reports(&self) -> Vec<ViewerReport> {
+        self.hub.reports()
+    }
+
+    /// Stops after the viewers' queues have drained (at most `drain`), closes every
+    /// connection and reports.
+    pub fn finish(mut self, drain: Duration) -> LiveSummary {
+        let start = Instant::now();
+        while !self.hub.queues_empty() && start.elapsed() < drain {
+            std::thread::sleep(ACCEPT_POLL);
+        }
+        self.shut_down();
+        LiveSummary {
+            addr: self.addr,
+            published: self.hub.published(),
+            viewers: self.hub.reports(),
+        }
+    }
+
+    fn shut_down(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(accept) = self.accept.take() {
+            let _ = accept.join();
+        }
+    }
+}
+
+impl Drop for LiveServer {
+    fn drop(&mut self) {
+        self.shut_down();
+    }
+}
+
+/// Accepts viewers until the stop flag is set, then waits for their threads.
+fn accept_loop(listener: &TcpListener, cx: ViewerContext) {
+    let cx = Arc::new(cx);
+    let mut threads: Vec<JoinHandle<()>> = Vec::new();
+    while !cx.stop.load(Ordering::Relaxed) {
+        match listener.accept() {
+            Ok((stream, peer)) => {
+                threads.retain(|t| !t.is_finished());
+                if threads.len() >= cx.options.max_viewers {
+                    cx.hub.refused(
+                        peer,
+                        format!("refused: {} viewers already", cx.options.max_viewers),
+                    );
+                    continue;
+                }
+                let viewer_cx = cx.clone();
+                let spawned = std::thread::Builder::new()
+                    .name("live-viewer".into())
+                    .spawn(move || {
+                        // The listener is non-blocking; the viewer's socket starts blocking
+                        // for the handshake.
+                        if stream.set_nonblocking(false).is_ok() {
+                            viewer::serve(stream, peer, &viewer_cx);
+                        }
+                    });
+                match spawned {
+                    Ok(t) => threads.push(t),
+                    Err(e) => cx.hub.refused(peer, format!("no thread for it: {e}")),
+                }
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => std::thread::sleep(ACCEPT_POLL),
+            // A connection reset before it was accepted, out of descriptors: go on.
+            Err(_) => std::thread::sleep(ACCEPT_POLL),
+        }
+    }
+    for t in threads {
+        let _ = t.join();
+    }
+}
+
+/// The host's clock [ns since the Unix epoch].
+pub(super) fn unix_now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+}

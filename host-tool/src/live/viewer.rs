@@ -1,0 +1,282 @@
+//! One viewer's connection, on its own thread: the WebSocket handshake (subprotocol
+//! `foxglove.websocket.v1`), `serverInfo` and `advertise`, then a loop that reads the viewer's
+//! ops and writes its queued messages. The socket is non-blocking after the handshake: a
+//! viewer that stops reading fills its socket, then its queue, and the publisher drops for it.
+
+use super::channels::LiveChannel;
+use super::hub::{Hub, Outgoing, ViewerCounters};
+use super::protocol::{
+    parse_client_op, status_level, ClientOp, MessageData, ServerOp, SUBPROTOCOL,
+};
+use super::LiveOptions;
+use std::collections::BTreeMap;
+use std::io;
+use std::net::{SocketAddr, TcpStream};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tungstenite::handshake::server::{ErrorResponse, Request, Response};
+use tungstenite::handshake::HandshakeError;
+use tungstenite::http::{HeaderValue, StatusCode};
+use tungstenite::protocol::WebSocketConfig;
+use tungstenite::{Message, WebSocket};
+
+/// Longest wait for a new message before the viewer's ops are read again.
+const POLL: Duration = Duration::from_millis(10);
+/// Most messages written before one flush.
+const BATCH: usize = 256;
+/// Pause after each batch so messages go out in batches, ~100 writes a second at most: a
+/// viewer draws at its frame rate, and each write is a syscall and a wake-up (at 2 kHz,
+/// a write per message cost the viewer threads 8× the CPU).
+const COALESCE: Duration = Duration::from_millis(10);
+/// Time allowed for the handshake and the first ops.
+const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// What the viewer's thread needs from the server.
+pub(super) struct ViewerContext {
+    pub(super) hub: Arc<Hub>,
+    pub(super) stop: Arc<AtomicBool>,
+    pub(super) options: LiveOptions,
+    pub(super) session_id: String,
+}
+
+/// Serves one viewer until it leaves, stalls past [`LiveOptions::stall_timeout`] or the server
+/// stops; its report stays in the hub.
+pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
+    let counters = Arc::new(ViewerCounters::default());
+    let why = match handshake(stream, cx) {
+        Ok(mut ws) => {
+            let queue = cx.hub.join(peer, cx.options.queue_len, counters.clone());
+            let why = Connection {
+                ws: &mut ws,
+                counters: &counters,
+                subscriptions: BTreeMap::new(),
+                unflushed: false,
+            }
+            .run(&queue, cx);
+            let _ = ws.close(None);
+            let _ = ws.flush();
+            why
+        }
+        Err(why) => {
+            // Not a viewer (a port scan, a browser without the subprotocol): reported, so a
+            // user whose viewer cannot connect sees why.
+            cx.hub.refused(peer, format!("handshake failed: {why}"));
+            return;
+        }
+    };
+    cx.hub.leave(&counters, why);
+}
+
+fn handshake(stream: TcpStream, cx: &ViewerContext) -> Result<WebSocket<TcpStream>, String> {
+    let io = |e: io::Error| e.to_string();
+    stream.set_nodelay(true).map_err(io)?;
+    stream
+        .set_read_timeout(Some(HANDSHAKE_TIMEOUT))
+        .map_err(io)?;
+    stream
+        .set_write_timeout(Some(HANDSHAKE_TIMEOUT))
+        .map_err(io)?;
+    let config = WebSocketConfig::default()
+        .write_buffer_size(64 * 1024)
+        // Backpressure is our queue's job; this only bounds one batch plus control frames.
+        .max_write_buffer_size(16 * 1024 * 1024)
+        .max_message_size(Some(1024 * 1024));
+    let mut ws = tungstenite::accept_hdr_with_config(stream, choose_subprotocol, Some(config))
+        .map_err(|e| match e {
+            // Our refusal's body says why.
+            HandshakeError::Failure(tungstenite::Error::Http(response)) => {
+                String::from_utf8_lossy(response.body().as_deref().unwrap_or_default()).into_owned()
+            }
+            other => other.to_string(),
+        })?;
+    let info = ServerOp::ServerInfo {
+        name: cx.options.name.clone(),
+        capabilities: Vec::new(),
+        supported_encodings: Vec::new(),
+        metadata: BTreeMap::from([(
+            "about".to_owned(),
+            "rover-power live view: read-only (the board is not commanded from here)".to_owned(),
+        )]),
+        session_id: Some(cx.session_id.clone()),
+    };
+    let advertise = ServerOp::Advertise {
+        channels: LiveChannel::ALL.map(LiveChannel::advertised).to_vec(),
+    };
+    for op in [info, advertise] {
+        let text = serde_json::to_string(&op).map_err(|e| e.to_string())?;
+        ws.send(Message::text(text)).map_err(|e| e.to_string())?;
+    }
+    ws.get_ref().set_nonblocking(true).map_err(io)?;
+    Ok(ws)
+}
+
+/// Accepts clients that speak `foxglove.websocket.v1` and names it in the response.
+#[allow(clippy::result_large_err)] // tungstenite's callback signature
+fn choose_subprotocol(
+    request: &Request,
+    mut response: Response,
+) -> Result<Response, ErrorResponse> {
+    let offered = request
+        .headers()
+        .get_all("Sec-WebSocket-Protocol")
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .any(|p| p.trim() == SUBPROTOCOL);
+    if !offered {
+        let mut refusal = ErrorResponse::new(Some(format!(
+            "this is a Foxglove WebSocket server: request subprotocol {SUBPROTOCOL}"
+        )));
+        *refusal.status_mut() = StatusCode::BAD_REQUEST;
+        return Err(refusal);
+    }
+    response.headers_mut().insert(
+        "Sec-WebSocket-Protocol",
+        HeaderValue::from_static(SUBPROTOCOL),
+    );
+    Ok(response)
+}
+
+struct Connection<'a> {
+    ws: &'a mut WebSocket<TcpStream>,
+    counters: &'a ViewerCounters,
+    /// The viewer's subscription id per channel.
+    subscriptions: BTreeMap<LiveChannel, u32>,
+    /// Something (a status op) was written but not flushed yet.
+    unflushed: bool,
+}
+
+impl Connection<'_> {
+    /// The loop: ops in, messages out. Returns why it ended.
+    fn run(mut self, queue: &Receiver<Outgoing>, cx: &ViewerContext) -> String {
+        // Since when the socket has taken nothing (a viewer that stopped reading).
+        let mut blocked_since: Option<Instant> = None;
+        loop {
+            if cx.stop.load(Ordering::Relaxed) {
+                return "server stopped".into();
+            }
+            if let Err(why) = self.read_ops() {
+                return why;
+            }
+            if blocked_since.is_some() || self.unflushed {
+                let since = *blocked_since.get_or_insert_with(Instant::now);
+                self.unflushed = false;
+                match self.ws.flush() {
+                    Ok(()) => blocked_since = None,
+                    Err(e) if would_block(&e) => {
+                        if since.elapsed() > cx.options.stall_timeout {
+                            return format!(
+                                "took nothing for {:.0} s: disconnected",
+                                cx.options.stall_timeout.as_secs_f64()
+                            );
+                        }
+                        std::thread::sleep(POLL);
+                        continue;
+                    }
+                    Err(e) => return format!("connection lost: {e}"),
+                }
+            }
+            let first = match queue.recv_timeout(POLL) {
+                Ok(m) => m,
+                Err(RecvTimeoutError::Timeout) => continue,
+                Err(RecvTimeoutError::Disconnected) => return "server stopped".into(),
+            };
+            match self.write_batch(first, queue) {
+                Ok(true) => std::thread::sleep(COALESCE),
+                Ok(false) => blocked_since = Some(Instant::now()),
+                Err(why) => return why,
+            }
+        }
+    }
+
+    /// Reads every op the viewer has sent; `Err` when it has gone.
+    fn read_ops(&mut self) -> Result<(), String> {
+        loop {
+            match self.ws.read() {
+                Ok(Message::Text(text)) => self.on_op(text.as_str()),
+                Ok(Message::Close(_)) => return Err("viewer closed the connection".into()),
+                Ok(_) => {}
+                Err(e) if would_block(&e) => return Ok(()),
+                Err(e) => return Err(format!("connection lost: {e}")),
+            }
+        }
+    }
+
+    fn on_op(&mut self, text: &str) {
+        match parse_client_op(text) {
+            Ok(ClientOp::Subscribe { subscriptions }) => {
+                for s in subscriptions {
+                    match LiveChannel::from_id(s.channel_id) {
+                        Some(channel) => {
+                            self.subscriptions.insert(channel, s.id);
+                        }
+                        None => self.warn(format!("no channel {}", s.channel_id)),
+                    }
+                }
+            }
+            Ok(ClientOp::Unsubscribe { subscription_ids }) => {
+                self.subscriptions
+                    .retain(|_, id| !subscription_ids.contains(id));
+            }
+            Err(e) => self.warn(e.to_string()),
+        }
+        let mask = self.subscriptions.keys().fold(0, |m, c| m | c.bit());
+        self.counters.subscribed.store(mask, Ordering::Relaxed);
+    }
+
+    /// A warning in the viewer's problems panel (dropped if the socket is full).
+    fn warn(&mut self, message: String) {
+        let op = ServerOp::Status {
+            level: status_level::WARNING,
+            message,
+        };
+        if let Ok(text) = serde_json::to_string(&op) {
+            let _ = self.ws.write(Message::text(text));
+            self.unflushed = true;
+        }
+    }
+
+    /// Writes `first` and whatever else is queued (up to [`BATCH`]), then flushes. `Ok(false)`:
+    /// the socket is full (the rest stays in the WebSocket's buffer).
+    fn write_batch(&mut self, first: Outgoing, queue: &Receiver<Outgoing>) -> Result<bool, String> {
+        let mut next = Some(first);
+        let mut written = 0;
+        while let Some(message) = next.take() {
+            self.counters.queued.fetch_sub(1, Ordering::Relaxed);
+            // A message queued before an unsubscribe is not sent.
+            if let Some(&subscription_id) = self.subscriptions.get(&message.channel) {
+                let frame = MessageData {
+                    subscription_id,
+                    timestamp_ns: message.timestamp_ns,
+                    payload: &message.payload,
+                }
+                .encode();
+                match self.ws.write(Message::binary(frame)) {
+                    Ok(()) => {}
+                    // Kept in the WebSocket's buffer: sent when the socket drains.
+                    Err(e) if would_block(&e) => {
+                        self.counters.sent.fetch_add(1, Ordering::Relaxed);
+                        return Ok(false);
+                    }
+                    Err(e) => return Err(format!("connection lost: {e}")),
+                }
+                self.counters.sent.fetch_add(1, Ordering::Relaxed);
+            }
+            written += 1;
+            if written < BATCH {
+                next = queue.try_recv().ok();
+            }
+        }
+        match self.ws.flush() {
+            Ok(()) => Ok(true),
+            Err(e) if would_block(&e) => Ok(false),
+            Err(e) => Err(format!("connection lost: {e}")),
+        }
+    }
+}
+
+fn would_block(e: &tungstenite::Error) -> bool {
+    matches!(e, tungstenite::Error::Io(e) if e.kind() == io::ErrorKind::WouldBlock)
+}

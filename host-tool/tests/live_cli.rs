@@ -1,0 +1,260 @@
+//! `replay LOG --serve` on a demo log, watched by a WebSocket client that speaks
+//! `foxglove.websocket.v1` as the spec writes it (its JSON and byte layout spelt out here, not
+//! borrowed from the server's code): serverInfo, advertise, subscribe, binary message data.
+
+mod common;
+use common::{host_tool, temp_dir};
+
+use host_tool::live::client::{Incoming, LiveClient};
+use host_tool::log::mcap::read_mcap_run;
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Read};
+use std::net::TcpStream;
+use std::process::{Child, Stdio};
+use std::time::Duration;
+use tungstenite::client::IntoClientRequest;
+use tungstenite::http::HeaderValue;
+use tungstenite::Message;
+
+/// Kills the server if the test fails half-way.
+struct Server(Child);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn text_op(ws: &mut tungstenite::WebSocket<TcpStream>) -> Value {
+    match ws.read().expect("a message") {
+        Message::Text(t) => serde_json::from_str(t.as_str()).expect("JSON op"),
+        other => panic!("expected a text op, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
+    let dir = temp_dir("live-cli");
+    let demo = dir.join("demo");
+    let made = host_tool()
+        .args(["demo", "--runs", "1", "--out"])
+        .arg(&demo)
+        .output()
+        .expect("demo runs");
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let log = demo.join("run-1.mcap");
+    let expected = read_mcap_run(&log).expect("demo log").run.samples;
+    assert!(expected.len() >= 1000, "{} samples", expected.len());
+
+    let mut server = Server(
+        host_tool()
+            .arg("replay")
+            .arg(&log)
+            .args(["--serve", "127.0.0.1:0", "--speed", "20"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("replay --serve starts"),
+    );
+    let mut line = String::new();
+    BufReader::new(server.0.stdout.take().expect("stdout"))
+        .read_line(&mut line)
+        .expect("the address");
+    let url = line.trim().to_owned();
+    assert!(url.starts_with("ws://127.0.0.1:"), "{line:?}");
+
+    let stream = TcpStream::connect(url.trim_start_matches("ws://")).expect("connects");
+    stream
+        .set_read_timeout(Some(Duration::from_secs(20)))
+        .expect("timeout");
+    let mut request = url.as_str().into_client_request().expect("request");
+    request.headers_mut().insert(
+        "Sec-WebSocket-Protocol",
+        HeaderValue::from_static("foxglove.websocket.v1"),
+    );
+    let (mut ws, response) = tungstenite::client(request, stream).expect("handshake");
+    assert_eq!(
+        response.headers().get("Sec-WebSocket-Protocol"),
+        Some(&HeaderValue::from_static("foxglove.websocket.v1"))
+    );
+
+    let info = text_op(&mut ws);
+    assert_eq!(info["op"], "serverInfo");
+    assert!(info["name"].is_string() && info["capabilities"].is_array());
+    let advertise = text_op(&mut ws);
+    assert_eq!(advertise["op"], "advertise");
+    let channels = advertise["channels"].as_array().expect("channels");
+    let topics: Vec<&str> = channels
+        .iter()
+        .filter_map(|c| c["topic"].as_str())
+        .collect();
+    for topic in ["sample", "model", "status", "event"] {
+        assert!(
+            topics.contains(&format!("/rover_power/{topic}").as_str()),
+            "{topics:?}"
+        );
+    }
+    let sample = channels
+        .iter()
+        .find(|c| c["topic"] == "/rover_power/sample")
+        .expect("sample channel");
+    assert_eq!(sample["encoding"], "json");
+    assert_eq!(sample["schemaName"], "rover_power.Sample");
+    assert_eq!(sample["schemaEncoding"], "jsonschema");
+    let schema: Value =
+        serde_json::from_str(sample["schema"].as_str().expect("schema")).expect("schema JSON");
+    assert_eq!(schema["title"], "rover_power.Sample");
+
+    ws.send(Message::text(
+        json!({"op": "subscribe", "subscriptions": [{"id": 42, "channelId": sample["id"]}]})
+            .to_string(),
+    ))
+    .expect("subscribe");
+
+    // Every message until the server closes: binary frames `0x01 | u32 LE | u64 LE | JSON`.
+    let mut received = Vec::new();
+    let mut last_timestamp = 0u64;
+    loop {
+        match ws.read() {
+            Ok(Message::Binary(bytes)) => {
+                assert!(bytes.len() > 13);
+                assert_eq!(bytes[0], 0x01, "opcode");
+                let id = u32::from_le_bytes(bytes[1..5].try_into().expect("4 bytes"));
+                let timestamp = u64::from_le_bytes(bytes[5..13].try_into().expect("8 bytes"));
+                assert_eq!(id, 42);
+                assert!(timestamp >= last_timestamp, "time stamps go forward");
+                last_timestamp = timestamp;
+                let json: Value = serde_json::from_slice(&bytes[13..]).expect("JSON payload");
+                received.push(json);
+            }
+            Ok(Message::Text(t)) => panic!("unexpected op {t}"),
+            Ok(Message::Close(_)) | Err(tungstenite::Error::ConnectionClosed) => break,
+            Ok(_) => {}
+            Err(e) => panic!("after {} messages: {e}", received.len()),
+        }
+    }
+    assert!(received.len() >= 100, "{} frames", received.len());
+    eprintln!("{} samples served and decoded in order", received.len());
+    // In order, none missing: the i-th message is the log's i-th sample.
+    assert_eq!(received.len(), expected.len());
+    for (got, want) in received.iter().zip(&expected) {
+        assert_eq!(got["t_s"].as_f64(), Some(want.t_s));
+        assert_eq!(got["left"]["current_a"].as_f64(), Some(want.current_a.left));
+        assert_eq!(got["right"]["bus_v"].as_f64(), Some(want.bus_v.right));
+    }
+    // Wall-clock stamps: the replay happened just now.
+    let now_ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("clock")
+        .as_nanos() as u64;
+    assert!(now_ns.abs_diff(last_timestamp) < 60_000_000_000);
+
+    let status = server.0.wait().expect("replay ends");
+    let mut stderr = String::new();
+    server
+        .0
+        .stderr
+        .take()
+        .expect("stderr")
+        .read_to_string(&mut stderr)
+        .expect("stderr");
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("0 dropped"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn record_serve_shows_the_recording_live_and_the_log_is_whole() {
+    let dir = temp_dir("live-cli-record");
+    let source = dir.join("source.csv");
+    // 20 s at 200 Hz, replayed at 4x: ~5 s of recording.
+    let samples: Vec<host_tool::log::run_csv::RunSample> = (0..4_000)
+        .map(|i| host_tool::log::run_csv::RunSample {
+            t_s: f64::from(i) * 0.005,
+            bus_v: model_core::Sides::new(24.0, 24.1),
+            current_a: model_core::Sides::new(2.0 + f64::from(i % 7) * 0.01, 2.5),
+            cmd_mps: model_core::Sides::new(0.3, 0.3),
+            yaw_rad: None,
+            pitch_deg: None,
+            x_m: None,
+            y_m: None,
+        })
+        .collect();
+    host_tool::log::run_csv::write_run_csv_atomically(&source, &samples).expect("source");
+    let mut replay = Server(
+        host_tool()
+            .arg("replay")
+            .arg(&source)
+            .args(["--to-pty", "--speed", "4"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("replay"),
+    );
+    let mut pty = String::new();
+    BufReader::new(replay.0.stdout.take().expect("stdout"))
+        .read_line(&mut pty)
+        .expect("pty path");
+    let out = dir.join("rec.mcap");
+    let mut record = Server(
+        host_tool()
+            .args([
+                "record",
+                "--port",
+                pty.trim(),
+                "--serve",
+                "127.0.0.1:0",
+                "--out",
+            ])
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("record"),
+    );
+    let mut stderr = BufReader::new(record.0.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    let addr = loop {
+        line.clear();
+        assert!(
+            stderr.read_line(&mut line).expect("stderr") > 0,
+            "no address"
+        );
+        if let Some(rest) = line.strip_prefix("live view: ws://") {
+            break rest.split_whitespace().next().expect("addr").to_owned();
+        }
+    };
+    let mut client = LiveClient::connect(addr.parse().expect("addr"), Duration::from_secs(20))
+        .expect("connects");
+    client
+        .subscribe(1, "/rover_power/model")
+        .expect("subscribe");
+    let mut energies = Vec::new();
+    while energies.len() < 10 {
+        match client.read().expect("a message") {
+            Incoming::Data(d) => {
+                let json: Value = serde_json::from_slice(&d.payload).expect("JSON");
+                energies.push(json["total_energy_j"].as_f64().expect("energy"));
+            }
+            Incoming::Op(_) => {}
+            Incoming::Closed => break,
+        }
+    }
+    assert!(energies.len() >= 10, "{energies:?}");
+    assert!(energies.windows(2).all(|w| w[1] >= w[0]), "{energies:?}");
+
+    let status = record.0.wait().expect("record ends");
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).expect("stderr");
+    assert!(status.success(), "{rest}");
+    assert!(rest.contains("viewer 127.0.0.1:"), "{rest}");
+    let back = read_mcap_run(&out).expect("log");
+    assert!(back.truncated.is_none());
+    assert_eq!(back.run.samples.len(), samples.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
