@@ -6,7 +6,7 @@ use embedded_hal::i2c::{ErrorKind, I2c, NoAcknowledgeSource};
 use model_core::ina226::{
     AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
 };
-use model_core::wire::ChipFault;
+use model_core::wire::{ChipFault, ChipRegistersReadBack};
 
 /// Register pointers (datasheet Table 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -211,6 +211,17 @@ impl Ina226 {
         Ok(self.read(i2c, Register::Calibration)? == 0)
     }
 
+    /// Reads the ID, configuration and calibration registers back (for the hello: the host's
+    /// bring-up check compares them with what was written). Stops at the first failed read.
+    pub fn read_back<I: I2c>(&self, i2c: &mut I) -> Result<ChipRegistersReadBack, I::Error> {
+        Ok(ChipRegistersReadBack {
+            manufacturer_id: self.read(i2c, Register::ManufacturerId)?,
+            die_id: self.read(i2c, Register::DieId)?,
+            configuration: self.read(i2c, Register::Configuration)?,
+            calibration: self.read(i2c, Register::Calibration)?,
+        })
+    }
+
     /// Reads shunt, bus, current and power.
     pub fn read_registers<I: I2c>(&mut self, i2c: &mut I) -> Result<Registers, I::Error> {
         Ok(Registers {
@@ -397,6 +408,34 @@ mod tests {
         assert_eq!(
             right.read_registers(&mut i2c).map_err(|e| fault_of(&e)),
             Err(ChipFault::DataNack)
+        );
+        i2c.done();
+    }
+
+    #[test]
+    fn read_back_returns_the_four_set_up_registers_or_the_first_fault() {
+        let mut i2c = Mock::new(&[
+            read(0x40, Register::ManufacturerId, 0x5449),
+            read(0x40, Register::DieId, 0x2260),
+            read(0x40, Register::Configuration, 0x4407),
+            read(0x40, Register::Calibration, 2048),
+            read(0x45, Register::ManufacturerId, 0)
+                .with_error(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)),
+        ]);
+        let left = Ina226::new(0x40, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        assert_eq!(
+            left.read_back(&mut i2c),
+            Ok(ChipRegistersReadBack {
+                manufacturer_id: MANUFACTURER_ID,
+                die_id: DIE_ID,
+                configuration: Ina226::config_word(AdcConfig::BOARD_DEFAULT),
+                calibration: BOARD_CALIBRATION.value(),
+            })
+        );
+        let right = Ina226::new(0x45, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        assert_eq!(
+            right.read_back(&mut i2c).map_err(|e| fault_of(&e)),
+            Err(ChipFault::AddressNack)
         );
         i2c.done();
     }

@@ -7,7 +7,7 @@ use model_core::board_id::BoardIdentity;
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{AdcConfig, BUS_LSB_UV, SHUNT_LSB_NV};
 use model_core::wire::{
-    ChipFault, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
+    ChipFault, ChipProbe, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
     PROTOCOL_VERSION,
 };
 use model_core::Sides;
@@ -252,6 +252,21 @@ impl Sampler {
         }
     }
 
+    /// The hello with each chip's ID and set-up registers read back now (what the board sends).
+    pub fn hello_read_back<I: I2c>(&self, i2c: &mut I) -> Hello {
+        let mut probe = |chip: &Chip| match chip.driver.read_back(i2c) {
+            Ok(registers) => ChipProbe::Answered(registers),
+            Err(e) => ChipProbe::Failed(crate::ina226::fault_of(&e)),
+        };
+        let left = probe(&self.chips.left);
+        let right = probe(&self.chips.right);
+        Hello {
+            chips: Sides::new(left, right),
+            ..self.hello()
+        }
+    }
+
+    /// The hello without touching the bus (chips [`ChipProbe::NotRead`]).
     pub fn hello(&self) -> Hello {
         let scale = self.measurements.scale();
         Hello {
@@ -265,6 +280,7 @@ impl Sampler {
             adc: self.adc(),
             sample_period_us: self.sample_period_us,
             identity: self.identity,
+            chips: Sides::new(ChipProbe::NotRead, ChipProbe::NotRead),
         }
     }
 
@@ -591,6 +607,41 @@ mod tests {
             Ok(())
         );
         assert_eq!(s.measurements().wheel_rates(), Some(Sides::new(0.0, 3.6)));
+        i2c.done();
+    }
+
+    #[test]
+    fn the_boards_hello_carries_each_chips_registers_read_back_now() {
+        use model_core::wire::ChipRegistersReadBack;
+        let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
+        let mut i2c = Mock::new(&[
+            read(0x40, Register::ManufacturerId, 0x5449),
+            read(0x40, Register::DieId, 0x2260),
+            read(0x40, Register::Configuration, 0x4407),
+            read(0x40, Register::Calibration, 2048),
+            read(0x45, Register::ManufacturerId, 0).with_error(nack),
+        ]);
+        let s = Sampler::new(SamplerConfig::BOARD);
+        let hello = s.hello_read_back(&mut i2c);
+        assert_eq!(
+            hello.chips,
+            Sides::new(
+                ChipProbe::Answered(ChipRegistersReadBack {
+                    manufacturer_id: 0x5449,
+                    die_id: 0x2260,
+                    configuration: 0x4407,
+                    calibration: 2048,
+                }),
+                ChipProbe::Failed(ChipFault::AddressNack)
+            )
+        );
+        assert_eq!(
+            Hello {
+                chips: Sides::new(ChipProbe::NotRead, ChipProbe::NotRead),
+                ..hello
+            },
+            s.hello()
+        );
         i2c.done();
     }
 }

@@ -13,7 +13,9 @@ use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
 /// Bumped whenever a message layout changes; both ends refuse frames of another version.
 /// 2: the hello frame carries the board's identity (unique ID, crystal).
-pub const PROTOCOL_VERSION: u8 = 2;
+/// 3: the hello frame carries each chip's ID, configuration and calibration registers, read
+/// back when the hello is built (`host-tool check`).
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Largest unencoded frame body: version byte + postcard message + 4 CRC bytes.
 pub const MAX_BODY: usize = 128;
@@ -51,6 +53,29 @@ pub struct Hello {
     pub sample_period_us: u32,
     /// The MCU's unique ID (the USB serial number is built from it) and the crystal.
     pub identity: BoardIdentity,
+    /// Each chip's identity and set-up registers, read when this hello was built.
+    pub chips: Sides<ChipProbe>,
+}
+
+/// A chip's ID and set-up registers as read back from it (datasheet Table 2: FEh, FFh, 00h,
+/// 05h). An INA226 reads 0x5449 / 0x2260; a chip that reset reads CAL 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ChipRegistersReadBack {
+    pub manufacturer_id: u16,
+    pub die_id: u16,
+    pub configuration: u16,
+    pub calibration: u16,
+}
+
+/// What reading a chip's ID and set-up registers gave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ChipProbe {
+    /// The chip answered all four reads.
+    Answered(ChipRegistersReadBack),
+    /// A read failed (a missing chip NACKs its address).
+    Failed(ChipFault),
+    /// Not read: a hello the host synthesised (replay of a run CSV), not the board's.
+    NotRead,
 }
 
 /// Why a chip gave no reading in a sample.
@@ -481,6 +506,15 @@ mod tests {
                 uid: [0xFF; crate::board_id::UID_LEN],
                 hse_mhz: 25,
             },
+            chips: Sides::new(
+                ChipProbe::Answered(ChipRegistersReadBack {
+                    manufacturer_id: u16::MAX,
+                    die_id: u16::MAX,
+                    configuration: u16::MAX,
+                    calibration: u16::MAX,
+                }),
+                ChipProbe::Failed(ChipFault::AwaitingConversion),
+            ),
         }));
         round_trip(&BoardFrame::Model(Model {
             t_us: u64::MAX,
