@@ -96,19 +96,39 @@ impl Chip {
         ChipReading::Failed(fault)
     }
 
+    /// Checks the IDs and writes configuration and calibration.
+    fn set_up<I: I2c>(&mut self, i2c: &mut I) -> Result<(), ChipFault> {
+        self.driver.init(i2c).map_err(|e| e.fault())?;
+        if self.was_ready {
+            self.reinits = self.reinits.saturating_add(1);
+        }
+        self.ready = true;
+        self.was_ready = true;
+        // Writing the configuration cleared the conversion-ready flag; the current and power
+        // registers still hold a result computed with the old calibration.
+        self.awaiting_conversion = true;
+        Ok(())
+    }
+
+    /// The chip's ID and set-up registers read back, after setting it up if it is not (a host
+    /// that connects at power-up gets its hello before the first sample).
+    fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
+        if !self.ready {
+            if let Err(fault) = self.set_up(i2c) {
+                self.fail(fault);
+            }
+        }
+        match self.driver.read_back(i2c) {
+            Ok(registers) => ChipProbe::Answered(registers),
+            Err(e) => ChipProbe::Failed(crate::ina226::fault_of(&e)),
+        }
+    }
+
     fn read<I: I2c>(&mut self, i2c: &mut I, check_calibration: bool) -> ChipReading {
         if !self.ready {
-            if let Err(e) = self.driver.init(i2c) {
-                return self.fail(e.fault());
+            if let Err(fault) = self.set_up(i2c) {
+                return self.fail(fault);
             }
-            if self.was_ready {
-                self.reinits = self.reinits.saturating_add(1);
-            }
-            self.ready = true;
-            self.was_ready = true;
-            // Writing the configuration cleared the conversion-ready flag; the current and power
-            // registers still hold a result computed with the old calibration.
-            self.awaiting_conversion = true;
         } else if check_calibration {
             match self.driver.calibration_lost(i2c) {
                 Ok(true) => return self.lost_calibration(),
@@ -252,14 +272,11 @@ impl Sampler {
         }
     }
 
-    /// The hello with each chip's ID and set-up registers read back now (what the board sends).
-    pub fn hello_read_back<I: I2c>(&self, i2c: &mut I) -> Hello {
-        let mut probe = |chip: &Chip| match chip.driver.read_back(i2c) {
-            Ok(registers) => ChipProbe::Answered(registers),
-            Err(e) => ChipProbe::Failed(crate::ina226::fault_of(&e)),
-        };
-        let left = probe(&self.chips.left);
-        let right = probe(&self.chips.right);
+    /// The hello with each chip's ID and set-up registers read back now (what the board sends);
+    /// a chip not set up yet is set up first.
+    pub fn hello_read_back<I: I2c>(&mut self, i2c: &mut I) -> Hello {
+        let left = self.chips.left.probe(i2c);
+        let right = self.chips.right.probe(i2c);
         Hello {
             chips: Sides::new(left, right),
             ..self.hello()
@@ -614,14 +631,18 @@ mod tests {
     fn the_boards_hello_carries_each_chips_registers_read_back_now() {
         use model_core::wire::ChipRegistersReadBack;
         let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
-        let mut i2c = Mock::new(&[
+        // Neither chip is set up yet (a host connecting at power-up): set up first.
+        let mut tx = init(0x40);
+        tx.extend([
             read(0x40, Register::ManufacturerId, 0x5449),
             read(0x40, Register::DieId, 0x2260),
             read(0x40, Register::Configuration, 0x4407),
             read(0x40, Register::Calibration, 2048),
             read(0x45, Register::ManufacturerId, 0).with_error(nack),
+            read(0x45, Register::ManufacturerId, 0).with_error(nack),
         ]);
-        let s = Sampler::new(SamplerConfig::BOARD);
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
         let hello = s.hello_read_back(&mut i2c);
         assert_eq!(
             hello.chips,
@@ -642,6 +663,7 @@ mod tests {
             },
             s.hello()
         );
+        assert_eq!(s.last_faults().right, Some(ChipFault::AddressNack));
         i2c.done();
     }
 }
