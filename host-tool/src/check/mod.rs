@@ -185,7 +185,11 @@ impl fmt::Display for CheckReport {
                 Outcome::Fail => "FAIL",
                 Outcome::NotRun => "----",
             };
-            writeln!(f, "{mark}  {:<width$}  {}", step.id.title(), step.detail)?;
+            let detail = match step.outcome {
+                Outcome::NotRun => "not run (an earlier step failed)",
+                Outcome::Pass | Outcome::Fail => &step.detail,
+            };
+            writeln!(f, "{mark}  {:<width$}  {detail}", step.id.title())?;
             if let Some(hint) = &step.hint {
                 writeln!(f, "      {:<width$}  hint: {hint}", "")?;
             }

@@ -135,3 +135,35 @@ fn the_json_report_names_steps_outcomes_and_hint_kinds() {
     assert_eq!(json["steps"][1]["outcome"], "not-run");
     assert_eq!(json["steps"].as_array().map(Vec::len), Some(StepId::ALL.len()));
 }
+
+#[test]
+fn the_real_port_code_checks_a_board_behind_a_pty() {
+    use crate::sim::board::{PtyBoard, SimBoard};
+    use firmware::sampler::SamplerConfig;
+    // A plain simulated board (connected from the start: a pty has no DTR) read through the
+    // opener `check --port` uses.
+    let board = PtyBoard::spawn(
+        SimBoard::new(SamplerConfig::BOARD),
+        u64::MAX,
+        Pacing::Scaled(4.0),
+    )
+    .expect("pty");
+    let limits = Limits {
+        window: Duration::from_millis(1_000),
+        ..Limits::default()
+    };
+    let path = board.path().to_owned();
+    let report = session::run(Some(&path), &[], &mut session::serial_opener(), &limits);
+    // Read what is left so the pty hangs up at once.
+    board.stop();
+    let port = crate::serial::open(&path, Duration::from_millis(20)).expect("reopen");
+    let mut reader = crate::serial::PortReader::new(port);
+    let mut decoder = crate::decode::StreamDecoder::new();
+    let start = std::time::Instant::now();
+    while !reader.vanished() && start.elapsed() < Duration::from_secs(10) {
+        reader.poll(&mut decoder, |_| {});
+    }
+    board.join().expect("the board ran");
+    // The ideal chips of SimBoard::new read 0 A at 24 V on both sides.
+    assert!(report.passed, "{report}");
+}
