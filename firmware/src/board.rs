@@ -94,12 +94,9 @@ impl Board {
                 if let Some(hello) = hello {
                     l.send(&BoardFrame::Hello(hello));
                 }
-                match (outcome, frame.command) {
-                    (Ok(()), Command::GetStatus) => {
-                        let status = self.status(l, now_us);
-                        l.send(&BoardFrame::Status(status));
-                    }
-                    _ => {}
+                if let (Ok(()), Command::GetStatus) = (outcome, frame.command) {
+                    let status = self.status(l, now_us);
+                    l.send(&BoardFrame::Status(status));
                 }
                 l.send(&reply);
             });

@@ -572,7 +572,10 @@ mod tests {
         let e = open_error("/dev/ttyACM0", denied);
         assert!(matches!(e, SerialError::PermissionDenied { .. }));
         let text = e.to_string();
-        assert!(text.contains("99-rover-power.rules") && text.contains("dialout"), "{text}");
+        assert!(
+            text.contains("99-rover-power.rules") && text.contains("dialout"),
+            "{text}"
+        );
         let missing = serialport::Error::new(serialport::ErrorKind::NoDevice, "gone");
         assert!(matches!(
             open_error("/dev/ttyACM0", missing),

@@ -77,9 +77,17 @@ pub enum Hint {
         die: u16,
     },
     /// A chip's CAL register does not hold what the board wrote.
-    CalibrationNotHeld { side: Side, read: u16, expected: u16 },
+    CalibrationNotHeld {
+        side: Side,
+        read: u16,
+        expected: u16,
+    },
     /// A chip's configuration register does not hold the board's averaging.
-    ConfigurationMismatch { side: Side, read: u16, expected: u16 },
+    ConfigurationMismatch {
+        side: Side,
+        read: u16,
+        expected: u16,
+    },
     /// A chip reset (lost its registers) while the check ran.
     ChipResets { side: Side, resets: u64 },
     /// Samples went missing or arrived corrupted.

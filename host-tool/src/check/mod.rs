@@ -178,7 +178,11 @@ impl CheckReport {
 impl fmt::Display for CheckReport {
     /// One line per step (`PASS`, `FAIL`, `----`), the hint indented under a failure.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let width = StepId::ALL.iter().map(|s| s.title().len()).max().unwrap_or(0);
+        let width = StepId::ALL
+            .iter()
+            .map(|s| s.title().len())
+            .max()
+            .unwrap_or(0);
         for step in &self.steps {
             let mark = match step.outcome {
                 Outcome::Pass => "PASS",

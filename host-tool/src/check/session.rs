@@ -170,16 +170,17 @@ impl Conn {
             self.heard.bytes += n as u64;
             let heard = &mut self.heard;
             self.raw
-                .feed::<BoardFrame>(bytes, |outcome: Result<BoardFrame, FrameError>| {
-                    match outcome {
+                .feed::<BoardFrame>(
+                    bytes,
+                    |outcome: Result<BoardFrame, FrameError>| match outcome {
                         Ok(_) => heard.frames += 1,
                         Err(FrameError::Version(v)) => {
                             heard.frames += 1;
                             heard.foreign_version = Some(v);
                         }
                         Err(_) => {}
-                    }
-                });
+                    },
+                );
             events.clear();
             self.decoder.feed(bytes, |e| events.push(e));
             let mut done = false;
@@ -237,7 +238,10 @@ impl Conn {
             w.queue_drops = u64::from(b.queue_drops.wrapping_sub(a.queue_drops));
             let reinits = |a: u32, b: u32| u64::from(b.wrapping_sub(a));
             w.resets.left = w.resets.left.max(reinits(a.reinits.left, b.reinits.left));
-            w.resets.right = w.resets.right.max(reinits(a.reinits.right, b.reinits.right));
+            w.resets.right = w
+                .resets
+                .right
+                .max(reinits(a.reinits.right, b.reinits.right));
         }
         w
     }

@@ -23,7 +23,9 @@ fn check_simulated(fault: Option<SimFault>) -> CheckReport {
 
 /// The first failed step and its hint.
 fn first_failure(report: &CheckReport) -> (StepId, Hint) {
-    let step = report.first_failure().unwrap_or_else(|| panic!("no failure:\n{report}"));
+    let step = report
+        .first_failure()
+        .unwrap_or_else(|| panic!("no failure:\n{report}"));
     (step.id, step.hint.clone().expect("a failure has a hint"))
 }
 
@@ -34,7 +36,11 @@ fn a_healthy_simulated_board_passes_every_step() {
     assert_eq!(report.steps.len(), StepId::ALL.len());
     assert!(report.steps.iter().all(|s| s.outcome == Outcome::Pass));
     let chips = report.step(StepId::Chips).expect("step");
-    assert!(chips.detail.contains("0x5449/0x2260 CAL 2048"), "{}", chips.detail);
+    assert!(
+        chips.detail.contains("0x5449/0x2260 CAL 2048"),
+        "{}",
+        chips.detail
+    );
 }
 
 #[test]
@@ -118,7 +124,10 @@ fn the_seeds_standstill_offset_fails_the_standstill_step() {
     let report = check_simulated(Some(SimFault::StandstillOffset));
     assert_eq!(
         first_failure(&report),
-        (StepId::Standstill, Hint::StandstillCurrent { side: Side::Right })
+        (
+            StepId::Standstill,
+            Hint::StandstillCurrent { side: Side::Right }
+        )
     );
 }
 
@@ -133,7 +142,10 @@ fn the_json_report_names_steps_outcomes_and_hint_kinds() {
     assert_eq!(json["steps"][0]["step"], "port");
     assert_eq!(json["steps"][0]["hint_kind"], "no-board-found");
     assert_eq!(json["steps"][1]["outcome"], "not-run");
-    assert_eq!(json["steps"].as_array().map(Vec::len), Some(StepId::ALL.len()));
+    assert_eq!(
+        json["steps"].as_array().map(Vec::len),
+        Some(StepId::ALL.len())
+    );
 }
 
 #[test]

@@ -12,14 +12,20 @@ use std::time::Duration;
 /// Port step: the given port, or the one rover-power board among `ports`.
 pub fn port(given: Option<&str>, ports: &[PortInfo]) -> (Step, Option<String>) {
     if let Some(path) = given {
-        return (Step::pass(StepId::Port, format!("{path} (given)")), Some(path.into()));
+        return (
+            Step::pass(StepId::Port, format!("{path} (given)")),
+            Some(path.into()),
+        );
     }
     let boards: Vec<&PortInfo> = ports.iter().filter(|p| p.is_rover_power()).collect();
     match boards.as_slice() {
         [] => (
             Step::fail(
                 StepId::Port,
-                format!("none of {} serial port(s) is a rover-power board", ports.len()),
+                format!(
+                    "none of {} serial port(s) is a rover-power board",
+                    ports.len()
+                ),
                 Hint::NoBoardFound,
             ),
             None,
@@ -206,16 +212,18 @@ pub fn describe_adc(adc: &AdcConfig) -> String {
 /// Whether each chip's configuration register holds `adc`; the first that does not.
 fn configuration_mismatch(hello: &Hello, adc: &AdcConfig) -> Option<Hint> {
     let expected = Ina226::config_word(*adc);
-    Side::ALL.into_iter().find_map(|side| match side.of(hello.chips) {
-        ChipProbe::Answered(r) if r.configuration != expected => {
-            Some(Hint::ConfigurationMismatch {
-                side,
-                read: r.configuration,
-                expected,
-            })
-        }
-        _ => None,
-    })
+    Side::ALL
+        .into_iter()
+        .find_map(|side| match side.of(hello.chips) {
+            ChipProbe::Answered(r) if r.configuration != expected => {
+                Some(Hint::ConfigurationMismatch {
+                    side,
+                    read: r.configuration,
+                    expected,
+                })
+            }
+            _ => None,
+        })
 }
 
 /// Averaging step: both chips' configuration registers hold the board's averaging.
@@ -328,7 +336,11 @@ fn stability(hello: &Hello, w: &Window) -> Step {
     for side in Side::ALL {
         let resets = side.of(w.resets);
         if resets > 0 {
-            return Step::fail(StepId::ChipStability, detail, Hint::ChipResets { side, resets });
+            return Step::fail(
+                StepId::ChipStability,
+                detail,
+                Hint::ChipResets { side, resets },
+            );
         }
         if side.of(w.failed) > 0 {
             let hint = match side.of(w.last_fault) {
@@ -415,27 +427,22 @@ pub struct ConfigureRun {
 
 /// Configure step: both configurations were acked and read back from the chips.
 pub fn configure(run: &ConfigureRun) -> Step {
-    let check = |what: &str, answer: Answer, hello: Option<&Hello>, adc: &AdcConfig| {
-        match (answer, hello) {
-            (None, _) => Err(format!("{what}: no answer")),
-            (Some(Err(reason)), _) => Err(format!("{what}: refused ({reason:?})")),
-            (Some(Ok(())), None) => Err(format!("{what}: no hello read back")),
-            (Some(Ok(())), Some(h)) if h.adc != *adc => {
-                Err(format!("{what}: the board reports {}", describe_adc(&h.adc)))
-            }
-            (Some(Ok(())), Some(h)) => match configuration_mismatch(h, adc) {
-                Some(hint) => Err(format!("{what}: {hint}")),
-                None => Ok(()),
-            },
-        }
+    let check = |what: &str, answer: Answer, hello: Option<&Hello>, adc: &AdcConfig| match (
+        answer, hello,
+    ) {
+        (None, _) => Err(format!("{what}: no answer")),
+        (Some(Err(reason)), _) => Err(format!("{what}: refused ({reason:?})")),
+        (Some(Ok(())), None) => Err(format!("{what}: no hello read back")),
+        (Some(Ok(())), Some(h)) if h.adc != *adc => Err(format!(
+            "{what}: the board reports {}",
+            describe_adc(&h.adc)
+        )),
+        (Some(Ok(())), Some(h)) => match configuration_mismatch(h, adc) {
+            Some(hint) => Err(format!("{what}: {hint}")),
+            None => Ok(()),
+        },
     };
-    let sent = check(
-        "set",
-        run.answer,
-        run.read_back.as_ref(),
-        &run.test,
-    )
-    .and_then(|()| {
+    let sent = check("set", run.answer, run.read_back.as_ref(), &run.test).and_then(|()| {
         check(
             "restore",
             run.restore_answer,
@@ -482,7 +489,12 @@ mod tests {
         let limits = Limits::default();
         let bus = Sides::new(24.0, 24.0);
         let steps = window(&hello(), &idle(Sides::new(0.03, 0.05), bus), &limits);
-        assert!(steps.iter().all(|s| s.outcome == super::super::Outcome::Pass), "{steps:?}");
+        assert!(
+            steps
+                .iter()
+                .all(|s| s.outcome == super::super::Outcome::Pass),
+            "{steps:?}"
+        );
         // Fig. 3.3: 0.59 A at rest.
         let steps = window(&hello(), &idle(Sides::new(0.03, 0.59), bus), &limits);
         let standstill = &steps[4];
@@ -499,7 +511,10 @@ mod tests {
         let at = |l, r| bus_voltages(&idle(Sides::new(0.0, 0.0), Sides::new(l, r)), &limits);
         assert_eq!(at(24.0, 23.85).hint, None);
         assert_eq!(at(24.0, 23.7).hint, Some(Hint::BusVoltagesDisagree));
-        assert_eq!(at(0.0, 24.0).hint, Some(Hint::NoBattery { side: Side::Left }));
+        assert_eq!(
+            at(0.0, 24.0).hint,
+            Some(Hint::NoBattery { side: Side::Left })
+        );
     }
 
     #[test]
@@ -538,7 +553,9 @@ mod tests {
         assert_eq!((step.hint, path.as_deref()), (None, Some("/dev/ttyACM0")));
         assert_eq!(port(None, &[other]).0.hint, Some(Hint::NoBoardFound));
         assert_eq!(
-            port(None, &[board("/dev/ttyACM0"), board("/dev/ttyACM1")]).0.hint,
+            port(None, &[board("/dev/ttyACM0"), board("/dev/ttyACM1")])
+                .0
+                .hint,
             Some(Hint::SeveralBoards)
         );
         assert_eq!(port(Some("/dev/x"), &[]).1.as_deref(), Some("/dev/x"));
