@@ -73,7 +73,9 @@ impl Board {
 
     fn run_tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
         if link.with_link(|l| l.take_hello_due()) {
-            let hello = self.sampler.hello_read_back(i2c);
+            // No bus time at connect (a sampler at the I²C limit has none to spare): the chips'
+            // registers are read back only for an explicit `GetHello`.
+            let hello = self.sampler.hello();
             link.with_link(|l| l.send(&BoardFrame::Hello(hello)));
         }
         while let Some(frame) = link.with_link(|l| l.next_command()) {

@@ -110,8 +110,8 @@ impl Chip {
         Ok(())
     }
 
-    /// The chip's ID and set-up registers read back, after setting it up if it is not (a host
-    /// that connects at power-up gets its hello before the first sample).
+    /// The chip's ID and set-up registers read back, after setting it up if it is not (a
+    /// `GetHello` may come before the first sample).
     fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
         if !self.ready {
             if let Err(fault) = self.set_up(i2c) {
@@ -272,8 +272,8 @@ impl Sampler {
         }
     }
 
-    /// The hello with each chip's ID and set-up registers read back now (what the board sends);
-    /// a chip not set up yet is set up first.
+    /// The hello with each chip's ID and set-up registers read back now (the answer to
+    /// `GetHello`); a chip not set up yet is set up first.
     pub fn hello_read_back<I: I2c>(&mut self, i2c: &mut I) -> Hello {
         let left = self.chips.left.probe(i2c);
         let right = self.chips.right.probe(i2c);
@@ -631,7 +631,7 @@ mod tests {
     fn the_boards_hello_carries_each_chips_registers_read_back_now() {
         use model_core::wire::ChipRegistersReadBack;
         let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
-        // Neither chip is set up yet (a host connecting at power-up): set up first.
+        // Neither chip is set up yet (a GetHello before the first sample): set up first.
         let mut tx = init(0x40);
         tx.extend([
             read(0x40, Register::ManufacturerId, 0x5449),

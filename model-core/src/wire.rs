@@ -14,7 +14,7 @@ use serde::{de::DeserializeOwned, Deserialize, Serialize};
 /// Bumped whenever a message layout changes; both ends refuse frames of another version.
 /// 2: the hello frame carries the board's identity (unique ID, crystal).
 /// 3: the hello frame carries each chip's ID, configuration and calibration registers, read
-/// back when the hello is built (`host-tool check`).
+/// back for a `GetHello` (`host-tool check`).
 pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Largest unencoded frame body: version byte + postcard message + 4 CRC bytes.
@@ -53,7 +53,8 @@ pub struct Hello {
     pub sample_period_us: u32,
     /// The MCU's unique ID (the USB serial number is built from it) and the crystal.
     pub identity: BoardIdentity,
-    /// Each chip's identity and set-up registers, read when this hello was built.
+    /// Each chip's identity and set-up registers: read back for a `GetHello`, not read for the
+    /// hello sent on connect (it costs no bus time).
     pub chips: Sides<ChipProbe>,
 }
 
@@ -74,7 +75,7 @@ pub enum ChipProbe {
     Answered(ChipRegistersReadBack),
     /// A read failed (a missing chip NACKs its address).
     Failed(ChipFault),
-    /// Not read: a hello the host synthesised (replay of a run CSV), not the board's.
+    /// Not read: the hello sent on connect, or one the host synthesised (replay of a run CSV).
     NotRead,
 }
 
@@ -223,7 +224,7 @@ pub enum Command {
     Stop,
     /// Send a status frame now.
     GetStatus,
-    /// Send the hello frame again.
+    /// Send the hello frame again, with each chip's registers read back.
     GetHello,
 }
 

@@ -102,7 +102,7 @@ pub enum Hint {
     StandstillCurrent { side: Side },
     /// The board refused or did not carry out `Configure`.
     ConfigureFailed,
-    /// A hello the host synthesised (a replay of a run CSV): nothing to check on chips.
+    /// No chip registers to check: a replay, or a firmware that does not read them back.
     NotABoard,
 }
 
@@ -270,8 +270,9 @@ impl fmt::Display for Hint {
                  the chip steps) or the firmware is older than this host-tool",
             ),
             Hint::NotABoard => f.write_str(
-                "this stream's hello was synthesised by the host (a replay of a run CSV): there \
-                 are no chips to check; run the check on the board's port",
+                "the stream has no chips to check: it does not answer GetHello with their \
+                 registers (a replay, not a board, or a firmware older than this host-tool); run \
+                 the check on the board's port",
             ),
         }
     }

@@ -107,8 +107,18 @@ pub fn run(
     let Some(hello) = hello.filter(|h| h.protocol == PROTOCOL_VERSION) else {
         return CheckReport::new(Some(path), steps);
     };
-    steps.push(verdicts::chips(&hello));
-    steps.push(verdicts::averaging(&hello));
+    // The hello sent on connect does not read the chips; the one for `GetHello` does.
+    let read_back = conn.fresh_hello(limits.answer_timeout);
+    let Some(read_back) = read_back else {
+        steps.push(Step::fail(
+            StepId::Chips,
+            "no answer to GetHello",
+            super::Hint::NotABoard,
+        ));
+        return CheckReport::new(Some(path), steps);
+    };
+    steps.push(verdicts::chips(&read_back));
+    steps.push(verdicts::averaging(&read_back));
     let window = conn.watch(&hello, limits.window);
     steps.extend(verdicts::window(&hello, &window, limits));
     let run = conn.configure_round_trip(&hello, limits.answer_timeout);
