@@ -171,8 +171,8 @@ impl fmt::Display for Hint {
                  pseudo-terminal?); connect the Black Pill's USB-C port directly",
             ),
             Hint::SilentPort => f.write_str(
-                "nothing arrived after DTR. Look at the LED on PC13: dark or steady from power-up \
-                 = the firmware is not running (flash it; BOOT0 must be low); a slow 1 s blink = \
+                "nothing arrived after DTR. Look at the LED on PC13: dark = the firmware is not \
+                 running (flash it; BOOT0 must be low); a slow 1 s blink = \
                  the board does not see DTR (a hub or program dropping it); quick flashes = a chip \
                  fault, but it should still send; a heartbeat = it sends, so this port is not it \
                  (see `host-tool ports`)",

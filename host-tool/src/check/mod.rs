@@ -14,6 +14,7 @@ pub mod hint;
 pub mod session;
 pub mod sim;
 pub mod verdicts;
+pub mod wiring;
 
 pub use hint::{Hint, Side};
 
