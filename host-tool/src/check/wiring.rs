@@ -471,14 +471,29 @@ mod tests {
         );
     }
 
-    /// `WIRING_PNG=FILE cargo test -p host-tool wiring` draws the diagram as PNG with plotters,
-    /// to look at it where no SVG viewer is installed.
     #[test]
-    fn the_diagram_draws_as_png_on_request() {
+    fn every_element_lies_inside_the_canvas() {
+        let inside =
+            |x: i32, y: i32| (0..=WIDTH as i32).contains(&x) && (0..=HEIGHT as i32).contains(&y);
+        for shape in drawing() {
+            let ok = match &shape {
+                Shape::Line(_, points) => points.iter().all(|&(x, y)| inside(x, y)),
+                Shape::Rect(_, x, y, w, h) => inside(*x, *y) && inside(x + w, y + h),
+                // 6 px per character at 11 px is generous for DejaVu Sans.
+                Shape::Text(_, x, y, text) => {
+                    inside(*x, *y) && inside(x + 7 * text.chars().count() as i32, *y)
+                }
+                Shape::Dot(x, y) => inside(*x, *y),
+            };
+            assert!(ok, "{shape:?} leaves the canvas");
+        }
+    }
+
+    /// Draws the diagram with plotters (the project's PNG path); `WIRING_PNG=FILE cargo test -p
+    /// host-tool wiring` also writes it, to look at where no SVG viewer is installed.
+    #[test]
+    fn the_diagram_draws_as_png() {
         use plotters::prelude::*;
-        let Some(path) = std::env::var_os("WIRING_PNG") else {
-            return;
-        };
         let font = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
         plotters::style::register_font("wiring", FontStyle::Normal, font)
             .map_err(|_| "font")
@@ -534,7 +549,7 @@ mod tests {
                         _ => 10,
                     };
                     let font = ("wiring", size).into_font();
-                    root.draw(&Text::new(text, (x, y - size as i32 + 2), font))
+                    root.draw(&Text::new(text, (x, y - size + 2), font))
                         .expect("text");
                 }
                 Shape::Dot(x, y) => {
@@ -545,6 +560,12 @@ mod tests {
         }
         root.present().expect("draw");
         drop(root);
+        let ink = rgb.chunks(3).filter(|p| p.iter().any(|&c| c < 200)).count();
+        let share = ink as f64 / f64::from(WIDTH * HEIGHT);
+        assert!((0.02..0.3).contains(&share), "{share}");
+        let Some(path) = std::env::var_os("WIRING_PNG") else {
+            return;
+        };
         let file = std::fs::File::create(&path).expect("png file");
         let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), WIDTH, HEIGHT);
         encoder.set_color(png::ColorType::Rgb);
