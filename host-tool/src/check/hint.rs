@@ -58,6 +58,8 @@ pub enum Hint {
     PortBusy,
     /// The port does not exist (any more).
     NoSuchPort,
+    /// The port exists but opening it failed otherwise.
+    OpenFailed,
     /// The port refused DTR; the board transmits only while DTR is held.
     NoDtr,
     /// Nothing arrived after DTR.
@@ -115,6 +117,7 @@ impl Hint {
             Hint::PermissionDenied => "permission-denied",
             Hint::PortBusy => "port-busy",
             Hint::NoSuchPort => "no-such-port",
+            Hint::OpenFailed => "open-failed",
             Hint::NoDtr => "no-dtr",
             Hint::SilentPort => "silent-port",
             Hint::NotTheBoard => "not-the-board",
@@ -164,6 +167,10 @@ impl fmt::Display for Hint {
             Hint::NoSuchPort => f.write_str(
                 "no such port: the board re-enumerated or was unplugged; list the ports with \
                  `host-tool ports` (or use /dev/rover-power from the udev rule)",
+            ),
+            Hint::OpenFailed => f.write_str(
+                "the port did not open: re-plug the board and look at `dmesg` for USB errors (a \
+                 charge-only or long cable, an under-powered hub)",
             ),
             Hint::NoDtr => f.write_str(
                 "the port refused DTR, and the board sends only while the host holds DTR: this \

@@ -65,13 +65,14 @@ pub fn open_failed(error: &SerialError) -> Vec<Step> {
             Step::fail(StepId::Dtr, error.to_string(), Hint::NoDtr),
         ],
         SerialError::PermissionDenied { .. } => open_fail(Hint::PermissionDenied),
+        // serialport reports EBUSY (TIOCEXCL: someone else has the port) as `NoDevice`.
         SerialError::Open { source, .. } => match source.kind() {
-            serialport::ErrorKind::NoDevice => open_fail(Hint::NoSuchPort),
+            serialport::ErrorKind::NoDevice => open_fail(Hint::PortBusy),
             serialport::ErrorKind::Io(std::io::ErrorKind::NotFound) => open_fail(Hint::NoSuchPort),
-            _ if source.description.contains("busy") => open_fail(Hint::PortBusy),
-            _ => open_fail(Hint::NoSuchPort),
+            _ if source.description.contains("No such") => open_fail(Hint::NoSuchPort),
+            _ => open_fail(Hint::OpenFailed),
         },
-        SerialError::List(_) | SerialError::ZeroTimeout => open_fail(Hint::NoSuchPort),
+        SerialError::List(_) | SerialError::ZeroTimeout => open_fail(Hint::OpenFailed),
     }
 }
 
@@ -525,6 +526,53 @@ mod tests {
         // 599 periods took 2 % longer: a board falling behind.
         w.last = Some((609, 50_000 + 599 * 5_100));
         assert_eq!(rate(&hello(), &w, &limits).hint, Some(Hint::RateOff));
+    }
+
+    #[test]
+    fn open_errors_get_their_hints_and_a_refused_dtr_means_the_port_opened() {
+        let hints = |e: SerialError| -> Vec<(StepId, Option<Hint>)> {
+            open_failed(&e)
+                .into_iter()
+                .map(|s| (s.id, s.hint))
+                .collect()
+        };
+        let path = || "/dev/ttyACM0".to_owned();
+        assert_eq!(
+            hints(SerialError::PermissionDenied { path: path() }),
+            vec![(StepId::Open, Some(Hint::PermissionDenied))]
+        );
+        let io = |kind, text: &str| serialport::Error::new(serialport::ErrorKind::Io(kind), text);
+        assert_eq!(
+            hints(SerialError::Open {
+                path: path(),
+                source: serialport::Error::new(
+                    serialport::ErrorKind::NoDevice,
+                    "Device or resource busy"
+                ),
+            }),
+            vec![(StepId::Open, Some(Hint::PortBusy))]
+        );
+        assert_eq!(
+            hints(SerialError::Open {
+                path: path(),
+                source: io(std::io::ErrorKind::NotFound, "No such file or directory"),
+            }),
+            vec![(StepId::Open, Some(Hint::NoSuchPort))]
+        );
+        assert_eq!(
+            hints(SerialError::Open {
+                path: path(),
+                source: serialport::Error::new(serialport::ErrorKind::Unknown, "I/O error"),
+            }),
+            vec![(StepId::Open, Some(Hint::OpenFailed))]
+        );
+        assert_eq!(
+            hints(SerialError::Dtr {
+                path: path(),
+                source: io(std::io::ErrorKind::Other, "no modem lines"),
+            }),
+            vec![(StepId::Open, None), (StepId::Dtr, Some(Hint::NoDtr))]
+        );
     }
 
     #[test]

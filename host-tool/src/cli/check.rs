@@ -76,8 +76,9 @@ impl CheckArgs {
             let mut open = session::serial_opener();
             session::run(self.port.as_deref(), &ports, &mut open, &limits)
         };
-        let to_stdout = self.json.emit(&report, "check report", self.force)?;
-        if !to_stdout {
+        // As every command: with --json (file or stdout) no table.
+        self.json.emit(&report, "check report", self.force)?;
+        if self.json.json.is_none() {
             output::print(&report)?;
         }
         if let Some(failed) = report.first_failure() {
