@@ -4,7 +4,8 @@
 
 use embedded_hal::i2c::{ErrorKind, I2c, NoAcknowledgeSource};
 use model_core::ina226::{
-    AdcConfig, BusVoltageRaw, CurrentRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
+    AdcConfig, BusVoltageRaw, CalibrationRaw, ConfigurationRaw, CurrentRaw, DieIdRaw,
+    ManufacturerIdRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
 };
 use model_core::wire::{ChipFault, ChipRegistersReadBack};
 
@@ -215,10 +216,10 @@ impl Ina226 {
     /// bring-up check compares them with what was written). Stops at the first failed read.
     pub fn read_back<I: I2c>(&self, i2c: &mut I) -> Result<ChipRegistersReadBack, I::Error> {
         Ok(ChipRegistersReadBack {
-            manufacturer_id: self.read(i2c, Register::ManufacturerId)?,
-            die_id: self.read(i2c, Register::DieId)?,
-            configuration: self.read(i2c, Register::Configuration)?,
-            calibration: self.read(i2c, Register::Calibration)?,
+            manufacturer_id: ManufacturerIdRaw(self.read(i2c, Register::ManufacturerId)?),
+            die_id: DieIdRaw(self.read(i2c, Register::DieId)?),
+            configuration: ConfigurationRaw(self.read(i2c, Register::Configuration)?),
+            calibration: CalibrationRaw(self.read(i2c, Register::Calibration)?),
         })
     }
 
@@ -426,10 +427,10 @@ mod tests {
         assert_eq!(
             left.read_back(&mut i2c),
             Ok(ChipRegistersReadBack {
-                manufacturer_id: MANUFACTURER_ID,
-                die_id: DIE_ID,
-                configuration: Ina226::config_word(AdcConfig::BOARD_DEFAULT),
-                calibration: BOARD_CALIBRATION.value(),
+                manufacturer_id: ManufacturerIdRaw(MANUFACTURER_ID),
+                die_id: DieIdRaw(DIE_ID),
+                configuration: ConfigurationRaw(Ina226::config_word(AdcConfig::BOARD_DEFAULT)),
+                calibration: CalibrationRaw(BOARD_CALIBRATION.value()),
             })
         );
         let right = Ina226::new(0x45, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);

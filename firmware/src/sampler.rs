@@ -629,6 +629,7 @@ mod tests {
 
     #[test]
     fn the_boards_hello_carries_each_chips_registers_read_back_now() {
+        use model_core::ina226::{CalibrationRaw, ConfigurationRaw, DieIdRaw, ManufacturerIdRaw};
         use model_core::wire::ChipRegistersReadBack;
         let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
         // Neither chip is set up yet (a GetHello before the first sample): set up first.
@@ -648,10 +649,10 @@ mod tests {
             hello.chips,
             Sides::new(
                 ChipProbe::Answered(ChipRegistersReadBack {
-                    manufacturer_id: 0x5449,
-                    die_id: 0x2260,
-                    configuration: 0x4407,
-                    calibration: 2048,
+                    manufacturer_id: ManufacturerIdRaw(0x5449),
+                    die_id: DieIdRaw(0x2260),
+                    configuration: ConfigurationRaw(0x4407),
+                    calibration: CalibrationRaw(2048),
                 }),
                 ChipProbe::Failed(ChipFault::AddressNack)
             )

@@ -7,7 +7,9 @@
 
 use crate::board_id::BoardIdentity;
 use crate::energy::Snapshot;
-use crate::ina226::{AdcConfig, Registers, Scale};
+use crate::ina226::{
+    AdcConfig, CalibrationRaw, ConfigurationRaw, DieIdRaw, ManufacturerIdRaw, Registers, Scale,
+};
 use crate::Sides;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
@@ -62,10 +64,10 @@ pub struct Hello {
 /// 05h). An INA226 reads 0x5449 / 0x2260; a chip that reset reads CAL 0.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ChipRegistersReadBack {
-    pub manufacturer_id: u16,
-    pub die_id: u16,
-    pub configuration: u16,
-    pub calibration: u16,
+    pub manufacturer_id: ManufacturerIdRaw,
+    pub die_id: DieIdRaw,
+    pub configuration: ConfigurationRaw,
+    pub calibration: CalibrationRaw,
 }
 
 /// What reading a chip's ID and set-up registers gave.
@@ -509,10 +511,10 @@ mod tests {
             },
             chips: Sides::new(
                 ChipProbe::Answered(ChipRegistersReadBack {
-                    manufacturer_id: u16::MAX,
-                    die_id: u16::MAX,
-                    configuration: u16::MAX,
-                    calibration: u16::MAX,
+                    manufacturer_id: ManufacturerIdRaw(u16::MAX),
+                    die_id: DieIdRaw(u16::MAX),
+                    configuration: ConfigurationRaw(u16::MAX),
+                    calibration: CalibrationRaw(u16::MAX),
                 }),
                 ChipProbe::Failed(ChipFault::AwaitingConversion),
             ),

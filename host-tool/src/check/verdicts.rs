@@ -167,7 +167,7 @@ pub fn chips(hello: &Hello) -> Step {
                 return Step::fail(StepId::Chips, "not read by a board", Hint::NotABoard)
             }
         };
-        let (manufacturer, die) = (registers.manufacturer_id, registers.die_id);
+        let (manufacturer, die) = (registers.manufacturer_id.0, registers.die_id.0);
         if (manufacturer, die) != (MANUFACTURER_ID, DIE_ID) {
             return Step::fail(
                 StepId::Chips,
@@ -180,20 +180,20 @@ pub fn chips(hello: &Hello) -> Step {
             );
         }
         let expected = expected.unwrap_or(0);
-        if registers.calibration != expected {
+        let calibration = registers.calibration.0;
+        if calibration != expected {
             return Step::fail(
                 StepId::Chips,
-                format!("{side} {address:#04x}: CAL {}", registers.calibration),
+                format!("{side} {address:#04x}: CAL {calibration}"),
                 Hint::CalibrationNotHeld {
                     side,
-                    read: registers.calibration,
+                    read: calibration,
                     expected,
                 },
             );
         }
         found.push(format!(
-            "{side} {address:#04x} INA226 {manufacturer:#06x}/{die:#06x} CAL {}",
-            registers.calibration
+            "{side} {address:#04x} INA226 {manufacturer:#06x}/{die:#06x} CAL {calibration}"
         ));
     }
     Step::pass(StepId::Chips, found.join("; "))
@@ -216,10 +216,10 @@ fn configuration_mismatch(hello: &Hello, adc: &AdcConfig) -> Option<Hint> {
     Side::ALL
         .into_iter()
         .find_map(|side| match side.of(hello.chips) {
-            ChipProbe::Answered(r) if r.configuration != expected => {
+            ChipProbe::Answered(r) if r.configuration.0 != expected => {
                 Some(Hint::ConfigurationMismatch {
                     side,
-                    read: r.configuration,
+                    read: r.configuration.0,
                     expected,
                 })
             }
