@@ -124,11 +124,12 @@ mod app {
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
         let gpioc = dp.GPIOC.split(&mut rcc);
+        // The LED starts dark (active low) until the heartbeat task draws its pattern.
         let mut led: Led = gpioc.pc13.into_push_pull_output();
-        led.set_high(); // off (active low)
-                        // I²C1 at 400 kHz on PB8 (SCL) / PB9 (SDA), both INA226 on it; external 2.2–4.7 kΩ
-                        // pull-ups to 3V3 (the pins are open-drain without pulls). The HAL sets up peripheral and
-                        // pins, `BoundedI2c` clocks the bus free and bounds every transaction (DWT cycles).
+        led.set_high();
+        // I²C1 at 400 kHz on PB8 (SCL) / PB9 (SDA), both INA226 on it; external 2.2–4.7 kΩ
+        // pull-ups to 3V3 (the pins are open-drain without pulls). The HAL sets up peripheral and
+        // pins, `BoundedI2c` clocks the bus free and bounds every transaction (DWT cycles).
         core.DCB.enable_trace();
         core.DWT.enable_cycle_counter();
         let hal_i2c = I2c::new(dp.I2C1, (gpiob.pb8, gpiob.pb9), 400.kHz(), &mut rcc);
