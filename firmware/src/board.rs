@@ -73,11 +73,16 @@ impl Board {
 
     fn run_tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
         if link.with_link(|l| l.take_hello_due()) {
+            // No bus time at connect (a sampler at the I²C limit has none to spare): the chips'
+            // registers are read back only for an explicit `GetHello`.
             let hello = self.sampler.hello();
             link.with_link(|l| l.send(&BoardFrame::Hello(hello)));
         }
         while let Some(frame) = link.with_link(|l| l.next_command()) {
             let outcome = self.sampler.apply(i2c, &frame.command);
+            // Read outside the link's lock: I²C time must not hold off the USB interrupt.
+            let hello = (outcome.is_ok() && matches!(frame.command, Command::GetHello))
+                .then(|| self.sampler.hello_read_back(i2c));
             let reply = match outcome {
                 Ok(()) => BoardFrame::Ack { id: frame.id },
                 Err(reason) => BoardFrame::Rejected {
@@ -88,15 +93,12 @@ impl Board {
             link.with_link(|l| {
                 // Requested frames go before the acknowledgement; the status carries the link's
                 // own counters, so it is built under the lock.
-                match (outcome, frame.command) {
-                    (Ok(()), Command::GetHello) => {
-                        l.send(&BoardFrame::Hello(self.sampler.hello()));
-                    }
-                    (Ok(()), Command::GetStatus) => {
-                        let status = self.status(l, now_us);
-                        l.send(&BoardFrame::Status(status));
-                    }
-                    _ => {}
+                if let Some(hello) = hello {
+                    l.send(&BoardFrame::Hello(hello));
+                }
+                if let (Ok(()), Command::GetStatus) = (outcome, frame.command) {
+                    let status = self.status(l, now_us);
+                    l.send(&BoardFrame::Status(status));
                 }
                 l.send(&reply);
             });

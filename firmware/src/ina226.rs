@@ -4,10 +4,10 @@
 
 use embedded_hal::i2c::{ErrorKind, I2c, NoAcknowledgeSource};
 use model_core::ina226::{
-    AdcConfig, BusVoltageRaw, CalibrationRaw, CurrentRaw, PowerRaw, Registers, Scale,
-    ShuntVoltageRaw,
+    AdcConfig, BusVoltageRaw, CalibrationRaw, ConfigurationRaw, CurrentRaw, DieIdRaw,
+    ManufacturerIdRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
 };
-use model_core::wire::ChipFault;
+use model_core::wire::{ChipFault, ChipRegistersReadBack};
 
 /// Register pointers (datasheet Table 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -230,6 +230,17 @@ impl Ina226 {
     /// Whether the chip lost its calibration (it reset: brown-out or power cycle).
     pub fn calibration_lost<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
         Ok(self.read(i2c, Register::Calibration)? == 0)
+    }
+
+    /// Reads the ID, configuration and calibration registers back (for the hello: the host's
+    /// bring-up check compares them with what was written). Stops at the first failed read.
+    pub fn read_back<I: I2c>(&mut self, i2c: &mut I) -> Result<ChipRegistersReadBack, I::Error> {
+        Ok(ChipRegistersReadBack {
+            manufacturer_id: ManufacturerIdRaw(self.read(i2c, Register::ManufacturerId)?),
+            die_id: DieIdRaw(self.read(i2c, Register::DieId)?),
+            configuration: ConfigurationRaw(self.read(i2c, Register::Configuration)?),
+            calibration: CalibrationRaw(self.read(i2c, Register::Calibration)?),
+        })
     }
 
     /// Reads all four measurement registers as the chip holds them (shunt, bus, current,
@@ -516,6 +527,34 @@ mod tests {
         assert_eq!(
             right.read_registers(&mut i2c).map_err(|e| fault_of(&e)),
             Err(ChipFault::DataNack)
+        );
+        i2c.done();
+    }
+
+    #[test]
+    fn read_back_returns_the_four_set_up_registers_or_the_first_fault() {
+        let mut i2c = Mock::new(&[
+            read(0x40, Register::ManufacturerId, 0x5449),
+            read(0x40, Register::DieId, 0x2260),
+            read(0x40, Register::Configuration, 0x4407),
+            read(0x40, Register::Calibration, 2048),
+            read(0x45, Register::ManufacturerId, 0)
+                .with_error(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)),
+        ]);
+        let mut left = Ina226::new(0x40, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        assert_eq!(
+            left.read_back(&mut i2c),
+            Ok(ChipRegistersReadBack {
+                manufacturer_id: ManufacturerIdRaw(MANUFACTURER_ID),
+                die_id: DieIdRaw(DIE_ID),
+                configuration: ConfigurationRaw(Ina226::config_word(AdcConfig::BOARD_DEFAULT)),
+                calibration: CalibrationRaw(BOARD_CALIBRATION.value()),
+            })
+        );
+        let mut right = Ina226::new(0x45, BOARD_CALIBRATION, AdcConfig::BOARD_DEFAULT);
+        assert_eq!(
+            right.read_back(&mut i2c).map_err(|e| fault_of(&e)),
+            Err(ChipFault::AddressNack)
         );
         i2c.done();
     }

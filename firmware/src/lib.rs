@@ -1,12 +1,14 @@
 //! The board's logic, independent of the STM32: the INA226 driver, the sampler that reads both
-//! chips on a timed schedule and feeds model-core's running measurements, and the link that frames everything for USB
-//! and takes host commands. `main.rs` only wires these to the HAL; the simulated board of the host
-//! tool runs the same code against a simulated I²C bus.
+//! chips on a timed schedule and feeds model-core's running measurements, the link that frames
+//! everything for USB and takes host commands (DTR edges included), and the LED pattern.
+//! `main.rs` only wires these to the HAL; the simulated board of the host tool runs the same code
+//! against a simulated I²C bus.
 #![cfg_attr(not(test), no_std)]
 
 pub mod board;
 pub mod bus_recovery;
 pub mod ina226;
+pub mod led;
 pub mod link;
 pub mod sampler;
 #[cfg(target_os = "none")]

@@ -9,6 +9,16 @@ pub const TX_CAPACITY: usize = 4096;
 /// Host commands waiting for the sampler.
 pub const COMMAND_CAPACITY: usize = 8;
 
+/// A change of the host's DTR ([`Link::update_dtr`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DtrEdge {
+    /// A host opened the port: a hello is due.
+    Rising,
+    /// The host closed the port: the queue was dropped; the caller drops its USB class's own
+    /// write buffer too, so the next connection starts near its hello.
+    Falling,
+}
+
 /// Bytes out, commands in.
 #[derive(Debug, Default)]
 pub struct Link {
@@ -36,6 +46,18 @@ impl Link {
             self.tx.clear();
         }
         self.connected = connected;
+    }
+
+    /// Tracks DTR as the USB interrupt sees it (device configured and DTR set) and returns the
+    /// edge, if this call saw one.
+    pub fn update_dtr(&mut self, dtr: bool) -> Option<DtrEdge> {
+        let edge = match (self.connected, dtr) {
+            (false, true) => Some(DtrEdge::Rising),
+            (true, false) => Some(DtrEdge::Falling),
+            _ => None,
+        };
+        self.set_connected(dtr);
+        edge
     }
 
     pub fn connected(&self) -> bool {
@@ -171,6 +193,22 @@ mod tests {
         link.set_connected(false);
         assert_eq!(link.queued(), 0, "queue discarded when the host goes away");
         link.set_connected(true);
+        assert!(link.take_hello_due());
+    }
+
+    #[test]
+    fn dtr_edges_are_reported_once_and_gate_the_queue() {
+        let mut link = Link::new();
+        assert_eq!(link.update_dtr(false), None);
+        assert_eq!(link.update_dtr(true), Some(DtrEdge::Rising));
+        assert!(link.take_hello_due());
+        assert_eq!(link.update_dtr(true), None);
+        assert!(!link.take_hello_due(), "one hello per connection");
+        assert!(link.send(&ack(1)));
+        assert_eq!(link.update_dtr(false), Some(DtrEdge::Falling));
+        assert_eq!(link.queued(), 0);
+        assert!(!link.send(&ack(2)));
+        assert_eq!(link.update_dtr(true), Some(DtrEdge::Rising));
         assert!(link.take_hello_due());
     }
 

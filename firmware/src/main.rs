@@ -1,8 +1,10 @@
 //! rover-power board firmware: RTIC 2 on the STM32F411CEU6 "Black Pill".
 //!
 //! Only the hardware glue lives here: watchdog, core voltage, clocks, TIM2 monotonic, I²C1, USB
-//! CDC-ACM. The logic (`Board`, `Sampler`, `Link`, bus recovery) is in the library and tested on
-//! the host; the bounded I²C driver is the library's target-only `stm32_i2c`.
+//! CDC-ACM, the PC13 LED. The logic (`Board`, `Sampler`, `Link` with its DTR edges, bus recovery,
+//! the LED pattern) is in the library and tested on the host; the bounded I²C driver is the
+//! library's target-only `stm32_i2c`. defmt `info` logs tell the bring-up story: clocks, each
+//! chip found or failing and why, USB configured, DTR, the sampling rate.
 //!
 //! Crystal: 25 MHz (WeAct Black Pill v3.x) by default; build with `--features hse-8mhz` for the
 //! boards that carry 8 MHz (README, "Bring-up").
@@ -22,13 +24,15 @@ mod app {
 
     use firmware::board::{Board, LinkAccess, Watchdog};
     use firmware::bus_recovery::Recovery;
-    use firmware::link::Link;
+    use firmware::led::LedPattern;
+    use firmware::link::{DtrEdge, Link};
     use firmware::sampler::SamplerConfig;
     use firmware::stm32_i2c::BoundedI2c;
     use model_core::board_id::{BoardIdentity, SERIAL_LEN, UID_LEN};
     use rtic::Mutex;
     use rtic_time::Monotonic;
     use stm32f4xx_hal::{
+        gpio::{Output, Pin, PushPull},
         i2c::I2c,
         otg_fs::{UsbBus, UsbBusType, USB},
         pac,
@@ -61,9 +65,16 @@ mod app {
 
     defmt::timestamp!("{=u64:us}", Mono::now().ticks());
 
+    /// The Black Pill's user LED: PC13, lit when driven low.
+    type Led = Pin<'C', 13, Output<PushPull>>;
+    /// How often the LED task redraws the pattern [ms].
+    const LED_TICK_MS: u64 = 25;
+
     #[shared]
     struct Shared {
         link: Link,
+        /// Chosen by the sample task after each tick, shown by the LED task.
+        led_pattern: LedPattern,
     }
 
     /// The HAL's IWDG as the board logic's watchdog.
@@ -83,6 +94,7 @@ mod app {
         watchdog: Iwdg,
         usb_dev: UsbDevice<'static, UsbBusType>,
         serial: SerialPort<'static, UsbBusType>,
+        led: Led,
     }
 
     #[init]
@@ -111,6 +123,10 @@ mod app {
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
+        // The LED starts dark (active low) until the heartbeat task draws its pattern.
+        let mut led: Led = gpioc.pc13.into_push_pull_output();
+        led.set_high();
         // I²C1 at 400 kHz on PB8 (SCL) / PB9 (SDA), both INA226 on it; external 2.2–4.7 kΩ
         // pull-ups to 3V3 (the pins are open-drain without pulls). The HAL sets up peripheral and
         // pins, `BoundedI2c` clocks the bus free and bounds every transaction (DWT cycles).
@@ -168,14 +184,19 @@ mod app {
             board.sample_period_us()
         );
         sample::spawn().ok();
+        heartbeat::spawn().ok();
         (
-            Shared { link: Link::new() },
+            Shared {
+                link: Link::new(),
+                led_pattern: LedPattern::NoHost,
+            },
             Local {
                 i2c,
                 board,
                 watchdog: Iwdg(watchdog),
                 usb_dev,
                 serial,
+                led,
             },
         )
     }
@@ -247,10 +268,12 @@ mod app {
     }
 
     /// Drift-free sampling on absolute deadlines; the period can change at every tick.
-    #[task(priority = 1, local = [i2c, board, watchdog], shared = [link])]
+    #[task(priority = 1, local = [i2c, board, watchdog], shared = [link, led_pattern])]
     async fn sample(mut cx: sample::Context) {
         let mut next: Instant = Mono::now();
-        let mut faults = model_core::Sides::new(None, None);
+        // `Some(None)`: "ok" was logged; `None`: nothing logged yet for that chip.
+        let mut logged_faults = model_core::Sides::new(None, None);
+        let mut logged_period_us = cx.local.board.sample_period_us();
         loop {
             let period = Duration::micros(u64::from(cx.local.board.sample_period_us()));
             next += period;
@@ -275,22 +298,86 @@ mod app {
                 log_recovery(cx.local.i2c.last_recovery());
             }
 
-            let now_faults = cx.local.board.sampler().last_faults();
-            if now_faults != faults {
-                defmt::warn!(
-                    "chip faults: left {=str} right {=str}",
-                    fault_name(now_faults.left),
-                    fault_name(now_faults.right)
+            let sampler = cx.local.board.sampler();
+            let faults = sampler.last_faults();
+            let addresses = firmware::sampler::BOARD_ADDRESSES;
+            log_chip("left", addresses.left, faults.left, &mut logged_faults.left);
+            log_chip(
+                "right",
+                addresses.right,
+                faults.right,
+                &mut logged_faults.right,
+            );
+            let period_us = cx.local.board.sample_period_us();
+            if period_us != logged_period_us {
+                defmt::info!(
+                    "sampling every {=u32} us ({=u32} Hz), set by the host",
+                    period_us,
+                    1_000_000 / period_us.max(1)
                 );
-                faults = now_faults;
+                logged_period_us = period_us;
             }
+            let running = sampler.running();
+            let connected = cx.shared.link.lock(|link| link.connected());
+            let pattern = LedPattern::choose(connected, running, faults);
+            cx.shared.led_pattern.lock(|p| *p = pattern);
             // The OTG_FS interrupt only fires on bus events: kick it to start sending.
             rtic::pend(pac::Interrupt::OTG_FS);
         }
     }
 
+    /// Logs a chip's state when it changes: found (its IDs checked, configured and calibrated)
+    /// or failing, and why.
+    fn log_chip(
+        side: &str,
+        address: u8,
+        fault: Option<model_core::wire::ChipFault>,
+        logged: &mut Option<Option<model_core::wire::ChipFault>>,
+    ) {
+        use model_core::wire::ChipFault::{AwaitingConversion, ResetDetected};
+        if *logged == Some(fault) {
+            return;
+        }
+        match fault {
+            None => defmt::info!(
+                "{=str} INA226 at {=u8:#x}: found (ID 0x5449/0x2260), configured, CAL written; reading",
+                side,
+                address
+            ),
+            Some(AwaitingConversion) if logged.is_none() => return,
+            Some(f @ (AwaitingConversion | ResetDetected)) => defmt::info!(
+                "{=str} INA226 at {=u8:#x}: {=str}",
+                side,
+                address,
+                fault_name(Some(f))
+            ),
+            Some(f) => defmt::warn!(
+                "{=str} INA226 at {=u8:#x}: {=str}",
+                side,
+                address,
+                fault_name(Some(f))
+            ),
+        }
+        *logged = Some(fault);
+    }
+
+    /// The LED on PC13: the pattern the sample task chose, redrawn every `LED_TICK_MS`.
+    #[task(priority = 1, local = [led], shared = [led_pattern])]
+    async fn heartbeat(mut cx: heartbeat::Context) {
+        loop {
+            let pattern = cx.shared.led_pattern.lock(|p| *p);
+            let t_ms = Mono::now().ticks() / 1_000;
+            if pattern.is_on(t_ms) {
+                cx.local.led.set_low();
+            } else {
+                cx.local.led.set_high();
+            }
+            Mono::delay(Duration::millis(LED_TICK_MS)).await;
+        }
+    }
+
     /// USB CDC-ACM: enumerate, take host bytes, send queued frames while DTR is held.
-    #[task(binds = OTG_FS, priority = 2, local = [usb_dev, serial], shared = [link])]
+    #[task(binds = OTG_FS, priority = 2, local = [usb_dev, serial, configured: bool = false], shared = [link])]
     fn usb(mut cx: usb::Context) {
         let (usb_dev, serial) = (cx.local.usb_dev, cx.local.serial);
         if usb_dev.poll(&mut [&mut *serial]) {
@@ -299,27 +386,32 @@ mod app {
                 cx.shared.link.lock(|link| link.receive(&buf[..n]));
             }
         }
-        let dtr = usb_dev.state() == UsbDeviceState::Configured && serial.dtr();
+        let configured = usb_dev.state() == UsbDeviceState::Configured;
+        if configured != *cx.local.configured {
+            if configured {
+                defmt::info!("USB configured by the host (enumerated as a CDC-ACM port)");
+            } else {
+                defmt::info!("USB not configured (reset, suspended or unplugged)");
+            }
+            *cx.local.configured = configured;
+        }
+        let dtr = configured && serial.dtr();
         cx.shared.link.lock(|link| {
-            if link.connected() && !dtr {
-                // The host closed the port: drop usbd-serial's 128-byte write buffer too (only a
-                // USB reset would), so the next connection starts nearer its hello. A packet
-                // already in the endpoint FIFO still goes out; the host skips everything before
-                // the hello (`StreamDecoder::for_port`). The class reset also clears DTR/RTS and
-                // the line coding, which the host sets again on open.
-                UsbClass::reset(serial);
+            match link.update_dtr(dtr) {
+                Some(DtrEdge::Rising) => {
+                    defmt::info!("host connected (DTR raised): hello, then the stream")
+                }
+                Some(DtrEdge::Falling) => {
+                    // The host closed the port: drop usbd-serial's 128-byte write buffer too
+                    // (only a USB reset would), so the next connection starts nearer its hello.
+                    // A packet already in the endpoint FIFO still goes out; the host skips
+                    // everything before the hello (`StreamDecoder::for_port`). The class reset
+                    // also clears DTR/RTS and the line coding, which the host sets again on open.
+                    UsbClass::reset(serial);
+                    defmt::info!("host disconnected (DTR dropped): sending stops");
+                }
+                None => {}
             }
-            if dtr != link.connected() {
-                defmt::info!(
-                    "host {=str}",
-                    if dtr {
-                        "connected (DTR)"
-                    } else {
-                        "disconnected"
-                    }
-                );
-            }
-            link.set_connected(dtr);
             while dtr && !link.pending().is_empty() {
                 let chunk = &link.pending()[..link.pending().len().min(USB_PACKET)];
                 match serial.write(chunk) {
@@ -335,13 +427,13 @@ mod app {
         use model_core::wire::ChipFault::*;
         match fault {
             None => "ok",
-            Some(AddressNack) => "address NACK",
+            Some(AddressNack) => "address NACK (missing, unpowered, or A0/A1 strapped wrong)",
             Some(DataNack) => "data NACK",
             Some(ArbitrationLoss) => "arbitration loss",
-            Some(Bus) => "bus error",
+            Some(Bus) => "bus error (pull-ups? SDA/SCL shorted or swapped?)",
             Some(Overrun) => "overrun",
             Some(Other) => "I2C error",
-            Some(WrongId) => "not an INA226",
+            Some(WrongId) => "not an INA226 (manufacturer/die ID is not 0x5449/0x2260)",
             Some(ResetDetected) => "reset, re-initialising",
             Some(AwaitingConversion) => "waiting for its first conversion",
         }

@@ -8,7 +8,7 @@ use model_core::energy::RunningMeasurements;
 use model_core::ina226::{AdcConfig, BUS_LSB_UV, SHUNT_LSB_NV};
 use model_core::rate::CALIBRATION_CHECK_EVERY;
 use model_core::wire::{
-    ChipFault, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
+    ChipFault, ChipProbe, ChipReading, Command, FirmwareVersion, Hello, Model, Rejection, Sample,
     PROTOCOL_VERSION,
 };
 use model_core::Sides;
@@ -118,6 +118,33 @@ impl Chip {
         ChipReading::Failed(fault)
     }
 
+    /// Checks the IDs and writes configuration and calibration; its conversions restart at
+    /// `t_us` (`None`: at the next sample's time).
+    fn set_up<I: I2c>(&mut self, i2c: &mut I, t_us: Option<u64>) -> Result<(), ChipFault> {
+        self.driver.init(i2c).map_err(|e| e.fault())?;
+        if self.was_ready {
+            self.reinits = self.reinits.saturating_add(1);
+        }
+        self.ready = true;
+        self.was_ready = true;
+        self.restart_conversions(t_us);
+        Ok(())
+    }
+
+    /// The chip's ID and set-up registers read back, after setting it up if it is not (a
+    /// `GetHello` may come before the first sample).
+    fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
+        if !self.ready {
+            if let Err(fault) = self.set_up(i2c, None) {
+                self.fail(fault);
+            }
+        }
+        match self.driver.read_back(i2c) {
+            Ok(registers) => ChipProbe::Answered(registers),
+            Err(e) => ChipProbe::Failed(crate::ina226::fault_of(&e)),
+        }
+    }
+
     /// Its settings were written: the next result with them is a whole conversion period away.
     fn restart_conversions(&mut self, t_us: Option<u64>) {
         self.cycle_start_us = t_us;
@@ -130,15 +157,9 @@ impl Chip {
     /// no earlier read returned, whole (the chip swaps in a result only once it is averaged).
     fn read<I: I2c>(&mut self, i2c: &mut I, t_us: u64, check_calibration: bool) -> ChipReading {
         if !self.ready {
-            if let Err(e) = self.driver.init(i2c) {
-                return self.fail(e.fault());
+            if let Err(fault) = self.set_up(i2c, Some(t_us)) {
+                return self.fail(fault);
             }
-            if self.was_ready {
-                self.reinits = self.reinits.saturating_add(1);
-            }
-            self.ready = true;
-            self.was_ready = true;
-            self.restart_conversions(Some(t_us));
         }
         let adc = self.driver.adc();
         let start = *self.cycle_start_us.get_or_insert(t_us);
@@ -287,6 +308,18 @@ impl Sampler {
         }
     }
 
+    /// The hello with each chip's ID and set-up registers read back now (the answer to
+    /// `GetHello`); a chip not set up yet is set up first.
+    pub fn hello_read_back<I: I2c>(&mut self, i2c: &mut I) -> Hello {
+        let left = self.chips.left.probe(i2c);
+        let right = self.chips.right.probe(i2c);
+        Hello {
+            chips: Sides::new(left, right),
+            ..self.hello()
+        }
+    }
+
+    /// The hello without touching the bus (chips [`ChipProbe::NotRead`]).
     pub fn hello(&self) -> Hello {
         let scale = self.measurements.scale();
         Hello {
@@ -300,6 +333,7 @@ impl Sampler {
             adc: self.adc(),
             sample_period_us: self.sample_period_us,
             identity: self.identity,
+            chips: Sides::new(ChipProbe::NotRead, ChipProbe::NotRead),
         }
     }
 
@@ -723,5 +757,49 @@ mod tests {
         );
         assert_eq!(SamplerConfig::with_period(499), None);
         assert_eq!(SamplerConfig::with_period(2_000_000), None);
+    }
+
+    #[test]
+    fn the_boards_hello_carries_each_chips_registers_read_back_now() {
+        use model_core::ina226::{CalibrationRaw, ConfigurationRaw, DieIdRaw, ManufacturerIdRaw};
+        use model_core::wire::ChipRegistersReadBack;
+        let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
+        // Neither chip is set up yet (a GetHello before the first sample): set up first.
+        let (mut l, mut r) = (Script::new(L), Script::new(R));
+        let mut tx = l.init();
+        tx.extend([
+            l.read(Register::ManufacturerId, 0x5449),
+            l.read(Register::DieId, 0x2260),
+            l.read(Register::Configuration, 0x4407),
+            l.read(Register::Calibration, 2048),
+            r.read(Register::ManufacturerId, 0).with_error(nack),
+        ]);
+        // A failed read leaves the pointer unknown: the next read sends it again.
+        r.pointer = None;
+        tx.push(r.read(Register::ManufacturerId, 0).with_error(nack));
+        let mut i2c = Mock::new(&tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        let hello = s.hello_read_back(&mut i2c);
+        assert_eq!(
+            hello.chips,
+            Sides::new(
+                ChipProbe::Answered(ChipRegistersReadBack {
+                    manufacturer_id: ManufacturerIdRaw(0x5449),
+                    die_id: DieIdRaw(0x2260),
+                    configuration: ConfigurationRaw(0x4407),
+                    calibration: CalibrationRaw(2048),
+                }),
+                ChipProbe::Failed(ChipFault::AddressNack)
+            )
+        );
+        assert_eq!(
+            Hello {
+                chips: Sides::new(ChipProbe::NotRead, ChipProbe::NotRead),
+                ..hello
+            },
+            s.hello()
+        );
+        assert_eq!(s.last_faults().right, Some(ChipFault::AddressNack));
+        i2c.done();
     }
 }

@@ -1,6 +1,7 @@
 //! rover-power host tool, library first: the CLI (`src/cli/<command>.rs`, one args struct with
 //! `run` per command; `main.rs` a flat dispatch) parses arguments, calls in here and prints.
 
+pub mod check;
 pub mod decode;
 pub mod demo;
 pub mod diagnose;

@@ -14,6 +14,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => args.run(),
         Command::Ports(args) => args.run(),
+        Command::Check(args) => args.run(),
         Command::Record(args) => args.run(),
         Command::Validate(args) => args.run(),
         Command::Plot(args) => args.run(),

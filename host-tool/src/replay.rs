@@ -78,6 +78,10 @@ pub fn synthetic_hello(sample_period_us: u32) -> Hello {
         adc: AdcConfig::BOARD_DEFAULT,
         sample_period_us,
         identity: model_core::board_id::BoardIdentity::UNKNOWN,
+        chips: model_core::Sides::new(
+            model_core::wire::ChipProbe::NotRead,
+            model_core::wire::ChipProbe::NotRead,
+        ),
     }
 }
 

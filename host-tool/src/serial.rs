@@ -22,6 +22,12 @@ pub const READ_CHUNK: usize = 4096;
 /// USB VID:PID of the board (V-USB's shared CDC-ACM pair, told apart by serial number).
 pub const ROVER_POWER_VID_PID: (u16, u16) = (0x16c0, 0x27dd);
 
+/// What to do about a port the user may not open: the udev rule or the dialout group.
+pub const PERMISSION_HINT: &str = "install the udev rule (sudo cp firmware/99-rover-power.rules \
+/etc/udev/rules.d/ && sudo udevadm control --reload-rules && sudo udevadm trigger, then re-plug \
+the board; it also adds /dev/rover-power) or join the dialout group (sudo usermod -aG dialout \
+$USER, then log out and back in); README, \"Bring-up\"";
+
 /// Errors of listing and opening ports.
 #[derive(Debug, thiserror::Error)]
 pub enum SerialError {
@@ -39,6 +45,12 @@ pub enum SerialError {
         /// Why.
         #[source]
         source: serialport::Error,
+    },
+    /// The user may not open the port (Linux: not in `dialout`, no udev rule).
+    #[error("cannot open {path}: permission denied; {PERMISSION_HINT}")]
+    PermissionDenied {
+        /// The port's path.
+        path: String,
     },
     /// DTR could not be asserted; the board transmits only while the host holds DTR.
     #[error("cannot assert DTR on {path}: {source}")]
@@ -127,7 +139,7 @@ pub fn list_ports() -> Result<Vec<PortInfo>, SerialError> {
 
 /// Whether `path` is (or is a symlink to, like a `/dev/serial/by-id` name) a Unix
 /// pseudo-terminal slave, which has no modem control lines.
-fn is_pty(path: &str) -> bool {
+pub fn is_pty(path: &str) -> bool {
     let pts = |p: &std::path::Path| p.starts_with("/dev/pts");
     pts(std::path::Path::new(path)) || std::fs::canonicalize(path).is_ok_and(|p| pts(&p))
 }
@@ -144,10 +156,7 @@ pub fn open(path: &str, read_timeout: Duration) -> Result<Box<dyn SerialPort>, S
         .timeout(read_timeout)
         .dtr_on_open(true)
         .open()
-        .map_err(|source| SerialError::Open {
-            path: path.to_owned(),
-            source,
-        })?;
+        .map_err(|source| open_error(path, source))?;
     if let Err(source) = port.write_data_terminal_ready(true) {
         if !is_pty(path) {
             return Err(SerialError::Dtr {
@@ -157,6 +166,21 @@ pub fn open(path: &str, read_timeout: Duration) -> Result<Box<dyn SerialPort>, S
         }
     }
     Ok(port)
+}
+
+/// The error of a failed open: a refused permission gets its own variant (and hint).
+pub fn open_error(path: &str, source: serialport::Error) -> SerialError {
+    match source.kind() {
+        serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied) => {
+            SerialError::PermissionDenied {
+                path: path.to_owned(),
+            }
+        }
+        _ => SerialError::Open {
+            path: path.to_owned(),
+            source,
+        },
+    }
 }
 
 /// What one [`PortReader::poll`] found.
@@ -536,6 +560,26 @@ mod tests {
         assert!(matches!(
             open("/dev/null-no-such-port", Duration::from_millis(10)),
             Err(SerialError::Open { .. })
+        ));
+    }
+
+    #[test]
+    fn a_refused_permission_names_the_udev_rule_and_the_dialout_group() {
+        let denied = serialport::Error::new(
+            serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied),
+            "Permission denied",
+        );
+        let e = open_error("/dev/ttyACM0", denied);
+        assert!(matches!(e, SerialError::PermissionDenied { .. }));
+        let text = e.to_string();
+        assert!(
+            text.contains("99-rover-power.rules") && text.contains("dialout"),
+            "{text}"
+        );
+        let missing = serialport::Error::new(serialport::ErrorKind::NoDevice, "gone");
+        assert!(matches!(
+            open_error("/dev/ttyACM0", missing),
+            SerialError::Open { .. }
         ));
     }
 

@@ -19,6 +19,23 @@ pub struct CurrentRaw(pub i16);
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct PowerRaw(pub u16);
 
+/// Configuration register (00h): averaging, conversion times, mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ConfigurationRaw(pub u16);
+
+/// Calibration register (05h): CAL of datasheet Eq 1, 15 bits; 2048 on our board, 0 after a
+/// reset.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct CalibrationRaw(pub u16);
+
+/// Manufacturer ID register (FEh): 0x5449 ("TI").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ManufacturerIdRaw(pub u16);
+
+/// Die ID register (FFh): 0x2260 on an INA226.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct DieIdRaw(pub u16);
+
 /// Shunt voltage LSB [nV] (datasheet 7.6.1.2).
 pub const SHUNT_LSB_NV: u32 = 2_500;
 /// Bus voltage LSB [µV] (datasheet 7.6.1.3).
@@ -34,10 +51,6 @@ pub struct Registers {
     pub current: CurrentRaw,
     pub power: PowerRaw,
 }
-
-/// Calibration register (05h): CAL of datasheet Eq 1, 15 bits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-pub struct CalibrationRaw(pub u16);
 
 impl Registers {
     /// The current and power registers as the chip computes them from shunt and bus with

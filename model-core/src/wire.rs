@@ -7,13 +7,17 @@
 
 use crate::board_id::BoardIdentity;
 use crate::energy::Snapshot;
-use crate::ina226::{AdcConfig, Registers, Scale};
+use crate::ina226::{
+    AdcConfig, CalibrationRaw, ConfigurationRaw, DieIdRaw, ManufacturerIdRaw, Registers, Scale,
+};
 use crate::Sides;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
 /// Bumped whenever a message layout changes; both ends refuse frames of another version.
 /// 2: the hello frame carries the board's identity (unique ID, crystal).
-pub const PROTOCOL_VERSION: u8 = 2;
+/// 3: the hello frame carries each chip's ID, configuration and calibration registers, read
+/// back for a `GetHello` (`host-tool check`).
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Largest unencoded frame body: version byte + postcard message + 4 CRC bytes.
 pub const MAX_BODY: usize = 128;
@@ -51,6 +55,30 @@ pub struct Hello {
     pub sample_period_us: u32,
     /// The MCU's unique ID (the USB serial number is built from it) and the crystal.
     pub identity: BoardIdentity,
+    /// Each chip's identity and set-up registers: read back for a `GetHello`, not read for the
+    /// hello sent on connect (it costs no bus time).
+    pub chips: Sides<ChipProbe>,
+}
+
+/// A chip's ID and set-up registers as read back from it (datasheet Table 2: FEh, FFh, 00h,
+/// 05h). An INA226 reads 0x5449 / 0x2260; a chip that reset reads CAL 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ChipRegistersReadBack {
+    pub manufacturer_id: ManufacturerIdRaw,
+    pub die_id: DieIdRaw,
+    pub configuration: ConfigurationRaw,
+    pub calibration: CalibrationRaw,
+}
+
+/// What reading a chip's ID and set-up registers gave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ChipProbe {
+    /// The chip answered all four reads.
+    Answered(ChipRegistersReadBack),
+    /// A read failed (a missing chip NACKs its address).
+    Failed(ChipFault),
+    /// Not read: the hello sent on connect, or one the host synthesised (replay of a run CSV).
+    NotRead,
 }
 
 /// Why a chip gave no reading in a sample.
@@ -202,7 +230,7 @@ pub enum Command {
     Stop,
     /// Send a status frame now.
     GetStatus,
-    /// Send the hello frame again.
+    /// Send the hello frame again, with each chip's registers read back.
     GetHello,
 }
 
@@ -486,6 +514,15 @@ mod tests {
                 uid: [0xFF; crate::board_id::UID_LEN],
                 hse_mhz: 25,
             },
+            chips: Sides::new(
+                ChipProbe::Answered(ChipRegistersReadBack {
+                    manufacturer_id: ManufacturerIdRaw(u16::MAX),
+                    die_id: DieIdRaw(u16::MAX),
+                    configuration: ConfigurationRaw(u16::MAX),
+                    calibration: CalibrationRaw(u16::MAX),
+                }),
+                ChipProbe::Failed(ChipFault::AwaitingConversion),
+            ),
         }));
         round_trip(&BoardFrame::Model(Model {
             t_us: u64::MAX,

@@ -1,6 +1,7 @@
 //! The command line: one module per command (an args struct with `run`, as probe-rs's `cmd/`),
 //! the conventions they share ([`output`]) and the exit codes. `main.rs` only dispatches.
 
+pub mod check;
 pub mod convert;
 pub mod decode;
 pub mod demo;
@@ -83,6 +84,13 @@ pub enum Command {
     /// reports and figures in --out.
     #[command(after_help = CONVENTIONS)]
     Demo(demo::DemoArgs),
+    /// Bring-up check: is the board healthy? Finds it by VID:PID (or --port), asserts DTR,
+    /// waits for its hello, checks both INA226 (IDs, CAL, averaging read back), the sample rate,
+    /// losses, chip resets, the two bus voltages, the standstill currents, and a Configure read
+    /// back; one PASS/FAIL line per step with a hint for each failure. Exit 0 only when every
+    /// step passes. --simulated checks the simulated board (--fault injects one).
+    #[command(after_help = CONVENTIONS)]
+    Check(check::CheckArgs),
     /// List the serial ports: name, USB VID:PID, product, manufacturer, serial number.
     #[command(after_help = CONVENTIONS)]
     Ports(ports::PortsArgs),

@@ -13,7 +13,7 @@
 //! | `/rover_power/status` | `rover_power.Status` | the board's status frame (health counters) |
 //! | `/rover_power/command` | `rover_power.Command` | commanded side speeds and tracked pose |
 //! | `/rover_power/event` | `foxglove.Log` | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
-//! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v<PROTOCOL_VERSION>`, now v2: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
+//! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v<PROTOCOL_VERSION>`, now v3: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
 //!
 //! `publish_time` is the run time in ns; `log_time` is Unix time in ns, the host's clock: the
 //! [`LogEvent::WallClock`] anchor (when the first sample's bytes were read) plus the run time

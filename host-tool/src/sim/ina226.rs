@@ -191,6 +191,8 @@ pub struct SimIna226 {
     bus_sum_lsb: f64,
     /// A triggered mode has delivered its result.
     triggered_done: bool,
+    /// What the die ID register reads ([`DIE_ID`] unless another part is simulated).
+    die_id: u16,
 }
 
 impl SimIna226 {
@@ -215,9 +217,17 @@ impl SimIna226 {
             shunt_sum_lsb: 0.0,
             bus_sum_lsb: 0.0,
             triggered_done: false,
+            die_id: DIE_ID,
         };
         chip.power_on(0);
         chip
+    }
+
+    /// The same chip reading `die_id` from its die ID register: another part at the address
+    /// (the bring-up check's wrong-ID fault; an INA260 reads 0x2270).
+    pub fn with_die_id(mut self, die_id: u16) -> Self {
+        self.die_id = die_id;
+        self
     }
 
     /// The analog front end.
@@ -266,7 +276,7 @@ impl SimIna226 {
             reg::MASK_ENABLE => self.mask_enable,
             reg::ALERT_LIMIT => self.alert_limit,
             reg::MANUFACTURER_ID => MANUFACTURER_ID,
-            reg::DIE_ID => DIE_ID,
+            reg::DIE_ID => self.die_id,
             _ => 0,
         }
     }

@@ -542,6 +542,10 @@ fn runs_from_logs_carry_their_cross_check() {
         adc: model_core::ina226::AdcConfig::BOARD_DEFAULT,
         sample_period_us: 5_000,
         identity: model_core::board_id::BoardIdentity::UNKNOWN,
+        chips: Sides::new(
+            model_core::wire::ChipProbe::NotRead,
+            model_core::wire::ChipProbe::NotRead,
+        ),
     });
     let log = RunLog {
         samples,

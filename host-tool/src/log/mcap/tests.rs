@@ -280,7 +280,8 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
     assert_eq!(topics[TOPIC_STATUS], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_COMMAND], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_EVENT], ("json", Some("jsonschema")));
-    assert_eq!(topics[TOPIC_FRAME], ("rover-power-wire-v2", None));
+    let wire = format!("rover-power-wire-v{}", model_core::wire::PROTOCOL_VERSION);
+    assert_eq!(topics[TOPIC_FRAME], (wire.as_str(), None));
     assert!(!summary.chunk_indexes.is_empty());
     assert_eq!(summary.metadata_indexes.len(), 2, "rover_power + one hello");
 
@@ -460,9 +461,10 @@ fn not_mcap_foreign_and_other_versions_are_clear_errors() {
     let e = read(&bytes).expect_err("v9");
     assert!(matches!(e, McapError::Foreign { .. }), "{e}");
     assert!(
-        e.to_string().contains(
-            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v2\""
-        ),
+        e.to_string().contains(&format!(
+            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v{}\"",
+            model_core::wire::PROTOCOL_VERSION
+        )),
         "{e}"
     );
 }
