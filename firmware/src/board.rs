@@ -131,6 +131,7 @@ impl Board {
             running: s.running(),
             i2c_errors: s.i2c_errors(),
             reinits: s.reinits(),
+            skipped_results: s.skipped_results(),
             last_fault: s.last_faults(),
             queue_drops: link.queue_drops(),
             rx_errors: link.rx_errors(),

@@ -553,12 +553,14 @@ impl fmt::Display for Summary {
         if let Some(st) = &self.last_status {
             writeln!(
                 f,
-                "last status: uptime {:.1} s, I²C errors {}/{}, re-inits {}/{}, queue drops {}, host-frame errors {}",
+                "last status: uptime {:.1} s, I²C errors {}/{}, re-inits {}/{}, results skipped {}/{}, queue drops {}, host-frame errors {}",
                 st.uptime_us as f64 * 1e-6,
                 st.i2c_errors.left,
                 st.i2c_errors.right,
                 st.reinits.left,
                 st.reinits.right,
+                st.skipped_results.left,
+                st.skipped_results.right,
                 st.queue_drops,
                 st.rx_errors
             )?;

@@ -185,6 +185,7 @@ pub fn command_report(
         running: true,
         i2c_errors: Sides::new(0, 0),
         reinits: Sides::new(0, 0),
+        skipped_results: Sides::new(0, 0),
         last_fault: Sides::new(None, None),
         queue_drops: 0,
         rx_errors: 0,

@@ -160,6 +160,10 @@ pub struct Status {
     pub i2c_errors: Sides<u32>,
     /// Re-initialisations after a detected chip reset or a recovered fault, per chip.
     pub reinits: Sides<u32>,
+    /// Results each chip completed that no read returned (reads are timed from the conversion
+    /// period, not polled: a sample period longer than the chip's skips some by design, a
+    /// missed period skips one).
+    pub skipped_results: Sides<u32>,
     /// The latest fault per chip (`None` once the chip reads fine again).
     pub last_fault: Sides<Option<ChipFault>>,
     /// Frames dropped because the USB transmit queue was full.
@@ -461,6 +465,7 @@ mod tests {
             running: true,
             i2c_errors: Sides::new(u32::MAX, u32::MAX),
             reinits: Sides::new(u32::MAX, u32::MAX),
+            skipped_results: Sides::new(u32::MAX, u32::MAX),
             last_fault: Sides::new(Some(ChipFault::ResetDetected), Some(ChipFault::Other)),
             queue_drops: u32::MAX,
             rx_errors: u32::MAX,

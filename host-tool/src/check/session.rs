@@ -5,7 +5,7 @@ use super::verdicts::{self, ConfigureRun, Heard, Window};
 use super::{CheckReport, Limits, Step, StepId};
 use crate::decode::{Event, StreamDecoder};
 use crate::serial::{self, PortInfo, SerialError};
-use model_core::ina226::{AdcConfig, Averaging};
+use model_core::ina226::{AdcConfig, Averaging, ConversionTime};
 use model_core::wire::{
     self, BoardFrame, ChipFault, ChipReading, Command, FrameDecoder, FrameError, Hello, HostFrame,
     Status, PROTOCOL_VERSION,
@@ -315,14 +315,7 @@ impl Conn {
     /// `Configure` another averaging, read it back; restore the original, read it back.
     fn configure_round_trip(&mut self, hello: &Hello, timeout: Duration) -> ConfigureRun {
         let original = hello.adc;
-        let test = AdcConfig {
-            averaging: if original.averaging == Averaging::X64 {
-                Averaging::X16
-            } else {
-                Averaging::X64
-            },
-            ..original
-        };
+        let test = test_config(original, hello.sample_period_us);
         let configure = |adc| Command::Configure {
             adc,
             sample_period_us: hello.sample_period_us,
@@ -340,6 +333,26 @@ impl Conn {
             restored,
         }
     }
+}
+
+/// The configuration the check sets for a while: another averaging the board's period can hold
+/// (`Configure` refuses one whose conversions outlast the period), the most averaged first;
+/// failing that, other conversion times.
+fn test_config(original: AdcConfig, sample_period_us: u32) -> AdcConfig {
+    let fits = |adc: &AdcConfig| *adc != original && adc.min_sample_period_us() <= sample_period_us;
+    let other_averaging = Averaging::ALL.iter().rev().map(|&averaging| AdcConfig {
+        averaging,
+        ..original
+    });
+    let other_times = ConversionTime::ALL.iter().map(|&t| AdcConfig {
+        bus_conversion: t,
+        shunt_conversion: t,
+        ..original
+    });
+    other_averaging
+        .chain(other_times)
+        .find(fits)
+        .unwrap_or(original)
 }
 
 /// Adds one chip's reading to the window.

@@ -153,8 +153,8 @@ mod tests {
                 plotted += 1;
             }
         }
-        // Power ×2, energy ×3, τ ×2, six counters.
-        assert_eq!(plotted, 13);
+        // Power ×2, energy ×3, τ ×2, eight counters.
+        assert_eq!(plotted, 15);
         // The panels named in the layout tree are the configured ones.
         let tree = layout["layout"].to_string();
         for id in panels.keys() {

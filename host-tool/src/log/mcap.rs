@@ -453,6 +453,7 @@ mod schema {
     "running": {"type": "boolean"},
     "i2c_errors": {"$ref": "#/$defs/counts"},
     "reinits": {"$ref": "#/$defs/counts"},
+    "skipped_results": {"$ref": "#/$defs/counts", "description": "chip results no read returned"},
     "last_fault": {
       "type": "object",
       "properties": {"left": {"type": ["string", "null"]}, "right": {"type": ["string", "null"]}}
