@@ -689,6 +689,41 @@ impl WhereAnalysis {
 /// `verdicts` (see [`judge`]).
 pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> WhereAnalysis {
     let turns = turn_residuals(baseline, rows);
+    let metrics = metric_wheres(&turns, rows, verdicts);
+    let growth: Vec<(&TurnResidual, f64, f64)> = turns
+        .iter()
+        .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0)))
+        .collect();
+    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
+    let run_time = run_time(&turns);
+    let (findings, any_finite) = ranked_findings(
+        rows,
+        &metrics,
+        phase_by_regime_side.iter().chain(&phase_by_side),
+        &run_time,
+    );
+    let significant = !findings.is_empty();
+    let statement = where_statement(&findings, any_finite);
+    let notes = where_notes(rows, &run_time);
+    WhereAnalysis {
+        statement,
+        significant,
+        findings,
+        notes,
+        metrics,
+        phase_by_regime_side,
+        phase_by_side,
+        run_time,
+        turns,
+    }
+}
+
+/// Each metric's groups by regime and side and by side.
+fn metric_wheres(
+    turns: &[TurnResidual],
+    rows: &[TurnRow],
+    verdicts: &RowVerdicts,
+) -> Vec<MetricWhere> {
     let mut metrics = Vec::new();
     // The max metric's reference: each run's mean peak over steady model on its calibration
     // manoeuvres (pooled over runs for a run without any).
@@ -741,13 +776,17 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) ->
             by_side,
         });
     }
-    let growth: Vec<(&TurnResidual, f64, f64)> = turns
-        .iter()
-        .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0)))
-        .collect();
-    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
-    let run_time = run_time(&turns);
+    metrics
+}
 
+/// The significant findings, strongest (relative to their floor) first, and whether any group
+/// had a finite interval (something could be judged).
+fn ranked_findings<'a>(
+    rows: &[TurnRow],
+    metrics: &[MetricWhere],
+    phase_groups: impl Iterator<Item = &'a GroupStat>,
+    run_time: &RunTimeWhere,
+) -> (Vec<String>, bool) {
     let mut scored: Vec<(f64, String)> = Vec::new();
     let mut any_finite = false;
     let mut note_group = |label: &str, unit: &str, g: &GroupStat| {
@@ -763,12 +802,12 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) ->
             scored.push((g.mean.abs() / g.floor.max(f64::MIN_POSITIVE), text));
         }
     };
-    for m in &metrics {
+    for m in metrics {
         for g in m.by_regime_side.iter().chain(&m.by_side) {
             note_group(m.metric.id(), m.unit, g);
         }
     }
-    for g in phase_by_regime_side.iter().chain(&phase_by_side) {
+    for g in phase_groups {
         note_group("growth through the turn", "W", g);
     }
     for g in &run_time.thirds {
@@ -796,8 +835,12 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) ->
     }
     scored.sort_by(|a, b| b.0.total_cmp(&a.0));
     let findings: Vec<String> = scored.into_iter().map(|(_, s)| s).collect();
-    let significant = !findings.is_empty();
-    let statement = if significant {
+    (findings, any_finite)
+}
+
+/// The headline of the "where" analysis.
+fn where_statement(findings: &[String], any_finite: bool) -> String {
+    if !findings.is_empty() {
         let shown: Vec<&str> = findings.iter().take(3).map(String::as_str).collect();
         format!(
             "gap beyond the noise in {} group(s); largest: {}",
@@ -810,8 +853,11 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) ->
         "no gap can be judged: no group has repeats (two runs, or the same radius twice) to \
          estimate the noise from"
             .to_owned()
-    };
+    }
+}
 
+/// Notes on what the data cannot show (one run, total-only rows, run time).
+fn where_notes(rows: &[TurnRow], run_time: &RunTimeWhere) -> Vec<String> {
     let mut notes = Vec::new();
     let n_runs = rows
         .iter()
@@ -838,17 +884,7 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) ->
     if let Some(n) = &run_time.note {
         notes.push(n.clone());
     }
-    WhereAnalysis {
-        statement,
-        significant,
-        findings,
-        notes,
-        metrics,
-        phase_by_regime_side,
-        phase_by_side,
-        run_time,
-        turns,
-    }
+    notes
 }
 
 #[cfg(test)]
