@@ -7,6 +7,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod effect_id;
 pub mod figures;
+pub mod file_error;
 pub mod live;
 pub mod log;
 pub mod out_dir;

@@ -51,6 +51,7 @@
 
 pub mod sweep;
 
+use crate::file_error::{read_and_parse, FileError};
 use crate::rover::{decimal_f64, parse_rover};
 use model_core::paths::{optimise_clc, ClcEnds, ClcPath, PathError, SegmentEnergy};
 use model_core::power::IcrHardGround;
@@ -328,14 +329,7 @@ pub fn parse_model(text: &str) -> Result<EnergyModel, ModelError> {
 
 /// Reads, parses and checks a model file.
 pub fn load_model(path: &Path) -> Result<EnergyModel, ModelFileError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
-    parse_model(&text).map_err(|source| ModelFileError::Invalid {
-        path: path.to_owned(),
-        source,
-    })
+    read_and_parse(path, parse_model)
 }
 
 /// What is wrong with a model.
@@ -372,27 +366,7 @@ pub enum ModelError {
 }
 
 /// A model file that could not be read or is invalid; names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum ModelFileError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The file's content is invalid.
-    #[error("{}: {source}", path.display())]
-    Invalid {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        #[source]
-        source: ModelError,
-    },
-}
+pub type ModelFileError = FileError<ModelError>;
 
 /// The segment energies of an [`EnergyModel`]: paper Theorem 1 (Eq 26) and Lemma 1 (Eq 39) for
 /// the hard-ground model, plus each effect's extra power times the segment's duration at v_c.

@@ -17,8 +17,9 @@
 //! Integers are accepted for any key (`mass_kg = 63`). Any other key is an error, so that a typo
 //! (`slip_trak_m`) cannot silently leave a value out.
 
+use crate::file_error::{read_and_parse, FileError};
 use model_core::Rover;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The f64 nearest the shortest decimal that reads back as `x` (0.55f32 → 0.55, where
 /// `f64::from` gives 0.550000011920929). Rover values and the board-side kinematics are f32
@@ -94,27 +95,7 @@ pub enum RoverTomlError {
 }
 
 /// A rover TOML that could not be read or is invalid; names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum RoverFileError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The file's content is invalid.
-    #[error("{}: {source}", path.display())]
-    Invalid {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        #[source]
-        source: RoverTomlError,
-    },
-}
+pub type RoverFileError = FileError<RoverTomlError>;
 
 /// Parses the text of a rover TOML (the rover only; see [`parse_rover_file`]).
 pub fn parse_rover(text: &str) -> Result<Rover, RoverTomlError> {
@@ -182,19 +163,13 @@ pub fn load_rover(path: &Path) -> Result<Rover, RoverFileError> {
 
 /// Reads and parses a rover TOML file with its optional tracker offset.
 pub fn load_rover_file(path: &Path) -> Result<RoverFile, RoverFileError> {
-    let text = std::fs::read_to_string(path).map_err(|source| RoverFileError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
-    parse_rover_file(&text).map_err(|source| RoverFileError::Invalid {
-        path: path.to_owned(),
-        source,
-    })
+    read_and_parse(path, parse_rover_file)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     const HUSKY: &str = "track_width_m = 0.545\nlength_m = 0.52\nwheel_radius_m = 0.165\n\
                          mass_kg = 63\nslip_track_m = 1.1\n";

@@ -11,16 +11,14 @@ use host_tool::sim::ina226::reg;
 use model_core::ina226::AdcConfig;
 use model_core::wire::{self, BoardFrame, ChipFault, ChipReading, Command, HostFrame, Rejection};
 use model_core::Sides;
+use rover_power_tests::turn_like_load;
 
-/// Bus voltages of the left and right motor drivers [V].
-const BUS_V: Sides<f64> = Sides::new(24.6, 24.5);
 /// The board's sampling period in these tests [µs] (none of them reconfigures it).
 const PERIOD_US: u64 = 5_000;
 
-/// A turn-like load at tick `k`: the left (inner) side regenerates for a while.
-fn load(k: u64) -> Sides<f64> {
-    let t = k as f64 * 0.005;
-    Sides::new(2.0 * (t * 0.7).sin() - 0.3, 4.0 + 0.5 * (t * 1.3).cos())
+/// The shared turn-like load, held over each period: what flows from tick `k` until the next.
+fn load(k: u64) -> Sides<SideLoad> {
+    turn_like_load(k * PERIOD_US)
 }
 
 /// The simulated board with a host attached, and everything it sent.
@@ -35,19 +33,7 @@ impl Rig {
         sim.set_host_connected(true);
         // The load of a period flows from its tick until the next; the chips convert
         // continuously and the board reads the results completed by then.
-        sim.set_load(|t_us: u64| {
-            let amps = load(t_us / PERIOD_US);
-            Sides::new(
-                SideLoad {
-                    current_a: amps.left,
-                    bus_v: BUS_V.left,
-                },
-                SideLoad {
-                    current_a: amps.right,
-                    bus_v: BUS_V.right,
-                },
-            )
-        });
+        sim.set_load(|t_us: u64| load(t_us / PERIOD_US));
         Self {
             sim,
             wire: Vec::new(),
@@ -147,7 +133,10 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
     let scale = dec.scale();
     let expected_j: f64 = (1..3_999u64)
         .map(|k| {
-            (load(k).left * BUS_V.left + load(k).right * BUS_V.right) * PERIOD_US as f64 * 1e-6
+            let l = load(k);
+            (l.left.current_a * l.left.bus_v + l.right.current_a * l.right.bus_v)
+                * PERIOD_US as f64
+                * 1e-6
         })
         .sum();
     let got_j = scale.energy_j(board_total);

@@ -33,12 +33,14 @@
 //! only. Total-only rows (per-turn summaries) form their own `total` side and have average and
 //! effective power only.
 
+mod analysis;
 mod judge;
 
 use super::baseline::Baseline;
 use super::cv::{self, SplitMix64};
 use super::features::{SideRole, TurnRow};
 use super::loo::LooTest;
+pub use analysis::analyse;
 use judge::{judge, repeat_key, Floor, Obs};
 pub use judge::{practical_floor_w, RowVerdicts, SIGNIFICANCE_RULE};
 use model_core::kinematics::Regime;
@@ -682,172 +684,6 @@ impl WhereAnalysis {
         };
         self.findings.push(finding);
         self.significant = true;
-    }
-}
-
-/// The "where" analysis of `rows` against `baseline`; groups without repeats are judged by
-/// `verdicts` (see [`judge`]).
-pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> WhereAnalysis {
-    let turns = turn_residuals(baseline, rows);
-    let mut metrics = Vec::new();
-    // The max metric's reference: each run's mean peak over steady model on its calibration
-    // manoeuvres (pooled over runs for a run without any).
-    let mut reference: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
-    for t in turns.iter().filter(|t| t.calibration_kind) {
-        if let Some(p) = t.peak_over_model_w {
-            let e = reference.entry(t.run_index).or_default();
-            e.0 += p;
-            e.1 += 1.0;
-        }
-    }
-    let pooled = reference
-        .values()
-        .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-    let reference_of = |run: usize| {
-        let (s, n) = reference.get(&run).copied().unwrap_or(pooled);
-        (n > 0.0).then(|| s / n)
-    };
-    for metric in Metric::ALL {
-        let items: Vec<(&TurnResidual, f64, f64)> = turns
-            .iter()
-            .filter_map(|t| {
-                let dur = rows[t.row].expected_duration_s;
-                let v = match metric {
-                    Metric::AvgPower => Some(t.avg_power_w),
-                    Metric::MaxPower => t
-                        .peak_over_model_w
-                        .and_then(|p| reference_of(t.run_index).map(|r| p - r)),
-                    Metric::Energy => t.energy_j,
-                    Metric::EffectivePower => Some(t.effective_power_w),
-                }?;
-                Some((t, v, dur))
-            })
-            .collect();
-        if items.is_empty() {
-            continue;
-        }
-        let (floor, tests): (Floor, &[LooTest]) = match metric {
-            Metric::AvgPower => (Floor::Power, &verdicts.average),
-            Metric::MaxPower => (Floor::Power, &[]),
-            Metric::Energy => (Floor::Energy, &[]),
-            Metric::EffectivePower => (Floor::Power, &verdicts.effective),
-        };
-        let (by_regime_side, by_side) = grouped(metric.id(), &items, floor, tests);
-        metrics.push(MetricWhere {
-            metric,
-            unit: metric.unit(),
-            what: metric.what(),
-            by_regime_side,
-            by_side,
-        });
-    }
-    let growth: Vec<(&TurnResidual, f64, f64)> = turns
-        .iter()
-        .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0)))
-        .collect();
-    let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
-    let run_time = run_time(&turns);
-
-    let mut scored: Vec<(f64, String)> = Vec::new();
-    let mut any_finite = false;
-    let mut note_group = |label: &str, unit: &str, g: &GroupStat| {
-        any_finite |= g.ci.0.is_finite() && g.ci.1.is_finite();
-        if g.significant {
-            let text = match strongest(&g.loo, g.floor) {
-                Some(t) => format!("{label} {}: {}", g.group, t.statement(rows)),
-                None => format!(
-                    "{label} {}: {:+.1} {unit} [{:.1}, {:.1}] (n = {})",
-                    g.group, g.mean, g.ci.0, g.ci.1, g.n
-                ),
-            };
-            scored.push((g.mean.abs() / g.floor.max(f64::MIN_POSITIVE), text));
-        }
-    };
-    for m in &metrics {
-        for g in m.by_regime_side.iter().chain(&m.by_side) {
-            note_group(m.metric.id(), m.unit, g);
-        }
-    }
-    for g in phase_by_regime_side.iter().chain(&phase_by_side) {
-        note_group("growth through the turn", "W", g);
-    }
-    for g in &run_time.thirds {
-        note_group(
-            "run time (effective power less its regime/side mean)",
-            "W",
-            g,
-        );
-    }
-    if let Some(t) = &run_time.trend {
-        any_finite |= t.ci_w_per_min.0.is_finite();
-        if t.significant {
-            scored.push((
-                t.change_w.abs() / cv::PRACTICAL_FLOOR_W,
-                format!(
-                    "run-time trend: {:+.2} W/min [{:.2}, {:.2}], {:+.1} W over a {:.1} min run",
-                    t.slope_w_per_min,
-                    t.ci_w_per_min.0,
-                    t.ci_w_per_min.1,
-                    t.change_w,
-                    t.run_length_min
-                ),
-            ));
-        }
-    }
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let findings: Vec<String> = scored.into_iter().map(|(_, s)| s).collect();
-    let significant = !findings.is_empty();
-    let statement = if significant {
-        let shown: Vec<&str> = findings.iter().take(3).map(String::as_str).collect();
-        format!(
-            "gap beyond the noise in {} group(s); largest: {}",
-            findings.len(),
-            shown.join("; ")
-        )
-    } else if any_finite {
-        "no gap beyond the noise".to_owned()
-    } else {
-        "no gap can be judged: no group has repeats (two runs, or the same radius twice) to \
-         estimate the noise from"
-            .to_owned()
-    };
-
-    let mut notes = Vec::new();
-    let n_runs = rows
-        .iter()
-        .map(|r| r.run_index)
-        .collect::<std::collections::BTreeSet<_>>()
-        .len();
-    if n_runs < 2 {
-        notes.push(
-            "one run: intervals resample the repeated manoeuvres within a group; a power group \
-             without a radius driven twice is judged row by row against the leave-one-out \
-             prediction interval of the baseline refitted without the row (Holm, R ≤ R′ first); \
-             other groups without repeats have no verdict"
-                .to_owned(),
-        );
-    }
-    if rows.iter().any(TurnRow::is_total_only) {
-        notes.push(
-            "total-only rows (per-turn summaries): no sides, no peak, no energy, no duration \
-             (effective power = average power, so time-type effects such as angular slip are \
-             invisible), no growth and no run time"
-                .to_owned(),
-        );
-    }
-    if let Some(n) = &run_time.note {
-        notes.push(n.clone());
-    }
-    WhereAnalysis {
-        statement,
-        significant,
-        findings,
-        notes,
-        metrics,
-        phase_by_regime_side,
-        phase_by_side,
-        run_time,
-        turns,
     }
 }
 

@@ -221,57 +221,13 @@ pub fn diagnose_with(
     let verdicts = gaps::RowVerdicts::of(rows, calibration);
     let gaps = gaps::effective_gaps(&baseline, rows, &verdicts);
     let mut where_ = gaps::analyse(&baseline, rows, &verdicts);
-    let gap_significant = gaps.iter().any(|g| g.significant);
-    let mut gap_regimes: Vec<Regime> = gaps
-        .iter()
-        .filter(|g| g.significant)
-        .map(|g| g.regime)
-        .collect();
-    gap_regimes.dedup();
-    let largest_gap = gaps
-        .iter()
-        .filter(|g| g.significant)
-        .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
-        .map(|g| g.regime);
+    let significant_gaps = SignificantGaps::of(&gaps);
 
-    let runs = rows.iter().map(|r| r.run_index).max().unwrap_or(0) + 1;
-    let (primary, secondary) = if runs >= 2 {
-        (Scheme::LeaveOneRunOut, Scheme::LeaveOneRadiusOut)
-    } else {
-        (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
-    };
+    let (primary, secondary) = schemes(rows);
     let before = cv::heldout_residuals(rover, rows, primary, &[], calibration)?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
-    // Motor heating acts through run time; when every run drives the same manoeuvres in the
-    // same order, run time is confounded with the turn set and a heating term would fit turn
-    // shapes instead. It is only a candidate when the "where" analysis can identify a run-time
-    // trend (the same kind of manoeuvre recurring at run times spread apart).
-    let mut notes = Vec::new();
-    let heating_identifiable = where_.run_time.trend.is_some();
-    if !heating_identifiable {
-        notes.push(
-            "motor-heating not scored: run time is not identifiable apart from the turn order \
-             (repeat manoeuvres within longer runs to test it)"
-                .to_owned(),
-        );
-    }
-    // A sensor's current offset reads at standstill too (seed Fig 3.3: 0.59 A at rest): when
-    // the runs have standstill samples and every side reads no more than a driver's quiescent
-    // draw there, a constant extra power in the turns is something else (copper loss, say).
-    notes.extend(features::radius_source_note(rows));
-    let offset_seen = offset_seen_at_standstill(rows);
-    if !offset_seen {
-        notes.push(format!(
-            "current-offset not scored: the standstill current is within ±{} A on both sides \
-             (a sensor offset would read there too)",
-            baseline::QUIESCENT_MAX_A
-        ));
-    }
-    let allowed = |e: EffectId| match e {
-        EffectId::MotorHeating => heating_identifiable,
-        EffectId::CurrentOffset => offset_seen,
-        _ => true,
-    };
+    let (admission, notes) = Admission::of(rows, &where_);
+    let allowed = |e: EffectId| admission.allows(e);
     let mut candidates =
         cv::score_all(rover, rows, primary, calibration)?.ok_or(DiagnoseError::NothingToHoldOut)?;
     candidates.retain(|c| allowed(c.effect));
@@ -288,32 +244,22 @@ pub fn diagnose_with(
     // the residuals' spread out of sample, which cross-validation itself tests.
     let selected = match select(&candidates) {
         Some(e) => Some(e),
-        None if !gap_regimes.is_empty() => select_where_the_gap_is(
+        None if !significant_gaps.regimes.is_empty() => select_where_the_gap_is(
             rover,
             rows,
             primary,
             calibration,
             &before,
             &candidates,
-            &gap_regimes,
+            &significant_gaps.regimes,
         )?,
         None => None,
     };
-    // The practical floor of the gaps and the adequacy test: the larger of the fixed floor and
-    // a share of the model power (a few watts are noise for a rover drawing hundreds).
-    let model_w: Vec<f64> = rows
-        .iter()
-        .flat_map(|r| [0, 1].map(|s| baseline.effective_side_power_w(r, s)))
-        .collect();
-    let floor_w = gaps::practical_floor_w(&model_w);
-    let spread = selected
-        .and_then(|e| candidates.iter().find(|c| c.effect == e))
-        .filter(|c| removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= floor_w);
-    let explains_spread = spread.is_some();
-    let significant = gap_significant || explains_spread;
+    let spread = explained_spread(&baseline, rows, &candidates, selected);
+    let significant = significant_gaps.any || spread.is_some();
     // The headline and the "where" analysis state one verdict: a departure seen only out of
     // sample is recorded there too.
-    if let (Some(c), false) = (spread, gap_significant) {
+    if let (Some(c), false) = (spread, significant_gaps.any) {
         where_.add_heldout_departure(c, primary);
     }
     let verdict = match selected {
@@ -343,13 +289,161 @@ pub fn diagnose_with(
     }
     let named = effect.effect();
     let added = named.unwrap_or(candidates[0].effect);
+    let heldout = heldout_errors(
+        rover,
+        rows,
+        primary,
+        calibration,
+        &before,
+        added,
+        &significant_gaps.regimes,
+    )?;
+    let regime = scope_of(rover, rows, named, calibration, &significant_gaps)?;
+    Ok(Diagnosis {
+        heldout,
+        effect,
+        regime,
+        significant,
+        baseline,
+        adequacy,
+        adequacy_with_effect,
+        gaps,
+        where_,
+        scheme: primary,
+        candidates,
+        other_scheme,
+        gap_regimes: significant_gaps.regimes,
+        secondary: secondary_steps,
+        calibration: calibration.note(rows),
+        notes,
+    })
+}
+
+/// What the significant mean gaps say: whether there is one, their regimes (in gap order,
+/// repeats next to each other merged) and the regime of the largest.
+struct SignificantGaps {
+    any: bool,
+    regimes: Vec<Regime>,
+    largest: Option<Regime>,
+}
+
+impl SignificantGaps {
+    fn of(gaps: &[Gap]) -> Self {
+        let mut regimes: Vec<Regime> = gaps
+            .iter()
+            .filter(|g| g.significant)
+            .map(|g| g.regime)
+            .collect();
+        regimes.dedup();
+        let largest = gaps
+            .iter()
+            .filter(|g| g.significant)
+            .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
+            .map(|g| g.regime);
+        Self {
+            any: gaps.iter().any(|g| g.significant),
+            regimes,
+            largest,
+        }
+    }
+}
+
+/// The primary and secondary cross-validation schemes: leave one run out when there are two
+/// runs or more, else leave one radius out.
+fn schemes(rows: &[TurnRow]) -> (Scheme, Scheme) {
+    let runs = rows.iter().map(|r| r.run_index).max().unwrap_or(0) + 1;
+    if runs >= 2 {
+        (Scheme::LeaveOneRunOut, Scheme::LeaveOneRadiusOut)
+    } else {
+        (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
+    }
+}
+
+/// Which catalogue effects the data can tell apart, and notes on those it cannot.
+struct Admission {
+    heating_identifiable: bool,
+    offset_seen: bool,
+}
+
+impl Admission {
+    fn of(rows: &[TurnRow], where_: &WhereAnalysis) -> (Self, Vec<String>) {
+        // Motor heating acts through run time; when every run drives the same manoeuvres in the
+        // same order, run time is confounded with the turn set and a heating term would fit turn
+        // shapes instead. It is only a candidate when the "where" analysis can identify a
+        // run-time trend (the same kind of manoeuvre recurring at run times spread apart).
+        let mut notes = Vec::new();
+        let heating_identifiable = where_.run_time.trend.is_some();
+        if !heating_identifiable {
+            notes.push(
+                "motor-heating not scored: run time is not identifiable apart from the turn \
+                 order (repeat manoeuvres within longer runs to test it)"
+                    .to_owned(),
+            );
+        }
+        // A sensor's current offset reads at standstill too (seed Fig 3.3: 0.59 A at rest):
+        // when the runs have standstill samples and every side reads no more than a driver's
+        // quiescent draw there, a constant extra power in the turns is something else (copper
+        // loss, say).
+        notes.extend(features::radius_source_note(rows));
+        let offset_seen = offset_seen_at_standstill(rows);
+        if !offset_seen {
+            notes.push(format!(
+                "current-offset not scored: the standstill current is within ±{} A on both sides \
+                 (a sensor offset would read there too)",
+                baseline::QUIESCENT_MAX_A
+            ));
+        }
+        let admission = Self {
+            heating_identifiable,
+            offset_seen,
+        };
+        (admission, notes)
+    }
+
+    fn allows(&self, e: EffectId) -> bool {
+        match e {
+            EffectId::MotorHeating => self.heating_identifiable,
+            EffectId::CurrentOffset => self.offset_seen,
+            _ => true,
+        }
+    }
+}
+
+/// The selected effect's score when it removes at least the practical floor of RMS out of
+/// sample. The floor is the one of the gaps and the adequacy test: the larger of the fixed floor
+/// and a share of the model power (a few watts are noise for a rover drawing hundreds).
+fn explained_spread<'a>(
+    baseline: &Baseline,
+    rows: &[TurnRow],
+    candidates: &'a [CandidateScore],
+    selected: Option<EffectId>,
+) -> Option<&'a CandidateScore> {
+    let model_w: Vec<f64> = rows
+        .iter()
+        .flat_map(|r| [0, 1].map(|s| baseline.effective_side_power_w(r, s)))
+        .collect();
+    let floor_w = gaps::practical_floor_w(&model_w);
+    selected
+        .and_then(|e| candidates.iter().find(|c| c.effect == e))
+        .filter(|c| removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= floor_w)
+}
+
+/// Held-out RMS before and after adding `added`, over all rows, the gap regimes and each regime.
+fn heldout_errors(
+    rover: &Rover,
+    rows: &[TurnRow],
+    primary: Scheme,
+    calibration: Calibration<'_>,
+    before: &[cv::RowResidual],
+    added: EffectId,
+    gap_regimes: &[Regime],
+) -> Result<Vec<HeldOutError>, DiagnoseError> {
     let mut heldout = Vec::new();
     if let Some(after) = cv::heldout_residuals(rover, rows, primary, &[added], calibration)? {
         let mut push = |regime: Scope, keep: &dyn Fn(usize) -> bool| {
-            if let (Some(b), Some(a)) = (
-                cv::mean_square(&before, keep),
-                cv::mean_square(&after, keep),
-            ) {
+            if let (Some(b), Some(a)) =
+                (cv::mean_square(before, keep), cv::mean_square(&after, keep))
+            {
                 let (b, a) = (b.sqrt(), a.sqrt());
                 heldout.push(HeldOutError {
                     regime,
@@ -368,40 +462,34 @@ pub fn diagnose_with(
             push(Scope::Regime(regime), &|i| rows[i].regime == regime);
         }
     }
+    Ok(heldout)
+}
 
-    let regime = match named {
+/// Where the departure acts: everywhere when the named effect acts in every regime, else the
+/// regime of the largest significant gap. Without a named effect: `all` when every regime
+/// present has a significant gap.
+fn scope_of(
+    rover: &Rover,
+    rows: &[TurnRow],
+    named: Option<EffectId>,
+    calibration: Calibration<'_>,
+    gaps: &SignificantGaps,
+) -> Result<Scope, DiagnoseError> {
+    let largest = gaps.largest.map_or(Scope::All, Scope::Regime);
+    Ok(match named {
         Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => Scope::All,
-        Some(_) => largest_gap.map_or(Scope::All, Scope::Regime),
-        // Without a named effect: `all` when every regime present has a significant gap.
+        Some(_) => largest,
         None => {
             let present = Regime::ALL
                 .iter()
                 .filter(|r| rows.iter().any(|row| row.regime == **r))
                 .count();
-            if gap_regimes.len() == present {
+            if gaps.regimes.len() == present {
                 Scope::All
             } else {
-                largest_gap.map_or(Scope::All, Scope::Regime)
+                largest
             }
         }
-    };
-    Ok(Diagnosis {
-        heldout,
-        effect,
-        regime,
-        significant,
-        baseline,
-        adequacy,
-        adequacy_with_effect,
-        gaps,
-        where_,
-        scheme: primary,
-        candidates,
-        other_scheme,
-        gap_regimes,
-        secondary: secondary_steps,
-        calibration: calibration.note(rows),
-        notes,
     })
 }
 
