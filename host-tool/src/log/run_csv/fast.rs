@@ -1,8 +1,8 @@
 //! The fast path of [`super::read_run_csv_salvaging`] for files in this tool's own layout (the
 //! header [`RunCsvWriter`](super::RunCsvWriter) writes, no quotes, LF line ends, the last line
 //! ended): the file is split at a line end into one part per core, each part parsed on its own
-//! thread straight from the bytes (no per-row allocation; decimals by Clinger's exact fast path,
-//! anything else by `str::parse`). It gives the same samples as the general reader or gives up:
+//! thread straight from the bytes (no per-row allocation; one pass over the bytes; decimals by Clinger's exact fast
+//! path, anything else by `str::parse`). It gives the same samples as the general reader or gives up:
 //! on the first cell, row or layout it does not accept it returns `None`, and the general reader
 //! reads the file and words the error (or drops the cut row) exactly as before.
 
@@ -91,58 +91,32 @@ fn split_at_lines(data: &[u8], n: usize) -> Vec<&[u8]> {
 }
 
 /// Whole lines of `columns` cells each into samples; `None` on anything the general reader
-/// would refuse or treat specially.
+/// would refuse or treat specially. One pass over the bytes: each cell is parsed where it
+/// starts and its number's end is its delimiter (no line or cell split before parsing).
 fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
     // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows.
     let mut out = Vec::with_capacity(part.len() / 40 + 1);
     let mut cells = [None::<f64>; Column::ALL.len()];
     let mut previous_t_s = f64::NEG_INFINITY;
-    for line in part.split(|&b| b == b'\n') {
-        if line.is_empty() {
-            // The split's empty tail after the last line end; an empty line inside is left to
-            // the general reader (it skips blank lines).
+    let mut pos = 0;
+    while pos < part.len() {
+        if part[pos] == b'\n' {
+            // An empty line: the general reader skips blank lines too.
+            pos += 1;
             continue;
         }
-        let mut n = 0;
-        for cell in line.split(|&b| b == b',') {
-            let slot = cells.get_mut(n)?;
-            *slot = if cell.is_empty() {
-                None
-            } else {
-                Some(parse_number(cell)?)
-            };
-            n += 1;
-        }
-        if n != columns {
-            return None;
-        }
-        let value = |column: Column| -> Option<f64> {
-            let v = cells[column as usize]?;
-            let in_range = column.range().is_none_or(|(lo, hi)| v >= lo && v <= hi);
-            (v.is_finite() && in_range).then_some(v)
-        };
-        let optional = |column: Column| -> Result<Option<f64>, ()> {
-            if column as usize >= columns {
-                return Ok(None);
+        for (n, cell) in cells.iter_mut().enumerate().take(columns) {
+            let (value, end) = parse_cell(part, pos)?;
+            *cell = value;
+            let last = n + 1 == columns;
+            match part.get(end) {
+                Some(b',') if !last => {}
+                Some(b'\n') if last => {}
+                _ => return None,
             }
-            match cells[column as usize] {
-                None => Ok(None),
-                Some(v) if v.is_finite() => Ok(Some(v)),
-                // A tracker's dropout.
-                Some(v) if v.is_nan() && Column::NAN_IS_EMPTY.contains(&column) => Ok(None),
-                Some(_) => Err(()),
-            }
-        };
-        let sample = RunSample {
-            t_s: value(Column::TimeS)?,
-            bus_v: Sides::new(value(Column::LeftBusV)?, value(Column::RightBusV)?),
-            current_a: Sides::new(value(Column::LeftCurrentA)?, value(Column::RightCurrentA)?),
-            cmd_mps: Sides::new(value(Column::CmdLeftMps)?, value(Column::CmdRightMps)?),
-            yaw_rad: optional(Column::YawRad).ok()?,
-            pitch_deg: optional(Column::PitchDeg).ok()?,
-            x_m: optional(Column::XM).ok()?,
-            y_m: optional(Column::YM).ok()?,
-        };
+            pos = end + 1;
+        }
+        let sample = row_sample(&cells, columns)?;
         if sample.t_s <= previous_t_s {
             return None;
         }
@@ -152,45 +126,105 @@ fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
     Some(out)
 }
 
+/// The sample of one row's cells, checked as the general reader checks them.
+fn row_sample(cells: &[Option<f64>; Column::ALL.len()], columns: usize) -> Option<RunSample> {
+    let value = |column: Column| -> Option<f64> {
+        let v = cells[column as usize]?;
+        let in_range = column.range().is_none_or(|(lo, hi)| v >= lo && v <= hi);
+        (v.is_finite() && in_range).then_some(v)
+    };
+    let optional = |column: Column| -> Result<Option<f64>, ()> {
+        if column as usize >= columns {
+            return Ok(None);
+        }
+        match cells[column as usize] {
+            None => Ok(None),
+            Some(v) if v.is_finite() => Ok(Some(v)),
+            // A tracker's dropout.
+            Some(v) if v.is_nan() && Column::NAN_IS_EMPTY.contains(&column) => Ok(None),
+            Some(_) => Err(()),
+        }
+    };
+    Some(RunSample {
+        t_s: value(Column::TimeS)?,
+        bus_v: Sides::new(value(Column::LeftBusV)?, value(Column::RightBusV)?),
+        current_a: Sides::new(value(Column::LeftCurrentA)?, value(Column::RightCurrentA)?),
+        cmd_mps: Sides::new(value(Column::CmdLeftMps)?, value(Column::CmdRightMps)?),
+        yaw_rad: optional(Column::YawRad).ok()?,
+        pitch_deg: optional(Column::PitchDeg).ok()?,
+        x_m: optional(Column::XM).ok()?,
+        y_m: optional(Column::YM).ok()?,
+    })
+}
+
 /// Exact powers of ten as `f64` (10²² is the largest one a double holds exactly).
 const POW10: [f64; 23] = [
     1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
-/// A cell's number, as `str::parse::<f64>` reads it. Plain decimals (`-12.345`) whose digits fit
-/// in 53 bits with at most 22 after the point take Clinger's fast path — an integer and a power
-/// of ten, both exact as doubles, divided once, so correctly rounded like `str::parse` — and
-/// everything else goes to `str::parse`.
-fn parse_number(cell: &[u8]) -> Option<f64> {
-    let (negative, digits) = match cell.split_first() {
-        Some((b'-', rest)) => (true, rest),
-        _ => (false, cell),
-    };
-    let mut mantissa: u64 = 0;
-    let mut count = 0usize;
-    let mut fraction: Option<usize> = None;
-    for &b in digits {
-        match b {
-            b'0'..=b'9' => {
-                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
-                count += 1;
-                if let Some(f) = fraction.as_mut() {
-                    *f += 1;
-                }
-            }
-            b'.' if fraction.is_none() => fraction = Some(0),
-            _ => return slow(cell),
-        }
+/// Largest integer every smaller one of which a double holds exactly (2⁵³).
+const EXACT_INT: u64 = 1 << 53;
+
+/// The cell starting at `start` of `bytes`: its number (`None`: empty) and the index of the
+/// byte after it (its delimiter, or the end), as `str::parse::<f64>` reads the cell. Plain
+/// decimals (`-12.345`) whose digits make an integer below 2⁵³ with at most 22 after the point
+/// take Clinger's fast path — an integer and a power of ten, both exact as doubles, divided
+/// once, so correctly rounded like `str::parse` — and everything else (more digits, exponents,
+/// `NaN`) goes to `str::parse`. `None` overall for a cell that is not a number.
+fn parse_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
+    let mut i = start;
+    let negative = bytes.get(i) == Some(&b'-');
+    if negative {
+        i += 1;
     }
-    let fraction = fraction.unwrap_or(0);
-    if count == 0 || count > 15 || fraction >= POW10.len() {
-        // 15 digits always fit in 53 bits; longer ones (shortest round-trip forms of noisy
-        // values) take the general parser.
-        return slow(cell);
+    let mut mantissa: u64 = 0;
+    let mut digits = 0usize;
+    let mut fraction = 0usize;
+    let mut point = false;
+    while let Some(&b) = bytes.get(i) {
+        let d = b.wrapping_sub(b'0');
+        if d < 10 {
+            // 19 digits never overflow; longer ones take the general parser below.
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            digits += 1;
+            fraction += usize::from(point);
+        } else if b == b'.' && !point {
+            point = true;
+        } else {
+            break;
+        }
+        i += 1;
+    }
+    match bytes.get(i) {
+        None | Some(b',' | b'\n') => {}
+        // An exponent, `NaN`, `inf`, a stray byte: the general parser decides.
+        Some(_) => return slow_cell(bytes, start),
+    }
+    if i == start {
+        return Some((None, i));
+    }
+    if digits == 0 || digits > 19 || mantissa > EXACT_INT || fraction >= POW10.len() {
+        return Some((Some(slow(&bytes[start..i])?), i));
     }
     let value = mantissa as f64 / POW10[fraction];
-    Some(if negative { -value } else { value })
+    Some((Some(if negative { -value } else { value }), i))
+}
+
+/// A cell the fast path does not read: up to its delimiter, by `str::parse`.
+fn slow_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
+    let rest = &bytes[start..];
+    let end = start + memchr::memchr2(b',', b'\n', rest).unwrap_or(rest.len());
+    Some((Some(slow(&bytes[start..end])?), end))
+}
+
+/// A cell's number as [`parse_cell`] reads it, for the tests.
+#[cfg(test)]
+fn parse_number(cell: &[u8]) -> Option<f64> {
+    match parse_cell(cell, 0)? {
+        (value, end) if end == cell.len() => value,
+        _ => None,
+    }
 }
 
 fn slow(cell: &[u8]) -> Option<f64> {
