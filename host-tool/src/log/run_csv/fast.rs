@@ -1,66 +1,179 @@
 //! The fast path of [`super::read_run_csv_salvaging`] for files in this tool's own layout (the
 //! header [`RunCsvWriter`](super::RunCsvWriter) writes, no quotes, LF line ends, the last line
-//! ended): the file is split at a line end into one part per core, each part parsed on its own
-//! thread straight from the bytes (no per-row allocation; one pass over the bytes; decimals by Clinger's exact fast
-//! path, anything else by `str::parse`). It gives the same samples as the general reader or gives up:
-//! on the first cell, row or layout it does not accept it returns `None`, and the general reader
-//! reads the file and words the error (or drops the cut row) exactly as before.
+//! ended): the file is cut at line ends into one part per core, each part read and parsed on
+//! its own thread in blocks (a block's bytes are parsed while they are in the cache, and no
+//! buffer of the whole file is allocated) straight from the bytes: no per-row allocation, one
+//! pass over the bytes, decimals by Clinger's exact fast path, anything else by `str::parse`.
+//! It gives the same samples as the general reader or gives up: on the first cell, row or
+//! layout it does not accept it returns `None`, and the general reader reads the file and
+//! words the error (or drops the cut row) exactly as before.
 
 use super::{Column, RunSample};
 use model_core::Sides;
+use std::fs::File;
+use std::io::{self, Read, Seek, SeekFrom};
+use std::path::Path;
 
 /// Smallest file worth a second thread [bytes].
-const PARALLEL_BYTES: usize = 1 << 20;
+const PARALLEL_BYTES: u64 = 1 << 20;
+
+/// Bytes each thread reads at a time (fits in a core's L2 with room to spare).
+pub(super) const BLOCK_BYTES: usize = 256 << 10;
 
 /// Columns up to `pitch_deg` (the layout before the tracked point's `x_m,y_m`).
 const WITH_POSE_ANGLES: usize = 9;
 
-/// The samples of a valid run CSV in this tool's layout, or `None` (see the module docs).
-pub(super) fn read(bytes: &[u8]) -> Option<Vec<RunSample>> {
-    let header_end = memchr::memchr(b'\n', bytes)?;
-    // The layouts this tool writes: every column, without the tracked point's, the required.
-    let columns = match &bytes[..header_end] {
-        h if h == header(&Column::ALL).as_bytes() => Column::ALL.len(),
-        h if h == header(&Column::ALL[..WITH_POSE_ANGLES]).as_bytes() => WITH_POSE_ANGLES,
-        h if h == header(&Column::REQUIRED).as_bytes() => Column::REQUIRED.len(),
-        _ => return None,
+/// A header this tool writes: its number of columns (every column, without the tracked
+/// point's, the required).
+fn layout(header_line: &[u8]) -> Option<usize> {
+    [Column::ALL.len(), WITH_POSE_ANGLES, Column::REQUIRED.len()]
+        .into_iter()
+        .find(|&n| header_line == header(&Column::ALL[..n]).as_bytes())
+}
+
+/// The samples of the run CSV at `path` if it is valid and in this tool's layout, read in
+/// blocks of `block` bytes; `Ok(None)` otherwise (see the module docs).
+pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunSample>>> {
+    let mut file = File::open(path)?;
+    let len = file.metadata()?.len();
+    let mut head = Vec::new();
+    (&mut file).take(4096).read_to_end(&mut head)?;
+    let Some(header_end) = memchr::memchr(b'\n', &head) else {
+        return Ok(None);
     };
-    let data = &bytes[header_end + 1..];
-    if data.last().is_some_and(|&b| b != b'\n') || memchr::memchr(b'"', data).is_some() {
-        return None;
+    let Some(columns) = layout(&head[..header_end]) else {
+        return Ok(None);
+    };
+    let data_start = header_end as u64 + 1;
+    if len > data_start {
+        // The last line must be ended (a cut one is the general reader's to drop).
+        let mut last = [0u8];
+        file.seek(SeekFrom::Start(len - 1))?;
+        file.read_exact(&mut last)?;
+        if last[0] != b'\n' {
+            return Ok(None);
+        }
     }
-    let threads = if data.len() < PARALLEL_BYTES {
+    let data_len = len - data_start;
+    let threads = if data_len < PARALLEL_BYTES {
         1
     } else {
-        std::thread::available_parallelism().map_or(1, |n| n.get().min(8))
+        std::thread::available_parallelism().map_or(1, |n| n.get().min(8)) as u64
     };
-    let parts = split_at_lines(data, threads);
-    let mut results: Vec<Option<Vec<RunSample>>> = if parts.len() == 1 {
-        vec![parse_part(parts[0], columns)]
+    let bounds: Vec<u64> = (0..=threads)
+        .map(|k| data_start + data_len * k / threads)
+        .collect();
+    // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows. The
+    // first part gets room for all, so the others are appended without growing it.
+    let rows = |bytes: u64| usize::try_from(bytes / 40 + 1).unwrap_or(0);
+    let part = |k: usize| {
+        let capacity = if k == 0 {
+            rows(data_len)
+        } else {
+            rows(bounds[k + 1] - bounds[k])
+        };
+        read_part(
+            path,
+            bounds[k],
+            bounds[k + 1],
+            k > 0,
+            columns,
+            block,
+            capacity,
+        )
+    };
+    let results: Vec<io::Result<Option<Vec<RunSample>>>> = if threads == 1 {
+        vec![part(0)]
     } else {
         std::thread::scope(|s| {
-            let handles: Vec<_> = parts
-                .iter()
-                .map(|part| s.spawn(move || parse_part(part, columns)))
+            let handles: Vec<_> = (0..bounds.len() - 1)
+                .map(|k| s.spawn(move || part(k)))
                 .collect();
             handles
                 .into_iter()
-                .map(|h| h.join().ok().flatten())
+                .map(|h| h.join().unwrap_or_else(|_| Ok(None)))
                 .collect()
         })
     };
-    let mut samples = results.first_mut()?.take()?;
-    for part in results.into_iter().skip(1) {
-        let part = part?;
+    let mut samples: Option<Vec<RunSample>> = None;
+    for part in results {
+        let Some(part) = part? else {
+            return Ok(None);
+        };
+        let Some(all) = samples.as_mut() else {
+            samples = Some(part);
+            continue;
+        };
         // Time must increase across the parts' seam too.
-        if let (Some(last), Some(first)) = (samples.last(), part.first()) {
+        if let (Some(last), Some(first)) = (all.last(), part.first()) {
             if first.t_s <= last.t_s {
-                return None;
+                return Ok(None);
             }
         }
-        samples.extend_from_slice(&part);
+        all.extend_from_slice(&part);
     }
-    Some(samples)
+    Ok(samples)
+}
+
+/// The rows of the file at `path` that start at a byte in `begin..end`, read in blocks of
+/// `block` bytes. `mid_line`: `begin` may fall inside a row (whose owner is the part before),
+/// so reading starts at the byte before it and the first row is the one after the next line end.
+fn read_part(
+    path: &Path,
+    begin: u64,
+    end: u64,
+    mid_line: bool,
+    columns: usize,
+    block: usize,
+    capacity: usize,
+) -> io::Result<Option<Vec<RunSample>>> {
+    let mut file = File::open(path)?;
+    // File offset of `buf[0]`.
+    let mut offset = if mid_line { begin - 1 } else { begin };
+    file.seek(SeekFrom::Start(offset))?;
+    let mut out = Vec::with_capacity(capacity);
+    let mut previous_t_s = f64::NEG_INFINITY;
+    let mut buf: Vec<u8> = Vec::with_capacity(2 * block);
+    let mut skip_to_line_end = mid_line;
+    loop {
+        let read = (&mut file).take(block as u64).read_to_end(&mut buf)?;
+        let eof = read < block;
+        let mut from = 0;
+        if skip_to_line_end {
+            match memchr::memchr(b'\n', &buf) {
+                Some(i) => {
+                    from = i + 1;
+                    skip_to_line_end = false;
+                }
+                None if eof => return Ok(Some(out)),
+                None => {
+                    offset += buf.len() as u64;
+                    buf.clear();
+                    continue;
+                }
+            }
+        }
+        // Rows of this part start before `limit` in `buf`.
+        let limit = usize::try_from(end.saturating_sub(offset)).unwrap_or(usize::MAX);
+        let complete = memchr::memrchr(b'\n', &buf[from..]).map_or(from, |i| from + i + 1);
+        let last = limit <= from || limit < complete || eof;
+        let stop = if limit <= from {
+            from
+        } else if limit < complete {
+            // The row holding byte `limit - 1` is the last of this part.
+            memchr::memchr(b'\n', &buf[limit - 1..]).map_or(complete, |i| limit + i)
+        } else {
+            complete
+        };
+        if parse_lines(&buf[from..stop], columns, &mut previous_t_s, &mut out).is_none() {
+            return Ok(None);
+        }
+        if last {
+            return Ok(Some(out));
+        }
+        offset += complete as u64;
+        buf.drain(..complete);
+    }
 }
 
 fn header(columns: &[Column]) -> String {
@@ -71,33 +184,17 @@ fn header(columns: &[Column]) -> String {
         .join(",")
 }
 
-/// `data` cut into up to `n` parts of whole lines.
-fn split_at_lines(data: &[u8], n: usize) -> Vec<&[u8]> {
-    let mut parts = Vec::with_capacity(n);
-    let mut rest = data;
-    for k in (1..n).rev() {
-        let target = rest.len() / (k + 1);
-        match memchr::memchr(b'\n', &rest[target..]) {
-            Some(i) if target + i + 1 < rest.len() => {
-                let (part, tail) = rest.split_at(target + i + 1);
-                parts.push(part);
-                rest = tail;
-            }
-            _ => break,
-        }
-    }
-    parts.push(rest);
-    parts
-}
-
-/// Whole lines of `columns` cells each into samples; `None` on anything the general reader
+/// Whole lines of `columns` cells each into samples appended to `out`, their times after
+/// `previous_t_s` and increasing (which is updated); `None` on anything the general reader
 /// would refuse or treat specially. One pass over the bytes: each cell is parsed where it
 /// starts and its number's end is its delimiter (no line or cell split before parsing).
-fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
-    // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows.
-    let mut out = Vec::with_capacity(part.len() / 40 + 1);
+fn parse_lines(
+    part: &[u8],
+    columns: usize,
+    previous_t_s: &mut f64,
+    out: &mut Vec<RunSample>,
+) -> Option<()> {
     let mut cells = [None::<f64>; Column::ALL.len()];
-    let mut previous_t_s = f64::NEG_INFINITY;
     let mut pos = 0;
     while pos < part.len() {
         if part[pos] == b'\n' {
@@ -117,13 +214,13 @@ fn parse_part(part: &[u8], columns: usize) -> Option<Vec<RunSample>> {
             pos = end + 1;
         }
         let sample = row_sample(&cells, columns)?;
-        if sample.t_s <= previous_t_s {
+        if sample.t_s <= *previous_t_s {
             return None;
         }
-        previous_t_s = sample.t_s;
+        *previous_t_s = sample.t_s;
         out.push(sample);
     }
-    Some(out)
+    Some(())
 }
 
 /// The sample of one row's cells, checked as the general reader checks them.
@@ -285,16 +382,6 @@ mod tests {
         fn any_f64_reads_bit_for_bit(x in any::<f64>().prop_filter("finite", |x| x.is_finite())) {
             let text = x.to_string();
             prop_assert_eq!(parse_number(text.as_bytes()).map(f64::to_bits), Some(x.to_bits()));
-        }
-    }
-
-    #[test]
-    fn lines_split_into_whole_lines() {
-        let data = b"a\nbb\nccc\ndddd\n";
-        for n in 1..6 {
-            let parts = split_at_lines(data, n);
-            assert_eq!(parts.concat(), data.to_vec());
-            assert!(parts.iter().all(|p| p.ends_with(b"\n")), "{n}: {parts:?}");
         }
     }
 }
