@@ -275,23 +275,18 @@ fn parse_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
     if negative {
         i += 1;
     }
+    // 19 digits never overflow; longer ones take the general parser below.
     let mut mantissa: u64 = 0;
-    let mut digits = 0usize;
-    let mut fraction = 0usize;
-    let mut point = false;
-    while let Some(&b) = bytes.get(i) {
-        let d = b.wrapping_sub(b'0');
-        if d < 10 {
-            // 19 digits never overflow; longer ones take the general parser below.
-            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-            digits += 1;
-            fraction += usize::from(point);
-        } else if b == b'.' && !point {
-            point = true;
-        } else {
-            break;
-        }
+    let int_start = i;
+    i = digits_into(bytes, i, &mut mantissa);
+    let mut digits = i - int_start;
+    let mut fraction = 0;
+    if bytes.get(i) == Some(&b'.') {
         i += 1;
+        let fraction_start = i;
+        i = digits_into(bytes, i, &mut mantissa);
+        fraction = i - fraction_start;
+        digits += fraction;
     }
     match bytes.get(i) {
         None | Some(b',' | b'\n') => {}
@@ -306,6 +301,53 @@ fn parse_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
     }
     let value = mantissa as f64 / POW10[fraction];
     Some((Some(if negative { -value } else { value }), i))
+}
+
+/// The decimal digits of `bytes` from `i` on appended to `mantissa` (wrapping), eight at a
+/// time while eight are there (SWAR: one 64-bit load, checked and converted with a few
+/// multiplications), then one by one; returns the index after the last digit.
+fn digits_into(bytes: &[u8], mut i: usize, mantissa: &mut u64) -> usize {
+    while let Some(chunk) = bytes
+        .get(i..i + 8)
+        .and_then(|c| <[u8; 8]>::try_from(c).ok())
+    {
+        let v = u64::from_le_bytes(chunk);
+        if !eight_digits(v) {
+            break;
+        }
+        *mantissa = mantissa
+            .wrapping_mul(100_000_000)
+            .wrapping_add(eight_digits_value(v));
+        i += 8;
+    }
+    while let Some(&b) = bytes.get(i) {
+        let d = b.wrapping_sub(b'0');
+        if d >= 10 {
+            break;
+        }
+        *mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    i
+}
+
+/// Whether all eight bytes of `v` (little-endian) are ASCII digits.
+fn eight_digits(v: u64) -> bool {
+    const HIGH: u64 = 0xF0F0_F0F0_F0F0_F0F0;
+    ((v & HIGH) | ((v.wrapping_add(0x0606_0606_0606_0606) & HIGH) >> 4)) == 0x3333_3333_3333_3333
+}
+
+/// The number the eight ASCII digits of `v` (little-endian: first digit in the low byte) write.
+fn eight_digits_value(v: u64) -> u64 {
+    const MASK: u64 = 0x0000_00FF_0000_00FF;
+    const MUL1: u64 = 100 + (1_000_000 << 32);
+    const MUL2: u64 = 1 + (10_000 << 32);
+    let v = v.wrapping_sub(0x3030_3030_3030_3030);
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    (v & MASK)
+        .wrapping_mul(MUL1)
+        .wrapping_add(((v >> 16) & MASK).wrapping_mul(MUL2))
+        >> 32
 }
 
 /// A cell the fast path does not read: up to its delimiter, by `str::parse`.
@@ -367,6 +409,21 @@ mod tests {
                 bad.parse::<f64>().ok(),
                 "{bad:?}"
             );
+        }
+    }
+
+    #[test]
+    fn eight_digits_at_once() {
+        for text in ["00000000", "12345678", "99999999", "40960000", "00000001"] {
+            let v = u64::from_le_bytes(text.as_bytes().try_into().expect("8 bytes"));
+            assert!(eight_digits(v), "{text}");
+            assert_eq!(eight_digits_value(v), text.parse::<u64>().expect("digits"));
+        }
+        for text in [
+            "1234567.", "/2345678", ":2345678", "1234567:", "-1234567", "1234 678",
+        ] {
+            let v = u64::from_le_bytes(text.as_bytes().try_into().expect("8 bytes"));
+            assert!(!eight_digits(v), "{text}");
         }
     }
 
