@@ -321,10 +321,13 @@ const AROUND: usize = 33;
 #[derive(Debug, Default)]
 struct RecentTimes {
     recent: VecDeque<f64>,
-    /// Skips (by their place in the reader's list) whose `after` is not full yet.
+    /// Every skip opened (by its place in the reader's list), in order.
     open: Vec<usize>,
     /// Times after each open skip, by its place in `open`.
     collecting: Vec<Vec<f64>>,
+    /// Skips before this place in `open` have all their times (skips open in order and each
+    /// takes the next [`AROUND`], so the full ones come first).
+    first_open: usize,
 }
 
 impl RecentTimes {
@@ -344,12 +347,16 @@ impl RecentTimes {
             self.recent.pop_front();
         }
         self.recent.push_back(t_s);
-        for after in &mut self.collecting {
-            if after.len() < AROUND {
-                after.push(t_s);
-            }
+        for after in &mut self.collecting[self.first_open..] {
+            after.push(t_s);
         }
-        // Full ones are done with; they stay in `collecting` (a handful per damaged file).
+        while self
+            .collecting
+            .get(self.first_open)
+            .is_some_and(|after| after.len() == AROUND)
+        {
+            self.first_open += 1;
+        }
     }
 
     /// Hands each skip the times read after it.

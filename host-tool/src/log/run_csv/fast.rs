@@ -91,7 +91,7 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
                 .collect();
             handles
                 .into_iter()
-                .map(|h| h.join().unwrap_or_else(|_| Ok(None)))
+                .map(|h| h.join().unwrap_or(Ok(None)))
                 .collect()
         })
     };
