@@ -296,10 +296,17 @@ fn parse_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
     if i == start {
         return Some((None, i));
     }
-    if digits == 0 || digits > 19 || mantissa > EXACT_INT || fraction >= POW10.len() {
+    if digits == 0 || digits > 19 || fraction >= POW10.len() {
         return Some((Some(slow(&bytes[start..i])?), i));
     }
-    let value = mantissa as f64 / POW10[fraction];
+    let value = if mantissa <= EXACT_INT {
+        mantissa as f64 / POW10[fraction]
+    } else {
+        match exact_quotient(mantissa, fraction) {
+            Some(v) => v,
+            None => return Some((Some(slow(&bytes[start..i])?), i)),
+        }
+    };
     Some((Some(if negative { -value } else { value }), i))
 }
 
@@ -348,6 +355,30 @@ fn eight_digits_value(v: u64) -> u64 {
         .wrapping_mul(MUL1)
         .wrapping_add(((v >> 16) & MASK).wrapping_mul(MUL2))
         >> 32
+}
+
+/// `mantissa` / 10^`fraction` correctly rounded (to nearest, ties to even) for a mantissa above
+/// 2⁵³ (17 to 19 digits, where Clinger's path is not exact), by integer arithmetic: the
+/// quotient to 54+ bits in 128-bit integers, its remainder as the sticky bit. `None` when
+/// 10^`fraction` does not fit in 64 bits (the general parser takes those).
+fn exact_quotient(mantissa: u64, fraction: usize) -> Option<f64> {
+    let divisor = 10u64.checked_pow(u32::try_from(fraction).ok()?)?;
+    // mantissa < 2⁶⁴ and divisor < 2⁶⁴: mantissa · 2⁶⁴ fits, and the quotient has at least
+    // 54 bits (mantissa > 2⁵³, divisor ≤ 10¹⁹ < 2⁶⁴).
+    let scaled = u128::from(mantissa) << 64;
+    let q = scaled / u128::from(divisor);
+    let sticky = scaled % u128::from(divisor) != 0;
+    let bits = 128 - q.leading_zeros();
+    let drop = bits.checked_sub(53).filter(|&d| d > 0)?;
+    let kept = q >> drop;
+    let rest = q & ((1u128 << drop) - 1);
+    let half = 1u128 << (drop - 1);
+    let round_up = rest > half || (rest == half && (sticky || kept & 1 == 1));
+    let kept = kept + u128::from(round_up);
+    // kept ≤ 2⁵³: exact as f64; the power of two scales exactly (no overflow or underflow
+    // for these magnitudes).
+    let exponent = i32::try_from(drop).ok()? - 64;
+    Some(kept as f64 * 2f64.powi(exponent))
 }
 
 /// A cell the fast path does not read: up to its delimiter, by `str::parse`.
@@ -428,6 +459,14 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn long_decimals_read_bit_for_bit(int in 0u64..1000, frac in 0u64..u64::MAX, neg: bool, digits in 14usize..20) {
+            let frac = frac % 10u64.pow(u32::try_from(digits).unwrap_or(19).min(19));
+            let text = format!("{}{int}.{frac:0digits$}", if neg { "-" } else { "" });
+            let want: Option<f64> = text.parse().ok();
+            prop_assert_eq!(parse_number(text.as_bytes()).map(f64::to_bits), want.map(f64::to_bits), "{}", text);
+        }
+
         #[test]
         fn any_decimal_reads_bit_for_bit(int in 0u64..10_000_000, frac in 0u64..100_000_000, neg: bool, digits in 0usize..12) {
             let text = format!("{}{int}.{frac:0digits$}", if neg { "-" } else { "" });
