@@ -241,11 +241,12 @@ mod tests {
         options.speed = 50.0;
         let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
         let (a, b) = (&outcome.runs[0], &outcome.runs[1]);
-        // Damage: 4 KiB zeroed in the middle of the first run's MCAP, a cut last row in the
+        // Damage: 64 KiB zeroed in the middle of the first run's MCAP (several chunks: a smaller
+        // block can fall on message indexes alone, which lose nothing), a cut last row in the
         // second run's CSV.
         let mut bytes = std::fs::read(&a.mcap).expect("mcap");
         let mid = bytes.len() / 2;
-        bytes[mid..mid + 4096].fill(0);
+        bytes[mid..mid + 65_536].fill(0);
         let damaged = dir.path().join("damaged.mcap");
         std::fs::write(&damaged, &bytes).expect("write");
         let text = std::fs::read(&b.csv).expect("csv");
@@ -281,7 +282,7 @@ mod tests {
         // The damage was seen (so the last case compared salvaged reads).
         let streamed = StreamedRuns::scan(&[damaged, cut], false).expect("scans");
         assert!(
-            streamed.lost_data && streamed.damage.len() == 2,
+            streamed.lost_data && streamed.damage.len() >= 2,
             "{streamed:?}"
         );
 

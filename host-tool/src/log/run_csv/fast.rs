@@ -3,7 +3,8 @@
 //! ended): the file is cut at line ends into one part per core, each part read and parsed on
 //! its own thread in blocks (a block's bytes are parsed while they are in the cache, and no
 //! buffer of the whole file is allocated) straight from the bytes: no per-row allocation, one
-//! pass over the bytes, decimals by Clinger's exact fast path, anything else by `str::parse`.
+//! pass over the bytes, decimals by Clinger's exact fast path (or, past 2⁵³, an exact 128-bit
+//! integer division), anything else by `str::parse`.
 //! It gives the same samples as the general reader or gives up: on the first cell, row or
 //! layout it does not accept it returns `None`, and the general reader reads the file and
 //! words the error (or drops the cut row) exactly as before.
@@ -35,7 +36,12 @@ fn layout(header_line: &[u8]) -> Option<usize> {
 /// blocks of `block` bytes; `Ok(None)` otherwise (see the module docs).
 pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunSample>>> {
     let mut file = File::open(path)?;
-    let len = file.metadata()?.len();
+    let metadata = file.metadata()?;
+    if !metadata.is_file() {
+        // A pipe or a device: read once, by the general reader.
+        return Ok(None);
+    }
+    let len = metadata.len();
     let mut head = Vec::new();
     (&mut file).take(4096).read_to_end(&mut head)?;
     let Some(header_end) = memchr::memchr(b'\n', &head) else {
@@ -45,7 +51,11 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
         return Ok(None);
     };
     let data_start = header_end as u64 + 1;
-    if len > data_start {
+    let Some(data_len) = len.checked_sub(data_start) else {
+        // The file shrank under us: the general reader reads what is there.
+        return Ok(None);
+    };
+    if data_len > 0 {
         // The last line must be ended (a cut one is the general reader's to drop).
         let mut last = [0u8];
         file.seek(SeekFrom::Start(len - 1))?;
@@ -54,7 +64,6 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
             return Ok(None);
         }
     }
-    let data_len = len - data_start;
     let threads = if data_len < PARALLEL_BYTES {
         1
     } else {
@@ -267,8 +276,9 @@ const EXACT_INT: u64 = 1 << 53;
 /// byte after it (its delimiter, or the end), as `str::parse::<f64>` reads the cell. Plain
 /// decimals (`-12.345`) whose digits make an integer below 2⁵³ with at most 22 after the point
 /// take Clinger's fast path — an integer and a power of ten, both exact as doubles, divided
-/// once, so correctly rounded like `str::parse` — and everything else (more digits, exponents,
-/// `NaN`) goes to `str::parse`. `None` overall for a cell that is not a number.
+/// once, so correctly rounded like `str::parse` —, those of up to 19 digits above 2⁵³ take
+/// [`exact_quotient`], and everything else (more digits, exponents, `NaN`) goes to
+/// `str::parse`. `None` overall for a cell that is not a number.
 fn parse_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
     let mut i = start;
     let negative = bytes.get(i) == Some(&b'-');
