@@ -32,6 +32,10 @@
 //! Without python3 or its packages the Rust figures are still printed, with the install line.
 //! Under `cargo test --benches` (no `--bench` argument) the log is two simulated minutes and each
 //! path runs once.
+//!
+//! `-- --seconds S` generates (or reuses) a log of S simulated seconds instead of an hour
+//! (`run-<S>s.*`); `-- --generate-only` stops after generating (e.g. the 4-hour log that
+//! `validate`'s memory is measured on: `-- --seconds 14400 --generate-only`).
 
 use anyhow::{bail, ensure, Context, Result};
 use firmware::sampler::SamplerConfig;
@@ -80,13 +84,17 @@ fn main() -> Result<()> {
     // run briefly.
     let args: Vec<String> = std::env::args().collect();
     let test_mode = args.iter().any(|a| a == "--test") || !args.iter().any(|a| a == "--bench");
-    let (name, seconds, repeats) = if test_mode {
-        ("small-run", 120.0, 1)
-    } else {
-        ("large-run", 3_600.0, REPEATS)
+    let (name, seconds, repeats) = match option_value(&args, "--seconds")? {
+        Some(s) => (format!("run-{s}s"), s, REPEATS),
+        None if test_mode => ("small-run".to_owned(), 120.0, 1),
+        None => ("large-run".to_owned(), 3_600.0, REPEATS),
     };
-    let files = Files::new(&bench_data_dir()?, name);
+    let files = Files::new(&bench_data_dir()?, &name);
     ensure_log(&files, seconds)?;
+    if args.iter().any(|a| a == "--generate-only") {
+        println!("Generated {}", files.mcap.display());
+        return Ok(());
+    }
     let csv_bytes = std::fs::metadata(&files.csv)?.len();
     let bin_bytes = std::fs::metadata(&files.bin)?.len();
     let mcap_bytes = std::fs::metadata(&files.mcap)?.len();
@@ -222,6 +230,21 @@ fn main() -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The number after `option` in `args`, if given.
+fn option_value(args: &[String], option: &str) -> Result<Option<f64>> {
+    let Some(at) = args.iter().position(|a| a == option) else {
+        return Ok(None);
+    };
+    let value = args
+        .get(at + 1)
+        .with_context(|| format!("{option} needs a value"))?;
+    let v: f64 = value
+        .parse()
+        .with_context(|| format!("{option} {value:?}: not a number"))?;
+    ensure!(v.is_finite() && v > 0.0, "{option} must be > 0");
+    Ok(Some(v))
 }
 
 /// The generated files of one log.

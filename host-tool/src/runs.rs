@@ -2,11 +2,14 @@
 //! file (.mcap or .csv, with a progress bar), then validate them together.
 
 use crate::figures::RunSamples;
-use crate::log::load::{load_salvaging, refuse_duplicate_runs, LoadError};
+use crate::log::load::{
+    load_salvaging, refuse_duplicate_digests, refuse_duplicate_runs, stream_salvaging, LoadError,
+};
 use crate::log::mcap::{Loss, Truncation};
 use crate::log::run_csv::{DroppedRow, RunSample};
 use crate::log::run_log::RunLog;
 use crate::progress;
+use crate::validate::stream::{RunPass, RunScan};
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions, ValidationReport};
 use model_core::Rover;
 use std::path::{Path, PathBuf};
@@ -86,6 +89,102 @@ impl Runs {
     }
 }
 
+/// Run logs validated as streams, for `validate`: memory stays bounded whatever the logs'
+/// length (each file is read twice, see [`validate::stream`]), and the report is the one
+/// [`Runs::validate`] gives, to the bit.
+#[derive(Debug, Default)]
+pub struct StreamedRuns {
+    /// Each run's name (its path as given).
+    pub names: Vec<String>,
+    paths: Vec<PathBuf>,
+    salvage: bool,
+    scans: Vec<RunScan>,
+    /// MCAP files that ended before their footer (a killed recorder) and how much was used.
+    pub truncated: Vec<(PathBuf, Truncation)>,
+    /// What damage cost each file, one warning per stretch or row ([`damage_warnings`]).
+    pub damage: Vec<String>,
+    /// Whether data inside a file was lost to damage (not just a cut end).
+    pub lost_data: bool,
+}
+
+/// Why runs read as streams could not be validated.
+#[derive(Debug, thiserror::Error)]
+pub enum StreamedRunsError {
+    /// A file could not be read (the first pass's errors, or a read failing in the second).
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// Validation refused the runs.
+    #[error(transparent)]
+    Validate(#[from] ValidateError),
+    /// The second read of a file did not give the samples of the first.
+    #[error("{name}: the file changed while it was being validated ({first} samples on the first read, {second} on the second)")]
+    Changed {
+        /// The run.
+        name: String,
+        /// Samples on the first read.
+        first: usize,
+        /// Samples on the second.
+        second: usize,
+    },
+}
+
+impl StreamedRuns {
+    /// The first pass over `paths` in order (with a progress bar): what each run's validation
+    /// needs, its damage and truncation, its content digest. Errors as [`Runs::load`]'s, the
+    /// same run given twice too.
+    pub fn scan(paths: &[PathBuf], salvage: bool) -> Result<StreamedRuns, LoadError> {
+        let bar = progress::bar(paths.len() as u64, "reading runs");
+        let mut runs = StreamedRuns {
+            salvage,
+            ..StreamedRuns::default()
+        };
+        for path in paths {
+            let mut scan = RunScan::default();
+            let found = stream_salvaging(path, salvage, &mut scan)?;
+            if let Some(t) = found.truncated {
+                runs.truncated.push((path.clone(), t));
+            }
+            runs.damage
+                .extend(damage_warnings(path, &found.losses, &found.dropped_rows));
+            runs.lost_data |= found.lost_data();
+            runs.names.push(path.display().to_string());
+            runs.paths.push(path.clone());
+            runs.scans.push(scan);
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        let digests: Vec<_> = runs.scans.iter().map(RunScan::digest).collect();
+        refuse_duplicate_digests(&runs.names, &digests)?;
+        Ok(runs)
+    }
+
+    /// The second pass: validates the runs together, as [`Runs::validate`] does.
+    pub fn validate(
+        &self,
+        rover: &Rover,
+        options: &ValidateOptions,
+    ) -> Result<ValidationReport, StreamedRunsError> {
+        validate::stream::begin(self.scans.len(), options)?;
+        let bar = progress::bar(self.scans.len() as u64, "validating runs");
+        let mut runs = Vec::with_capacity(self.scans.len());
+        for ((name, path), scan) in self.names.iter().zip(&self.paths).zip(&self.scans) {
+            let mut pass = RunPass::new(name, scan, rover, options)?;
+            stream_salvaging(path, self.salvage, &mut pass)?;
+            if pass.samples() != scan.samples() {
+                return Err(StreamedRunsError::Changed {
+                    name: name.clone(),
+                    first: scan.samples(),
+                    second: pass.samples(),
+                });
+            }
+            runs.push(pass.finish());
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        Ok(validate::stream::finish(rover, options, runs)?)
+    }
+}
+
 /// The warning for a truncated MCAP file.
 pub fn truncation_warning(path: &Path, t: &Truncation) -> String {
     format!(
@@ -115,4 +214,90 @@ pub fn damage_warnings(path: &Path, losses: &[Loss], dropped_rows: &[DroppedRow]
         )
     });
     losses.chain(rows).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::demo::{self, DemoOptions};
+    use crate::log::tests_support::TempDir;
+
+    /// Everything `validate` prints or writes of a report.
+    fn outputs(report: &ValidationReport) -> (String, String, Vec<u8>) {
+        let mut csv = Vec::new();
+        report.write_csv(&mut csv).expect("csv");
+        (
+            report.to_string(),
+            serde_json::to_string_pretty(report).expect("json"),
+            csv,
+        )
+    }
+
+    #[test]
+    fn streamed_validation_gives_the_in_memory_report_to_the_bit() {
+        let dir = TempDir::new("streamed-runs");
+        let mut options = DemoOptions::new(dir.path().join("demo"));
+        options.runs = 2;
+        options.speed = 50.0;
+        let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
+        let (a, b) = (&outcome.runs[0], &outcome.runs[1]);
+        // Damage: 64 KiB zeroed in the middle of the first run's MCAP (several chunks: a smaller
+        // block can fall on message indexes alone, which lose nothing), a cut last row in the
+        // second run's CSV.
+        let mut bytes = std::fs::read(&a.mcap).expect("mcap");
+        let mid = bytes.len() / 2;
+        bytes[mid..mid + 65_536].fill(0);
+        let damaged = dir.path().join("damaged.mcap");
+        std::fs::write(&damaged, &bytes).expect("write");
+        let text = std::fs::read(&b.csv).expect("csv");
+        let cut = dir.path().join("cut.csv");
+        // Inside the third cell of the last row: too few cells.
+        let last_row = text[..text.len() - 1]
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .expect("rows");
+        std::fs::write(&cut, &text[..last_row + 12]).expect("write");
+        let validate_options = ValidateOptions {
+            tracker_offset_m: options.world.tracker.offset_m,
+            ..ValidateOptions::for_rover(&options.world.rover)
+        };
+        let rover = options.world.rover;
+        for paths in [
+            vec![a.mcap.clone(), b.mcap.clone()],
+            vec![a.csv.clone(), b.mcap.clone()],
+            vec![damaged.clone(), cut.clone()],
+        ] {
+            let in_memory = Runs::load(&paths, false).expect("loads");
+            let want = in_memory
+                .validate(&rover, &validate_options)
+                .expect("valid");
+            let streamed = StreamedRuns::scan(&paths, false).expect("scans");
+            let got = streamed.validate(&rover, &validate_options).expect("valid");
+            assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
+            assert_eq!(streamed.names, in_memory.names);
+            assert_eq!(streamed.truncated, in_memory.truncated);
+            assert_eq!(streamed.damage, in_memory.damage);
+            assert_eq!(streamed.lost_data, in_memory.lost_data);
+        }
+        // The damage was seen (so the last case compared salvaged reads).
+        let streamed = StreamedRuns::scan(&[damaged, cut], false).expect("scans");
+        assert!(
+            streamed.lost_data && streamed.damage.len() >= 2,
+            "{streamed:?}"
+        );
+
+        // The same run twice, or in both formats, is refused as the in-memory load refuses it.
+        for paths in [
+            vec![a.mcap.clone(), b.mcap.clone(), a.mcap.clone()],
+            vec![a.mcap.clone(), a.csv.clone()],
+        ] {
+            let want = Runs::load(&paths, false)
+                .expect_err("duplicate")
+                .to_string();
+            let got = StreamedRuns::scan(&paths, false)
+                .expect_err("duplicate")
+                .to_string();
+            assert_eq!(got, want);
+        }
+    }
 }

@@ -4,7 +4,7 @@ use super::output::{self, write_file, JsonOut};
 use super::Departure;
 use anyhow::Result;
 use host_tool::rover::load_rover_file;
-use host_tool::runs::{truncation_warning, Runs};
+use host_tool::runs::{truncation_warning, Runs, StreamedRuns};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
 use model_core::power::IcrHardGround;
 use std::path::PathBuf;
@@ -116,7 +116,14 @@ impl ValidateArgs {
                 slip_track_m: bs,
             });
         }
-        let (_, report) = load_and_validate(&rover, &self.runs, &options)?;
+        // Streamed (each file read twice): memory stays bounded whatever the logs' length;
+        // the report is load_and_validate's.
+        let runs = StreamedRuns::scan(&self.runs, super::salvage())?;
+        for (path, t) in &runs.truncated {
+            eprintln!("{}", truncation_warning(path, t));
+        }
+        super::report_damage(&runs.damage, runs.lost_data);
+        let report = runs.validate(&rover, &options)?;
         let json_to_stdout = self.json.emit(&report, "report", self.force)?;
         if let Some(path) = &self.csv {
             let mut text = Vec::new();

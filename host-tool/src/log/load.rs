@@ -1,10 +1,14 @@
 //! Reading a run log whatever its format, chosen by the file's extension: `.mcap` (see
 //! [`super::mcap`]) or `.csv` (the run CSV, [`super::run_csv`]).
 
-use super::mcap::{read_mcap_run, Loss, McapError, Truncation};
-use super::run_csv::{read_run_csv_salvaging, DroppedRow, RunCsvFileError};
-use super::run_log::RunLog;
+use super::mcap::{read_mcap_run, stream_mcap_run, Loss, McapError, Truncation};
+use super::run_csv::{
+    read_run_csv_salvaging, DroppedRow, RunCsvFileError, RunCsvReader, RunSample,
+};
+use super::run_log::{RunLog, RunLogSink};
+use std::collections::hash_map::DefaultHasher;
 use std::fmt;
+use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
 /// A run log file format.
@@ -112,6 +116,142 @@ pub fn refuse_duplicate_runs(names: &[String], runs: &[RunLog]) -> Result<(), Lo
         seen.entry(key).or_insert(i);
     }
     Ok(())
+}
+
+/// What identifies a run's content without keeping it, for runs read as streams: the samples'
+/// count and two independent 64-bit hashes of their bits (the values
+/// [`refuse_duplicate_runs`] compares), so two runs match only if their samples do, but for a
+/// 2⁻¹²⁸ chance.
+#[derive(Debug, Clone)]
+pub struct RunDigest {
+    samples: u64,
+    hashes: [DefaultHasher; 2],
+}
+
+impl Default for RunDigest {
+    fn default() -> Self {
+        // The second hash starts from another state: independent of the first.
+        let mut second = DefaultHasher::new();
+        0xA5u8.hash(&mut second);
+        Self {
+            samples: 0,
+            hashes: [DefaultHasher::new(), second],
+        }
+    }
+}
+
+impl RunDigest {
+    /// The run's next sample.
+    pub fn push(&mut self, s: &RunSample) {
+        self.samples += 1;
+        for hasher in &mut self.hashes {
+            for v in [
+                s.t_s,
+                s.bus_v.left,
+                s.bus_v.right,
+                s.current_a.left,
+                s.current_a.right,
+                s.cmd_mps.left,
+                s.cmd_mps.right,
+            ] {
+                v.to_bits().hash(hasher);
+            }
+        }
+    }
+
+    fn key(&self) -> (u64, u64, u64) {
+        (
+            self.samples,
+            self.hashes[0].finish(),
+            self.hashes[1].finish(),
+        )
+    }
+}
+
+/// [`refuse_duplicate_runs`] for runs read as streams, by their digests.
+pub fn refuse_duplicate_digests(names: &[String], digests: &[&RunDigest]) -> Result<(), LoadError> {
+    use std::collections::HashMap;
+    let mut seen: HashMap<(u64, u64, u64), usize> = HashMap::new();
+    for (i, digest) in digests.iter().enumerate() {
+        if digest.samples == 0 {
+            continue;
+        }
+        if let Some(&first) = seen.get(&digest.key()) {
+            let name = |k: usize| {
+                names
+                    .get(k)
+                    .cloned()
+                    .unwrap_or_else(|| format!("run {}", k + 1))
+            };
+            return Err(LoadError::DuplicateRun {
+                first: name(first),
+                second: name(i),
+            });
+        }
+        seen.insert(digest.key(), i);
+    }
+    Ok(())
+}
+
+/// What reading a run log found besides its records: what [`LoadedRun`] holds but the run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StreamFound {
+    /// The file's format.
+    pub format: RunFormat,
+    /// See [`LoadedRun::truncated`].
+    pub truncated: Option<Truncation>,
+    /// See [`LoadedRun::losses`].
+    pub losses: Vec<Loss>,
+    /// See [`LoadedRun::dropped_rows`].
+    pub dropped_rows: Vec<DroppedRow>,
+}
+
+impl StreamFound {
+    /// See [`LoadedRun::lost_data`].
+    pub fn lost_data(&self) -> bool {
+        lost_data(&self.losses, &self.dropped_rows)
+    }
+}
+
+/// [`load_salvaging`] without keeping the run: its records go to `sink` in file order, so
+/// memory stays bounded whatever the file's length (an MCAP file holds one chunk at a time,
+/// a run CSV one row). The same records, losses and dropped rows as [`load_salvaging`].
+pub fn stream_salvaging(
+    path: &Path,
+    salvage: bool,
+    sink: &mut dyn RunLogSink,
+) -> Result<StreamFound, LoadError> {
+    match RunFormat::of(path)? {
+        RunFormat::Csv => {
+            let file_err = |e| RunCsvFileError {
+                path: path.to_owned(),
+                source: e,
+            };
+            let file = std::fs::File::open(path).map_err(|e| file_err(e.into()))?;
+            let mut reader = RunCsvReader::new(std::io::BufReader::with_capacity(1 << 16, file))
+                .map_err(file_err)?
+                .salvaging(salvage);
+            for sample in reader.by_ref() {
+                let sample = sample.map_err(file_err)?;
+                sink.sample(&sample).map_err(|e| file_err(e.into()))?;
+            }
+            Ok(StreamFound {
+                format: RunFormat::Csv,
+                truncated: None,
+                losses: Vec::new(),
+                dropped_rows: reader.dropped().to_vec(),
+            })
+        }
+        RunFormat::Mcap => {
+            let found = stream_mcap_run(path, sink)?;
+            Ok(StreamFound {
+                format: RunFormat::Mcap,
+                truncated: found.truncated,
+                losses: found.losses,
+                dropped_rows: Vec::new(),
+            })
+        }
+    }
 }
 
 /// A run log as loaded, with what the caller should tell the user about it.

@@ -57,7 +57,10 @@ mod sink;
 pub(crate) mod tests;
 mod walk;
 
-pub use read::{read_mcap_bytes, read_mcap_run, Loss, LostSamples, McapRun, Truncation};
+pub use read::{
+    read_mcap_bytes, read_mcap_run, stream_mcap_run, Loss, LostSamples, McapFound, McapRun,
+    Truncation,
+};
 pub use sink::McapSink;
 pub(crate) use sink::{ModelMsg, StatusMsg};
 

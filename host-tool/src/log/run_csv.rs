@@ -1009,11 +1009,13 @@ pub fn read_run_csv_salvaging(
     path: &Path,
     salvage: bool,
 ) -> Result<(Vec<RunSample>, Vec<DroppedRow>), RunCsvFileError> {
-    let bytes = std::fs::read(path).map_err(|e| RunCsvFileError::new(path, e))?;
-    // This tool's own files, valid throughout: parsed in parallel straight from the bytes.
-    if let Some(samples) = fast::read(&bytes) {
+    // This tool's own files, valid throughout: read and parsed in parallel, block by block.
+    if let Some(samples) =
+        fast::read_file(path, fast::BLOCK_BYTES).map_err(|e| RunCsvFileError::new(path, e))?
+    {
         return Ok((samples, Vec::new()));
     }
+    let bytes = std::fs::read(path).map_err(|e| RunCsvFileError::new(path, e))?;
     let mut reader = RunCsvReader::new(&bytes[..])
         .map_err(|e| RunCsvFileError::new(path, e))?
         .salvaging(salvage);

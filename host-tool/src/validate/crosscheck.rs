@@ -21,7 +21,7 @@
 
 use crate::decode::StreamDecoder;
 use crate::log::commands::CommandRow;
-use model_core::wire::{encode, BoardFrame, MAX_FRAME};
+use model_core::wire::{encode, BoardFrame, Model, MAX_FRAME};
 use model_core::{Rover, Sides};
 use serde::Serialize;
 
@@ -104,77 +104,123 @@ pub fn cross_check(
     commands: &[CommandRow],
     rover: &Rover,
 ) -> Option<CrossCheck> {
-    if frames.is_empty() {
-        return None;
+    let acked_mode = frames.iter().any(|(_, f)| acknowledges(f));
+    let mut checker = CrossChecker::new(commands, rover, acked_mode);
+    for (t_s, frame) in frames {
+        checker.feed(*t_s, frame);
     }
-    let mut out = CrossCheck {
-        frames: frames.len(),
-        ..CrossCheck::default()
-    };
-    let mut dec = StreamDecoder::new();
-    let mut last_hello: Option<BoardFrame> = None;
-    let mut last_seq: Option<u32> = None;
-    let mut status_rates: Option<(f64, Option<Sides<f32>>)> = None;
-    // A recording made by our recorder logs each forwarded command and the board acks (or
-    // rejects) them in order: the rates then change exactly where the board applied them.
-    let acked_mode = frames.iter().any(|(_, f)| {
-        matches!(
-            f,
-            BoardFrame::Ack { .. } | BoardFrame::Rejected { id: Some(_), .. }
-        )
-    });
-    let mut pending = commands.iter();
-    let rates_of = |c: &CommandRow| {
+    checker.finish()
+}
+
+/// Whether `frame` answers a forwarded command (an ack, or a rejection naming it): a run with
+/// any is replayed in acked mode (see the module docs).
+pub fn acknowledges(frame: &BoardFrame) -> bool {
+    matches!(
+        frame,
+        BoardFrame::Ack { .. } | BoardFrame::Rejected { id: Some(_), .. }
+    )
+}
+
+/// [`cross_check`] frame by frame, for a run read as a stream: whether the run is in acked
+/// mode (any frame [`acknowledges`] a command) must be known before its first frame.
+#[derive(Debug)]
+pub struct CrossChecker<'a> {
+    rover: &'a Rover,
+    commands: &'a [CommandRow],
+    /// Commands not acked (or rejected) yet, in order.
+    pending: std::slice::Iter<'a, CommandRow>,
+    acked_mode: bool,
+    out: CrossCheck,
+    dec: StreamDecoder,
+    last_hello: Option<BoardFrame>,
+    last_seq: Option<u32>,
+    status_rates: Option<(f64, Option<Sides<f32>>)>,
+    max_energy_lsb: Sides<i64>,
+}
+
+impl<'a> CrossChecker<'a> {
+    /// A checker for a run with `commands`; `acked_mode`: whether any of its frames
+    /// [`acknowledges`] a command.
+    pub fn new(commands: &'a [CommandRow], rover: &'a Rover, acked_mode: bool) -> Self {
+        Self {
+            rover,
+            commands,
+            pending: commands.iter(),
+            acked_mode,
+            out: CrossCheck::default(),
+            dec: StreamDecoder::new(),
+            last_hello: None,
+            last_seq: None,
+            status_rates: None,
+            max_energy_lsb: Sides::new(0, 0),
+        }
+    }
+
+    fn rates_of(&self, c: &CommandRow) -> Sides<f32> {
         c.cmd_mps
-            .map(|v| (v / f64::from(rover.wheel_radius_m)) as f32)
-    };
-    let mut max_energy_lsb = Sides::new(0i64, 0i64);
-    let mut buf = [0u8; MAX_FRAME];
-    let feed = |dec: &mut StreamDecoder, frame: &BoardFrame, buf: &mut [u8; MAX_FRAME]| {
-        // Every frame decoded from the wire re-encodes; one that does not is skipped.
-        if let Ok(n) = encode(frame, buf) {
+            .map(|v| (v / f64::from(self.rover.wheel_radius_m)) as f32)
+    }
+
+    /// Every frame decoded from the wire re-encodes; one that does not is skipped.
+    fn replay(dec: &mut StreamDecoder, frame: &BoardFrame) {
+        let mut buf = [0u8; MAX_FRAME];
+        if let Ok(n) = encode(frame, &mut buf) {
             dec.feed(&buf[..n], |_| {});
         }
-    };
-    for &(t_s, ref frame) in frames {
+    }
+
+    /// The next frame of the run, received at run time `t_s`.
+    pub fn feed(&mut self, t_s: f64, frame: &BoardFrame) {
+        self.out.frames += 1;
         match frame {
-            BoardFrame::Hello(_) => last_hello = Some(*frame),
+            BoardFrame::Hello(_) => self.last_hello = Some(*frame),
             BoardFrame::Sample(s) => {
-                if last_seq.is_some_and(|last| s.seq < last) {
-                    out.lost_samples += dec.stats().lost_samples;
-                    out.model_mismatches += dec.stats().model_mismatches;
-                    out.board_restarts += 1;
-                    dec = StreamDecoder::new();
-                    if let Some(h) = &last_hello {
-                        feed(&mut dec, h, &mut buf);
+                if self.last_seq.is_some_and(|last| s.seq < last) {
+                    self.out.lost_samples += self.dec.stats().lost_samples;
+                    self.out.model_mismatches += self.dec.stats().model_mismatches;
+                    self.out.board_restarts += 1;
+                    self.dec = StreamDecoder::new();
+                    if let Some(h) = &self.last_hello {
+                        Self::replay(&mut self.dec, h);
                     }
                 }
-                last_seq = Some(s.seq);
+                self.last_seq = Some(s.seq);
             }
             BoardFrame::Status(st) => {
                 // The board's own report of the rates it uses wins until the next ack (the
                 // decoder applies it too).
-                status_rates = Some((t_s, st.wheel_rates_rad_s));
+                self.status_rates = Some((t_s, st.wheel_rates_rad_s));
             }
             BoardFrame::Ack { .. } => {
-                if let Some(c) = pending.next() {
-                    dec.set_wheel_rates(Some(rates_of(c)));
+                if let Some(c) = self.pending.next() {
+                    let rates = self.rates_of(c);
+                    self.dec.set_wheel_rates(Some(rates));
                 }
             }
             BoardFrame::Rejected { id: Some(_), .. } => {
-                pending.next();
+                self.pending.next();
             }
             _ => {}
         }
-        if !acked_mode && matches!(frame, BoardFrame::Model(_)) {
-            dec.set_wheel_rates(wheel_rates_at(t_s, status_rates, commands, rover));
+        if !self.acked_mode && matches!(frame, BoardFrame::Model(_)) {
+            self.dec.set_wheel_rates(wheel_rates_at(
+                t_s,
+                self.status_rates,
+                self.commands,
+                self.rover,
+            ));
         }
-        feed(&mut dec, frame, &mut buf);
-        let BoardFrame::Model(model) = frame else {
-            continue;
-        };
+        Self::replay(&mut self.dec, frame);
+        if let BoardFrame::Model(model) = frame {
+            self.compare(t_s, model);
+        }
+    }
+
+    /// Compares the board's model frame at `t_s` with the host's state.
+    fn compare(&mut self, t_s: f64, model: &Model) {
+        let out = &mut self.out;
         out.model_frames += 1;
-        let host = dec.measurements().snapshot();
+        let host = self.dec.measurements().snapshot();
         let board = model.snapshot;
         let de = Sides::new(
             host.energy_lsb_us
@@ -185,8 +231,8 @@ pub fn cross_check(
                 .saturating_sub(board.energy_lsb_us.right),
         );
         for (m, d) in [
-            (&mut max_energy_lsb.left, de.left),
-            (&mut max_energy_lsb.right, de.right),
+            (&mut self.max_energy_lsb.left, de.left),
+            (&mut self.max_energy_lsb.right, de.right),
         ] {
             *m = (*m).max(d.saturating_abs());
         }
@@ -226,11 +272,19 @@ pub fn cross_check(
         out.power_lsb.record(t_s, dp);
         out.torque_proportional.record(t_s, dt);
     }
-    out.lost_samples += dec.stats().lost_samples;
-    out.model_mismatches += dec.stats().model_mismatches;
-    let scale = dec.scale();
-    out.energy_max_abs_j = max_energy_lsb.map(|e| scale.energy_j(e));
-    Some(out)
+
+    /// The cross-check of the frames fed; `None` if there were none.
+    pub fn finish(self) -> Option<CrossCheck> {
+        if self.out.frames == 0 {
+            return None;
+        }
+        let mut out = self.out;
+        out.lost_samples += self.dec.stats().lost_samples;
+        out.model_mismatches += self.dec.stats().model_mismatches;
+        let scale = self.dec.scale();
+        out.energy_max_abs_j = self.max_energy_lsb.map(|e| scale.energy_j(e));
+        Some(out)
+    }
 }
 
 /// The wheel rates in force at `t_s`: the later of the board's last reported rates and the last

@@ -14,19 +14,22 @@ pub mod crosscheck;
 pub mod fit;
 pub mod pose;
 pub mod report;
+pub mod run;
 pub mod segment;
+pub mod stream;
 pub mod turns;
 
 use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::RunLog;
-use model_core::kinematics::{self, side_speeds_for, Regime, SideSpeeds, TurnDirection};
+use model_core::kinematics::{self, side_speeds_for, Regime, TurnDirection};
 use model_core::power::IcrHardGround;
 use model_core::wire::BoardFrame;
 use model_core::Rover;
 
 pub use fit::{Comparison, IcrFit, IcrFitError, DEFAULT_DEPARTURE_FRACTION};
 pub use report::{ManoeuvreRow, PlotData, RegimeSummary, RunReport, ValidationReport};
+pub use run::{FactsScan, RunFacts, RunValidation};
 pub use segment::{ManoeuvreKind, Segment, SegmentError, SegmentOptions};
 pub use turns::{ManoeuvreStats, DEFAULT_SETTLE_S, DEFAULT_TURN_DEG};
 
@@ -182,114 +185,47 @@ pub fn validate(
         return Err(ValidateError::NoRuns);
     }
     check_options(options)?;
-    let r_prime = f64::from(rover.r_prime_m());
-    let mut run_reports = Vec::with_capacity(runs.len());
+    let mut reports = Vec::with_capacity(runs.len());
     let mut rows = Vec::new();
-    let (mut spans, mut standstill, mut too_short) = (0, 0, 0);
     let mut any_positions = false;
     for run in runs {
-        let has_positions = pose::has_positions(run.samples);
-        any_positions |= has_positions;
-        let first_row = rows.len();
         let segs = segment::segment(run.samples, rover, &options.segment).map_err(|source| {
             ValidateError::Run {
                 name: run.name.to_owned(),
                 source,
             }
         })?;
-        let gap_threshold_s = segment::gap_threshold_s(run.samples, options.segment.gap_factor);
-        let turn_options = turns::TurnOptions {
-            settle_s: options.settle_s,
-            turn_deg: options.turn_deg,
-            gap_threshold_s,
-        };
-        let duration_s = run.samples[run.samples.len() - 1].t_s - run.samples[0].t_s;
-        let cross_check = crosscheck::cross_check(run.frames, run.commands, rover);
-        let mut report = RunReport {
-            name: run.name.to_owned(),
-            samples: run.samples.len(),
-            duration_s,
-            sample_rate_hz: if duration_s > 0.0 {
-                (run.samples.len() - 1) as f64 / duration_s
-            } else {
-                0.0
-            },
-            lost_samples: cross_check.as_ref().map(|c| c.lost_samples),
-            has_yaw: run.samples.iter().all(|s| s.yaw_rad.is_some()),
-            has_pitch: run.samples.iter().any(|s| s.pitch_deg.is_some()),
-            gap_threshold_s,
-            segments: segs.len(),
-            standstill: 0,
-            too_short: 0,
-            analysed: 0,
-            cross_check,
-            slip_track_measured_m: None,
-            slip_track_measured: None,
-        };
-        for (index, seg) in segs.iter().enumerate() {
-            if seg.kind == ManoeuvreKind::Standstill {
-                report.standstill += 1;
-                continue;
-            }
-            if seg.too_short {
-                report.too_short += 1;
-                continue;
-            }
-            report.analysed += 1;
-            let stats = turns::analyse(run.samples, seg, rover, &turn_options);
-            let track = (has_positions && seg.kind == ManoeuvreKind::Turn).then(|| {
-                let turn = pose::TurnContext {
-                    rover,
-                    cmd_mps: seg.cmd_mps,
-                    direction: seg.direction,
-                    radius_cmd_m: seg.radius_cmd_m,
-                    yaw_rate_cmd_rad_s: stats.yaw_rate_cmd_rad_s,
-                    tracker_offset_m: options.tracker_offset_m,
-                };
-                pose::analyse_track(
-                    turns::steady_part(run.samples, seg, options.settle_s),
-                    &turn,
-                )
-            });
-            let speeds = SideSpeeds::new(seg.cmd_mps.left as f32, seg.cmd_mps.right as f32);
-            rows.push(ManoeuvreRow {
-                run: run.name.to_owned(),
-                segment: index,
-                kind: seg.kind,
-                direction: seg.direction,
-                t_start_s: seg.t_start_s,
-                t_end_s: seg.t_end_s,
-                first_sample: seg.start,
-                end_sample: seg.end,
-                cmd_mps: seg.cmd_mps,
-                v_c_mps: f64::from(kinematics::total_absolute_speed_mps(speeds)),
-                radius_cmd_m: seg.radius_cmd_m,
-                r_over_r_prime: seg.radius_cmd_m.map(|r| r / r_prime),
-                regime: seg.regime,
-                in_fit: false,
-                stats,
-                fit: None,
-                hard_ground_w: None,
-                hard_ground_residual_fraction: None,
-                r_act_m: track.as_ref().and_then(|t| t.r_act_m),
-                r_act_over_r_prime_act: None,
-                track,
-            });
+        let facts = RunFacts::of(run.samples, options.segment.gap_factor);
+        any_positions |= facts.has_positions;
+        let mut validation = RunValidation::new(run.name, &facts, rover, options);
+        for seg in &segs {
+            validation.manoeuvre(seg, &run.samples[seg.start..seg.end]);
         }
-        if has_positions {
-            apply_measured_slip_track(&mut report, &mut rows[first_row..], rover);
-        }
-        spans += report.segments;
-        standstill += report.standstill;
-        too_short += report.too_short;
-        run_reports.push(report);
+        let (report, run_rows) =
+            validation.finish(crosscheck::cross_check(run.frames, run.commands, rover));
+        reports.push(report);
+        rows.extend(run_rows);
     }
+    assemble(rover, options, reports, rows, any_positions)
+}
+
+/// The report of validated runs: each run's report and manoeuvre rows (in run order) → the
+/// ICR fit, departures, the hard-ground reference, regime summaries and plot data.
+/// `any_positions`: whether any run has tracked positions.
+pub(crate) fn assemble(
+    rover: &Rover,
+    options: &ValidateOptions,
+    run_reports: Vec<RunReport>,
+    mut rows: Vec<ManoeuvreRow>,
+    any_positions: bool,
+) -> Result<ValidationReport, ValidateError> {
+    let r_prime = f64::from(rover.r_prime_m());
     if rows.is_empty() {
         return Err(ValidateError::NoManoeuvres {
-            runs: runs.len(),
-            spans,
-            standstill,
-            too_short,
+            runs: run_reports.len(),
+            spans: run_reports.iter().map(|r| r.segments).sum(),
+            standstill: run_reports.iter().map(|r| r.standstill).sum(),
+            too_short: run_reports.iter().map(|r| r.too_short).sum(),
             min_duration_s: options.segment.min_duration_s,
         });
     }

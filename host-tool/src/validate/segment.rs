@@ -154,28 +154,56 @@ pub enum SegmentError {
 /// Checks that a run can be segmented: ≥ 2 samples, finite times and commands, time strictly
 /// increasing.
 pub fn check_run(samples: &[RunSample]) -> Result<(), SegmentError> {
-    match samples.len() {
-        0 => return Err(SegmentError::Empty),
-        1 => return Err(SegmentError::SingleSample),
-        _ => {}
+    let mut check = RunCheck::default();
+    for s in samples {
+        check.push(s);
     }
-    let mut previous: Option<f64> = None;
-    for (index, s) in samples.iter().enumerate() {
-        if !(s.t_s.is_finite() && s.cmd_mps.left.is_finite() && s.cmd_mps.right.is_finite()) {
-            return Err(SegmentError::NonFinite { index });
+    check.finish()
+}
+
+/// [`check_run`] sample by sample, for a run read as a stream: the same verdict, the first
+/// problem found.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunCheck {
+    samples: usize,
+    previous_t_s: Option<f64>,
+    problem: Option<SegmentError>,
+}
+
+impl RunCheck {
+    /// The run's next sample.
+    pub fn push(&mut self, s: &RunSample) {
+        let index = self.samples;
+        self.samples += 1;
+        if self.problem.is_some() {
+            return;
         }
-        if let Some(previous_t_s) = previous {
+        if !(s.t_s.is_finite() && s.cmd_mps.left.is_finite() && s.cmd_mps.right.is_finite()) {
+            self.problem = Some(SegmentError::NonFinite { index });
+            return;
+        }
+        if let Some(previous_t_s) = self.previous_t_s {
             if s.t_s <= previous_t_s {
-                return Err(SegmentError::TimeNotIncreasing {
+                self.problem = Some(SegmentError::TimeNotIncreasing {
                     index,
                     t_s: s.t_s,
                     previous_t_s,
                 });
+                return;
             }
         }
-        previous = Some(s.t_s);
+        self.previous_t_s = Some(s.t_s);
     }
-    Ok(())
+
+    /// The verdict on the samples pushed.
+    pub fn finish(&self) -> Result<(), SegmentError> {
+        match (self.samples, self.problem) {
+            (0, _) => Err(SegmentError::Empty),
+            (1, _) => Err(SegmentError::SingleSample),
+            (_, Some(problem)) => Err(problem),
+            (_, None) => Ok(()),
+        }
+    }
 }
 
 /// The interval above which two consecutive samples are separated by a gap [s]:
@@ -190,6 +218,49 @@ pub fn gap_threshold_s(samples: &[RunSample], gap_factor: f64) -> f64 {
     gap_factor * *median
 }
 
+/// [`gap_threshold_s`] from the intervals one by one, for a run read as a stream: the same
+/// median (the interval at the same place in the same order), from a count of each distinct
+/// interval, so memory grows with the distinct intervals (21 in an hour recorded at 200 Hz),
+/// not with the run.
+#[derive(Debug, Clone, Default)]
+pub struct IntervalMedian {
+    /// Occurrences of each interval, by its bits.
+    counts: std::collections::HashMap<u64, u64>,
+    intervals: u64,
+    last_t_s: Option<f64>,
+}
+
+impl IntervalMedian {
+    /// The next sample's time.
+    pub fn push(&mut self, t_s: f64) {
+        if let Some(last) = self.last_t_s {
+            *self.counts.entry((t_s - last).to_bits()).or_insert(0) += 1;
+            self.intervals += 1;
+        }
+        self.last_t_s = Some(t_s);
+    }
+
+    /// `gap_factor` × the median interval (`INFINITY` for fewer than two samples).
+    pub fn gap_threshold_s(&self, gap_factor: f64) -> f64 {
+        let mut distinct: Vec<(f64, u64)> = self
+            .counts
+            .iter()
+            .map(|(&bits, &n)| (f64::from_bits(bits), n))
+            .collect();
+        distinct.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // The interval at place `mid` of all of them sorted, as `select_nth_unstable_by` finds it.
+        let mid = self.intervals / 2;
+        let mut below = 0;
+        for (dt, n) in distinct {
+            below += n;
+            if below > mid {
+                return gap_factor * dt;
+            }
+        }
+        f64::INFINITY
+    }
+}
+
 /// Cuts a run into maximal spans of constant commanded side speeds. The spans partition the
 /// samples in order (every sample belongs to exactly one span); spans shorter than
 /// `min_duration_s` are returned marked [`Segment::too_short`].
@@ -200,20 +271,80 @@ pub fn segment(
 ) -> Result<Vec<Segment>, SegmentError> {
     check_options(options)?;
     check_run(samples)?;
-    let tol = options.speed_tolerance_mps;
-    let differs = |a: Sides<f64>, b: Sides<f64>| {
-        (a.left - b.left).abs() > tol || (a.right - b.right).abs() > tol
-    };
     let mut segments = Vec::new();
     let mut start = 0;
     for i in 1..samples.len() {
-        if differs(samples[i].cmd_mps, samples[start].cmd_mps) {
+        if starts_manoeuvre(&samples[i], &samples[start], options) {
             segments.push(classify(samples, start, i, rover, options));
             start = i;
         }
     }
     segments.push(classify(samples, start, samples.len(), rover, options));
     Ok(segments)
+}
+
+/// Whether `sample` starts a new manoeuvre after the one whose first sample is `first`: a
+/// commanded side speed differs by more than the tolerance.
+fn starts_manoeuvre(sample: &RunSample, first: &RunSample, options: &SegmentOptions) -> bool {
+    let tol = options.speed_tolerance_mps;
+    let (a, b) = (sample.cmd_mps, first.cmd_mps);
+    (a.left - b.left).abs() > tol || (a.right - b.right).abs() > tol
+}
+
+/// [`segment`] sample by sample, for a run read as a stream: each manoeuvre is handed over
+/// with its samples as soon as the next one starts (or at [`Segmenter::finish`]), so memory
+/// holds one manoeuvre, not the run. The run must pass [`check_run`] ([`RunCheck`]).
+#[derive(Debug)]
+pub struct Segmenter<'a> {
+    rover: &'a Rover,
+    options: SegmentOptions,
+    /// The current manoeuvre's samples.
+    span: Vec<RunSample>,
+    /// Index of its first sample in the run.
+    start: usize,
+}
+
+impl<'a> Segmenter<'a> {
+    /// A segmenter with checked options.
+    pub fn new(rover: &'a Rover, options: &SegmentOptions) -> Result<Self, SegmentError> {
+        check_options(options)?;
+        Ok(Self {
+            rover,
+            options: *options,
+            span: Vec::new(),
+            start: 0,
+        })
+    }
+
+    /// The run's next sample; `done` gets the manoeuvre it ends (if it starts one), as
+    /// [`segment`] gives it, and that manoeuvre's samples.
+    pub fn push(&mut self, sample: &RunSample, done: impl FnOnce(&Segment, &[RunSample])) {
+        if self
+            .span
+            .first()
+            .is_some_and(|first| starts_manoeuvre(sample, first, &self.options))
+        {
+            self.hand_over(done);
+        }
+        self.span.push(*sample);
+    }
+
+    /// Ends the run: `done` gets its last manoeuvre (none for an empty run).
+    pub fn finish(mut self, done: impl FnOnce(&Segment, &[RunSample])) {
+        if !self.span.is_empty() {
+            self.hand_over(done);
+        }
+    }
+
+    fn hand_over(&mut self, done: impl FnOnce(&Segment, &[RunSample])) {
+        let n = self.span.len();
+        let mut seg = classify(&self.span, 0, n, self.rover, &self.options);
+        seg.start += self.start;
+        seg.end += self.start;
+        done(&seg, &self.span);
+        self.start += n;
+        self.span.clear();
+    }
 }
 
 fn check_options(options: &SegmentOptions) -> Result<(), SegmentError> {

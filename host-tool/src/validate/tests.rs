@@ -1,6 +1,7 @@
 //! End-to-end tests of `validate` on synthetic runs generated from the seed's models.
 
 use super::*;
+use model_core::kinematics::SideSpeeds;
 use model_core::Sides;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

@@ -1,5 +1,7 @@
 //! [`read_mcap_run`]: an MCAP run log back into a [`RunLog`], record by record in file order,
-//! streamed from the disk (memory holds one chunk, not the file). The summary section is not
+//! streamed from the disk (memory holds one chunk, not the file); [`stream_mcap_run`] hands the
+//! records to any [`RunLogSink`] instead, so a reader that keeps nothing (`validate`'s passes)
+//! runs in memory bounded whatever the log's length. The summary section is not
 //! needed, so a file cut short by a killed recorder reads up to its last complete record; a
 //! damaged file is salvaged ([`walk`](super::walk)): every chunk that checks out is read, and what
 //! could not be is reported as [`Loss`]es (byte range, run time range, samples).
@@ -11,10 +13,10 @@ use super::{
     TOPIC_FRAME, TOPIC_SAMPLE,
 };
 use crate::log::run_csv::{BUS_V_MAX, CURRENT_A_MAX};
-use crate::log::run_log::RunLog;
+use crate::log::run_log::{RunLog, RunLogSink};
 use ::mcap::records::{op, Record};
 use model_core::wire::{self, BoardFrame, MAX_FRAME};
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap, VecDeque};
 use std::fmt;
 use std::io::{self, Read, Seek};
 use std::path::{Path, PathBuf};
@@ -92,22 +94,58 @@ pub struct McapRun {
 /// one (see [`McapRun::losses`]); a foreign file, or a message that does not hold what its
 /// verified chunk promises, is.
 pub fn read_mcap_run(path: &Path) -> Result<McapRun, McapError> {
+    let mut run = RunLog::default();
+    let found = stream_mcap_run(path, &mut run)?;
+    Ok(found.with_run(run))
+}
+
+/// Reads an MCAP run log held in memory; `path` only names it in errors.
+pub fn read_mcap_bytes(bytes: &[u8], path: &Path) -> Result<McapRun, McapError> {
+    let mut run = RunLog::default();
+    let found = read_mcap(io::Cursor::new(bytes), bytes.len() as u64, path, &mut run)?;
+    Ok(found.with_run(run))
+}
+
+/// What a read found besides the records it handed on: a cut end, damaged stretches.
+#[derive(Debug, Clone, PartialEq)]
+pub struct McapFound {
+    /// See [`McapRun::truncated`].
+    pub truncated: Option<Truncation>,
+    /// See [`McapRun::losses`].
+    pub losses: Vec<Loss>,
+}
+
+impl McapFound {
+    fn with_run(self, run: RunLog) -> McapRun {
+        McapRun {
+            run,
+            truncated: self.truncated,
+            losses: self.losses,
+        }
+    }
+}
+
+/// [`read_mcap_run`] without keeping the run: every record that can be trusted goes to `sink`
+/// in file order (frames, samples, commands, events), as the recorder handed them to its sink.
+/// An error `sink` returns stops the read and comes back as [`McapError::Io`] (a sink that
+/// needs its own error type keeps it and returns any `io::Error`).
+pub fn stream_mcap_run(path: &Path, sink: &mut dyn RunLogSink) -> Result<McapFound, McapError> {
     let io_err = |source| McapError::Io {
         path: path.to_owned(),
         source,
     };
     let file = std::fs::File::open(path).map_err(io_err)?;
     let len = file.metadata().map_err(io_err)?.len();
-    read_mcap(file, len, path)
+    read_mcap(file, len, path, sink)
 }
 
-/// Reads an MCAP run log held in memory; `path` only names it in errors.
-pub fn read_mcap_bytes(bytes: &[u8], path: &Path) -> Result<McapRun, McapError> {
-    read_mcap(io::Cursor::new(bytes), bytes.len() as u64, path)
-}
-
-/// The reader behind [`read_mcap_run`] and [`read_mcap_bytes`].
-fn read_mcap<R: Read + Seek>(mut input: R, len: u64, path: &Path) -> Result<McapRun, McapError> {
+/// The reader behind [`stream_mcap_run`] and [`read_mcap_bytes`].
+fn read_mcap<R: Read + Seek>(
+    mut input: R,
+    len: u64,
+    path: &Path,
+    sink: &mut dyn RunLogSink,
+) -> Result<McapFound, McapError> {
     let io_err = |source| McapError::Io {
         path: path.to_owned(),
         source,
@@ -137,9 +175,13 @@ fn read_mcap<R: Read + Seek>(mut input: R, len: u64, path: &Path) -> Result<Mcap
             },
             at_sample: 0,
             indexed: None,
+            times: SkipTimes::default(),
         });
     }
-    let mut state = State::new(path);
+    let mut state = State::new(path, sink);
+    if let Some(start) = skipped.first_mut() {
+        start.times = state.times.open(0);
+    }
     let mut summary_is_ours = false;
     for channel in walker.summary_channels() {
         summary_is_ours |= channel.topic.starts_with("/rover_power/");
@@ -182,8 +224,9 @@ fn read_mcap<R: Read + Seek>(mut input: R, len: u64, path: &Path) -> Result<Mcap
                             end_byte: offset + 9 + body.len() as u64,
                             detail,
                         },
-                        at_sample: state.run.samples.len(),
+                        at_sample: state.samples,
                         indexed: Some(Indexed::default()),
+                        times: state.times.open(skipped.len()),
                     });
                     pending = Some(skipped.len() - 1);
                 }
@@ -205,8 +248,9 @@ fn read_mcap<R: Read + Seek>(mut input: R, len: u64, path: &Path) -> Result<Mcap
             Step::Skipped(s) => {
                 skipped.push(Skip {
                     skipped: s,
-                    at_sample: state.run.samples.len(),
+                    at_sample: state.samples,
                     indexed: None,
+                    times: state.times.open(skipped.len()),
                 });
                 pending = None;
             }
@@ -233,11 +277,10 @@ fn read_mcap<R: Read + Seek>(mut input: R, len: u64, path: &Path) -> Result<Mcap
             },
         });
     }
-    let losses = losses(merge(skipped), &state.run);
-    Ok(McapRun {
-        run: state.run,
+    state.times.close(&mut skipped);
+    Ok(McapFound {
         truncated,
-        losses,
+        losses: losses(merge(skipped)),
     })
 }
 
@@ -257,6 +300,73 @@ struct Skip {
     at_sample: usize,
     /// For one damaged chunk: what its message indexes say it held.
     indexed: Option<Indexed>,
+    /// The sample times around it.
+    times: SkipTimes,
+}
+
+/// Up to [`AROUND`] sample times on each side of a skipped stretch: enough to date the loss and
+/// estimate what it held, without keeping the run.
+#[derive(Debug, Clone, Default)]
+struct SkipTimes {
+    /// The last times read before the stretch, oldest first.
+    before: Vec<f64>,
+    /// The first times read after it.
+    after: Vec<f64>,
+}
+
+/// Sample times kept on each side of a loss (32 intervals).
+const AROUND: usize = 33;
+
+/// The recent sample times, and the skips still collecting times after them.
+#[derive(Debug, Default)]
+struct RecentTimes {
+    recent: VecDeque<f64>,
+    /// Every skip opened (by its place in the reader's list), in order.
+    open: Vec<usize>,
+    /// Times after each open skip, by its place in `open`.
+    collecting: Vec<Vec<f64>>,
+    /// Skips before this place in `open` have all their times (skips open in order and each
+    /// takes the next [`AROUND`], so the full ones come first).
+    first_open: usize,
+}
+
+impl RecentTimes {
+    /// The times for a skip pushed now at place `at` of the reader's list (its `after` is filled
+    /// in by [`RecentTimes::close`]).
+    fn open(&mut self, at: usize) -> SkipTimes {
+        self.open.push(at);
+        self.collecting.push(Vec::new());
+        SkipTimes {
+            before: self.recent.iter().copied().collect(),
+            after: Vec::new(),
+        }
+    }
+
+    fn sample(&mut self, t_s: f64) {
+        if self.recent.len() == AROUND {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(t_s);
+        for after in &mut self.collecting[self.first_open..] {
+            after.push(t_s);
+        }
+        while self
+            .collecting
+            .get(self.first_open)
+            .is_some_and(|after| after.len() == AROUND)
+        {
+            self.first_open += 1;
+        }
+    }
+
+    /// Hands each skip the times read after it.
+    fn close(&mut self, skips: &mut [Skip]) {
+        for (&at, after) in self.open.iter().zip(&mut self.collecting) {
+            if let Some(skip) = skips.get_mut(at) {
+                skip.times.after = std::mem::take(after);
+            }
+        }
+    }
 }
 
 /// Joins stretches that touch (a damaged chunk and the bad headers after it) into one loss.
@@ -279,17 +389,15 @@ fn merge(skips: Vec<Skip>) -> Vec<Skip> {
 }
 
 /// The losses of a salvaged run, with their run times and sample counts.
-fn losses(skips: Vec<Skip>, run: &RunLog) -> Vec<Loss> {
-    let samples = &run.samples;
+fn losses(skips: Vec<Skip>) -> Vec<Loss> {
     skips
         .into_iter()
         .map(|s| {
-            let k = s.at_sample;
-            let after_t_s = k.checked_sub(1).and_then(|i| samples.get(i)).map(|x| x.t_s);
-            let before_t_s = samples.get(k).map(|x| x.t_s);
+            let after_t_s = s.times.before.last().copied();
+            let before_t_s = s.times.after.first().copied();
             let samples_lost = match (s.indexed, after_t_s, before_t_s) {
                 (Some(ix), _, _) if ix.seen => LostSamples::Exact(ix.samples),
-                (_, Some(a), Some(b)) => match typical_period_s(samples, k) {
+                (_, Some(a), Some(b)) => match typical_period_s(&s.times) {
                     Some(period) => {
                         LostSamples::About((((b - a) / period).round() - 1.0).max(0.0) as u64)
                     }
@@ -309,15 +417,14 @@ fn losses(skips: Vec<Skip>, run: &RunLog) -> Vec<Loss> {
         .collect()
 }
 
-/// The median sample period around sample `k` (up to 32 intervals on each side of the gap
-/// before it, the gap itself left out).
-fn typical_period_s(samples: &[crate::log::run_csv::RunSample], k: usize) -> Option<f64> {
-    let before = &samples[k.saturating_sub(33)..k];
-    let after = &samples[k..(k + 33).min(samples.len())];
-    let mut dts: Vec<f64> = before
+/// The median sample period around a loss (up to 32 intervals on each side of it, the gap
+/// itself left out).
+fn typical_period_s(times: &SkipTimes) -> Option<f64> {
+    let mut dts: Vec<f64> = times
+        .before
         .windows(2)
-        .chain(after.windows(2))
-        .map(|w| w[1].t_s - w[0].t_s)
+        .chain(times.after.windows(2))
+        .map(|w| w[1] - w[0])
         .filter(|dt| *dt > 0.0)
         .collect();
     if dts.is_empty() {
@@ -338,7 +445,7 @@ enum Topic {
     Skipped,
 }
 
-struct State {
+struct State<'s> {
     path: PathBuf,
     channels: HashMap<u16, (Topic, String)>,
     /// Whether any rover-power channel was seen.
@@ -346,18 +453,36 @@ struct State {
     foreign_topics: BTreeSet<String>,
     /// Channels of the summary section, for messages whose channel record was lost.
     fallback: HashMap<u16, ::mcap::records::Channel>,
-    run: RunLog,
+    /// Where the records go.
+    sink: &'s mut dyn RunLogSink,
+    /// Samples handed on so far.
+    samples: usize,
+    /// The last sample's time.
+    last_t_s: Option<f64>,
+    /// Sample times around skipped stretches.
+    times: RecentTimes,
 }
 
-impl State {
-    fn new(path: &Path) -> Self {
+impl<'s> State<'s> {
+    fn new(path: &Path, sink: &'s mut dyn RunLogSink) -> Self {
         State {
             path: path.to_owned(),
             channels: HashMap::new(),
             ours: false,
             foreign_topics: BTreeSet::new(),
             fallback: HashMap::new(),
-            run: RunLog::default(),
+            sink,
+            samples: 0,
+            last_t_s: None,
+            times: RecentTimes::default(),
+        }
+    }
+
+    /// An error of the sink, as the reader reports it.
+    fn sink_err(&self, source: io::Error) -> McapError {
+        McapError::Io {
+            path: self.path.clone(),
+            source,
         }
     }
 
@@ -518,28 +643,35 @@ impl State {
                         ),
                     ));
                 }
-                if let Some(previous) = self.run.samples.last() {
-                    if sample.t_s <= previous.t_s {
+                if let Some(previous) = self.last_t_s {
+                    if sample.t_s <= previous {
                         return Err(bad(
                             self,
                             format!(
-                                "sample time {} is not after the previous sample's {}",
-                                sample.t_s, previous.t_s
+                                "sample time {} is not after the previous sample's {previous}",
+                                sample.t_s
                             ),
                         ));
                     }
                 }
-                self.run.samples.push(sample);
+                self.last_t_s = Some(sample.t_s);
+                self.samples += 1;
+                self.times.sample(sample.t_s);
+                self.sink.sample(&sample).map_err(|e| self.sink_err(e))?;
             }
             Topic::Command => {
                 let msg: CommandMsg =
                     serde_json::from_slice(data).map_err(|e| bad(self, e.to_string()))?;
-                self.run.commands.push(msg.row());
+                self.sink
+                    .command(&msg.row())
+                    .map_err(|e| self.sink_err(e))?;
             }
             Topic::Event => {
                 let msg: EventMsg =
                     serde_json::from_slice(data).map_err(|e| bad(self, e.to_string()))?;
-                self.run.events.push((msg.t_s, msg.event));
+                self.sink
+                    .event(msg.t_s, &msg.event)
+                    .map_err(|e| self.sink_err(e))?;
             }
             Topic::Frame => {
                 let Some((&0, body)) = data.split_last() else {
@@ -566,7 +698,9 @@ impl State {
                 let frame: BoardFrame = wire::decode_frame(copy)
                     .map_err(|e| bad(self, format!("frame does not decode: {e}")))?;
                 // Division is correctly rounded: a time of whole nanoseconds comes back exactly.
-                self.run.frames.push((run_time_ns as f64 / 1e9, frame));
+                self.sink
+                    .frame(run_time_ns as f64 / 1e9, &frame)
+                    .map_err(|e| self.sink_err(e))?;
             }
             Topic::Skipped => {}
         }
