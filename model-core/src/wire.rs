@@ -8,7 +8,8 @@
 use crate::board_id::BoardIdentity;
 use crate::energy::Snapshot;
 use crate::ina226::{
-    AdcConfig, CalibrationRaw, ConfigurationRaw, DieIdRaw, ManufacturerIdRaw, Registers, Scale,
+    AdcConfig, BusVoltageRaw, CalibrationRaw, ConfigurationRaw, CurrentRaw, DieIdRaw,
+    ManufacturerIdRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
 };
 use crate::Sides;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
@@ -415,12 +416,27 @@ impl FrameDecoder {
     }
 }
 
+/// A typical sample frame, 10 minutes into a run at 2 A and 24.6 V on each side: the fixture
+/// the wire tests and the on-target check (`firmware/src/bin/model_core_qemu.rs`) measure
+/// encoding with (36 bytes on the wire).
+pub fn typical_sample() -> BoardFrame {
+    let regs = Registers {
+        shunt: ShuntVoltageRaw(4000),
+        bus: BusVoltageRaw(19_680),
+        current: CurrentRaw(4000),
+        power: PowerRaw(3936),
+    };
+    BoardFrame::Sample(Sample {
+        t_us: 600_000_000,
+        seq: 120_000,
+        chips: Sides::new(ChipReading::Fresh(regs), ChipReading::Fresh(regs)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ina226::{
-        Averaging, BusVoltageRaw, ConversionTime, CurrentRaw, PowerRaw, ShuntVoltageRaw,
-    };
+    use crate::ina226::{Averaging, ConversionTime};
     use proptest::prelude::*;
 
     fn full_scale_registers() -> Registers {
@@ -440,21 +456,6 @@ mod tests {
                 ChipReading::Fresh(full_scale_registers()),
                 ChipReading::Stale(full_scale_registers()),
             ),
-        })
-    }
-
-    fn typical_sample() -> BoardFrame {
-        // 10 minutes into a run, 2 A at 24.6 V on each side.
-        let regs = Registers {
-            shunt: ShuntVoltageRaw(4000),
-            bus: BusVoltageRaw(19_680),
-            current: CurrentRaw(4000),
-            power: PowerRaw(3936),
-        };
-        BoardFrame::Sample(Sample {
-            t_us: 600_000_000,
-            seq: 120_000,
-            chips: Sides::new(ChipReading::Fresh(regs), ChipReading::Fresh(regs)),
         })
     }
 

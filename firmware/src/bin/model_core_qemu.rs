@@ -247,22 +247,8 @@ mod target {
     }
 
     /// 10 minutes into a run, 2 A at 24.6 V on each side.
-    fn typical_sample() -> BoardFrame {
-        let regs = Registers {
-            shunt: ShuntVoltageRaw(4000),
-            bus: BusVoltageRaw(19_680),
-            current: CurrentRaw(4000),
-            power: PowerRaw(3936),
-        };
-        BoardFrame::Sample(Sample {
-            t_us: 600_000_000,
-            seq: 120_000,
-            chips: Sides::new(ChipReading::Fresh(regs), ChipReading::Fresh(regs)),
-        })
-    }
-
     fn wire_checks(c: &mut Checks) {
-        let frame = typical_sample();
+        let frame = wire::typical_sample();
         let mut buf = [0u8; MAX_FRAME];
         let n = wire::encode(&frame, &mut buf).unwrap_or(0);
         // Length by hand: postcard varints — variant Sample 1 byte, t_us 6e8 < 2^35 5 bytes,
@@ -309,11 +295,11 @@ mod target {
             "corrupted frame rejected, next frame decodes",
             k == 2
                 && matches!(outcomes[0], Some(Err(_)))
-                && outcomes[1] == Some(Ok(typical_sample())),
+                && outcomes[1] == Some(Ok(wire::typical_sample())),
             format_args!(
                 "{k} outcome(s): first {:?}, second ok: {}",
                 outcomes[0].and_then(|r| r.err()),
-                outcomes[1] == Some(Ok(typical_sample()))
+                outcomes[1] == Some(Ok(wire::typical_sample()))
             ),
         );
     }

@@ -4,7 +4,7 @@
 //! - MCAP → run CSV: the physical samples (with commanded speeds and pose); frames, commands
 //!   and events have no place in a run CSV and are dropped.
 //! - run CSV → MCAP: the samples exactly on `/rover_power/sample`, plus the wire frames the
-//!   board would have sent for them ([`crate::replay::synthesise_frames`]: a hello, sample
+//!   board would have sent for them ([`crate::log::synthesis::synthesise_frames`]: a hello, sample
 //!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
 //!   frames, and the board's status report of the commanded wheel rates wherever `cmd_*`
 //!   changes, on the Husky's wheels as `record` assumes), so the file replays like a recording.
@@ -116,8 +116,10 @@ pub fn convert_salvaging(
     let synthesised_frames =
         to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
     if synthesised_frames {
-        run.frames =
-            crate::replay::synthesise_frames(&run.samples, Some(&model_core::Rover::HUSKY_A200));
+        run.frames = crate::log::synthesis::synthesise_frames(
+            &run.samples,
+            Some(&model_core::Rover::HUSKY_A200),
+        );
     }
     save_run(output, &run)?;
     Ok(Converted {

@@ -10,6 +10,7 @@ pub mod load;
 pub mod mcap;
 pub mod run_csv;
 pub mod run_log;
+pub mod synthesis;
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
