@@ -346,16 +346,18 @@ mod app {
             ),
             Some(AwaitingConversion) if logged.is_none() => return,
             Some(f @ (AwaitingConversion | ResetDetected)) => defmt::info!(
-                "{=str} INA226 at {=u8:#x}: {=str}",
+                "{=str} INA226 at {=u8:#x}: {} ({=str})",
                 side,
                 address,
-                fault_name(Some(f))
+                f,
+                f.explain()
             ),
             Some(f) => defmt::warn!(
-                "{=str} INA226 at {=u8:#x}: {=str}",
+                "{=str} INA226 at {=u8:#x}: {} ({=str})",
                 side,
                 address,
-                fault_name(Some(f))
+                f,
+                f.explain()
             ),
         }
         *logged = Some(fault);
@@ -421,21 +423,5 @@ mod app {
                 }
             }
         });
-    }
-
-    fn fault_name(fault: Option<model_core::wire::ChipFault>) -> &'static str {
-        use model_core::wire::ChipFault::*;
-        match fault {
-            None => "ok",
-            Some(AddressNack) => "address NACK (missing, unpowered, or A0/A1 strapped wrong)",
-            Some(DataNack) => "data NACK",
-            Some(ArbitrationLoss) => "arbitration loss",
-            Some(Bus) => "bus error (pull-ups? SDA/SCL shorted or swapped?)",
-            Some(Overrun) => "overrun",
-            Some(Other) => "I2C error",
-            Some(WrongId) => "not an INA226 (manufacturer/die ID is not 0x5449/0x2260)",
-            Some(ResetDetected) => "reset, re-initialising",
-            Some(AwaitingConversion) => "waiting for its first conversion",
-        }
     }
 }

@@ -84,6 +84,7 @@ pub enum ChipProbe {
 
 /// Why a chip gave no reading in a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ChipFault {
     /// The chip did not acknowledge its address (absent, unpowered, wrong address).
     AddressNack,
@@ -105,6 +106,23 @@ pub enum ChipFault {
     /// Just (re-)initialised: its registers still hold a result computed with the old settings,
     /// so none is reported until the first conversion with the new ones completes.
     AwaitingConversion,
+}
+
+impl ChipFault {
+    /// What the fault means at bring-up, for the board's logs.
+    pub const fn explain(self) -> &'static str {
+        match self {
+            ChipFault::AddressNack => "address NACK (missing, unpowered, or A0/A1 strapped wrong)",
+            ChipFault::DataNack => "data NACK",
+            ChipFault::ArbitrationLoss => "arbitration loss",
+            ChipFault::Bus => "bus error (pull-ups? SDA/SCL shorted or swapped?)",
+            ChipFault::Overrun => "overrun",
+            ChipFault::Other => "I2C error",
+            ChipFault::WrongId => "not an INA226 (manufacturer/die ID is not 0x5449/0x2260)",
+            ChipFault::ResetDetected => "reset, re-initialising",
+            ChipFault::AwaitingConversion => "waiting for its first conversion",
+        }
+    }
 }
 
 /// One chip's part of a sample.
