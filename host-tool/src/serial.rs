@@ -240,16 +240,7 @@ impl<R: Read> PortReader<R> {
                 decoder.feed(&self.buf[..n], on_event);
                 ReadOutcome::Data(n)
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                ReadOutcome::NoData
-            }
+            Err(e) if is_transient(&e) => ReadOutcome::NoData,
             Err(e) => {
                 self.vanished = true;
                 ReadOutcome::Vanished { error: Some(e) }
@@ -364,16 +355,7 @@ impl PtyWriter {
         let n = waiting.min(buf.len());
         match self.master.read(&mut buf[..n]) {
             Ok(k) => Ok(k.min(n)),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(0)
-            }
+            Err(e) if is_transient(&e) => Ok(0),
             Err(e) => Err(e),
         }
     }
@@ -459,14 +441,7 @@ impl Write for PtyWriter {
         loop {
             match self.master.write(buf) {
                 Ok(n) => return Ok(n),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut
-                            | io::ErrorKind::WouldBlock
-                            | io::ErrorKind::Interrupted
-                    ) =>
-                {
+                Err(e) if is_transient(&e) => {
                     if start.elapsed() > WRITER_STALL {
                         return Err(io::Error::new(
                             io::ErrorKind::TimedOut,
@@ -482,6 +457,15 @@ impl Write for PtyWriter {
     fn flush(&mut self) -> io::Result<()> {
         self.master.flush()
     }
+}
+
+/// Whether a read or write error only means "nothing now" (a read timeout, a non-blocking port
+/// with nothing to give or take, a signal): the port is still there, try again.
+pub fn is_transient(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+    )
 }
 
 #[cfg(test)]

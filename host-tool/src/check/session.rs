@@ -161,16 +161,7 @@ impl Conn {
                     0
                 }
                 Ok(n) => n.min(buf.len()),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut
-                            | io::ErrorKind::WouldBlock
-                            | io::ErrorKind::Interrupted
-                    ) =>
-                {
-                    0
-                }
+                Err(e) if serial::is_transient(&e) => 0,
                 Err(_) => {
                     self.vanished = true;
                     0
