@@ -66,7 +66,11 @@ fn samples_for(turn: &Turn, angle_rad: f64) -> usize {
 #[test]
 fn circle_fit_is_exact_on_noiseless_points() {
     let turn = r_prime_turn();
-    let track = turn.track(samples_for(&turn, 2.0 * PI) - 1, 0.0, &mut SplitMix64::new(0));
+    let track = turn.track(
+        samples_for(&turn, 2.0 * PI) - 1,
+        0.0,
+        &mut SplitMix64::new(0),
+    );
     let c = fit_circle(&track).expect("a circle");
     assert!(close(c.centre_x_m, 3.2, 1e-12) && close(c.centre_y_m, -1.7, 1e-12));
     assert!(close(c.radius_m, 0.76, 1e-12));
