@@ -4,7 +4,8 @@
 //! the host. The models and post-processing the host evaluates (simulator, validation,
 //! diagnosis, planner) use `f64`, still without `std` or allocation: [`power`], [`soil`],
 //! [`paths`], [`fit`] (least squares and the seed's power fits) and [`tracking`] (the
-//! total-station track, Section 5.1). Equation numbers refer to the seed thesis
+//! total-station track, Section 5.1). [`rng`] holds the seeded generators of the simulator,
+//! the benchmarks and the tests. Equation numbers refer to the seed thesis
 //! (`shared/seeds/000_…`): chapters are "Eq 2.4"; the appended paper's equations are "paper Eq 20".
 //!
 //! Why the board does not pay for the host-only `f64` modules, and why they are not behind a
@@ -27,10 +28,9 @@ pub mod kinematics;
 pub mod paths;
 pub mod power;
 pub mod rate;
+pub mod rng;
 pub mod search;
 pub mod soil;
-#[cfg(test)]
-mod test_support;
 pub mod tracking;
 pub mod wire;
 

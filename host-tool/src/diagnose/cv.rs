@@ -30,6 +30,7 @@ use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
 use super::observe::Residuals;
 use crate::effect_id::EffectId;
+use model_core::rng::SplitMix64;
 use model_core::Rover;
 use serde::Serialize;
 
@@ -321,26 +322,6 @@ pub fn score_all(
     Ok(Some(out))
 }
 
-/// SplitMix64: the bootstrap's deterministic generator (no dependency for 20 lines).
-#[derive(Debug, Clone)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in 0..n (n > 0).
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-}
-
 /// The 97.5 % quantile of Student's t with `df` degrees of freedom (the half-width factor of a
 /// two-sided 95 % interval; model-core's, so board and host share one implementation); ∞ for
 /// df = 0.
@@ -405,7 +386,7 @@ pub fn bootstrap_mean(values: &[f64], groups: &[usize], seed: u64) -> Option<(f6
     if units.len() < 2 {
         return Some((mean, f64::NEG_INFINITY, f64::INFINITY));
     }
-    let mut rng = SplitMix64(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut means: Vec<f64> = (0..BOOTSTRAP_RESAMPLES)
         .map(|_| {
             let (mut s, mut n) = (0.0, 0usize);

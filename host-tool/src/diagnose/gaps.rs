@@ -37,13 +37,14 @@ mod analysis;
 mod judge;
 
 use super::baseline::Baseline;
-use super::cv::{self, SplitMix64};
+use super::cv;
 use super::features::{SideRole, TurnRow};
 use super::loo::LooTest;
 pub use analysis::analyse;
 use judge::{judge, repeat_key, Floor, Obs};
 pub use judge::{practical_floor_w, RowVerdicts, SIGNIFICANCE_RULE};
 use model_core::kinematics::Regime;
+use model_core::rng::SplitMix64;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -557,7 +558,7 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         };
     };
     let runs: Vec<usize> = run_end.keys().copied().collect();
-    let mut rng = SplitMix64(seed_of("run-time-trend"));
+    let mut rng = SplitMix64::new(seed_of("run-time-trend"));
     let mut slopes: Vec<f64> = (0..cv::BOOTSTRAP_RESAMPLES)
         .filter_map(|_| {
             let sample: Vec<_> = if runs.len() >= 2 {

@@ -396,6 +396,7 @@ pub fn summary_rows(rover: &Rover, rows: &[SummaryRow], run: &str) -> Vec<TurnRo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use model_core::rng::{box_muller, SplitMix64};
     use std::path::PathBuf;
 
     fn repo(path: &str) -> PathBuf {
@@ -597,12 +598,11 @@ mod tests {
             ..super::super::baseline::Baseline::fit(&rover, &rows.iter().collect::<Vec<_>>())
                 .expect("fits")
         };
-        let mut rng = super::super::cv::SplitMix64(seed);
-        let mut uniform = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        let mut rng = SplitMix64::new(seed);
         for row in &mut rows {
-            // Box–Muller.
-            let (u, v) = (uniform().max(1e-300), uniform());
-            let noise = (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos();
+            // A 0 draw is lifted to 1e-300, where the logarithm is finite.
+            let u = rng.uniform().max(1e-300);
+            let noise = box_muller(u, rng.uniform());
             row.observed = Observed::Total {
                 avg_power_w: model.power_w(row) + sigma_w * noise,
             };

@@ -30,6 +30,8 @@
 //! repeats the register) or pointers to unimplemented addresses (the model reads 0 and ignores
 //! writes).
 
+use model_core::rng::{box_muller, XorShift64Star};
+
 /// Power-on value of the configuration register: AVG 1, 1.1 ms + 1.1 ms, continuous shunt+bus.
 pub const CONFIG_DEFAULT: u16 = 0x4127;
 /// Manufacturer ID register value ("TI").
@@ -116,44 +118,13 @@ impl Default for Analog {
     }
 }
 
-/// xorshift64* generator with Box–Muller Gaussian draws (no external dependency).
-#[derive(Debug, Clone)]
-struct Rng {
-    state: u64,
-}
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        // The all-zero state is a fixed point of xorshift: replace it.
-        Self {
-            state: if seed == 0 {
-                0x9E37_79B9_7F4A_7C15
-            } else {
-                seed
-            },
-        }
-    }
-
-    fn next_u64(&mut self) -> u64 {
-        let mut x = self.state;
-        x ^= x >> 12;
-        x ^= x << 25;
-        x ^= x >> 27;
-        self.state = x;
-        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    /// Uniform in (0, 1].
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Standard normal draw (Box–Muller).
-    fn gaussian(&mut self) -> f64 {
-        let u1 = self.uniform();
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
+/// A standard normal draw for the chip's noise: Box–Muller on xorshift64* uniforms in (0, 1]
+/// (53 bits plus one step, so the logarithm stays finite).
+fn gaussian(rng: &mut XorShift64Star) -> f64 {
+    let mut uniform = || ((rng.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64;
+    let u1 = uniform();
+    let u2 = uniform();
+    box_muller(u1, u2)
 }
 
 /// One input change: from `t_us` on, this current flows and the bus sits at this voltage.
@@ -177,7 +148,7 @@ pub struct SimIna226 {
     alert_limit: u16,
     pointer: u8,
     analog: Analog,
-    rng: Rng,
+    rng: XorShift64Star,
     /// Input changes, oldest first; the first one is the last change at or before the earliest
     /// time a future conversion can sample.
     inputs: Vec<Input>,
@@ -209,7 +180,7 @@ impl SimIna226 {
             alert_limit: 0,
             pointer: 0,
             analog,
-            rng: Rng::new(analog.seed),
+            rng: XorShift64Star::new(analog.seed),
             inputs: Vec::new(),
             now_us: 0,
             cycle_start_us: 0,
@@ -432,7 +403,7 @@ impl SimIna226 {
         if sigma_lsb == 0.0 {
             0.0
         } else {
-            sigma_lsb * self.rng.gaussian()
+            sigma_lsb * gaussian(&mut self.rng)
         }
     }
 

@@ -2,6 +2,7 @@
 
 use super::*;
 use model_core::kinematics::SideSpeeds;
+use model_core::rng::{box_muller, XorShift64Star};
 use model_core::Sides;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -10,22 +11,12 @@ const HG: IcrHardGround = IcrHardGround::HUSKY_HARD_GROUND;
 const DT_S: f64 = 0.02;
 const V_C: f64 = 0.3;
 
-/// xorshift64* with Box–Muller normals: a fixed-seed noise source.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
-    }
+/// A standard normal draw from the run's xorshift64* (Box–Muller; a 0 draw is lifted to 1e-300,
+/// where the logarithm is finite).
+fn normal(rng: &mut XorShift64Star) -> f64 {
+    let u1 = rng.uniform().max(1e-300);
+    let u2 = rng.uniform();
+    box_muller(u1, u2)
 }
 
 /// One commanded manoeuvre of a synthetic run.
@@ -64,29 +55,33 @@ fn synth_run(
     power: impl Fn(SideSpeeds, &Manoeuvre) -> Sides<f64>,
 ) -> Vec<RunSample> {
     let rp = HUSKY.r_prime_m();
-    let mut rng = Rng(seed.max(1));
+    let mut rng = XorShift64Star::new(seed.max(1));
     let mut out = Vec::new();
     let mut t = 0.0;
     let mut yaw = 0.5_f64;
-    let mut push =
-        |t: f64, cmd: SideSpeeds, p: Sides<f64>, yaw: f64, m: Option<&Manoeuvre>, rng: &mut Rng| {
-            let bus = Sides::new(24.0 + 0.05 * rng.normal(), 24.0 + 0.05 * rng.normal());
-            let p = Sides::new(
-                p.left + noise_w * rng.normal(),
-                p.right + noise_w * rng.normal(),
-            );
-            let wrapped = yaw - TAU * ((yaw + PI) / TAU).floor();
-            out.push(RunSample {
-                t_s: t,
-                bus_v: bus,
-                current_a: Sides::new(p.left / bus.left, p.right / bus.right),
-                cmd_mps: Sides::new(f64::from(cmd.left_mps), f64::from(cmd.right_mps)),
-                yaw_rad: m.map_or(Some(wrapped), |m| m.slip.map(|_| wrapped)),
-                pitch_deg: m.and_then(|m| m.pitch_deg),
-                x_m: None,
-                y_m: None,
-            });
-        };
+    let mut push = |t: f64,
+                    cmd: SideSpeeds,
+                    p: Sides<f64>,
+                    yaw: f64,
+                    m: Option<&Manoeuvre>,
+                    rng: &mut XorShift64Star| {
+        let bus = Sides::new(24.0 + 0.05 * normal(rng), 24.0 + 0.05 * normal(rng));
+        let p = Sides::new(
+            p.left + noise_w * normal(rng),
+            p.right + noise_w * normal(rng),
+        );
+        let wrapped = yaw - TAU * ((yaw + PI) / TAU).floor();
+        out.push(RunSample {
+            t_s: t,
+            bus_v: bus,
+            current_a: Sides::new(p.left / bus.left, p.right / bus.right),
+            cmd_mps: Sides::new(f64::from(cmd.left_mps), f64::from(cmd.right_mps)),
+            yaw_rad: m.map_or(Some(wrapped), |m| m.slip.map(|_| wrapped)),
+            pitch_deg: m.and_then(|m| m.pitch_deg),
+            x_m: None,
+            y_m: None,
+        });
+    };
     for m in manoeuvres {
         for _ in 0..75 {
             push(

@@ -1,7 +1,7 @@
 use super::student_t::{cornish_fisher_t, normal_upper_quantile, t_upper_quantile_bisection};
 use super::*;
 use crate::kinematics::SideSpeeds;
-use crate::test_support::Rng;
+use crate::rng::SplitMix64;
 use proptest::prelude::*;
 
 fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -152,7 +152,7 @@ fn t_quantile_rejects_bad_arguments() {
 fn exact_recovery_on_noiseless_data() {
     let truth = [2.5, -1.25, 0.75, 40.0];
     let mut fit = LinearFit::<4>::new();
-    let mut rng = Rng::new(1);
+    let mut rng = SplitMix64::new(1);
     for _ in 0..50 {
         let x = [
             rng.range(-3.0, 3.0),
@@ -195,7 +195,7 @@ fn exactly_determined_system_has_coefficients_but_no_bounds() {
 #[test]
 fn simple_regression_matches_textbook_formulas() {
     // Independent oracle: for y = b0 + b1 x, SE(b1) = s/√Sxx, SE(b0) = s √(1/n + x̄²/Sxx).
-    let mut rng = Rng::new(7);
+    let mut rng = SplitMix64::new(7);
     let xs: Vec<f64> = (0..25).map(|_| rng.range(0.0, 10.0)).collect();
     let ys: Vec<f64> = xs.iter().map(|x| 1.0 + 0.5 * x + rng.normal()).collect();
     let rows: Vec<[f64; 2]> = xs.iter().map(|&x| [1.0, x]).collect();
@@ -240,7 +240,7 @@ fn simple_regression_matches_textbook_formulas() {
 
 #[test]
 fn r_squared_is_one_minus_ssr_over_sst() {
-    let mut rng = Rng::new(3);
+    let mut rng = SplitMix64::new(3);
     let mut rows = Vec::new();
     let mut ys = Vec::new();
     for _ in 0..200 {
@@ -277,7 +277,7 @@ fn coverage(trials: usize, n: usize) -> ([f64; 3], [f64; 3]) {
     let mut hits_t = [0usize; 3];
     let mut hits_z = [0usize; 3];
     for seed in 0..trials {
-        let mut rng = Rng::new(1000 + seed as u64);
+        let mut rng = SplitMix64::new(1000 + seed as u64);
         let mut fit = LinearFit::<3>::new();
         for _ in 0..n {
             let x = [rng.range(-2.0, 2.0), rng.range(0.0, 5.0), 1.0];
@@ -367,7 +367,7 @@ fn table_4_1_two_metre_row_is_recovered() {
     // ξ [21.69, 23.38], η [−1.26, 1.1], ζ [331.7, 344.5], r² 0.7069). Pitch within ±15°
     // (Section 4.1), noise chosen to give r² ≈ 0.7.
     let (xi, eta, zeta) = (22.54, -0.07985, 338.1);
-    let mut rng = Rng::new(42);
+    let mut rng = SplitMix64::new(42);
     let mut fit = PitchRollFit::new();
     for _ in 0..2000 {
         let pitch = rng.range(-15.0, 15.0);
@@ -395,7 +395,7 @@ fn table_4_3_coefficients_are_recovered() {
     // P = 5.55/R + 139.4 + 6.608θ (Table 4.3) from random drives: radii from point turns to
     // beyond 20 m (dropped), pitch within ±15°.
     let (c1, c2, c3) = (5.55, 139.4, 6.608);
-    let mut rng = Rng::new(2019);
+    let mut rng = SplitMix64::new(2019);
     let mut fit = TurnPitchFit::new();
     let mut dropped = 0;
     for k in 0..6000 {

@@ -1,7 +1,7 @@
 use super::*;
 use crate::geometry::Rover;
 use crate::kinematics;
-use crate::test_support::Rng;
+use crate::rng::SplitMix64;
 use core::f64::consts::FRAC_PI_2;
 use core::f64::consts::PI;
 use proptest::prelude::*;
@@ -39,7 +39,7 @@ impl Turn {
         (self.centre.0 + r * th.cos(), self.centre.1 + r * th.sin())
     }
 
-    fn track(&self, samples: usize, noise_m: f64, rng: &mut Rng) -> Vec<(f64, f64)> {
+    fn track(&self, samples: usize, noise_m: f64, rng: &mut SplitMix64) -> Vec<(f64, f64)> {
         (0..samples)
             .map(|k| {
                 let p = self.prism(k as f64 * DT);
@@ -66,7 +66,11 @@ fn samples_for(turn: &Turn, angle_rad: f64) -> usize {
 #[test]
 fn circle_fit_is_exact_on_noiseless_points() {
     let turn = r_prime_turn();
-    let track = turn.track(samples_for(&turn, 2.0 * PI) - 1, 0.0, &mut Rng::new(0));
+    let track = turn.track(
+        samples_for(&turn, 2.0 * PI) - 1,
+        0.0,
+        &mut SplitMix64::new(0),
+    );
     let c = fit_circle(&track).expect("a circle");
     assert!(close(c.centre_x_m, 3.2, 1e-12) && close(c.centre_y_m, -1.7, 1e-12));
     assert!(close(c.radius_m, 0.76, 1e-12));
@@ -112,7 +116,7 @@ fn circle_fit_recovers_r_act_from_noisy_arcs() {
         let n = samples_for(&turn, arc_rad);
         let mut worst = 0.0_f64;
         for seed in 0..50 {
-            let track = turn.track(n, 0.002, &mut Rng::new(seed));
+            let track = turn.track(n, 0.002, &mut SplitMix64::new(seed));
             let c = fit_circle(&track).expect("a circle");
             let r_act = actual_radius_m(&c, PRISM_OFFSET_M).expect("valid");
             worst = worst.max((r_act - 0.55).abs());
@@ -124,7 +128,7 @@ fn circle_fit_recovers_r_act_from_noisy_arcs() {
     }
     // Partial arcs without noise are exact.
     for arc_rad in [PI / 4.0, PI / 2.0] {
-        let track = turn.track(samples_for(&turn, arc_rad), 0.0, &mut Rng::new(0));
+        let track = turn.track(samples_for(&turn, arc_rad), 0.0, &mut SplitMix64::new(0));
         let r_act = actual_radius_m(&fit_circle(&track).expect("a circle"), PRISM_OFFSET_M);
         assert!(close(r_act.expect("valid"), 0.55, 1e-9));
     }
@@ -145,7 +149,7 @@ fn circle_fit_recovers_r_act_from_noisy_arcs() {
         let crb = radius_crb_m(&angles, 0.002);
         let mut errors: Vec<f64> = (0..2000)
             .map(|seed| {
-                let track = turn.track(n, 0.002, &mut Rng::new(seed));
+                let track = turn.track(n, 0.002, &mut SplitMix64::new(seed));
                 let c = fit_circle(&track).expect("a circle");
                 actual_radius_m(&c, PRISM_OFFSET_M).expect("valid") - 0.55
             })
@@ -169,7 +173,7 @@ fn circle_fit_recovers_r_act_from_noisy_arcs() {
 #[test]
 fn circle_fit_is_a_geometric_least_squares_minimum() {
     let turn = r_prime_turn();
-    let track = turn.track(samples_for(&turn, PI / 2.0), 0.01, &mut Rng::new(5));
+    let track = turn.track(samples_for(&turn, PI / 2.0), 0.01, &mut SplitMix64::new(5));
     let c = fit_circle(&track).expect("a circle");
     let cost = |cx: f64, cy: f64, r: f64| -> f64 {
         track.iter().map(|p| (dist(*p, (cx, cy)) - r).powi(2)).sum()
@@ -282,7 +286,7 @@ fn hampel_by_hand_and_at_the_edges() {
 
 #[test]
 fn hampel_matches_the_matlab_algorithm() {
-    let mut rng = Rng::new(11);
+    let mut rng = SplitMix64::new(11);
     for trial in 0..50 {
         let n = 1 + trial * 3;
         let mut x: Vec<f64> = (0..n)
@@ -351,7 +355,7 @@ fn hampel_refuses_bad_input() {
 /// point.
 fn check_refill(turn: &Turn, n: usize, at: usize, count: usize, noise_m: f64, seed: u64) -> f64 {
     let truth: Vec<(f64, f64)> = (0..n).map(|k| turn.prism(k as f64 * DT)).collect();
-    let mut rng = Rng::new(seed);
+    let mut rng = SplitMix64::new(seed);
     let measured: Vec<(f64, f64)> = truth
         .iter()
         .enumerate()
@@ -433,7 +437,7 @@ fn clean_tracks_are_untouched() {
     let turn = r_prime_turn();
     let mut out = vec![(0.0, 0.0); 40];
     for noise in [0.0, 0.002] {
-        let track = turn.track(30, noise, &mut Rng::new(9));
+        let track = turn.track(30, noise, &mut SplitMix64::new(9));
         let report = fill_gaps(&track, &GapFillConfig::default(), &mut out).expect("fits");
         assert_eq!(
             report,
@@ -464,7 +468,7 @@ fn clean_tracks_are_untouched() {
 #[test]
 fn gap_filling_reports_errors_and_skips() {
     let turn = r_prime_turn();
-    let mut track = turn.track(20, 0.0, &mut Rng::new(0));
+    let mut track = turn.track(20, 0.0, &mut SplitMix64::new(0));
     track.remove(10);
     let mut small = vec![(0.0, 0.0); 19];
     assert_eq!(
@@ -525,7 +529,7 @@ struct Processed {
 /// Runs Section 5.1 on a synthetic rigid turn: circle fit, Eq 5.4–5.5 headings from an IMU yaw
 /// with an unknown offset (and wrapped), wheel speeds (Eq 5.10, 5.12–5.13).
 fn process(turn: &Turn, n: usize) -> Processed {
-    let track = turn.track(n, 0.0, &mut Rng::new(0));
+    let track = turn.track(n, 0.0, &mut SplitMix64::new(0));
     let yaw: Vec<f64> = (0..n)
         .map(|k| wrap_angle_rad(turn.theta_h(k as f64 * DT) + FRAC_PI_2 - 1.234))
         .collect();
@@ -700,7 +704,7 @@ fn angular_slip_and_time_to_turn_from_a_slow_turn() {
         ..r_prime_turn()
     };
     let n = samples_for(&turn, PI / 2.0) + 5;
-    let track = turn.track(n, 0.0, &mut Rng::new(0));
+    let track = turn.track(n, 0.0, &mut SplitMix64::new(0));
     let circle = fit_circle(&track).expect("a circle");
     let rate = yaw_rate_from_track_rad_s(&circle, &track, DT).expect("valid");
     assert!(close(rate, 0.4, 1e-12));

@@ -3,9 +3,9 @@
 
 use super::*;
 use crate::diagnose::baseline::{Baseline, Split, Structure};
-use crate::diagnose::cv::SplitMix64;
 use crate::diagnose::features::{Observed, SideObs};
 use model_core::kinematics::Regime;
+use model_core::rng::SplitMix64;
 use model_core::Rover;
 
 const HUSKY: Rover = Rover::HUSKY_A200;
@@ -87,7 +87,7 @@ fn couple(vi: f64, vo: f64) -> [f64; 2] {
 }
 
 fn calibration(runs: usize, power: &dyn Fn(f64, f64) -> [f64; 2]) -> Vec<TurnRow> {
-    let mut rng = SplitMix64(7);
+    let mut rng = SplitMix64::new(7);
     (0..runs)
         .flat_map(|run| [0.0, 2.0, 3.0, f64::INFINITY].map(|r| (run, r)))
         .map(|(run, r)| row(run, r, &mut rng, power))

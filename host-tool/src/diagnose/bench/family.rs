@@ -8,6 +8,7 @@ use crate::sim::world::{
     effects::HARD_GROUND_SLIP_TRACK_M, DrivePower, IcrParams, Manoeuvre, PowerSplit, Scenario,
     Side, WorldConfig,
 };
+use model_core::rng::SplitMix64;
 use model_core::{Rover, Sides};
 use serde::Serialize;
 
@@ -476,39 +477,18 @@ pub fn scale_effect(world: &mut WorldConfig, effect: EffectId, factor: f64) {
     }
 }
 
-/// SplitMix64, the generator of the datasets (deterministic, no dependency).
-#[derive(Debug, Clone)]
-struct Rng(u64);
+/// Uniform in [lo, hi) (the ranges below are (lo, hi) pairs).
+fn within(rng: &mut SplitMix64, (lo, hi): (f64, f64)) -> f64 {
+    rng.range(lo, hi)
+}
 
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+/// A random permutation of 0..n (Fisher–Yates).
+fn shuffled(rng: &mut SplitMix64, n: usize) -> Vec<usize> {
+    let mut v: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        v.swap(i, rng.below(i + 1));
     }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn uniform(&mut self, (lo, hi): (f64, f64)) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    fn chance(&mut self, p: f64) -> bool {
-        self.unit() < p
-    }
-    /// A random permutation of 0..n (Fisher–Yates).
-    fn shuffled(&mut self, n: usize) -> Vec<usize> {
-        let mut v: Vec<usize> = (0..n).collect();
-        for i in (1..n).rev() {
-            v.swap(i, self.below(i + 1));
-        }
-        v
-    }
+    v
 }
 
 /// Whether a dataset of this rover, direction and structure belongs to the held-out part.
@@ -517,7 +497,7 @@ pub fn is_held_out(rover: RoverKind, direction: Side, structure: &StructureKind)
 }
 
 /// Every switch drawn independently (about half the draws keep each default).
-fn draw_structure(rng: &mut Rng) -> StructureKind {
+fn draw_structure(rng: &mut SplitMix64) -> StructureKind {
     StructureKind {
         split: match rng.below(5) {
             0 => SplitDraw::Rt,
@@ -539,25 +519,25 @@ fn draw_structure(rng: &mut Rng) -> StructureKind {
 /// draws a held-out combination; the held-out part draws only those (half the Argo turning
 /// right with any structure, half the held-out structure on either rover and side).
 fn draw_setting(
-    rng: &mut Rng,
+    rng: &mut SplitMix64,
     part: Part,
     class: DatasetClass,
 ) -> (RoverKind, Side, StructureKind) {
-    let side = |rng: &mut Rng| {
+    let side = |rng: &mut SplitMix64| {
         if rng.chance(0.5) {
             Side::Left
         } else {
             Side::Right
         }
     };
-    let rover = |rng: &mut Rng| {
+    let rover = |rng: &mut SplitMix64| {
         if rng.chance(0.5) {
             RoverKind::HuskyA200
         } else {
             RoverKind::ArgoJ5
         }
     };
-    let structure = |rng: &mut Rng| match class {
+    let structure = |rng: &mut SplitMix64| match class {
         DatasetClass::Control => DEFAULT_STRUCTURE,
         DatasetClass::Effect(_) => draw_structure(rng),
         DatasetClass::StructureOnly => loop {
@@ -598,17 +578,18 @@ pub fn generate(part: Part, datasets: usize, seed: u64) -> Vec<DatasetSpec> {
 }
 
 fn draw(part: Part, index: usize, bench_seed: u64) -> DatasetSpec {
-    let mut rng = Rng(bench_seed.wrapping_mul(0xA076_1D64_78BD_642F) ^ index as u64);
+    let mut rng = SplitMix64::new(bench_seed.wrapping_mul(0xA076_1D64_78BD_642F) ^ index as u64);
     rng.next_u64();
     let class = DatasetClass::of(index);
     let effect = class.effect();
     let (rover, direction, structure) = draw_setting(&mut rng, part, class);
     let base = rover.world();
-    let perturb =
-        |rng: &mut Rng, v: f64| v * rng.uniform((1.0 - BASE_PERTURBATION, 1.0 + BASE_PERTURBATION));
+    let perturb = |rng: &mut SplitMix64, v: f64| {
+        v * within(rng, (1.0 - BASE_PERTURBATION, 1.0 + BASE_PERTURBATION))
+    };
     let strength = if effect.is_some() {
         let ln = STRENGTH_SPAN.ln();
-        rng.uniform((-ln, ln)).exp()
+        within(&mut rng, (-ln, ln)).exp()
     } else {
         1.0
     };
@@ -619,8 +600,14 @@ fn draw(part: Part, index: usize, bench_seed: u64) -> DatasetSpec {
             let q = perturb(&mut rng, base.driver.quiescent_current_a);
             Sides::new(q, q)
         }
-        Standstill::Zero => Sides::new(rng.uniform((0.0, 0.005)), rng.uniform((0.0, 0.005))),
-        Standstill::Uneven => Sides::new(rng.uniform((0.02, 0.12)), rng.uniform((0.02, 0.12))),
+        Standstill::Zero => Sides::new(
+            within(&mut rng, (0.0, 0.005)),
+            within(&mut rng, (0.0, 0.005)),
+        ),
+        Standstill::Uneven => Sides::new(
+            within(&mut rng, (0.02, 0.12)),
+            within(&mut rng, (0.02, 0.12)),
+        ),
     };
     DatasetSpec {
         index,
@@ -631,45 +618,45 @@ fn draw(part: Part, index: usize, bench_seed: u64) -> DatasetSpec {
         rover,
         direction,
         strength,
-        v_c_mps: rng.uniform(V_C_RANGE_MPS),
+        v_c_mps: within(&mut rng, V_C_RANGE_MPS),
         sample_hz: SAMPLE_HZ[rng.below(SAMPLE_HZ.len())],
         current_std_a: Sides::new(
-            rng.uniform(CURRENT_STD_RANGE_A),
-            rng.uniform(CURRENT_STD_RANGE_A),
+            within(&mut rng, CURRENT_STD_RANGE_A),
+            within(&mut rng, CURRENT_STD_RANGE_A),
         ),
-        manoeuvre_power_std: rng.uniform(MANOEUVRE_STD_RANGE),
-        run_power_std: rng.uniform(RUN_STD_RANGE),
+        manoeuvre_power_std: within(&mut rng, MANOEUVRE_STD_RANGE),
+        run_power_std: within(&mut rng, RUN_STD_RANGE),
         repeats,
-        straight_m: rng.uniform((1.0, 2.0)),
+        straight_m: within(&mut rng, (1.0, 2.0)),
         mu: perturb(&mut rng, base.icr.mu),
         rolling_resistance_n: perturb(&mut rng, base.icr.rolling_resistance_n),
         internal_resistance_ohm: perturb(&mut rng, base.battery.internal_resistance_ohm),
         quiescent_current_a,
         threshold_radius_m: (structure.split == SplitDraw::Rt)
-            .then(|| rng.uniform(THRESHOLD_RADIUS_RANGE_M)),
+            .then(|| within(&mut rng, THRESHOLD_RADIUS_RANGE_M)),
         angular_slip: if structure.slip {
-            rng.uniform(ANGULAR_SLIP_RANGE)
+            within(&mut rng, ANGULAR_SLIP_RANGE)
         } else {
             0.0
         },
         motor_losses: structure.losses.then(|| {
             (
-                rng.uniform(EFFICIENCY_RANGE),
-                rng.uniform(WINDING_RESISTANCE_RANGE_OHM),
+                within(&mut rng, EFFICIENCY_RANGE),
+                within(&mut rng, WINDING_RESISTANCE_RANGE_OHM),
             )
         }),
         offset_right_over_left: if effect == Some(EffectId::CurrentOffset) {
-            rng.uniform((0.7, 1.3))
+            within(&mut rng, (0.7, 1.3))
         } else {
             1.0
         },
         slope_wavelength_m: if effect == Some(EffectId::Slope) {
-            rng.uniform((3.0, 6.0))
+            within(&mut rng, (3.0, 6.0))
         } else {
             base.effects.slope.wavelength_m
         },
         test_orders: (0..TEST_RUNS)
-            .map(|_| rng.shuffled(TEST_R_OVER_R_PRIME.len()))
+            .map(|_| shuffled(&mut rng, TEST_R_OVER_R_PRIME.len()))
             .collect(),
         seed: rng.next_u64(),
     }

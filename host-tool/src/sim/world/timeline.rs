@@ -8,6 +8,7 @@ use super::{Noise, Tracker, WorldConfig};
 use crate::log::commands::CommandRow;
 use crate::sim::board::{LoadSource, SideLoad};
 use model_core::kinematics::{Regime, TurnDirection};
+use model_core::rng::{self, splitmix64};
 use model_core::Sides;
 use std::sync::Arc;
 
@@ -132,30 +133,23 @@ const FIX_LOST: u64 = 11;
 pub(super) const RUN_SCALE: u64 = 7;
 pub(super) const MANOEUVRE_SCALE: u64 = 8;
 
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+/// 64 random bits from (seed, stream, t_us) alone: counter-based, so any instant can be queried
+/// in any order (splitmix64 as a hash of the three).
+fn bits(seed: u64, stream: u64, t_us: u64) -> u64 {
+    splitmix64(seed ^ splitmix64(stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ splitmix64(t_us)))
 }
 
-/// A standard normal deviate from (seed, stream, t_us) alone: counter-based, so any instant can
-/// be queried in any order (Box–Muller on two splitmix64 outputs).
+/// A standard normal deviate from (seed, stream, t_us) alone (Box–Muller on [`bits`] and its
+/// hash).
 pub(super) fn gaussian(seed: u64, stream: u64, t_us: u64) -> f64 {
-    let h1 = splitmix64(
-        seed ^ splitmix64(stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ splitmix64(t_us)),
-    );
+    let h1 = bits(seed, stream, t_us);
     let h2 = splitmix64(h1);
-    let unit = |h: u64| ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-    (-2.0 * unit(h1).ln()).sqrt() * (2.0 * std::f64::consts::PI * unit(h2)).cos()
+    rng::box_muller(rng::unit_open(h1), rng::unit_open(h2))
 }
 
-/// A uniform deviate in (0, 1) from (seed, stream, t_us) alone, like [`gaussian`].
+/// A uniform deviate in (0, 1] from (seed, stream, t_us) alone, like [`gaussian`].
 fn uniform(seed: u64, stream: u64, t_us: u64) -> f64 {
-    let h = splitmix64(
-        seed ^ splitmix64(stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ splitmix64(t_us)),
-    );
-    ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    rng::unit_open(bits(seed, stream, t_us))
 }
 
 impl Timeline {
