@@ -285,7 +285,7 @@ pub fn window(hello: &Hello, w: &Window, limits: &Limits) -> Vec<Step> {
         rate(hello, w, limits),
         losses(w),
         stability(hello, w),
-        bus_voltages(w, limits),
+        bus_voltages(hello, w, limits),
         standstill(w, limits),
     ]
 }
@@ -357,21 +357,22 @@ fn stability(hello: &Hello, w: &Window) -> Step {
     Step::pass(StepId::ChipStability, detail)
 }
 
-fn bus_voltages(w: &Window, limits: &Limits) -> Step {
+fn bus_voltages(hello: &Hello, w: &Window, limits: &Limits) -> Step {
     let (Some(left), Some(right)) = (
         w.mean(w.bus_v_sum, Side::Left),
         w.mean(w.bus_v_sum, Side::Right),
     ) else {
+        let side = if w.readings.left == 0 {
+            Side::Left
+        } else {
+            Side::Right
+        };
         return Step::fail(
             StepId::BusVoltages,
             "a chip gave no reading",
             Hint::ChipMissing {
-                side: if w.readings.left == 0 {
-                    Side::Left
-                } else {
-                    Side::Right
-                },
-                address: 0,
+                side,
+                address: side.of(hello.addresses),
             },
         );
     };
@@ -509,12 +510,29 @@ mod tests {
     #[test]
     fn bus_voltages_must_agree_and_show_a_battery() {
         let limits = Limits::default();
-        let at = |l, r| bus_voltages(&idle(Sides::new(0.0, 0.0), Sides::new(l, r)), &limits);
+        let hello = hello();
+        let at = |l, r| {
+            bus_voltages(
+                &hello,
+                &idle(Sides::new(0.0, 0.0), Sides::new(l, r)),
+                &limits,
+            )
+        };
         assert_eq!(at(24.0, 23.85).hint, None);
         assert_eq!(at(24.0, 23.7).hint, Some(Hint::BusVoltagesDisagree));
         assert_eq!(
             at(0.0, 24.0).hint,
             Some(Hint::NoBattery { side: Side::Left })
+        );
+        // No reading at all from the right chip: the hint names its address.
+        let mut silent_right = idle(Sides::new(0.0, 0.0), Sides::new(24.0, 0.0));
+        silent_right.readings.right = 0;
+        assert_eq!(
+            bus_voltages(&hello, &silent_right, &limits).hint,
+            Some(Hint::ChipMissing {
+                side: Side::Right,
+                address: 0x45
+            })
         );
     }
 
