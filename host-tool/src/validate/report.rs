@@ -538,8 +538,9 @@ fn pct(v: Option<f64>) -> String {
     v.map_or_else(|| "–".to_owned(), |v| format!("{:+.1}", 100.0 * v))
 }
 
-impl fmt::Display for ValidationReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl ValidationReport {
+    /// The rover's parameters and the settings, then a blank line.
+    fn fmt_header(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = &self.rover;
         writeln!(
             f,
@@ -558,7 +559,11 @@ impl fmt::Display for ValidationReport {
             "settings: speed tolerance {} m/s, min duration {} s, settle {} s, gaps > {}× median dt, turn {}° without yaw, departures > {:.0} % outside the 95 % prediction interval",
             st.speed_tolerance_mps, st.min_duration_s, st.settle_s, st.gap_factor, st.turn_deg, 100.0 * st.departure_fraction
         )?;
-        writeln!(f)?;
+        writeln!(f)
+    }
+
+    /// One line per run: its samples and spans, then a blank line.
+    fn fmt_runs(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "runs:")?;
         for run in &self.runs {
             writeln!(
@@ -576,6 +581,11 @@ impl fmt::Display for ValidationReport {
             )?;
         }
         writeln!(f)?;
+        Ok(())
+    }
+
+    /// The manoeuvre table and its legend, then a blank line.
+    fn fmt_manoeuvres(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
             "{:<12} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
@@ -620,9 +630,11 @@ impl fmt::Display for ValidationReport {
         }
         writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second minus first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
         writeln!(f)?;
-        if self.has_positions() {
-            self.fmt_tracks(f)?;
-        }
+        Ok(())
+    }
+
+    /// The ICR fit's coefficients, or why there is none.
+    fn fmt_fit(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match (&self.fit, &self.fit_error) {
             (Some(fit), _) => {
                 let c = |c: &super::fit::Coefficient| {
@@ -652,6 +664,11 @@ impl fmt::Display for ValidationReport {
             (None, Some(e)) => writeln!(f, "ICR fit: not possible: {e}")?,
             (None, None) => writeln!(f, "ICR fit: not attempted")?,
         }
+        Ok(())
+    }
+
+    /// The hard-ground reference's parameters, then a blank line.
+    fn fmt_hard_ground(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if let Some(hg) = &self.hard_ground {
             writeln!(
                 f,
@@ -665,6 +682,11 @@ impl fmt::Display for ValidationReport {
             )?;
         }
         writeln!(f)?;
+        Ok(())
+    }
+
+    /// The per-regime table.
+    fn fmt_regimes(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
             "{:<18} {:>4} {:>8} {:>9} {:>8} {:>9} {:>7} {:>7}",
@@ -685,6 +707,11 @@ impl fmt::Display for ValidationReport {
                 pct(g.mean_hard_ground_residual_fraction)
             )?;
         }
+        Ok(())
+    }
+
+    /// The manoeuvres departing from the fit, then a blank line.
+    fn fmt_departures(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let flagged: Vec<String> = self
             .flagged()
             .map(|m| {
@@ -707,6 +734,11 @@ impl fmt::Display for ValidationReport {
             )?;
         }
         writeln!(f)?;
+        Ok(())
+    }
+
+    /// Per run, the board's model frames against the host's recomputation.
+    fn fmt_cross_check(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "board model vs host recomputation:")?;
         for run in &self.runs {
             match &run.cross_check {
@@ -734,5 +766,21 @@ impl fmt::Display for ValidationReport {
             }
         }
         Ok(())
+    }
+}
+
+impl fmt::Display for ValidationReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.fmt_header(f)?;
+        self.fmt_runs(f)?;
+        self.fmt_manoeuvres(f)?;
+        if self.has_positions() {
+            self.fmt_tracks(f)?;
+        }
+        self.fmt_fit(f)?;
+        self.fmt_hard_ground(f)?;
+        self.fmt_regimes(f)?;
+        self.fmt_departures(f)?;
+        self.fmt_cross_check(f)
     }
 }

@@ -637,29 +637,40 @@ fn parse_world_at(
     resolve(raw, origin, base)
 }
 
+/// The world file's rover file (a relative path taken from `base`).
+fn load_rover_at(path: PathBuf, origin: &str, base: Option<&Path>) -> Result<Rover, WorldError> {
+    let path = match base {
+        Some(dir) if path.is_relative() => dir.join(path),
+        _ => path,
+    };
+    crate::rover::load_rover(&path).map_err(|source| WorldError::Rover {
+        origin: origin.to_string(),
+        source,
+    })
+}
+
+impl IcrToml {
+    /// The file's ICR values over `d`, the ground's.
+    fn over(self, d: IcrParams) -> IcrParams {
+        IcrParams {
+            mu: self.mu.unwrap_or(d.mu),
+            rolling_resistance_n: self.rolling_resistance_n.unwrap_or(d.rolling_resistance_n),
+            slip_track_m: self.slip_track_m.unwrap_or(d.slip_track_m),
+            traction_fade_radius_m: self
+                .traction_fade_radius_m
+                .unwrap_or(d.traction_fade_radius_m),
+        }
+    }
+}
+
 /// Applies what a world file says over the defaults of its ground.
 fn resolve(raw: WorldToml, origin: &str, base: Option<&Path>) -> Result<WorldConfig, WorldError> {
     let mut world = WorldConfig::for_ground(raw.ground);
     if let Some(path) = raw.rover {
-        let path = match base {
-            Some(dir) if path.is_relative() => dir.join(path),
-            _ => path,
-        };
-        world.rover = crate::rover::load_rover(&path).map_err(|source| WorldError::Rover {
-            origin: origin.to_string(),
-            source,
-        })?;
+        world.rover = load_rover_at(path, origin, base)?;
     }
     if let Some(icr) = raw.icr {
-        let d = world.icr;
-        world.icr = IcrParams {
-            mu: icr.mu.unwrap_or(d.mu),
-            rolling_resistance_n: icr.rolling_resistance_n.unwrap_or(d.rolling_resistance_n),
-            slip_track_m: icr.slip_track_m.unwrap_or(d.slip_track_m),
-            traction_fade_radius_m: icr
-                .traction_fade_radius_m
-                .unwrap_or(d.traction_fade_radius_m),
-        };
+        world.icr = icr.over(world.icr);
     }
     world.battery = raw.battery;
     world.driver = raw.driver;

@@ -320,6 +320,30 @@ impl Scenario {
     /// Checks every value and expands the manoeuvres (paths into arcs and lines) into
     /// constant-command segments with the pauses in between, for `rover`.
     pub(crate) fn segments(&self, rover: &Rover, origin: &str) -> Result<Vec<Segment>, WorldError> {
+        self.check_timing(origin)?;
+        let r_prime = f64::from(rover.r_prime_m());
+        let mut body: Vec<Segment> = Vec::new();
+        for (i, m) in self.manoeuvres.iter().enumerate() {
+            let kind = m.kind();
+            for (part, cmd, direction, radius_m, until, label) in m.pieces(i, origin, r_prime)? {
+                body.push(Segment {
+                    kind,
+                    cmd_mps: cmd,
+                    direction,
+                    radius_m,
+                    until,
+                    scenario_index: Some(i),
+                    repeat: 0,
+                    part,
+                    label,
+                });
+            }
+        }
+        Ok(self.repeat_with_pauses(&body))
+    }
+
+    /// The repeat count, the pauses and the manoeuvre list.
+    fn check_timing(&self, origin: &str) -> Result<(), WorldError> {
         if self.repeats == 0 {
             return Err(key_err(origin, "repeats".into(), "must be ≥ 1"));
         }
@@ -335,156 +359,12 @@ impl Scenario {
         if self.manoeuvres.is_empty() {
             return Err(key_err(origin, "manoeuvres".into(), "is empty"));
         }
-        let r_prime = f64::from(rover.r_prime_m());
-        let mut body: Vec<Segment> = Vec::new();
-        for (i, m) in self.manoeuvres.iter().enumerate() {
-            let at = |k: &str| format!("manoeuvres[{i}].{k}");
-            let first_new = body.len();
-            let mut push = |part: usize,
-                            cmd: model_core::Sides<f64>,
-                            direction: Option<TurnDirection>,
-                            radius_m: Option<f64>,
-                            until: Until,
-                            label: String| {
-                body.push(Segment {
-                    kind: ManoeuvreKind::Pause,
-                    cmd_mps: cmd,
-                    direction,
-                    radius_m,
-                    until,
-                    scenario_index: Some(i),
-                    repeat: 0,
-                    part,
-                    label,
-                })
-            };
-            match *m {
-                Manoeuvre::Turn {
-                    radius_m,
-                    r_over_r_prime,
-                    angle_deg,
-                    v_c_mps,
-                    direction,
-                } => {
-                    let r = radius(origin, &at(""), radius_m, r_over_r_prime, r_prime)?;
-                    let angle = positive(origin, at("angle_deg"), angle_deg)?.to_radians();
-                    let v = positive(origin, at("v_c_mps"), v_c_mps)?;
-                    let dir: TurnDirection = direction.into();
-                    if r.is_infinite() {
-                        return Err(key_err(
-                            origin,
-                            at("radius_m"),
-                            "an infinite radius never turns; use kind = \"straight\"",
-                        ));
-                    }
-                    let (cmd, until) = turn_segment(v, r, angle, dir, r_prime);
-                    push(
-                        0,
-                        cmd,
-                        Some(dir),
-                        Some(r),
-                        until,
-                        format!(
-                            "turn R={r:.3} m ({:.3} R') {angle_deg}° {direction:?}",
-                            r / r_prime
-                        ),
-                    );
-                }
-                Manoeuvre::PointTurn {
-                    angle_deg,
-                    side_speed_mps,
-                    direction,
-                } => {
-                    let angle = positive(origin, at("angle_deg"), angle_deg)?.to_radians();
-                    let v = positive(origin, at("side_speed_mps"), side_speed_mps)?;
-                    let dir: TurnDirection = direction.into();
-                    let (cmd, until) = turn_segment(v, 0.0, angle, dir, r_prime);
-                    push(
-                        0,
-                        cmd,
-                        Some(dir),
-                        Some(0.0),
-                        until,
-                        format!("point turn {angle_deg}° {direction:?}"),
-                    );
-                }
-                Manoeuvre::Straight {
-                    distance_m,
-                    speed_mps,
-                } => {
-                    let d = positive(origin, at("distance_m"), distance_m)?;
-                    let v = positive(origin, at("speed_mps"), speed_mps)?;
-                    push(
-                        0,
-                        model_core::Sides::new(v, v),
-                        None,
-                        Some(f64::INFINITY),
-                        Until::Distance(d),
-                        format!("straight {d} m"),
-                    );
-                }
-                Manoeuvre::Pause { duration_s } => {
-                    let t = positive(origin, at("duration_s"), duration_s)?;
-                    push(
-                        0,
-                        model_core::Sides::new(0.0, 0.0),
-                        None,
-                        None,
-                        Until::Time(t),
-                        format!("pause {t} s"),
-                    );
-                }
-                Manoeuvre::Clc {
-                    start_heading_deg,
-                    end_heading_deg,
-                    distance_m,
-                    radius_m,
-                    r_over_r_prime,
-                    v_c_mps,
-                } => {
-                    let r = radius(origin, &at(""), radius_m, r_over_r_prime, r_prime)?;
-                    let v = positive(origin, at("v_c_mps"), v_c_mps)?;
-                    let ends = ClcEnds::new(
-                        start_heading_deg.to_radians(),
-                        end_heading_deg.to_radians(),
-                        distance_m,
-                    )
-                    .map_err(|e| key_err(origin, at("start_heading_deg"), e.to_string()))?;
-                    let path = ClcPath::new(&ends, r, r)
-                        .map_err(|e| key_err(origin, at("radius_m"), e.to_string()))?;
-                    for (part, cmd, dir, rad, until, label) in
-                        path_segments(&ends, &path, v, r_prime, "clc")
-                    {
-                        push(part, cmd, dir, rad, until, label);
-                    }
-                }
-                Manoeuvre::Plp {
-                    start_heading_deg,
-                    end_heading_deg,
-                    distance_m,
-                    v_c_mps,
-                } => {
-                    let v = positive(origin, at("v_c_mps"), v_c_mps)?;
-                    let ends = ClcEnds::new(
-                        start_heading_deg.to_radians(),
-                        end_heading_deg.to_radians(),
-                        distance_m,
-                    )
-                    .map_err(|e| key_err(origin, at("start_heading_deg"), e.to_string()))?;
-                    let path = ClcPath::plp(&ends);
-                    for (part, cmd, dir, rad, until, label) in
-                        path_segments(&ends, &path, v, r_prime, "plp")
-                    {
-                        push(part, cmd, dir, rad, until, label);
-                    }
-                }
-            }
-            let kind = m.kind();
-            for s in &mut body[first_new..] {
-                s.kind = kind;
-            }
-        }
+        Ok(())
+    }
 
+    /// The manoeuvres' segments `repeats` times, a pause between manoeuvres (not between the
+    /// parts of one path), with the lead-in and lead-out.
+    fn repeat_with_pauses(&self, body: &[Segment]) -> Vec<Segment> {
         let pause = |t: f64, label: &str, repeat: u32| Segment {
             kind: ManoeuvreKind::Pause,
             cmd_mps: model_core::Sides::new(0.0, 0.0),
@@ -517,7 +397,121 @@ impl Scenario {
         if self.lead_out_s > 0.0 {
             out.push(pause(self.lead_out_s, "lead-out", self.repeats - 1));
         }
-        Ok(out)
+        out
+    }
+}
+
+/// A manoeuvre of one constant command.
+fn single(
+    cmd: model_core::Sides<f64>,
+    direction: Option<TurnDirection>,
+    radius_m: Option<f64>,
+    until: Until,
+    label: String,
+) -> Vec<PathPiece> {
+    vec![(0, cmd, direction, radius_m, until, label)]
+}
+
+/// A CLC/PLP path's end conditions, checked.
+fn path_ends(
+    origin: &str,
+    at: &dyn Fn(&str) -> String,
+    start_heading_deg: f64,
+    end_heading_deg: f64,
+    distance_m: f64,
+) -> Result<ClcEnds, WorldError> {
+    ClcEnds::new(
+        start_heading_deg.to_radians(),
+        end_heading_deg.to_radians(),
+        distance_m,
+    )
+    .map_err(|e| key_err(origin, at("start_heading_deg"), e.to_string()))
+}
+
+impl Manoeuvre {
+    /// This manoeuvre's constant-command pieces (one, or a path's arcs and line), its values
+    /// checked; `i` is its index in the scenario (for the error keys).
+    fn pieces(&self, i: usize, origin: &str, r_prime: f64) -> Result<Vec<PathPiece>, WorldError> {
+        let at = |k: &str| format!("manoeuvres[{i}].{k}");
+        Ok(match *self {
+            Manoeuvre::Turn {
+                radius_m,
+                r_over_r_prime,
+                angle_deg,
+                v_c_mps,
+                direction,
+            } => {
+                let r = radius(origin, &at(""), radius_m, r_over_r_prime, r_prime)?;
+                let angle = positive(origin, at("angle_deg"), angle_deg)?.to_radians();
+                let v = positive(origin, at("v_c_mps"), v_c_mps)?;
+                let dir: TurnDirection = direction.into();
+                if r.is_infinite() {
+                    return Err(key_err(
+                        origin,
+                        at("radius_m"),
+                        "an infinite radius never turns; use kind = \"straight\"",
+                    ));
+                }
+                let (cmd, until) = turn_segment(v, r, angle, dir, r_prime);
+                let label = format!(
+                    "turn R={r:.3} m ({:.3} R') {angle_deg}° {direction:?}",
+                    r / r_prime
+                );
+                single(cmd, Some(dir), Some(r), until, label)
+            }
+            Manoeuvre::PointTurn {
+                angle_deg,
+                side_speed_mps,
+                direction,
+            } => {
+                let angle = positive(origin, at("angle_deg"), angle_deg)?.to_radians();
+                let v = positive(origin, at("side_speed_mps"), side_speed_mps)?;
+                let dir: TurnDirection = direction.into();
+                let (cmd, until) = turn_segment(v, 0.0, angle, dir, r_prime);
+                let label = format!("point turn {angle_deg}° {direction:?}");
+                single(cmd, Some(dir), Some(0.0), until, label)
+            }
+            Manoeuvre::Straight {
+                distance_m,
+                speed_mps,
+            } => {
+                let d = positive(origin, at("distance_m"), distance_m)?;
+                let v = positive(origin, at("speed_mps"), speed_mps)?;
+                let cmd = model_core::Sides::new(v, v);
+                let label = format!("straight {d} m");
+                single(cmd, None, Some(f64::INFINITY), Until::Distance(d), label)
+            }
+            Manoeuvre::Pause { duration_s } => {
+                let t = positive(origin, at("duration_s"), duration_s)?;
+                let cmd = model_core::Sides::new(0.0, 0.0);
+                single(cmd, None, None, Until::Time(t), format!("pause {t} s"))
+            }
+            Manoeuvre::Clc {
+                start_heading_deg,
+                end_heading_deg,
+                distance_m,
+                radius_m,
+                r_over_r_prime,
+                v_c_mps,
+            } => {
+                let r = radius(origin, &at(""), radius_m, r_over_r_prime, r_prime)?;
+                let v = positive(origin, at("v_c_mps"), v_c_mps)?;
+                let ends = path_ends(origin, &at, start_heading_deg, end_heading_deg, distance_m)?;
+                let path = ClcPath::new(&ends, r, r)
+                    .map_err(|e| key_err(origin, at("radius_m"), e.to_string()))?;
+                path_segments(&ends, &path, v, r_prime, "clc")
+            }
+            Manoeuvre::Plp {
+                start_heading_deg,
+                end_heading_deg,
+                distance_m,
+                v_c_mps,
+            } => {
+                let v = positive(origin, at("v_c_mps"), v_c_mps)?;
+                let ends = path_ends(origin, &at, start_heading_deg, end_heading_deg, distance_m)?;
+                path_segments(&ends, &ClcPath::plp(&ends), v, r_prime, "plp")
+            }
+        })
     }
 }
 
