@@ -209,7 +209,14 @@ fn main() -> Result<()> {
             }
         }
     }
-    for (rust_name, script, r) in &ratios {
+    print_ratios(&ratios);
+    Ok(())
+}
+
+/// Each Rust path's ratio to each Python peer (the peer's time over ours), then against the
+/// fastest peer of each path with the goal.
+fn print_ratios(ratios: &[(&str, &str, f64)]) {
+    for (rust_name, script, r) in ratios {
         println!(
             "  Rust ({rust_name}) / {script}:{:>w$}{r:>6.1}×",
             "",
@@ -229,7 +236,6 @@ fn main() -> Result<()> {
             );
         }
     }
-    Ok(())
 }
 
 /// The number after `option` in `args`, if given.
