@@ -85,15 +85,7 @@ pub fn refuse_duplicate_runs(names: &[String], runs: &[RunLog]) -> Result<(), Lo
         }
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         for s in &run.samples {
-            for v in [
-                s.t_s,
-                s.bus_v.left,
-                s.bus_v.right,
-                s.current_a.left,
-                s.current_a.right,
-                s.cmd_mps.left,
-                s.cmd_mps.right,
-            ] {
+            for v in s.required_values() {
                 v.to_bits().hash(&mut hasher);
             }
         }

@@ -58,6 +58,20 @@ pub struct RunSample {
 }
 
 impl RunSample {
+    /// The required cells' values in column order: t, bus V and current per side, commanded
+    /// speed per side.
+    pub fn required_values(&self) -> [f64; 7] {
+        [
+            self.t_s,
+            self.bus_v.left,
+            self.bus_v.right,
+            self.current_a.left,
+            self.current_a.right,
+            self.cmd_mps.left,
+            self.cmd_mps.right,
+        ]
+    }
+
     /// The tracked point (x, y) [m] when both coordinates are present and finite.
     pub fn position_m(&self) -> Option<(f64, f64)> {
         match (self.x_m, self.y_m) {

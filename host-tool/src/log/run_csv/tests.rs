@@ -403,18 +403,7 @@ fn samples() -> impl Strategy<Value = Vec<RunSample>> {
 }
 
 fn same_bits(a: &RunSample, b: &RunSample) -> bool {
-    let bits = |s: &RunSample| {
-        [
-            s.t_s,
-            s.bus_v.left,
-            s.bus_v.right,
-            s.current_a.left,
-            s.current_a.right,
-            s.cmd_mps.left,
-            s.cmd_mps.right,
-        ]
-        .map(f64::to_bits)
-    };
+    let bits = |s: &RunSample| s.required_values().map(f64::to_bits);
     bits(a) == bits(b)
         && a.yaw_rad.map(f64::to_bits) == b.yaw_rad.map(f64::to_bits)
         && a.pitch_deg.map(f64::to_bits) == b.pitch_deg.map(f64::to_bits)
