@@ -539,10 +539,10 @@ fn degrees(rad: f64) -> f64 {
     (rad.to_degrees() * 1e9).round() / 1e9
 }
 
-/// The result of `plan`: the optimal CLC path (paper Eq 46) and the PLP path between the same
-/// poses, as in paper Table 3.
+/// What a plan was asked for and with which model: the head of [`PlanReport`] and of
+/// [`sweep::SweepReport`] (flattened into their JSON).
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PlanReport {
+pub struct PlanSetting {
     /// The preset used, if any.
     pub preset: Option<&'static str>,
     /// The model file used, if any.
@@ -559,6 +559,26 @@ pub struct PlanReport {
     pub v_c_mps: f64,
     /// R' = B_s/2 on the terrain [m].
     pub r_prime_m: f64,
+}
+
+impl PlanSetting {
+    /// `preset NAME`, `model FILE` or `model`, as the tables name the model.
+    pub fn source(&self) -> String {
+        match (&self.preset, &self.model) {
+            (Some(p), _) => format!("preset {p}"),
+            (None, Some(m)) => format!("model {m}"),
+            (None, None) => "model".into(),
+        }
+    }
+}
+
+/// The result of `plan`: the optimal CLC path (paper Eq 46) and the PLP path between the same
+/// poses, as in paper Table 3.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlanReport {
+    /// The model and the poses.
+    #[serde(flatten)]
+    pub setting: PlanSetting,
     /// The optimal CLC path.
     pub clc: PlannedPath,
     /// The PLP path.
@@ -605,14 +625,16 @@ pub fn plan(
         ModelSource::File(path) => (None, Some(path.display().to_string())),
     };
     Ok(PlanReport {
-        preset,
-        model: file,
-        model_description: model.description.clone(),
-        start_deg,
-        end_deg,
-        distance_m,
-        v_c_mps: law.v_c_mps(),
-        r_prime_m: law.r_prime_m(),
+        setting: PlanSetting {
+            preset,
+            model: file,
+            model_description: model.description.clone(),
+            start_deg,
+            end_deg,
+            distance_m,
+            v_c_mps: law.v_c_mps(),
+            r_prime_m: law.r_prime_m(),
+        },
         clc,
         plp,
         saving_j,
@@ -638,26 +660,19 @@ pub fn plan_preset(
 
 impl fmt::Display for PlanReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let source = match (&self.preset, &self.model) {
-            (Some(p), _) => format!("preset {p}"),
-            (None, Some(m)) => format!("model {m}"),
-            (None, None) => "model".into(),
-        };
+        let s = &self.setting;
+        let source = s.source();
         writeln!(
             f,
             "plan: {}° -> {}° over {} m (path frame), {source}{}",
-            self.start_deg,
-            self.end_deg,
-            self.distance_m,
-            self.model_description
+            s.start_deg,
+            s.end_deg,
+            s.distance_m,
+            s.model_description
                 .as_deref()
                 .map_or(String::new(), |d| format!(" ({d})")),
         )?;
-        writeln!(
-            f,
-            "v_c = {} m/s, R' = {:.3} m",
-            self.v_c_mps, self.r_prime_m
-        )?;
+        writeln!(f, "v_c = {} m/s, R' = {:.3} m", s.v_c_mps, s.r_prime_m)?;
         writeln!(
             f,
             "{:<4}  {:>10}  {:>7}  {:>7}  {:>9}  {:>8}  {:>7}",
@@ -817,8 +832,8 @@ slip_track_m = 1.29
         let preset = husky(45.0, 45.0, 10.0);
         assert_eq!(file.clc, preset.clc);
         assert_eq!(file.plp, preset.plp);
-        assert_eq!(file.model.as_deref(), Some("hg.toml"));
-        assert_eq!(file.preset, None);
+        assert_eq!(file.setting.model.as_deref(), Some("hg.toml"));
+        assert_eq!(file.setting.preset, None);
         assert_eq!(model.hard_ground(), IcrHardGround::HUSKY_HARD_GROUND);
     }
 

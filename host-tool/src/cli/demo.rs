@@ -195,9 +195,9 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             "  {what}: CLC R1 = {:.2} m ({:.2} R′), R2 = {:.2} m ({:.2} R′), {:.0} J vs PLP {:.0} J \
              ({:+.1} %)",
             p.clc.r1_m,
-            p.clc.r1_m / p.r_prime_m,
+            p.clc.r1_m / p.setting.r_prime_m,
             p.clc.r2_m,
-            p.clc.r2_m / p.r_prime_m,
+            p.clc.r2_m / p.setting.r_prime_m,
             p.clc.energy_j,
             p.plp.energy_j,
             -p.saving_pct
@@ -209,9 +209,9 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
         text,
         "  diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
          ({:+.1} %); slices of R/R′, model vs measured on sand:",
-        sweep.start_deg,
-        sweep.distance_m,
-        sweep.end_deg,
+        sweep.setting.start_deg,
+        sweep.setting.distance_m,
+        sweep.setting.end_deg,
         sweep.optimum.r_over_r_prime,
         sweep.optimum.delta_e_pct
     );

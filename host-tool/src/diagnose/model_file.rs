@@ -421,7 +421,7 @@ mod tests {
         let source = crate::plan::ModelSource::Preset(crate::plan::Preset::HuskyHardGround);
         let with = crate::plan::plan(&model, &source, 90.0, 90.0, 10.0).expect("plans");
         let without = crate::plan::plan(&hard, &source, 90.0, 90.0, 10.0).expect("plans");
-        let k = |p: &crate::plan::PlanReport| p.clc.r1_m / p.r_prime_m;
+        let k = |p: &crate::plan::PlanReport| p.clc.r1_m / p.setting.r_prime_m;
         assert!((k(&without) - 1.0).abs() < 0.05, "{without:?}");
         // 2R′ is also the widest turn these runs measured (the table's last turn breakpoint).
         assert!((1.95..=3.0).contains(&k(&with)), "{}: {with:?}", d.effect);

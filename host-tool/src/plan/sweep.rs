@@ -111,22 +111,9 @@ pub struct SliceMean {
 /// `plan --sweep`'s result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SweepReport {
-    /// The preset used, if any.
-    pub preset: Option<&'static str>,
-    /// The model file used, if any.
-    pub model: Option<String>,
-    /// The model's description.
-    pub model_description: Option<String>,
-    /// θ_A^P [deg].
-    pub start_deg: f64,
-    /// θ_C^P [deg].
-    pub end_deg: f64,
-    /// d [m].
-    pub distance_m: f64,
-    /// v_c [m/s].
-    pub v_c_mps: f64,
-    /// R' = B_s/2 on the terrain [m].
-    pub r_prime_m: f64,
+    /// The model and the poses.
+    #[serde(flatten)]
+    pub setting: super::PlanSetting,
     /// E_PLP [J].
     pub plp_energy_j: f64,
     /// Every grid point with a CLC path (radii too wide for the poses have none).
@@ -251,14 +238,7 @@ pub fn sweep(
         })
         .collect();
     Ok(SweepReport {
-        preset: plan.preset,
-        model: plan.model,
-        model_description: plan.model_description,
-        start_deg,
-        end_deg,
-        distance_m,
-        v_c_mps: plan.v_c_mps,
-        r_prime_m: plan.r_prime_m,
+        setting: plan.setting,
         plp_energy_j: plp_j,
         points,
         optimum,
@@ -274,7 +254,7 @@ impl SweepReport {
         let mut chart = Chart::new(
             format!(
                 "ΔE = (E_CLC − E_PLP)/E_PLP, {}° – {} m – {}°",
-                self.start_deg, self.distance_m, self.end_deg
+                self.setting.start_deg, self.setting.distance_m, self.setting.end_deg
             ),
             "R/R′",
             "ΔE [%]",
@@ -285,7 +265,8 @@ impl SweepReport {
             .map(|p| (p.r_over_r_prime, p.delta_e_pct))
             .collect();
         chart.series.push(Series::new(
-            self.preset
+            self.setting
+                .preset
                 .map_or("model".to_owned(), |p| format!("model ({p})")),
             curve,
             SeriesStyle::Line,
@@ -323,21 +304,13 @@ impl SweepReport {
 
 impl fmt::Display for SweepReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let source = match (&self.preset, &self.model) {
-            (Some(p), _) => format!("preset {p}"),
-            (None, Some(m)) => format!("model {m}"),
-            (None, None) => "model".into(),
-        };
+        let s = &self.setting;
+        let source = s.source();
         writeln!(
             f,
             "sweep: {}° -> {}° over {} m (path frame), {source}; v_c = {} m/s, R' = {:.3} m, \
              PLP {:.2} J",
-            self.start_deg,
-            self.end_deg,
-            self.distance_m,
-            self.v_c_mps,
-            self.r_prime_m,
-            self.plp_energy_j
+            s.start_deg, s.end_deg, s.distance_m, s.v_c_mps, s.r_prime_m, self.plp_energy_j
         )?;
         writeln!(
             f,
