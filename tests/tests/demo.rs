@@ -141,7 +141,7 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
     assert!(options.world.effects.is_enabled(named), "{named}");
     let (hard, diagnosed) = (&outcome.plan_hard_ground, &outcome.plan_diagnosed);
     assert!(
-        (hard.clc.r1_m / hard.r_prime_m - 1.0).abs() < 0.05,
+        (hard.clc.r1_m / hard.setting.r_prime_m - 1.0).abs() < 0.05,
         "{hard:?}"
     );
     assert!(
