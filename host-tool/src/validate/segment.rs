@@ -270,11 +270,22 @@ pub fn segment(
     options: &SegmentOptions,
 ) -> Result<Vec<Segment>, SegmentError> {
     check_options(options)?;
-    check_run(samples)?;
+    match samples.len() {
+        0 => return Err(SegmentError::Empty),
+        1 => return Err(SegmentError::SingleSample),
+        _ => {}
+    }
+    // One pass over the samples: [`check_run`]'s verdict as the cuts are found, each span
+    // classified while its samples are in the cache.
+    let mut check = RunCheck::default();
     let mut segments = Vec::new();
     let mut start = 0;
-    for i in 1..samples.len() {
-        if starts_manoeuvre(&samples[i], &samples[start], options) {
+    for (i, sample) in samples.iter().enumerate() {
+        check.push(sample);
+        if let Some(problem) = check.problem {
+            return Err(problem);
+        }
+        if i > 0 && starts_manoeuvre(sample, &samples[start], options) {
             segments.push(classify(samples, start, i, rover, options));
             start = i;
         }

@@ -14,6 +14,7 @@ use model_core::Sides;
 use std::fs::File;
 use std::io::{self, Read, Seek, SeekFrom};
 use std::path::Path;
+use std::sync::{Condvar, Mutex};
 
 /// Smallest file worth a second thread [bytes].
 const PARALLEL_BYTES: u64 = 1 << 20;
@@ -64,124 +65,209 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
             return Ok(None);
         }
     }
-    let threads = if data_len < PARALLEL_BYTES {
-        1
-    } else {
-        std::thread::available_parallelism().map_or(1, |n| n.get().min(8)) as u64
+    // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows, so
+    // the samples are never moved while growing.
+    let capacity = usize::try_from(data_len / 40 + 1).unwrap_or(0);
+    let mut reader = PartReader {
+        columns,
+        block,
+        previous_t_s: f64::NEG_INFINITY,
+        buf: Vec::with_capacity(2 * block),
     };
-    let bounds: Vec<u64> = (0..=threads)
-        .map(|k| data_start + data_len * k / threads)
-        .collect();
-    // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows. The
-    // first part gets room for all, so the others are appended without growing it.
-    let rows = |bytes: u64| usize::try_from(bytes / 40 + 1).unwrap_or(0);
-    let part = |k: usize| {
-        let capacity = if k == 0 {
-            rows(data_len)
-        } else {
-            rows(bounds[k + 1] - bounds[k])
-        };
-        read_part(
-            path,
-            bounds[k],
-            bounds[k + 1],
-            k > 0,
-            columns,
-            block,
-            capacity,
-        )
-    };
-    let results: Vec<io::Result<Option<Vec<RunSample>>>> = if threads == 1 {
-        vec![part(0)]
-    } else {
-        std::thread::scope(|s| {
-            let handles: Vec<_> = (0..bounds.len() - 1)
-                .map(|k| s.spawn(move || part(k)))
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or(Ok(None)))
-                .collect()
-        })
-    };
-    let mut samples: Option<Vec<RunSample>> = None;
-    for part in results {
-        let Some(part) = part? else {
-            return Ok(None);
-        };
-        let Some(all) = samples.as_mut() else {
-            samples = Some(part);
-            continue;
-        };
-        // Time must increase across the parts' seam too.
-        if let (Some(last), Some(first)) = (all.last(), part.first()) {
-            if first.t_s <= last.t_s {
-                return Ok(None);
-            }
-        }
-        all.extend_from_slice(&part);
+    if data_len < PARALLEL_BYTES {
+        let mut samples = Vec::with_capacity(capacity);
+        let ok = reader.read(&mut file, data_start, len, false, &mut samples)?;
+        return Ok(ok.then_some(samples));
     }
-    Ok(samples)
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
+    let job = 4 * block as u64;
+    let jobs = data_len.div_ceil(job);
+    let bounds = |j: u64| data_start + (j * job).min(data_len);
+    let assembly = Assembly::new(capacity);
+    std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads as u64)
+            .map(|first| {
+                let (assembly, mut reader) = (&assembly, reader.clone());
+                s.spawn(move || -> io::Result<()> {
+                    // The others wait for this thread's turns: a panic must not leave them
+                    // waiting.
+                    let _guard = FailOnPanic(assembly);
+                    let mut file = File::open(path)?;
+                    let mut rows = Vec::new();
+                    for j in (first..jobs).step_by(threads) {
+                        rows.clear();
+                        reader.previous_t_s = f64::NEG_INFINITY;
+                        let read = reader.read(&mut file, bounds(j), bounds(j + 1), j > 0, &mut rows);
+                        // Whatever happened, the job's turn passes (the others wait for it).
+                        let ok = matches!(read, Ok(true));
+                        if !assembly.append(j, ok.then_some(&rows[..])) {
+                            read?;
+                            break;
+                        }
+                    }
+                    Ok(())
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .try_for_each(|worker| worker.join().unwrap_or(Ok(())))
+    })?;
+    Ok(assembly.finish())
 }
 
-/// The rows of the file at `path` that start at a byte in `begin..end`, read in blocks of
-/// `block` bytes. `mid_line`: `begin` may fall inside a row (whose owner is the part before),
-/// so reading starts at the byte before it and the first row is the one after the next line end.
-fn read_part(
-    path: &Path,
-    begin: u64,
-    end: u64,
-    mid_line: bool,
+/// The samples of the parallel reader's jobs, appended in file order by the thread that read
+/// each job as soon as its turn comes (so a job's rows are copied while they are in that
+/// core's cache, and the next job is read meanwhile on the other core).
+struct Assembly {
+    state: Mutex<Assembled>,
+    turn: Condvar,
+}
+
+struct Assembled {
+    samples: Vec<RunSample>,
+    /// The job whose rows come next.
+    next: u64,
+    /// A job was not in this tool's layout (or could not be read): the result is `None`.
+    failed: bool,
+}
+
+impl Assembly {
+    fn new(capacity: usize) -> Self {
+        Self {
+            state: Mutex::new(Assembled {
+                samples: Vec::with_capacity(capacity),
+                next: 0,
+                failed: false,
+            }),
+            turn: Condvar::new(),
+        }
+    }
+
+    /// Appends job `j`'s rows (`None`: the job failed) when its turn comes; false once the
+    /// read has failed (the caller stops).
+    fn append(&self, j: u64, rows: Option<&[RunSample]>) -> bool {
+        let Ok(state) = self.state.lock() else {
+            return false;
+        };
+        let Ok(mut state) = self
+            .turn
+            .wait_while(state, |s| s.next != j && !s.failed)
+        else {
+            return false;
+        };
+        let seamless = |rows: &[RunSample]| {
+            // Time must increase across the jobs' seam too.
+            match (state.samples.last(), rows.first()) {
+                (Some(last), Some(first)) => first.t_s > last.t_s,
+                _ => true,
+            }
+        };
+        match rows {
+            Some(rows) if !state.failed && seamless(rows) => {
+                state.samples.extend_from_slice(rows);
+            }
+            _ => state.failed = true,
+        }
+        state.next += 1;
+        self.turn.notify_all();
+        !state.failed
+    }
+
+    /// Ends the read with `None` (a worker panicked).
+    fn fail(&self) {
+        if let Ok(mut state) = self.state.lock() {
+            state.failed = true;
+        }
+        self.turn.notify_all();
+    }
+
+    fn finish(self) -> Option<Vec<RunSample>> {
+        let state = self.state.into_inner().ok()?;
+        (!state.failed).then_some(state.samples)
+    }
+}
+
+/// Fails the [`Assembly`] if its thread unwinds.
+struct FailOnPanic<'a>(&'a Assembly);
+
+impl Drop for FailOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.fail();
+        }
+    }
+}
+
+/// Reads rows of one layout from byte ranges of the file, block by block.
+#[derive(Clone)]
+struct PartReader {
     columns: usize,
     block: usize,
-    capacity: usize,
-) -> io::Result<Option<Vec<RunSample>>> {
-    let mut file = File::open(path)?;
-    // File offset of `buf[0]`.
-    let mut offset = if mid_line { begin - 1 } else { begin };
-    file.seek(SeekFrom::Start(offset))?;
-    let mut out = Vec::with_capacity(capacity);
-    let mut previous_t_s = f64::NEG_INFINITY;
-    let mut buf: Vec<u8> = Vec::with_capacity(2 * block);
-    let mut skip_to_line_end = mid_line;
-    loop {
-        let read = (&mut file).take(block as u64).read_to_end(&mut buf)?;
-        let eof = read < block;
-        let mut from = 0;
-        if skip_to_line_end {
-            match memchr::memchr(b'\n', &buf) {
-                Some(i) => {
-                    from = i + 1;
-                    skip_to_line_end = false;
-                }
-                None if eof => return Ok(Some(out)),
-                None => {
-                    offset += buf.len() as u64;
-                    buf.clear();
-                    continue;
+    /// The time of the last row read.
+    previous_t_s: f64,
+    /// The bytes read and not yet parsed.
+    buf: Vec<u8>,
+}
+
+impl PartReader {
+    /// Appends to `out` the rows of `file` that start at a byte in `begin..end`; false on
+    /// anything the general reader must judge. `mid_line`: `begin` may fall inside a row
+    /// (whose owner is the range before), so reading starts at the byte before it and the first
+    /// row is the one after the next line end.
+    fn read(
+        &mut self,
+        file: &mut File,
+        begin: u64,
+        end: u64,
+        mid_line: bool,
+        out: &mut Vec<RunSample>,
+    ) -> io::Result<bool> {
+        // File offset of `buf[0]`.
+        let mut offset = if mid_line { begin - 1 } else { begin };
+        file.seek(SeekFrom::Start(offset))?;
+        let buf = &mut self.buf;
+        buf.clear();
+        let mut skip_to_line_end = mid_line;
+        loop {
+            let read = (&mut *file).take(self.block as u64).read_to_end(buf)?;
+            let eof = read < self.block;
+            let mut from = 0;
+            if skip_to_line_end {
+                match memchr::memchr(b'\n', buf) {
+                    Some(i) => {
+                        from = i + 1;
+                        skip_to_line_end = false;
+                    }
+                    None if eof => return Ok(true),
+                    None => {
+                        offset += buf.len() as u64;
+                        buf.clear();
+                        continue;
+                    }
                 }
             }
+            // Rows of this range start before `limit` in `buf`.
+            let limit = usize::try_from(end.saturating_sub(offset)).unwrap_or(usize::MAX);
+            let complete = memchr::memrchr(b'\n', &buf[from..]).map_or(from, |i| from + i + 1);
+            let last = limit <= from || limit < complete || eof;
+            let stop = if limit <= from {
+                from
+            } else if limit < complete {
+                // The row holding byte `limit - 1` is the last of this range.
+                memchr::memchr(b'\n', &buf[limit - 1..]).map_or(complete, |i| limit + i)
+            } else {
+                complete
+            };
+            if parse_lines(&buf[from..stop], self.columns, &mut self.previous_t_s, out).is_none() {
+                return Ok(false);
+            }
+            if last {
+                return Ok(true);
+            }
+            offset += complete as u64;
+            buf.drain(..complete);
         }
-        // Rows of this part start before `limit` in `buf`.
-        let limit = usize::try_from(end.saturating_sub(offset)).unwrap_or(usize::MAX);
-        let complete = memchr::memrchr(b'\n', &buf[from..]).map_or(from, |i| from + i + 1);
-        let last = limit <= from || limit < complete || eof;
-        let stop = if limit <= from {
-            from
-        } else if limit < complete {
-            // The row holding byte `limit - 1` is the last of this part.
-            memchr::memchr(b'\n', &buf[limit - 1..]).map_or(complete, |i| limit + i)
-        } else {
-            complete
-        };
-        if parse_lines(&buf[from..stop], columns, &mut previous_t_s, &mut out).is_none() {
-            return Ok(None);
-        }
-        if last {
-            return Ok(Some(out));
-        }
-        offset += complete as u64;
-        buf.drain(..complete);
     }
 }
 
@@ -384,11 +470,11 @@ fn exact_quotient(mantissa: u64, fraction: usize) -> Option<f64> {
     let rest = q & ((1u128 << drop) - 1);
     let half = 1u128 << (drop - 1);
     let round_up = rest > half || (rest == half && (sticky || kept & 1 == 1));
-    let kept = kept + u128::from(round_up);
-    // kept ≤ 2⁵³: exact as f64; the power of two scales exactly (no overflow or underflow
-    // for these magnitudes).
-    let exponent = i32::try_from(drop).ok()? - 64;
-    Some(kept as f64 * 2f64.powi(exponent))
+    let kept = u64::try_from(kept + u128::from(round_up)).ok()?;
+    // kept ≤ 2⁵³: exact as f64; the power of two 2^(drop − 64) (drop ≤ 75) is built from its
+    // bits and scales exactly (no overflow or underflow for these magnitudes).
+    let scale = f64::from_bits(u64::from(1023 + drop - 64) << 52);
+    Some(kept as f64 * scale)
 }
 
 /// A cell the fast path does not read: up to its delimiter, by `str::parse`.
