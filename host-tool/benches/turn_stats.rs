@@ -35,7 +35,8 @@
 //!
 //! `-- --seconds S` generates (or reuses) a log of S simulated seconds instead of an hour
 //! (`run-<S>s.*`); `-- --generate-only` stops after generating (e.g. the 4-hour log that
-//! `validate`'s memory is measured on: `-- --seconds 14400 --generate-only`).
+//! `validate`'s memory is measured on: `-- --seconds 14400 --generate-only`); `-- --csv-only`
+//! times the Rust run-CSV path alone, printing each run's stages (to run under a profiler).
 
 use anyhow::{bail, ensure, Context, Result};
 use firmware::sampler::SamplerConfig;
@@ -49,7 +50,7 @@ use host_tool::record::{record_on, BoardPort, RecordOptions, RecordSummary, Stop
 use host_tool::serial::SerialError;
 use host_tool::sim::board::SimBoard;
 use host_tool::sim::world::{Scenario, WorldConfig};
-use host_tool::validate::segment::{gap_threshold_s, segment, SegmentOptions};
+use host_tool::validate::segment::{gap_threshold_s, segment, Segment, SegmentOptions};
 use host_tool::validate::turns::{analyse, ManoeuvreStats, TurnOptions, DEFAULT_SETTLE_S};
 use model_core::wire::BoardFrame;
 use model_core::Rover;
@@ -96,6 +97,9 @@ fn main() -> Result<()> {
         return Ok(());
     }
     let csv_bytes = std::fs::metadata(&files.csv)?.len();
+    if args.iter().any(|a| a == "--csv-only") {
+        return profile_csv(&files, repeats);
+    }
     let bin_bytes = std::fs::metadata(&files.bin)?.len();
     let mcap_bytes = std::fs::metadata(&files.mcap)?.len();
 
@@ -236,6 +240,19 @@ fn print_ratios(ratios: &[(&str, &str, f64)]) {
             );
         }
     }
+}
+
+/// `-- --csv-only`: the Rust run-CSV path alone, each run's stages printed (for a profiler).
+fn profile_csv(files: &Files, repeats: usize) -> Result<()> {
+    for _ in 0..repeats {
+        let result = rust_from_csv(files, &Rover::HUSKY_A200)?;
+        println!(
+            "Rust, run CSV: {:.1} ms ({})",
+            result.stages.total().as_secs_f64() * 1e3,
+            result.stages
+        );
+    }
+    Ok(())
 }
 
 /// The number after `option` in `args`, if given.
@@ -475,20 +492,8 @@ struct SampleSink {
 }
 
 impl RunLogSink for SampleSink {
-    fn frame(&mut self, _t_s: f64, _frame: &BoardFrame) -> io::Result<()> {
-        Ok(())
-    }
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
         self.samples.push(*sample);
-        Ok(())
-    }
-    fn command(&mut self, _row: &CommandRow) -> io::Result<()> {
-        Ok(())
-    }
-    fn event(&mut self, _t_s: f64, _event: &LogEvent) -> io::Result<()> {
-        Ok(())
-    }
-    fn flush(&mut self) -> io::Result<()> {
         Ok(())
     }
 }
@@ -566,17 +571,46 @@ impl std::fmt::Display for Stages {
     }
 }
 
-/// The statistics of every span of ≥ 2 samples (the spans the numpy script reports).
+/// The statistics of every span of ≥ 2 samples (the spans the numpy script reports), on all
+/// cores as the Python peers' readers use theirs: the gap threshold (a median over the run)
+/// beside the segmentation, then the spans in runs of about equal samples, one per core.
 fn statistics(samples: Vec<RunSample>, rover: &Rover, mut stages: Stages) -> Result<RustResult> {
     let options = SegmentOptions::default();
-    let segments = segment(&samples, rover, &options)?;
-    let turn_options = turn_options(&samples, &options);
-    stages.mark("segment");
-    let stats = segments
-        .iter()
-        .filter(|s| s.len() >= 2)
-        .map(|s| (s.start, analyse(&samples, s, rover, &turn_options)))
+    let (segments, turn_options) = std::thread::scope(|s| {
+        let gap = s.spawn(|| turn_options(&samples, &options));
+        let segments = segment(&samples, rover, &options);
+        (segments, gap.join())
+    });
+    let segments = segments?;
+    let turn_options = turn_options.map_err(|_| anyhow::anyhow!("the gap threshold panicked"))?;
+    stages.mark("segment + gap threshold");
+    let spans: Vec<&Segment> = segments.iter().filter(|s| s.len() >= 2).collect();
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // Span index where each core's share begins.
+    let cuts: Vec<usize> = (0..=cores)
+        .map(|k| spans.partition_point(|s| s.start < samples.len() * k / cores))
         .collect();
+    let analyse_all = |spans: &[&Segment]| -> Vec<(usize, ManoeuvreStats)> {
+        spans
+            .iter()
+            .map(|s| (s.start, analyse(&samples, s, rover, &turn_options)))
+            .collect()
+    };
+    let stats = std::thread::scope(|s| {
+        let shares: Vec<_> = cuts
+            .windows(2)
+            .map(|w| {
+                let share = &spans[w[0]..w[1]];
+                s.spawn(move || analyse_all(share))
+            })
+            .collect();
+        shares
+            .into_iter()
+            .map(|h| h.join())
+            .collect::<Result<Vec<_>, _>>()
+    })
+    .map_err(|_| anyhow::anyhow!("the statistics panicked"))?
+    .concat();
     stages.mark("statistics");
     Ok(RustResult {
         samples,

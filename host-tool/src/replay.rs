@@ -16,13 +16,20 @@
 //! side speed / wheel radius of the replay's rover (default the Husky A200, as `record`'s).
 
 use crate::log::commands::CommandRow;
-use crate::log::run_log::RunLog;
+use crate::log::load::{
+    load_salvaging, stream_salvaging, LoadError, LoadedRun, RunFormat, StreamFound,
+};
+use crate::log::mcap::McapError;
+use crate::log::run_log::{RunLog, RunLogSink};
 use crate::serial::{PtyTask, PtyWriter};
 use crate::sim::board::USB_PACKET;
+use crate::validate::crosscheck::acknowledges;
 use firmware::sampler::DEFAULT_SAMPLE_PERIOD_US;
-use model_core::wire::{self, BoardFrame, Status, MAX_FRAME};
+use model_core::wire::{self, BoardFrame, Hello, Status, MAX_FRAME};
 use model_core::Rover;
+use std::convert::Infallible;
 use std::io::{self, Write};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -38,54 +45,92 @@ pub fn with_command_reports(
     commands: &[CommandRow],
     rover: &Rover,
 ) -> Vec<(f64, BoardFrame)> {
-    let acked = frames.iter().any(|(_, f)| {
-        matches!(
-            f,
-            BoardFrame::Ack { .. } | BoardFrame::Rejected { id: Some(_), .. }
-        )
-    });
-    let mut pending = commands.iter().peekable();
+    let acked = frames.iter().any(|(_, f)| acknowledges(f));
+    let mut reports = CommandReports::new(commands, acked, rover);
     let mut out = Vec::with_capacity(frames.len() + commands.len());
-    let mut hello = synthetic_hello(DEFAULT_SAMPLE_PERIOD_US);
-    let mut latest: Option<Status> = None;
-    let (mut uptime_us, mut next_seq) = (0u64, 0u32);
     for &(t_s, frame) in frames {
-        let report = |c: &CommandRow, latest: &Option<Status>| {
+        let pushed: Result<(), Infallible> = reports.push(t_s, frame, &mut |t_s, frame| {
+            out.push((t_s, frame));
+            Ok(())
+        });
+        let Ok(()) = pushed;
+    }
+    out
+}
+
+/// [`with_command_reports`] frame by frame, for a recording read as a stream: the commands
+/// and whether the log holds acks (any [`acknowledges`] frame) come from a first pass.
+#[derive(Debug)]
+pub struct CommandReports<'a> {
+    rover: &'a Rover,
+    acked: bool,
+    pending: std::iter::Peekable<std::slice::Iter<'a, CommandRow>>,
+    hello: Hello,
+    latest: Option<Status>,
+    uptime_us: u64,
+    next_seq: u32,
+}
+
+impl<'a> CommandReports<'a> {
+    /// Reports of `commands` on `rover`'s wheels; `acked`: the log holds acks.
+    pub fn new(commands: &'a [CommandRow], acked: bool, rover: &'a Rover) -> Self {
+        Self {
+            rover,
+            acked,
+            pending: commands.iter().peekable(),
+            hello: synthetic_hello(DEFAULT_SAMPLE_PERIOD_US),
+            latest: None,
+            uptime_us: 0,
+            next_seq: 0,
+        }
+    }
+
+    /// The recording's next frame: hands `out` the reports due before it, the frame, and the
+    /// report its ack answers.
+    pub fn push<E>(
+        &mut self,
+        t_s: f64,
+        frame: BoardFrame,
+        out: &mut impl FnMut(f64, BoardFrame) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let report = |c: &CommandRow, this: &Self| {
             let status = command_report(
-                latest.as_ref(),
-                &hello,
-                uptime_us,
-                next_seq,
-                wheel_rates(c.cmd_mps, rover),
+                this.latest.as_ref(),
+                &this.hello,
+                this.uptime_us,
+                this.next_seq,
+                wheel_rates(c.cmd_mps, this.rover),
             );
-            (t_s, BoardFrame::Status(status))
+            BoardFrame::Status(status)
         };
-        if !acked {
-            while let Some(c) = pending.next_if(|c| c.t_s <= t_s) {
-                out.push(report(c, &latest));
+        if !self.acked {
+            while let Some(c) = self.pending.next_if(|c| c.t_s <= t_s) {
+                out(t_s, report(c, self))?;
             }
         }
         let answer = match frame {
-            BoardFrame::Ack { .. } if acked => pending.next().map(|c| report(c, &latest)),
-            BoardFrame::Rejected { id: Some(_), .. } if acked => {
-                pending.next();
+            BoardFrame::Ack { .. } if self.acked => self.pending.next().map(|c| report(c, self)),
+            BoardFrame::Rejected { id: Some(_), .. } if self.acked => {
+                self.pending.next();
                 None
             }
             _ => None,
         };
         match frame {
-            BoardFrame::Hello(h) => hello = h,
-            BoardFrame::Status(st) => latest = Some(st),
+            BoardFrame::Hello(h) => self.hello = h,
+            BoardFrame::Status(st) => self.latest = Some(st),
             BoardFrame::Sample(sample) => {
-                uptime_us = sample.t_us;
-                next_seq = sample.seq.wrapping_add(1);
+                self.uptime_us = sample.t_us;
+                self.next_seq = sample.seq.wrapping_add(1);
             }
             _ => {}
         }
-        out.push((t_s, frame));
-        out.extend(answer);
+        out(t_s, frame)?;
+        match answer {
+            Some(answer) => out(t_s, answer),
+            None => Ok(()),
+        }
     }
-    out
 }
 
 /// One frame in the wire format, delimiter included.
@@ -165,6 +210,23 @@ impl PtyTask<ReplayStats> {
         pacing: ReplayPacing,
         wait_for_reader: Option<Duration>,
     ) -> io::Result<ReplayPty> {
+        Self::spawn_streaming(
+            move |emit| frames.iter().try_for_each(|(t_s, frame)| emit(*t_s, frame)),
+            pacing,
+            wait_for_reader,
+        )
+    }
+
+    /// [`Self::spawn`] for frames produced while they are replayed: `produce` hands each
+    /// timed frame, in order, to the callback it gets (which paces and writes it, and returns
+    /// an error once the replay is stopped), e.g. [`ReplaySource::emit`].
+    pub fn spawn_streaming(
+        produce: impl FnOnce(&mut dyn FnMut(f64, &[u8]) -> io::Result<()>) -> io::Result<()>
+            + Send
+            + 'static,
+        pacing: ReplayPacing,
+        wait_for_reader: Option<Duration>,
+    ) -> io::Result<ReplayPty> {
         if let ReplayPacing::RealTime { speed } = pacing {
             if !(speed.is_finite() && speed > 0.0) {
                 return Err(io::Error::new(
@@ -178,21 +240,24 @@ impl PtyTask<ReplayStats> {
                 frames: 0,
                 bytes: 0,
             };
-            let Some((t0_s, first)) = frames.first() else {
-                pty.hang_up()?;
-                return Ok(stats);
-            };
-            send(&mut pty, first, &mut stats)?;
-            if !pty.wait_until_read(wait_for_reader)? {
-                return Err(io::Error::new(
-                    io::ErrorKind::TimedOut,
-                    format!("nobody read {} in time", pty.path()),
-                ));
-            }
-            let start = Instant::now();
-            for (t_s, frame) in &frames[1..] {
+            // The first frame's time and when a reader took it.
+            let mut started: Option<(f64, Instant)> = None;
+            let mut stopped = false;
+            let produced = produce(&mut |t_s, frame| {
+                let Some((t0_s, start)) = started else {
+                    send(&mut pty, frame, &mut stats)?;
+                    if !pty.wait_until_read(wait_for_reader)? {
+                        return Err(io::Error::new(
+                            io::ErrorKind::TimedOut,
+                            format!("nobody read {} in time", pty.path()),
+                        ));
+                    }
+                    started = Some((t_s, Instant::now()));
+                    return Ok(());
+                };
                 if stop_flag.load(Ordering::Relaxed) {
-                    break;
+                    stopped = true;
+                    return Err(io::ErrorKind::Interrupted.into());
                 }
                 if let ReplayPacing::RealTime { speed } = pacing {
                     let after_s = ((t_s - t0_s) / speed).max(0.0);
@@ -202,11 +267,167 @@ impl PtyTask<ReplayStats> {
                     });
                     sleep_unless_stopped(wait, stop_flag);
                 }
-                send(&mut pty, frame, &mut stats)?;
+                send(&mut pty, frame, &mut stats)
+            });
+            match produced {
+                Err(_) if stopped => {}
+                other => other?,
             }
             pty.hang_up()?;
             Ok(stats)
         })
+    }
+}
+
+/// A run log opened for a replay whose frames are produced while the file is read again, so
+/// memory holds one chunk of an MCAP recording, not the run (a run CSV's frames are synthesised
+/// from its samples, which are read whole). The same frames, in the same order, as
+/// [`frames_of`] gives for the loaded run.
+#[derive(Debug)]
+pub struct ReplaySource {
+    path: PathBuf,
+    salvage: bool,
+    rover: Rover,
+    content: Content,
+}
+
+#[derive(Debug)]
+enum Content {
+    /// A recording with frames, read again at replay: its forwarded commands and whether it
+    /// holds acks, from the first pass.
+    Recording {
+        commands: Vec<CommandRow>,
+        acked: bool,
+    },
+    /// Frames synthesised from a log of samples only.
+    Synthesised(Vec<(f64, BoardFrame)>),
+}
+
+impl ReplaySource {
+    /// Opens the run log at `path` (as [`load_salvaging`] reads it, with `salvage`): one pass
+    /// over the file learns what the replay needs, and what reading it found (truncation,
+    /// losses, dropped rows: for the user, before the replay starts).
+    pub fn open(
+        path: &Path,
+        salvage: bool,
+        rover: &Rover,
+    ) -> Result<(ReplaySource, StreamFound), LoadError> {
+        let synthesised = |loaded: LoadedRun| {
+            let (run, found) = loaded.split();
+            let frames = synthesise_frames(&run.samples, Some(rover));
+            (Content::Synthesised(frames), found)
+        };
+        let (content, found) = match RunFormat::of(path)? {
+            RunFormat::Csv => synthesised(load_salvaging(path, salvage)?),
+            RunFormat::Mcap => {
+                let mut scan = Scan::default();
+                let found = stream_salvaging(path, salvage, &mut scan)?;
+                if scan.frames {
+                    let content = Content::Recording {
+                        commands: scan.commands,
+                        acked: scan.acked,
+                    };
+                    (content, found)
+                } else {
+                    // Samples only (no recorder writes this): synthesised as from a run CSV.
+                    synthesised(load_salvaging(path, salvage)?)
+                }
+            }
+        };
+        let source = ReplaySource {
+            path: path.to_owned(),
+            salvage,
+            rover: *rover,
+            content,
+        };
+        Ok((source, found))
+    }
+
+    /// Whether the log holds nothing to replay (no frames, no samples).
+    pub fn is_empty(&self) -> bool {
+        match &self.content {
+            Content::Recording { .. } => false,
+            Content::Synthesised(frames) => frames.is_empty(),
+        }
+    }
+
+    /// Hands `emit` each frame of the replay in order, encoded, with its run time [s]; stops
+    /// at the first error `emit` returns (or reading the file again fails).
+    pub fn emit(&self, emit: &mut dyn FnMut(f64, &[u8]) -> io::Result<()>) -> io::Result<()> {
+        let mut buf = [0u8; MAX_FRAME];
+        let mut encoded = |t_s: f64, frame: BoardFrame| -> io::Result<()> {
+            let n = wire::encode(&frame, &mut buf)
+                .map_err(|e| io::Error::other(format!("encoding frames: {e}")))?;
+            emit(t_s, &buf[..n])
+        };
+        match &self.content {
+            Content::Synthesised(frames) => frames
+                .iter()
+                .try_for_each(|&(t_s, frame)| encoded(t_s, frame)),
+            Content::Recording { commands, acked } => {
+                let mut replay = Replay {
+                    reports: CommandReports::new(commands, *acked, &self.rover),
+                    emit: &mut encoded,
+                };
+                stream_salvaging(&self.path, self.salvage, &mut replay).map_err(|e| match e {
+                    // The sink's own error (the reader's, or the replay stopped) as it was.
+                    LoadError::Mcap(McapError::Io { source, .. }) => source,
+                    other => io::Error::other(other.to_string()),
+                })?;
+                Ok(())
+            }
+        }
+    }
+
+    /// Writes the replay's frames back to back into `out` (a capture file for `decode`);
+    /// returns the frames and bytes written.
+    pub fn write_stream<W: Write + ?Sized>(&self, out: &mut W) -> io::Result<ReplayStats> {
+        let mut stats = ReplayStats {
+            frames: 0,
+            bytes: 0,
+        };
+        self.emit(&mut |_, frame| {
+            out.write_all(frame)?;
+            stats.frames += 1;
+            stats.bytes += frame.len() as u64;
+            Ok(())
+        })?;
+        Ok(stats)
+    }
+}
+
+/// The first pass of [`ReplaySource::open`] over a recording.
+#[derive(Debug, Default)]
+struct Scan {
+    frames: bool,
+    acked: bool,
+    commands: Vec<CommandRow>,
+}
+
+impl RunLogSink for Scan {
+    fn frame(&mut self, _t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        self.frames = true;
+        self.acked |= acknowledges(frame);
+        Ok(())
+    }
+
+    fn command(&mut self, row: &CommandRow) -> io::Result<()> {
+        self.commands.push(*row);
+        Ok(())
+    }
+}
+
+/// The second pass: the recording's frames with the command reports, out as they come.
+struct Replay<'a, 'e> {
+    reports: CommandReports<'a>,
+    emit: &'e mut dyn FnMut(f64, BoardFrame) -> io::Result<()>,
+}
+
+impl RunLogSink for Replay<'_, '_> {
+    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        let emit = &mut *self.emit;
+        self.reports
+            .push(t_s, *frame, &mut |t_s, frame| emit(t_s, frame))
     }
 }
 

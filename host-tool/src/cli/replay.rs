@@ -1,18 +1,18 @@
 //! `host-tool replay`: a run log as the board's byte stream, into a pty or a capture file.
 
 use super::output::{self, check_new_file, create_parent};
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use host_tool::live::serve_run;
 use host_tool::log::convert::same_file;
-use host_tool::log::load::load_salvaging;
+use host_tool::log::load::{load_salvaging, Loaded};
 use host_tool::log::run_log::RunLog;
 use host_tool::log::write_atomically;
 use host_tool::record::stop_signal;
-use host_tool::replay::{frames_of, write_stream, ReplayPacing, ReplayPty};
+use host_tool::replay::{ReplayPacing, ReplayPty, ReplaySource};
 use host_tool::rover::load_rover;
 use host_tool::runs::{damage_warnings, truncation_warning};
 use model_core::Rover;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `replay LOG (--to-pty | --to FILE | --serve [ADDR]) [--speed K | --as-fast-as-possible]
 /// [--rover R.toml]`.
@@ -50,6 +50,17 @@ pub struct ReplayArgs {
     serve: super::serve::ServeArgs,
 }
 
+/// Tells the user what reading `log` found: a cut end, damaged stretches, dropped rows.
+fn warn_about<R>(log: &Path, found: &Loaded<R>) {
+    if let Some(t) = &found.truncated {
+        eprintln!("{}", truncation_warning(log, t));
+    }
+    super::report_damage(
+        &damage_warnings(log, &found.losses, &found.dropped_rows),
+        found.lost_data(),
+    );
+}
+
 /// A finite factor > 0.
 pub fn positive_factor(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
@@ -73,19 +84,15 @@ impl ReplayArgs {
             }
             check_new_file(out, self.force)?;
         }
-        let loaded = load_salvaging(&self.log, super::salvage())?;
-        if let Some(t) = &loaded.truncated {
-            eprintln!("{}", truncation_warning(&self.log, t));
-        }
-        super::report_damage(
-            &damage_warnings(&self.log, &loaded.losses, &loaded.dropped_rows),
-            loaded.lost_data(),
-        );
         if self.serve.serve.is_some() {
+            let loaded = load_salvaging(&self.log, super::salvage())?;
+            warn_about(&self.log, &loaded);
             return self.serve_live(&loaded.run, &rover);
         }
-        let frames = frames_of(&loaded.run, &rover).map_err(|e| anyhow!("encoding frames: {e}"))?;
-        if frames.is_empty() {
+        // Streamed: a first pass learns what the log holds, the replay reads it again.
+        let (source, found) = ReplaySource::open(&self.log, super::salvage(), &rover)?;
+        warn_about(&self.log, &found);
+        if source.is_empty() {
             bail!(
                 "{}: nothing to replay (no frames, no samples)",
                 self.log.display()
@@ -93,12 +100,13 @@ impl ReplayArgs {
         }
         if let Some(out) = &self.to {
             create_parent(out)?;
-            let bytes = write_atomically(out, |w| write_stream(&frames, w))
+            let stats = write_atomically(out, |w| source.write_stream(w))
                 .with_context(|| format!("writing {}", out.display()))?;
             output::print(format_args!(
-                "{}: {} frames, {bytes} bytes\n",
+                "{}: {} frames, {} bytes\n",
                 out.display(),
-                frames.len()
+                stats.frames,
+                stats.bytes
             ))
         } else {
             let pacing = if self.as_fast_as_possible {
@@ -106,7 +114,7 @@ impl ReplayArgs {
             } else {
                 ReplayPacing::RealTime { speed: self.speed }
             };
-            let replay = ReplayPty::spawn(frames, pacing, None)?;
+            let replay = ReplayPty::spawn_streaming(move |emit| source.emit(emit), pacing, None)?;
             output::print(format_args!("{}\n", replay.path()))?;
             let stats = replay.join().context("replaying into the pty")?;
             eprintln!("replayed {} frames, {} bytes", stats.frames, stats.bytes);

@@ -93,21 +93,26 @@ pub fn refuse_duplicate_runs(names: &[String], runs: &[RunLog]) -> Result<(), Lo
         if let Some(&first) = seen.get(&key) {
             // A hash match is confirmed on the samples themselves.
             if runs[first].samples == run.samples {
-                let name = |k: usize| {
-                    names
-                        .get(k)
-                        .cloned()
-                        .unwrap_or_else(|| format!("run {}", k + 1))
-                };
-                return Err(LoadError::DuplicateRun {
-                    first: name(first),
-                    second: name(i),
-                });
+                return Err(duplicate_run(names, first, i));
             }
         }
         seen.entry(key).or_insert(i);
     }
     Ok(())
+}
+
+/// Run `second` repeats run `first` (indices into `names`, which name them).
+fn duplicate_run(names: &[String], first: usize, second: usize) -> LoadError {
+    let name = |k: usize| {
+        names
+            .get(k)
+            .cloned()
+            .unwrap_or_else(|| format!("run {}", k + 1))
+    };
+    LoadError::DuplicateRun {
+        first: name(first),
+        second: name(second),
+    }
 }
 
 /// What identifies a run's content without keeping it, for runs read as streams: the samples'
@@ -137,15 +142,7 @@ impl RunDigest {
     pub fn push(&mut self, s: &RunSample) {
         self.samples += 1;
         for hasher in &mut self.hashes {
-            for v in [
-                s.t_s,
-                s.bus_v.left,
-                s.bus_v.right,
-                s.current_a.left,
-                s.current_a.right,
-                s.cmd_mps.left,
-                s.cmd_mps.right,
-            ] {
+            for v in s.required_values() {
                 v.to_bits().hash(hasher);
             }
         }
@@ -169,40 +166,11 @@ pub fn refuse_duplicate_digests(names: &[String], digests: &[&RunDigest]) -> Res
             continue;
         }
         if let Some(&first) = seen.get(&digest.key()) {
-            let name = |k: usize| {
-                names
-                    .get(k)
-                    .cloned()
-                    .unwrap_or_else(|| format!("run {}", k + 1))
-            };
-            return Err(LoadError::DuplicateRun {
-                first: name(first),
-                second: name(i),
-            });
+            return Err(duplicate_run(names, first, i));
         }
         seen.insert(digest.key(), i);
     }
     Ok(())
-}
-
-/// What reading a run log found besides its records: what [`LoadedRun`] holds but the run.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StreamFound {
-    /// The file's format.
-    pub format: RunFormat,
-    /// See [`LoadedRun::truncated`].
-    pub truncated: Option<Truncation>,
-    /// See [`LoadedRun::losses`].
-    pub losses: Vec<Loss>,
-    /// See [`LoadedRun::dropped_rows`].
-    pub dropped_rows: Vec<DroppedRow>,
-}
-
-impl StreamFound {
-    /// See [`LoadedRun::lost_data`].
-    pub fn lost_data(&self) -> bool {
-        lost_data(&self.losses, &self.dropped_rows)
-    }
 }
 
 /// [`load_salvaging`] without keeping the run: its records go to `sink` in file order, so
@@ -228,6 +196,7 @@ pub fn stream_salvaging(
                 sink.sample(&sample).map_err(|e| file_err(e.into()))?;
             }
             Ok(StreamFound {
+                run: (),
                 format: RunFormat::Csv,
                 truncated: None,
                 losses: Vec::new(),
@@ -237,6 +206,7 @@ pub fn stream_salvaging(
         RunFormat::Mcap => {
             let found = stream_mcap_run(path, sink)?;
             Ok(StreamFound {
+                run: (),
                 format: RunFormat::Mcap,
                 truncated: found.truncated,
                 losses: found.losses,
@@ -246,11 +216,12 @@ pub fn stream_salvaging(
     }
 }
 
-/// A run log as loaded, with what the caller should tell the user about it.
+/// What reading a run log gave: the run (or, read as a stream, `()`: its records went to a
+/// sink), with what the caller should tell the user about it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LoadedRun {
+pub struct Loaded<R> {
     /// The run.
-    pub run: RunLog,
+    pub run: R,
     /// The file's format.
     pub format: RunFormat,
     /// For an MCAP file cut short (recorder killed): where; the run holds what came before.
@@ -261,11 +232,36 @@ pub struct LoadedRun {
     pub dropped_rows: Vec<DroppedRow>,
 }
 
-impl LoadedRun {
+/// A run log loaded whole.
+pub type LoadedRun = Loaded<RunLog>;
+
+/// What reading a run log as a stream found besides its records ([`stream_salvaging`]).
+pub type StreamFound = Loaded<()>;
+
+impl<R> Loaded<R> {
     /// Whether data inside the file was lost to damage (not counting a cut end: a truncated
     /// MCAP file or a cut last CSV row, which a killed recorder leaves).
     pub fn lost_data(&self) -> bool {
         lost_data(&self.losses, &self.dropped_rows)
+    }
+
+    /// The run, and what reading it found.
+    pub fn split(self) -> (R, StreamFound) {
+        let Loaded {
+            run,
+            format,
+            truncated,
+            losses,
+            dropped_rows,
+        } = self;
+        let found = Loaded {
+            run: (),
+            format,
+            truncated,
+            losses,
+            dropped_rows,
+        };
+        (run, found)
     }
 }
 

@@ -129,20 +129,20 @@ impl Column {
     pub const OPTIONAL: [Column; 4] = [Column::YawRad, Column::PitchDeg, Column::XM, Column::YM];
     /// Optional columns whose `NaN` cells read as empty (a tracker's dropout).
     pub const NAN_IS_EMPTY: [Column; 2] = [Column::XM, Column::YM];
-    /// All columns in the order this tool writes them.
-    pub const ALL: [Column; 11] = [
-        Column::TimeS,
-        Column::LeftBusV,
-        Column::LeftCurrentA,
-        Column::RightBusV,
-        Column::RightCurrentA,
-        Column::CmdLeftMps,
-        Column::CmdRightMps,
-        Column::YawRad,
-        Column::PitchDeg,
-        Column::XM,
-        Column::YM,
-    ];
+    /// All columns in the order this tool writes them: the required, then the optional.
+    pub const ALL: [Column; 11] = {
+        let mut all = [Column::TimeS; 11];
+        let mut i = 0;
+        while i < all.len() {
+            all[i] = if i < Self::REQUIRED.len() {
+                Self::REQUIRED[i]
+            } else {
+                Self::OPTIONAL[i - Self::REQUIRED.len()]
+            };
+            i += 1;
+        }
+        all
+    };
 
     /// The column's header name.
     pub const fn name(self) -> &'static str {

@@ -97,17 +97,30 @@ impl Record<'_> {
 
 /// Where a recording goes as it happens. Implementations write through (or buffer at most until
 /// [`RunLogSink::flush`]), so a killed process leaves a readable file up to the last flush.
+///
+/// Every record kind has a default that ignores it, for sinks that take only some (a scan of
+/// the samples, a replay of the frames); a log writer implements them all.
 pub trait RunLogSink {
     /// A decoded wire frame (hello, sample, model, status, ack, rejected) received at run time `t_s`.
-    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()>;
+    fn frame(&mut self, _t_s: f64, _frame: &BoardFrame) -> io::Result<()> {
+        Ok(())
+    }
     /// A physical sample on the run's time base.
-    fn sample(&mut self, sample: &RunSample) -> io::Result<()>;
+    fn sample(&mut self, _sample: &RunSample) -> io::Result<()> {
+        Ok(())
+    }
     /// A command row, logged when it was forwarded to the board.
-    fn command(&mut self, row: &CommandRow) -> io::Result<()>;
+    fn command(&mut self, _row: &CommandRow) -> io::Result<()> {
+        Ok(())
+    }
     /// An event at run time `t_s`.
-    fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()>;
+    fn event(&mut self, _t_s: f64, _event: &LogEvent) -> io::Result<()> {
+        Ok(())
+    }
     /// Pushes everything written so far to the file (and the OS).
-    fn flush(&mut self) -> io::Result<()>;
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
     /// Ends the recording: flushes, writes any closing structure (an index, a footer) and syncs
     /// the file to disk. Nothing is written after it.
     fn finish(&mut self) -> io::Result<()> {
@@ -134,10 +147,6 @@ impl RunLogSink for RunLog {
 
     fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
         self.events.push((t_s, event.clone()));
-        Ok(())
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
         Ok(())
     }
 }

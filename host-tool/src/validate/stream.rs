@@ -14,7 +14,7 @@ use super::{assemble, check_options, ManoeuvreRow, RunReport, ValidateError, Val
 use crate::log::commands::CommandRow;
 use crate::log::load::RunDigest;
 use crate::log::run_csv::RunSample;
-use crate::log::run_log::{LogEvent, RunLogSink};
+use crate::log::run_log::RunLogSink;
 use model_core::wire::BoardFrame;
 use model_core::Rover;
 use std::io;
@@ -55,14 +55,6 @@ impl RunLogSink for RunScan {
 
     fn command(&mut self, row: &CommandRow) -> io::Result<()> {
         self.commands.push(*row);
-        Ok(())
-    }
-
-    fn event(&mut self, _t_s: f64, _event: &LogEvent) -> io::Result<()> {
-        Ok(())
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
         Ok(())
     }
 }
@@ -145,18 +137,6 @@ impl RunLogSink for RunPass<'_> {
             ..
         } = self;
         segmenter.push(sample, |seg, span| validation.manoeuvre(seg, span));
-        Ok(())
-    }
-
-    fn command(&mut self, _row: &CommandRow) -> io::Result<()> {
-        Ok(())
-    }
-
-    fn event(&mut self, _t_s: f64, _event: &LogEvent) -> io::Result<()> {
-        Ok(())
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
         Ok(())
     }
 }

@@ -97,7 +97,8 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
                     for j in (first..jobs).step_by(threads) {
                         rows.clear();
                         reader.previous_t_s = f64::NEG_INFINITY;
-                        let read = reader.read(&mut file, bounds(j), bounds(j + 1), j > 0, &mut rows);
+                        let read =
+                            reader.read(&mut file, bounds(j), bounds(j + 1), j > 0, &mut rows);
                         // Whatever happened, the job's turn passes (the others wait for it).
                         let ok = matches!(read, Ok(true));
                         if !assembly.append(j, ok.then_some(&rows[..])) {
@@ -150,10 +151,7 @@ impl Assembly {
         let Ok(state) = self.state.lock() else {
             return false;
         };
-        let Ok(mut state) = self
-            .turn
-            .wait_while(state, |s| s.next != j && !s.failed)
-        else {
+        let Ok(mut state) = self.turn.wait_while(state, |s| s.next != j && !s.failed) else {
             return false;
         };
         let seamless = |rows: &[RunSample]| {
