@@ -156,7 +156,7 @@ fn main() -> Result<()> {
             bytes as f64 / s / 1e6
         );
     };
-    println!("Best of {repeats}, from the file on disk to per-manoeuvre statistics (one thread):");
+    println!("Best of {repeats}, from the file on disk to per-manoeuvre statistics:");
     line("Rust, run CSV", csv_time, csv_bytes);
     println!("    ({})", csv_result.stages);
     line("Rust, raw capture", raw_time, bin_bytes);

@@ -4,10 +4,11 @@
 use crate::figures::RunSamples;
 use crate::log::load::{
     load_salvaging, refuse_duplicate_digests, refuse_duplicate_runs, stream_salvaging, LoadError,
+    StreamFound,
 };
 use crate::log::mcap::{Loss, Truncation};
 use crate::log::run_csv::{DroppedRow, RunSample};
-use crate::log::run_log::RunLog;
+use crate::log::run_log::{RunLog, RunLogSink};
 use crate::progress;
 use crate::validate::stream::{RunPass, RunScan};
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions, ValidationReport};
@@ -156,6 +157,17 @@ impl StreamedRuns {
         let digests: Vec<_> = runs.scans.iter().map(RunScan::digest).collect();
         refuse_duplicate_digests(&runs.names, &digests)?;
         Ok(runs)
+    }
+
+    /// Reads run `index` again into `sink` (e.g. a third pass, for what the report does not
+    /// hold); `None` for an index past the runs.
+    pub fn read_again(
+        &self,
+        index: usize,
+        sink: &mut dyn RunLogSink,
+    ) -> Option<Result<StreamFound, LoadError>> {
+        let path = self.paths.get(index)?;
+        Some(stream_salvaging(path, self.salvage, sink))
     }
 
     /// The second pass: validates the runs together, as [`Runs::validate`] does.

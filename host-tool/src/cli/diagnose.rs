@@ -1,10 +1,11 @@
 //! `host-tool diagnose`: where the hard-ground model departs, which effect, how much it closes.
 
 use super::output::{self, JsonOut};
-use super::validate::load_and_validate;
+use super::validate::stream_and_validate;
 use super::Departure;
 use anyhow::{bail, Context, Result};
-use host_tool::diagnose::{self, calibration::Calibration, features::TurnRow, report};
+use host_tool::diagnose::features::{RunSampleScan, TurnRow};
+use host_tool::diagnose::{self, calibration::Calibration, report};
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use host_tool::rover::load_rover_file;
 use host_tool::validate::ValidateOptions;
@@ -59,9 +60,19 @@ fn diagnosis_rows(
             tracker_offset_m,
             ..ValidateOptions::for_rover(rover)
         };
-        let (loaded, report) =
-            load_and_validate(rover, &runs, &options).with_context(|| format!("{what} runs"))?;
-        diagnose::features::rows(&report, &loaded.sample_slices())
+        // Streamed: validate reads each file twice, the standstill draw and the manoeuvres'
+        // bus voltage a third time; memory stays bounded whatever the logs' length.
+        let (streamed, report) =
+            stream_and_validate(rover, &runs, &options).with_context(|| format!("{what} runs"))?;
+        let mut facts = Vec::with_capacity(runs.len());
+        for index in 0..runs.len() {
+            let mut scan = RunSampleScan::new(&report, index);
+            if let Some(read) = streamed.read_again(index, &mut scan) {
+                read.with_context(|| format!("{what} runs"))?;
+            }
+            facts.push(scan.finish());
+        }
+        diagnose::features::rows_from_facts(&report, &facts)
     };
     let mut notes = Vec::new();
     for path in summaries {

@@ -83,6 +83,22 @@ pub fn load_and_validate(
     Ok((runs, report))
 }
 
+/// [`load_and_validate`] with the runs streamed (each file read twice): memory stays bounded
+/// whatever the logs' length; the same warnings and report.
+pub fn stream_and_validate(
+    rover: &model_core::Rover,
+    paths: &[PathBuf],
+    options: &ValidateOptions,
+) -> Result<(StreamedRuns, ValidationReport)> {
+    let runs = StreamedRuns::scan(paths, super::salvage())?;
+    for (path, t) in &runs.truncated {
+        eprintln!("{}", truncation_warning(path, t));
+    }
+    super::report_damage(&runs.damage, runs.lost_data);
+    let report = runs.validate(rover, options)?;
+    Ok((runs, report))
+}
+
 /// Manoeuvres flagged as departing from the fitted model.
 pub fn departures(report: &ValidationReport) -> usize {
     report.regimes.iter().map(|r| r.flagged).sum()
@@ -116,14 +132,7 @@ impl ValidateArgs {
                 slip_track_m: bs,
             });
         }
-        // Streamed (each file read twice): memory stays bounded whatever the logs' length;
-        // the report is load_and_validate's.
-        let runs = StreamedRuns::scan(&self.runs, super::salvage())?;
-        for (path, t) in &runs.truncated {
-            eprintln!("{}", truncation_warning(path, t));
-        }
-        super::report_damage(&runs.damage, runs.lost_data);
-        let report = runs.validate(&rover, &options)?;
+        let (_, report) = stream_and_validate(&rover, &self.runs, &options)?;
         let json_to_stdout = self.json.emit(&report, "report", self.force)?;
         if let Some(path) = &self.csv {
             let mut text = Vec::new();

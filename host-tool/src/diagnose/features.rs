@@ -192,30 +192,146 @@ pub const STANDSTILL_SETTLE_S: f64 = 0.5;
 /// Mean current per side over the settled standstill samples of a run; `None` if there are
 /// fewer than 10.
 pub fn standstill_current_a(samples: &[RunSample]) -> Option<Sides<f64>> {
-    let mut still_since: Option<f64> = None;
-    let (mut sum_l, mut sum_r, mut n) = (0.0, 0.0, 0usize);
-    for s in samples {
+    let mut still = StandstillCurrent::default();
+    samples.iter().for_each(|s| still.push(s));
+    still.mean_a()
+}
+
+/// [`standstill_current_a`] sample by sample.
+#[derive(Debug, Clone, Copy, Default)]
+struct StandstillCurrent {
+    still_since: Option<f64>,
+    sum_l: f64,
+    sum_r: f64,
+    n: usize,
+}
+
+impl StandstillCurrent {
+    fn push(&mut self, s: &RunSample) {
         let still = s.cmd_mps.left == 0.0 && s.cmd_mps.right == 0.0;
         if !still {
-            still_since = None;
-            continue;
+            self.still_since = None;
+            return;
         }
-        let since = *still_since.get_or_insert(s.t_s);
+        let since = *self.still_since.get_or_insert(s.t_s);
         if s.t_s - since >= STANDSTILL_SETTLE_S {
-            sum_l += s.current_a.left;
-            sum_r += s.current_a.right;
-            n += 1;
+            self.sum_l += s.current_a.left;
+            self.sum_r += s.current_a.right;
+            self.n += 1;
         }
     }
-    (n >= 10).then(|| Sides::new(sum_l / n as f64, sum_r / n as f64))
+
+    fn mean_a(&self) -> Option<Sides<f64>> {
+        let n = self.n as f64;
+        (self.n >= 10).then(|| Sides::new(self.sum_l / n, self.sum_r / n))
+    }
+}
+
+/// What [`rows`] needs of one run's samples besides the report: its standstill draw and
+/// each of its manoeuvres' mean bus voltage.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunSampleFacts {
+    /// [`standstill_current_a`] of the run.
+    pub standstill_current_a: Option<Sides<f64>>,
+    /// Mean of the two sides' bus voltage over each manoeuvre's samples [V], by the
+    /// manoeuvre's index in the report (0 for a manoeuvre of another run or without samples).
+    pub span_bus_v: Vec<f64>,
+}
+
+impl crate::log::run_log::RunLogSink for RunSampleScan {
+    fn sample(&mut self, sample: &RunSample) -> std::io::Result<()> {
+        self.push(sample);
+        Ok(())
+    }
+}
+
+/// [`RunSampleFacts`] of run `run_index` of `report`, gathered sample by sample (a run read as
+/// a stream: memory holds the report's manoeuvres, not the run).
+#[derive(Debug, Clone)]
+pub struct RunSampleScan {
+    still: StandstillCurrent,
+    /// (report index, first sample, end sample) of the run's manoeuvres, in sample order.
+    spans: Vec<(usize, usize, usize)>,
+    /// The span the next sample may fall in.
+    at: usize,
+    /// Samples pushed.
+    index: usize,
+    sum: Vec<(f64, usize)>,
+}
+
+impl RunSampleScan {
+    /// The scan of the report's run `run_index`.
+    pub fn new(report: &ValidationReport, run_index: usize) -> Self {
+        let name = report.runs.get(run_index).map(|r| r.name.as_str());
+        let mut spans: Vec<(usize, usize, usize)> = report
+            .manoeuvres
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| Some(m.run.as_str()) == name)
+            .map(|(i, m)| (i, m.first_sample, m.end_sample))
+            .collect();
+        spans.sort_by_key(|&(_, first, _)| first);
+        Self {
+            still: StandstillCurrent::default(),
+            spans,
+            at: 0,
+            index: 0,
+            // -0.0: where `Iterator::sum` starts, so the sums are its to the bit.
+            sum: vec![(-0.0, 0); report.manoeuvres.len()],
+        }
+    }
+
+    /// The run's next sample.
+    pub fn push(&mut self, s: &RunSample) {
+        self.still.push(s);
+        let k = self.index;
+        self.index += 1;
+        while self.spans.get(self.at).is_some_and(|&(_, _, end)| end <= k) {
+            self.at += 1;
+        }
+        if let Some(&(i, first, _)) = self.spans.get(self.at) {
+            if first <= k {
+                let (sum, n) = &mut self.sum[i];
+                *sum += 0.5 * (s.bus_v.left + s.bus_v.right);
+                *n += 1;
+            }
+        }
+    }
+
+    /// The facts of the samples pushed.
+    pub fn finish(self) -> RunSampleFacts {
+        RunSampleFacts {
+            standstill_current_a: self.still.mean_a(),
+            span_bus_v: self
+                .sum
+                .iter()
+                .map(|&(sum, n)| if n == 0 { 0.0 } else { sum / n as f64 })
+                .collect(),
+        }
+    }
 }
 
 /// The rows of `report` (turns and straights; standstill and too-short spans are not in it),
 /// with each run's samples for the standstill current and bus voltage. `runs[i]` must be the
 /// samples of the report's `runs[i]`.
 pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
-    let standstill: Vec<Option<Sides<f64>>> =
-        runs.iter().map(|s| standstill_current_a(s)).collect();
+    let facts: Vec<RunSampleFacts> = (0..report.runs.len())
+        .map(|i| {
+            let mut scan = RunSampleScan::new(report, i);
+            runs.get(i)
+                .copied()
+                .unwrap_or(&[])
+                .iter()
+                .for_each(|s| scan.push(s));
+            scan.finish()
+        })
+        .collect();
+    rows_from_facts(report, &facts)
+}
+
+/// [`rows`] from each run's [`RunSampleFacts`] (`facts[i]` of the report's `runs[i]`) instead of
+/// its samples.
+pub fn rows_from_facts(report: &ValidationReport, facts: &[RunSampleFacts]) -> Vec<TurnRow> {
     let mut out = Vec::new();
     for (index, m) in report.manoeuvres.iter().enumerate() {
         let Some(run_index) = report.runs.iter().position(|r| r.name == m.run) else {
@@ -257,18 +373,11 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
             side(left_inner, SideRole::Inner),
             side(!left_inner, SideRole::Outer),
         ];
-        let samples = runs.get(run_index).copied().unwrap_or(&[]);
-        let span = samples
-            .get(m.first_sample..m.end_sample.min(samples.len()))
-            .unwrap_or(&[]);
-        let bus_v = if span.is_empty() {
-            0.0
-        } else {
-            span.iter()
-                .map(|x| 0.5 * (x.bus_v.left + x.bus_v.right))
-                .sum::<f64>()
-                / span.len() as f64
-        };
+        let run_facts = facts.get(run_index);
+        let bus_v = run_facts
+            .and_then(|f| f.span_bus_v.get(index))
+            .copied()
+            .unwrap_or(0.0);
         let r_over_r_prime_cmd = m.r_over_r_prime.unwrap_or(f64::INFINITY);
         let measured = measured_radius(report, run_index, m.r_act_m, m.r_act_over_r_prime_act);
         let regime = match measured {
@@ -280,7 +389,7 @@ pub fn rows(report: &ValidationReport, runs: &[&[RunSample]]) -> Vec<TurnRow> {
             _ => regime,
         };
         let r_over_r_prime = r_over_r_prime_cmd;
-        let still = standstill.get(run_index).copied().flatten();
+        let still = run_facts.and_then(|f| f.standstill_current_a);
         out.push(TurnRow {
             run: m.run.clone(),
             run_index,
