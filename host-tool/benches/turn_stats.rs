@@ -12,7 +12,10 @@
 //! commands, events). Generated once into `target/bench-data/` (again when a file is missing or
 //! was made by another version of this generator).
 //!
-//! Timed, best of [`REPEATS`] in one process, each from the file on disk to the statistics:
+//! Timed, best of [`REPEATS`] in one process, each from the file on disk to the statistics
+//! (on all cores, as the multi-threaded Python readers: `read_run_csv`'s fast path parses on
+//! every core; the gap threshold runs beside `segment`, and `analyse` takes the spans in
+//! shares of about equal samples, one per core):
 //! 1. Rust, run CSV: `read_run_csv` → `segment` → `analyse` per manoeuvre.
 //! 2. Rust, raw capture: the recorder over the capture bytes (decode, scale, commands from the
 //!    commands file) → `segment` → `analyse`.

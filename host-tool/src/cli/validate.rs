@@ -3,6 +3,7 @@
 use super::output::{self, write_file, JsonOut};
 use super::Departure;
 use anyhow::Result;
+use host_tool::log::mcap::Truncation;
 use host_tool::rover::load_rover_file;
 use host_tool::runs::{truncation_warning, Runs, StreamedRuns};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
@@ -75,10 +76,7 @@ pub fn load_and_validate(
     options: &ValidateOptions,
 ) -> Result<(Runs, ValidationReport)> {
     let runs = Runs::load(paths, super::salvage())?;
-    for (path, t) in &runs.truncated {
-        eprintln!("{}", truncation_warning(path, t));
-    }
-    super::report_damage(&runs.damage, runs.lost_data);
+    warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
     let report = runs.validate(rover, options)?;
     Ok((runs, report))
 }
@@ -91,12 +89,18 @@ pub fn stream_and_validate(
     options: &ValidateOptions,
 ) -> Result<(StreamedRuns, ValidationReport)> {
     let runs = StreamedRuns::scan(paths, super::salvage())?;
-    for (path, t) in &runs.truncated {
-        eprintln!("{}", truncation_warning(path, t));
-    }
-    super::report_damage(&runs.damage, runs.lost_data);
+    warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
     let report = runs.validate(rover, options)?;
     Ok((runs, report))
+}
+
+/// Tells the user which files were cut short or damaged (and marks lost data for the exit
+/// code).
+fn warn_about_reads(truncated: &[(PathBuf, Truncation)], damage: &[String], lost_data: bool) {
+    for (path, t) in truncated {
+        eprintln!("{}", truncation_warning(path, t));
+    }
+    super::report_damage(damage, lost_data);
 }
 
 /// Manoeuvres flagged as departing from the fitted model.
