@@ -713,3 +713,46 @@ fn positions_read_back_nan_is_a_dropout_and_the_pair_is_required() {
         "line 1: column `x_m` needs column `y_m` in the header too"
     );
 }
+
+#[test]
+fn the_parallel_fast_path_leaves_damage_anywhere_to_the_general_reader() {
+    // Past the parallel threshold; blocks of 97 bytes put job seams every 388 bytes, so a
+    // time going back lands inside jobs and on their seams.
+    let rows: Vec<String> = (0..40_000)
+        .map(|i| format!("{},24.005,1.25,23.995,-0.5,0.3,-0.3", f64::from(i) * 0.005))
+        .collect();
+    let dir = TempDir::new("fast-damage");
+    let path = dir.path().join("run.csv");
+    for (at, bad) in [
+        (20_000, "50,24,1,24,2,0.1,0.2"),
+        (39_980, "199.9,24,1,24,abc,0.1,0.2"),
+        (1, "0,24,1,24,2,0.1,0.2"),
+    ] {
+        for k in [at, at + 3, at + 7, at + 11] {
+            let mut rows = rows.clone();
+            if let Some(row) = rows.get_mut(k) {
+                *row = bad.to_owned();
+            }
+            let text = format!("{HEADER}\n{}\n", rows.join("\n"));
+            std::fs::write(&path, &text).expect("write");
+            for block in [super::fast::BLOCK_BYTES, 97] {
+                let fast = super::fast::read_file(&path, block).expect("read");
+                assert!(fast.is_none(), "row {k} ({bad}) passed the fast path");
+            }
+            let general = RunCsvReader::new(text.as_bytes())
+                .expect("header")
+                .collect::<Result<Vec<_>, _>>();
+            let e = read_run_csv(&path).expect_err("damaged");
+            assert_eq!(
+                e.source.to_string(),
+                general.expect_err("damaged").to_string()
+            );
+        }
+    }
+    // Undamaged, the same file takes the fast path.
+    std::fs::write(&path, format!("{HEADER}\n{}\n", rows.join("\n"))).expect("write");
+    let fast = super::fast::read_file(&path, 97)
+        .expect("read")
+        .expect("fast");
+    assert_eq!(fast.len(), rows.len());
+}
