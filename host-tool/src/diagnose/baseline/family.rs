@@ -15,7 +15,7 @@
 //! inside each training fold (it is a parameter of that member, not of the selection).
 
 use super::{Baseline, BaselineError, Split, Structure};
-use crate::diagnose::adequacy::LEVEL_PITCH_DEG;
+use crate::diagnose::adequacy::{self, LEVEL_PITCH_DEG};
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::observe;
 use model_core::Rover;
@@ -47,6 +47,22 @@ fn members() -> Vec<Vec<Structure>> {
     let mut out = vec![regen.to_vec(), clamp.to_vec(), returning];
     out.sort_by_key(|m| m[0].parameters());
     out
+}
+
+/// The family's members with copper loss added: tried only when every member of [`members`]
+/// misfits its calibration (see [`choose_uncached`]).
+fn copper_members() -> Vec<Vec<Structure>> {
+    members()
+        .into_iter()
+        .map(|m| {
+            m.into_iter()
+                .map(|s| Structure {
+                    copper_loss: true,
+                    ..s
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The best-fitting (least training RSS) variant of one member on `train`; `None` if none fits.
@@ -166,16 +182,52 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
     if runs.len() < 2 {
         return Baseline::fit_plain(rover, calibration);
     }
-    let scored: Vec<(Vec<Structure>, f64, f64)> = members()
+    let turn_slip = constant_turn_slip(&level)
+        .filter(|&s| !explained_by_slip_track(rover, &level, s))
+        .unwrap_or(0.0);
+    let Some(plain) = pick(rover, calibration, &level, &runs, members(), turn_slip)? else {
+        return Baseline::fit_plain(rover, calibration);
+    };
+    if misfits(&plain, calibration) {
+        // Escalation: copper loss is admitted only when the simpler family cannot fit the
+        // calibration manoeuvres at all. As an ordinary member it absorbed current offsets and
+        // point-turn sinkage in worlds the plain family fits (see `members`).
+        if let Some(copper) = pick(
+            rover,
+            calibration,
+            &level,
+            &runs,
+            copper_members(),
+            turn_slip,
+        )? {
+            if fits_testably(&copper, calibration) {
+                return Ok(copper);
+            }
+        }
+    }
+    Ok(plain)
+}
+
+/// The member of `family` chosen by the one-standard-error rule on leave-one-run-out CV,
+/// refitted on all `calibration` rows; `None` when no member can be cross-validated.
+fn pick(
+    rover: &Rover,
+    calibration: &[&TurnRow],
+    level: &[&TurnRow],
+    runs: &[usize],
+    family: Vec<Vec<Structure>>,
+    turn_slip: f64,
+) -> Result<Option<Baseline>, BaselineError> {
+    let scored: Vec<(Vec<Structure>, f64, f64)> = family
         .into_iter()
         .filter_map(|m| {
-            let e = cv_errors(rover, &level, &runs, &m)?;
+            let e = cv_errors(rover, level, runs, &m)?;
             let (mean, se) = mean_and_se(&e)?;
             Some((m, mean, se))
         })
         .collect();
     let Some(best) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
-        return Baseline::fit_plain(rover, calibration);
+        return Ok(None);
     };
     let bar = best.1 + best.2;
     let chosen = scored
@@ -185,10 +237,30 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
     let mut b = fit_best(rover, calibration, &chosen.0)
         .map_or_else(|| Baseline::fit_plain(rover, calibration), Ok)?;
     b.cv_rmse_w = Some(chosen.1.sqrt());
-    b.turn_slip = constant_turn_slip(&level)
-        .filter(|&s| !explained_by_slip_track(rover, &level, s))
-        .unwrap_or(0.0);
-    Ok(b)
+    b.turn_slip = turn_slip;
+    Ok(Some(b))
+}
+
+/// Whether `b` fits its own `calibration` manoeuvres statistically: at least one lack-of-fit
+/// test (total, per side) has degrees of freedom to spare, and none rejects at [`adequacy::ALPHA`]
+/// (the practical floor's leniency is not given: escalating to a larger member must be earned by
+/// the data, or it bends a and c around an effect such as point-turn sinkage).
+fn fits_testably(b: &Baseline, calibration: &[&TurnRow]) -> bool {
+    let a = adequacy::test(calibration, b.structure.parameters(), |r, s| {
+        b.side_power_w(r, s)
+    });
+    let p_values: Vec<f64> = [Some(&a.total), a.per_side.as_ref()]
+        .into_iter()
+        .flatten()
+        .filter_map(|t| t.p_value)
+        .collect();
+    !p_values.is_empty() && p_values.iter().all(|&p| p >= adequacy::ALPHA)
+}
+
+/// Whether `b` fails the lack-of-fit test on its own `calibration` manoeuvres.
+fn misfits(b: &Baseline, calibration: &[&TurnRow]) -> bool {
+    let params = b.structure.parameters();
+    adequacy::test(calibration, params, |r, s| b.side_power_w(r, s)).adequate == Some(false)
 }
 
 /// Whether the calibration turns' constant slip `slip` is what their pose track measured: a
