@@ -1,8 +1,9 @@
 //! The baseline family (issue 10, part 2): the per-side split of the skid power (regenerating,
-//! clamped, or returning a fraction of the generated power; copper loss is fitted by
-//! [`Baseline::fit_member`] but not a member, see [`members`]), chosen on the calibration manoeuvres by leave-one-run-out cross-validation of their average
-//! power. The standstill draw is not a member: it is measured, not fitted (see
-//! [`quiescent_draw_w`](super::quiescent_draw_w)).
+//! clamped, or returning a fraction of the generated power), chosen on the calibration
+//! manoeuvres by leave-one-run-out cross-validation of their average power; copper loss
+//! ([`Baseline::fit_member`] with `copper_loss`) only by escalation, when every copper-free member
+//! misfits the calibration (see [`choose_uncached`]). The standstill draw is not a member: it is
+//! measured, not fitted (see [`quiescent_draw_w`](super::quiescent_draw_w)).
 //!
 //! Not a member: the split turning positive past R_T (paper Fig. 11). With R_T ≈ 18 m the fade
 //! is ≤ 2–4 % on the calibration radii (≤ 3R′), so it cannot be told from the plain split there,
@@ -38,12 +39,12 @@ fn members() -> Vec<Vec<Structure>> {
             copper_loss: false,
         })
         .collect();
-    // Copper loss (`Structure::copper_loss`, fitted by `Baseline::fit_member`) is not in the
-    // family: measured as a member it absorbed part of a current offset and of point-turn
-    // sinkage (our unit tests' current-offset and sand worlds turned `ambiguous`; the
-    // independent generator's dev seeds fell from 39/48 to 35/48 effects right), while our
-    // bench's copper-loss worlds gained 3/48. The returning member carries most of the
-    // regeneration-efficiency misfit that copper loss + efficiency make.
+    // Copper loss (`Structure::copper_loss`) is not an ordinary member (`copper_members` is
+    // tried only when these all misfit): as a member it absorbed part of a current offset and
+    // of point-turn sinkage (our unit tests' current-offset and sand worlds turned `ambiguous`;
+    // the independent generator's dev seeds fell from 39/48 to 35/48 effects right). The
+    // returning member carries most of the regeneration-efficiency misfit that copper loss +
+    // efficiency make.
     let mut out = vec![regen.to_vec(), clamp.to_vec(), returning];
     out.sort_by_key(|m| m[0].parameters());
     out
