@@ -283,13 +283,35 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
         }
     };
     let t1 = Instant::now();
-    let diagnosis = crate::diagnose::diagnose_with(&rover, &rows, Calibration::Rows(&cal_rows));
+    let diagnosis = diagnose_rows(&rover, &cal_rows, &rows);
     result.diagnose_s = t1.elapsed().as_secs_f64();
     match diagnosis {
         Ok(d) => score(&mut result, &d),
         Err(e) => result.error = Some(DatasetError::from(e).to_string()),
     }
     result
+}
+
+/// The diagnosis the bench makes of a dataset's rows: calibrated on its calibration runs.
+fn diagnose_rows(
+    rover: &Rover,
+    cal_rows: &[TurnRow],
+    rows: &[TurnRow],
+) -> Result<Diagnosis, DiagnoseError> {
+    crate::diagnose::diagnose_with(rover, rows, Calibration::Rows(cal_rows))
+}
+
+/// Simulates and diagnoses one dataset as the bench does, for reading the diagnosis whole
+/// (`diagnose-bench --explain`): works for datasets `--dump` cannot hand to `diagnose` (the
+/// Argo J5's currents beyond the board's range).
+pub fn explain(spec: &DatasetSpec, poses: bool) -> Result<(Truth, Diagnosis), DatasetError> {
+    let rover = spec.rover.rover();
+    let offset = poses.then(|| spec.world().tracker.offset_m);
+    let d = simulate(spec)?;
+    let cal_rows = rows_for(&rover, &d.calibration, "cal", offset)?;
+    let rows = rows_for(&rover, &d.runs, "run", offset)?;
+    let diagnosis = diagnose_rows(&rover, &cal_rows, &rows)?;
+    Ok((d.truth, diagnosis))
 }
 
 /// The verdict as the bench's label (`none`, `ambiguous`, `baseline-misfit` or an effect id):
