@@ -5,6 +5,7 @@
 //! against a simulated I²C bus.
 #![cfg_attr(not(test), no_std)]
 
+pub mod blocking;
 pub mod board;
 pub mod bus_recovery;
 pub mod ina226;

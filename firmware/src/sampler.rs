@@ -2,7 +2,7 @@
 //! A failing chip never stops the other chip or the stream: its part of the sample says why.
 
 use crate::ina226::{Calibration, Ina226};
-use embedded_hal::i2c::I2c;
+use embedded_hal_async::i2c::I2c;
 use model_core::board_id::BoardIdentity;
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{AdcConfig, BUS_LSB_UV, SHUNT_LSB_NV};
@@ -120,8 +120,8 @@ impl Chip {
 
     /// Checks the IDs and writes configuration and calibration; its conversions restart at
     /// `t_us` (`None`: at the next sample's time).
-    fn set_up<I: I2c>(&mut self, i2c: &mut I, t_us: Option<u64>) -> Result<(), ChipFault> {
-        self.driver.init(i2c).map_err(|e| e.fault())?;
+    async fn set_up<I: I2c>(&mut self, i2c: &mut I, t_us: Option<u64>) -> Result<(), ChipFault> {
+        self.driver.init_async(i2c).await.map_err(|e| e.fault())?;
         if self.was_ready {
             self.reinits = self.reinits.saturating_add(1);
         }
@@ -133,13 +133,13 @@ impl Chip {
 
     /// The chip's ID and set-up registers read back, after setting it up if it is not (a
     /// `GetHello` may come before the first sample).
-    fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
+    async fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
         if !self.ready {
-            if let Err(fault) = self.set_up(i2c, None) {
+            if let Err(fault) = self.set_up(i2c, None).await {
                 self.fail(fault);
             }
         }
-        match self.driver.read_back(i2c) {
+        match self.driver.read_back_async(i2c).await {
             Ok(registers) => ChipProbe::Answered(registers),
             Err(e) => ChipProbe::Failed(crate::ina226::fault_of(&e)),
         }
@@ -155,9 +155,14 @@ impl Chip {
     /// conversion period (with its margin) has passed since the settings were written, and the
     /// sample period is at least that long (`Command::validate`), so each read returns a result
     /// no earlier read returned, whole (the chip swaps in a result only once it is averaged).
-    fn read<I: I2c>(&mut self, i2c: &mut I, t_us: u64, check_calibration: bool) -> ChipReading {
+    async fn read<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        t_us: u64,
+        check_calibration: bool,
+    ) -> ChipReading {
         if !self.ready {
-            if let Err(fault) = self.set_up(i2c, Some(t_us)) {
+            if let Err(fault) = self.set_up(i2c, Some(t_us)).await {
                 return self.fail(fault);
             }
         }
@@ -167,17 +172,23 @@ impl Chip {
             // No bus traffic: nothing valid to read yet.
             return self.fail(ChipFault::AwaitingConversion);
         }
-        let measurement = match self.driver.read_measurement(i2c, check_calibration) {
+        let measurement = match self
+            .driver
+            .read_measurement_async(i2c, check_calibration)
+            .await
+        {
             Ok(m) => m,
             Err(e) => return self.fail(crate::ina226::fault_of(&e)),
         };
         let lost = match measurement.calibration {
             Some(cal) => cal.0 == 0,
             // The short read may have read register 00h of a chip that reset: CAL says.
-            None if measurement.suspect_reset => match self.driver.calibration_lost(i2c) {
-                Ok(lost) => lost,
-                Err(e) => return self.fail(crate::ina226::fault_of(&e)),
-            },
+            None if measurement.suspect_reset => {
+                match self.driver.calibration_lost_async(i2c).await {
+                    Ok(lost) => lost,
+                    Err(e) => return self.fail(crate::ina226::fault_of(&e)),
+                }
+            }
             None => false,
         };
         if lost {
@@ -231,18 +242,16 @@ impl Sampler {
     }
 
     /// Takes one sample stamped `t_us`; `None` while stopped by the host.
-    pub fn sample<I: I2c>(&mut self, i2c: &mut I, t_us: u64) -> Option<Sample> {
+    pub async fn sample_async<I: I2c>(&mut self, i2c: &mut I, t_us: u64) -> Option<Sample> {
         if !self.running {
             return None;
         }
         // Each chip's read-back in its own sample, half a cycle apart.
         let phase = self.seq % CALIBRATION_CHECK_EVERY;
-        let chips = Sides::new(
-            self.chips.left.read(i2c, t_us, phase == 0),
-            self.chips
-                .right
-                .read(i2c, t_us, phase == CALIBRATION_CHECK_EVERY / 2),
-        );
+        let left = self.chips.left.read(i2c, t_us, phase == 0).await;
+        let right_check = phase == CALIBRATION_CHECK_EVERY / 2;
+        let right = self.chips.right.read(i2c, t_us, right_check).await;
+        let chips = Sides::new(left, right);
         self.measurements.update(t_us, chips.map(|c| c.registers()));
         let sample = Sample {
             t_us,
@@ -255,7 +264,11 @@ impl Sampler {
     }
 
     /// Carries out a command that concerns sampling; the board answers with ack or rejection.
-    pub fn apply<I: I2c>(&mut self, i2c: &mut I, command: &Command) -> Result<(), Rejection> {
+    pub async fn apply_async<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        command: &Command,
+    ) -> Result<(), Rejection> {
         command.validate()?;
         match *command {
             Command::Configure {
@@ -266,7 +279,7 @@ impl Sampler {
                 let mut outcome = Ok(());
                 for chip in [&mut self.chips.left, &mut self.chips.right] {
                     chip.restart_conversions(None);
-                    if let Err(e) = chip.driver.configure(i2c, adc) {
+                    if let Err(e) = chip.driver.configure_async(i2c, adc).await {
                         // Re-initialised (with the new settings) at the next period.
                         chip.ready = false;
                         let fault = crate::ina226::fault_of(&e);
@@ -310,13 +323,22 @@ impl Sampler {
 
     /// The hello with each chip's ID and set-up registers read back now (the answer to
     /// `GetHello`); a chip not set up yet is set up first.
-    pub fn hello_read_back<I: I2c>(&mut self, i2c: &mut I) -> Hello {
-        let left = self.chips.left.probe(i2c);
-        let right = self.chips.right.probe(i2c);
+    pub async fn hello_read_back_async<I: I2c>(&mut self, i2c: &mut I) -> Hello {
+        let left = self.chips.left.probe(i2c).await;
+        let right = self.chips.right.probe(i2c).await;
         Hello {
             chips: Sides::new(left, right),
             ..self.hello()
         }
+    }
+
+    crate::blocking::blocking_twins! {
+        /// [`Self::sample_async`] on a blocking bus.
+        fn sample => sample_async(t_us: u64) -> Option<Sample>;
+        /// [`Self::apply_async`] on a blocking bus.
+        fn apply => apply_async(command: &Command) -> Result<(), Rejection>;
+        /// [`Self::hello_read_back_async`] on a blocking bus.
+        fn hello_read_back => hello_read_back_async() -> Hello;
     }
 
     /// The hello without touching the bus (chips [`ChipProbe::NotRead`]).
