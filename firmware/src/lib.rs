@@ -8,6 +8,7 @@
 pub mod blocking;
 pub mod board;
 pub mod bus_recovery;
+pub mod i2c_master;
 pub mod ina226;
 pub mod led;
 pub mod link;
