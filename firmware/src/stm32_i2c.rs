@@ -40,6 +40,10 @@ pub const TRANSACTION_BUDGET_US: u64 = 1_000;
 /// takes about one SCL period, 2.5 µs).
 const STOP_POLL_US: u64 = 2;
 
+/// SR1's flags cleared by writing 0 (RM0383 §18.6.6: BERR, ARLO, AF, OVR, PECERR, TIMEOUT,
+/// SMBALERT).
+const SR1_RC_W0: u16 = 0xDF00;
+
 /// I2C1's registers as the transfer state machine sees them.
 #[derive(Debug)]
 pub struct I2c1Registers(pac::I2C1);
@@ -55,10 +59,10 @@ impl Registers for I2c1Registers {
 
     #[allow(unsafe_code)]
     fn clear_sr1(&mut self, flags: u16) {
-        // SAFETY: SR1's error flags are cleared by writing 0 and unchanged by writing 1; its
-        // other bits are read-only. Writing the complement clears exactly `flags`, and (unlike
-        // a read-modify-write) never a flag raised in between.
-        self.0.sr1().write(|w| unsafe { w.bits(!flags) });
+        // SAFETY: SR1's flags in `SR1_RC_W0` are cleared by writing 0 and unchanged by writing
+        // 1; its other bits are read-only or reserved (written 0). Writing 1 to all but `flags`
+        // clears exactly those, and (unlike a read-modify-write) never a flag raised in between.
+        self.0.sr1().write(|w| unsafe { w.bits(SR1_RC_W0 & !flags) });
     }
 
     fn write_dr(&mut self, byte: u8) {
