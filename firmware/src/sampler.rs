@@ -492,9 +492,7 @@ mod tests {
 
     #[test]
     fn first_sample_initialises_both_chips_and_counts() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
+        let (mut l, mut r, mut tx) = both_set_up();
         for _ in 0..2 {
             tx.extend(l.measure(2.0, None));
             tx.extend(r.measure(-1.0, None));
@@ -567,27 +565,52 @@ mod tests {
         i2c.done();
     }
 
-    #[test]
-    fn a_reset_chip_is_found_by_its_short_read_and_reinitialised() {
+    /// The board's sampler on a mock bus scripted with `tx`, after its first two samples (the
+    /// set-up, awaiting conversion; the first reading).
+    fn sampled_twice(tx: &[T]) -> (Mock, Sampler) {
+        let mut i2c = Mock::new(tx);
+        let mut s = Sampler::new(SamplerConfig::BOARD);
+        s.sample(&mut i2c, 0);
+        s.sample(&mut i2c, P);
+        (i2c, s)
+    }
+
+    /// The scripts of both chips, and their set-up transactions (IDs, configuration, CAL).
+    fn both_set_up() -> (Script, Script, Vec<T>) {
         let (mut l, mut r) = (Script::new(L), Script::new(R));
         let mut tx = l.init();
         tx.extend(r.init());
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.measure(1.0, None));
-        // Left browns out: it points at register 00h, which holds its power-on configuration.
+        (l, r, tx)
+    }
+
+    /// Both chips set up and read once at `amps`; then left's short read returns 0x4127 (the
+    /// configuration register's power-on value), its other read `second`, the CAL check `cal`.
+    fn left_reads_the_power_on_configuration(
+        amps: f64,
+        second: [u8; 2],
+        cal: u16,
+    ) -> (Script, Script, Vec<T>) {
+        let (mut l, mut r, mut tx) = both_set_up();
+        tx.extend(l.measure(amps, None));
+        tx.extend(r.measure(amps, None));
         tx.push(T::read(L, CONFIG_POWER_ON.to_be_bytes().to_vec()));
-        tx.push(T::write_read(L, vec![0x01], vec![0x07, 0xD0]));
-        tx.push(T::write_read(L, vec![0x05], vec![0, 0])); // CAL 0: confirmed
-        tx.extend(r.measure(1.0, None));
+        tx.push(T::write_read(L, vec![0x01], second.to_vec()));
+        tx.push(T::write_read(L, vec![0x05], cal.to_be_bytes().to_vec()));
+        tx.extend(r.measure(amps, None));
+        (l, r, tx)
+    }
+
+    #[test]
+    fn a_reset_chip_is_found_by_its_short_read_and_reinitialised() {
+        // Left browns out: it points at register 00h, which holds its power-on configuration;
+        // CAL 0 confirms.
+        let (mut l, mut r, mut tx) = left_reads_the_power_on_configuration(1.0, [0x07, 0xD0], 0);
         l.pointer = None;
         tx.extend(l.init());
         tx.extend(r.measure(1.0, None));
         tx.extend(l.measure(1.0, None));
         tx.extend(r.measure(1.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
+        let (mut i2c, mut s) = sampled_twice(&tx);
         let lost = s.sample(&mut i2c, 2 * P).expect("running");
         assert_eq!(
             lost.chips.left,
@@ -608,20 +631,9 @@ mod tests {
 
     #[test]
     fn a_reading_that_looks_like_a_reset_is_checked_and_kept() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        tx.extend(l.measure(0.0, None));
-        tx.extend(r.measure(0.0, None));
         // 0x4127 on the bus register (20.85 V) is a genuine reading: CAL is fine.
-        tx.push(T::read(L, CONFIG_POWER_ON.to_be_bytes().to_vec()));
-        tx.push(T::write_read(L, vec![0x01], vec![0, 3]));
-        tx.push(T::write_read(L, vec![0x05], 2048u16.to_be_bytes().to_vec()));
-        tx.extend(r.measure(0.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
+        let (_, _, tx) = left_reads_the_power_on_configuration(0.0, [0, 3], 2048);
+        let (mut i2c, mut s) = sampled_twice(&tx);
         let checked = s.sample(&mut i2c, 2 * P).expect("running");
         assert!(
             matches!(checked.chips.left, ChipReading::Fresh(r) if r.bus.0 == CONFIG_POWER_ON && r.shunt.0 == 3)
@@ -633,9 +645,7 @@ mod tests {
 
     #[test]
     fn calibration_is_read_back_periodically_one_chip_per_sample() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
+        let (mut l, mut r, mut tx) = both_set_up();
         let half = CALIBRATION_CHECK_EVERY / 2;
         for seq in 1..=CALIBRATION_CHECK_EVERY {
             tx.extend(l.measure(0.0, (seq == CALIBRATION_CHECK_EVERY).then_some(2048)));
@@ -669,17 +679,12 @@ mod tests {
 
     #[test]
     fn energy_does_not_accumulate_across_stop_and_start() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
+        let (mut l, mut r, mut tx) = both_set_up();
         for _ in 0..4 {
             tx.extend(l.measure(2.0, None));
             tx.extend(r.measure(2.0, None));
         }
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
+        let (mut i2c, mut s) = sampled_twice(&tx);
         s.sample(&mut i2c, 2 * P);
         let before = s.model().expect("sampled").snapshot.energy_lsb_us.left;
         assert_eq!(before, 3840 * 5_000);
@@ -708,9 +713,7 @@ mod tests {
             averaging: model_core::ina226::Averaging::X4,
             ..AdcConfig::BOARD_DEFAULT
         };
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
+        let (mut l, mut r, mut tx) = both_set_up();
         tx.extend(l.measure(1.0, None));
         tx.extend(r.measure(1.0, None));
         tx.push(l.write(Register::Configuration, 0x4207));
@@ -720,10 +723,7 @@ mod tests {
         tx.extend(r.init_with(0x4207));
         tx.extend(l.measure(1.0, None));
         tx.extend(r.measure(1.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
+        let (mut i2c, mut s) = sampled_twice(&tx);
         let slowest = AdcConfig {
             averaging: model_core::ina226::Averaging::X1024,
             bus_conversion: model_core::ina226::ConversionTime::Us8244,

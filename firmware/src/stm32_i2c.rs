@@ -62,7 +62,9 @@ impl Registers for I2c1Registers {
         // SAFETY: SR1's flags in `SR1_RC_W0` are cleared by writing 0 and unchanged by writing
         // 1; its other bits are read-only or reserved (written 0). Writing 1 to all but `flags`
         // clears exactly those, and (unlike a read-modify-write) never a flag raised in between.
-        self.0.sr1().write(|w| unsafe { w.bits(SR1_RC_W0 & !flags) });
+        self.0
+            .sr1()
+            .write(|w| unsafe { w.bits(SR1_RC_W0 & !flags) });
     }
 
     fn write_dr(&mut self, byte: u8) {
