@@ -1,14 +1,17 @@
 //! One I²C master transfer on the STM32F4's I²C peripheral (RM0383 §18.3.3 "I2C master mode"),
 //! driven by its interrupts: what the handler does at each event. It is independent of the
 //! chip, so it is tested on the host against a fake peripheral; the board's glue (`stm32_i2c`)
-//! maps [`Registers`] onto I2C1, calls [`Master::on_interrupt`] from the I2C1_EV and I2C1_ER
-//! handlers, and awaits [`Master::poll`] under a deadline.
+//! maps [`Registers`] onto I2C1 and calls [`Master::on_interrupt`] from the I2C1_EV and I2C1_ER
+//! handlers.
 //!
 //! A transfer is what our drivers issue: an optional write (register pointer, or pointer and
 //! value) and an optional read, joined by a repeated START, ended by STOP. The handler keeps
 //! SCL stretched wherever the reference manual's sequences need a decision (SB, ADDR, BTF), so
 //! its latency only slows the bus, never corrupts a byte; it runs above every task that touches
-//! the bus, so its steps cannot be split. Reads follow RM0383's master receiver procedures:
+//! the bus, so its steps cannot be split. [`AwaitedBus`] is the task's side: an
+//! `embedded_hal_async` bus that starts a transfer, awaits its end under a deadline, and has the
+//! bus reset after a failure that needs it; the board supplies the lock, the clock and the reset
+//! ([`Port`], [`Clock`]). Reads follow RM0383's master receiver procedures:
 //! - 1 byte: ACK cleared before ADDR is cleared, STOP right after (EV6_3);
 //! - 2 bytes: ACK cleared and POS set before ADDR is cleared, so the NACK falls on byte 2
 //!   whatever the latency; at BTF (byte 1 in DR, byte 2 in the shift register, NACKed) STOP,
@@ -24,8 +27,9 @@
 //! (as the HAL does); a real bus error that breaks the transfer ends in the caller's deadline
 //! ([`Master::abort`], then a bus reset).
 
+use core::future::{poll_fn, Future};
 use core::task::{Poll, Waker};
-use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource, Operation};
+use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
 
 /// Longest write of one transfer [bytes] (our drivers write at most a pointer and a register).
 pub const MAX_WRITE: usize = 8;
@@ -100,6 +104,8 @@ pub enum Failure {
     Stalled,
     /// The caller's deadline passed ([`Master::abort`]).
     Timeout,
+    /// Operations this master does not carry out ([`Transfer::new`]); nothing was sent.
+    Unsupported,
 }
 
 impl Failure {
@@ -110,13 +116,15 @@ impl Failure {
             Failure::ArbitrationLoss => ErrorKind::ArbitrationLoss,
             Failure::Overrun => ErrorKind::Overrun,
             Failure::Stalled | Failure::Timeout => ErrorKind::Bus,
+            Failure::Unsupported => ErrorKind::Other,
         }
     }
 
     /// Whether the peripheral must be reset and the bus clocked free before the next transfer:
-    /// everything but a NACK, after which the handler has already sent a STOP.
+    /// everything but a NACK, after which the handler has already sent a STOP (and a request
+    /// that never reached the bus).
     pub fn needs_bus_reset(self) -> bool {
-        !matches!(self, Failure::Nack(_))
+        !matches!(self, Failure::Nack(_) | Failure::Unsupported)
     }
 }
 
@@ -132,9 +140,10 @@ pub struct Transfer {
 
 impl Transfer {
     /// The transfer for embedded-hal operations: writes (sent as one), then at most one read,
-    /// last. Other shapes, or more than [`MAX_WRITE`]/[`MAX_READ`] bytes, are `Other` (no driver
-    /// here issues them). No operation at all, or only empty ones, is an address probe.
-    pub fn new(address: u8, ops: &[Operation<'_>]) -> Result<Self, ErrorKind> {
+    /// last. Other shapes, or more than [`MAX_WRITE`]/[`MAX_READ`] bytes, are
+    /// [`Failure::Unsupported`] (no driver here issues them). No operation at all, or only empty
+    /// ones, is an address probe.
+    pub fn new(address: u8, ops: &[Operation<'_>]) -> Result<Self, Failure> {
         let mut transfer = Transfer {
             address,
             write: [0; MAX_WRITE],
@@ -146,14 +155,14 @@ impl Transfer {
                 Operation::Write(bytes) => {
                     let end = transfer.write_len + bytes.len();
                     if transfer.read_len > 0 || end > MAX_WRITE {
-                        return Err(ErrorKind::Other);
+                        return Err(Failure::Unsupported);
                     }
                     transfer.write[transfer.write_len..end].copy_from_slice(bytes);
                     transfer.write_len = end;
                 }
                 Operation::Read(buf) => {
                     if transfer.read_len > 0 || buf.len() > MAX_READ {
-                        return Err(ErrorKind::Other);
+                        return Err(Failure::Unsupported);
                     }
                     transfer.read_len = buf.len();
                 }
@@ -485,6 +494,90 @@ impl Master {
         if let Some(waker) = self.waker.take() {
             waker.wake();
         }
+    }
+}
+
+/// The board's side of [`AwaitedBus`]: the state the interrupt handlers share, and the bus reset.
+pub trait Port {
+    type Regs: Registers;
+    /// Runs `f` with the interrupt handlers held off.
+    fn lock<R>(&mut self, f: impl FnOnce(&mut Master, &mut Self::Regs) -> R) -> R;
+    /// Resets the peripheral and clocks the bus free after `failure` (the handlers are held off
+    /// only for the register writes).
+    fn reset_bus(&mut self, failure: Failure);
+}
+
+/// Time for [`AwaitedBus`]: each transfer's deadline.
+pub trait Clock {
+    type Deadline: Copy;
+    /// The deadline of a transfer starting now.
+    fn deadline(&self) -> Self::Deadline;
+    fn passed(&self, deadline: Self::Deadline) -> bool;
+    /// Waits a few microseconds (a STOP going out).
+    fn pause(&self) -> impl Future<Output = ()>;
+    /// `end`'s output, or `None` when the deadline comes first.
+    fn until<F: Future>(
+        &self,
+        deadline: Self::Deadline,
+        end: F,
+    ) -> impl Future<Output = Option<F::Output>>;
+}
+
+/// The interrupt-driven master as an `embedded_hal_async` bus: each transaction starts the
+/// transfer, awaits the handler's end of it, or the deadline, then the transfer is aborted; a
+/// failure that needs it resets the bus before the error is returned.
+#[derive(Debug)]
+pub struct AwaitedBus<P, C> {
+    pub port: P,
+    pub clock: C,
+}
+
+impl<P: Port, C: Clock> AwaitedBus<P, C> {
+    async fn run(&mut self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), Failure> {
+        let transfer = Transfer::new(address, ops)?;
+        let Self { port, clock } = self;
+        let deadline = clock.deadline();
+        // The previous STOP goes out within microseconds; CR1 must not be written before.
+        while port
+            .lock(|master, regs| master.begin(regs, transfer))
+            .is_err()
+        {
+            if clock.passed(deadline) {
+                return Err(Failure::Timeout);
+            }
+            clock.pause().await;
+        }
+        let end = poll_fn(|cx| port.lock(|master, _| master.poll(cx.waker())));
+        match clock.until(deadline, end).await {
+            Some(Ok(received)) => {
+                transfer.copy_out(&received, ops);
+                Ok(())
+            }
+            Some(Err(failure)) => Err(failure),
+            None => {
+                port.lock(|master, regs| master.abort(regs));
+                Err(Failure::Timeout)
+            }
+        }
+    }
+}
+
+impl<P, C> ErrorType for AwaitedBus<P, C> {
+    type Error = ErrorKind;
+}
+
+impl<P: Port, C: Clock> embedded_hal_async::i2c::I2c for AwaitedBus<P, C> {
+    async fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), ErrorKind> {
+        self.run(address, operations).await.map_err(|failure| {
+            if failure.needs_bus_reset() {
+                self.port.reset_bus(failure);
+            }
+            failure.kind()
+        })
     }
 }
 

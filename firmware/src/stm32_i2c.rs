@@ -12,8 +12,8 @@
 //!   hand-written 2-byte tail for a 2-byte read; a register read is 2 bytes, so DMA buys nothing.
 //!
 //! Here [`I2c1`] is an RTIC resource shared by the I2C1_EV/I2C1_ER handlers (priority above the
-//! USB task) and the sample task, which awaits each transfer through [`Bus`], an
-//! `embedded_hal_async::i2c::I2c`: while the bus works the sample task is suspended, the USB task
+//! USB task) and the sample task, which awaits each transfer through
+//! [`AwaitedBus`] (an `embedded_hal_async::i2c::I2c`) over [`BoardPort`] and [`MonoClock`]: while the bus works the sample task is suspended, the USB task
 //! and the LED task run, and the CPU sleeps. Every transfer has a deadline on the TIM2 monotonic
 //! ([`TRANSACTION_BUDGET_US`]); when it passes, or the handler reports arbitration lost, an
 //! overrun or a stall, the peripheral is reset and the bus clocked free
@@ -21,9 +21,8 @@
 //! `ChipFault::Bus`, or the matching fault): a reported fault, not a watchdog reset.
 
 use crate::bus_recovery::{self, BusLines, Recovery};
-use crate::i2c_master::{Failure, Master, Registers, Sr1, Transfer};
-use core::future::poll_fn;
-use embedded_hal::i2c::{ErrorKind, ErrorType, Operation};
+use crate::i2c_master::{AwaitedBus, Clock, Failure, Master, Port, Registers, Sr1};
+use core::future::Future;
 use rtic_time::Monotonic;
 use stm32f4xx_hal::{i2c::I2c as HalI2c, pac, timer::MonoTimerUs};
 
@@ -207,73 +206,68 @@ impl BusControl {
     }
 
     /// The awaitable bus over the shared [`I2c1`] (`shared`: the sample task's RTIC lock).
-    pub fn bus<'a, M: rtic::Mutex<T = I2c1>>(&'a mut self, shared: &'a mut M) -> Bus<'a, M> {
-        Bus {
-            shared,
-            control: self,
+    pub fn bus<'a, M: rtic::Mutex<T = I2c1>>(
+        &'a mut self,
+        shared: &'a mut M,
+    ) -> AwaitedBus<BoardPort<'a, M>, MonoClock> {
+        AwaitedBus {
+            port: BoardPort {
+                shared,
+                control: self,
+            },
+            clock: MonoClock,
         }
     }
 }
 
-/// I2C1 as an `embedded_hal_async` bus for the sample task.
+/// I2C1 behind the sample task's RTIC lock, and the bus reset.
 #[derive(Debug)]
-pub struct Bus<'a, M> {
+pub struct BoardPort<'a, M> {
     shared: &'a mut M,
     control: &'a mut BusControl,
 }
 
-impl<M: rtic::Mutex<T = I2c1>> Bus<'_, M> {
-    /// Reports a failed transfer, resetting the bus first where it needs it.
-    fn fail(&mut self, failure: Failure) -> ErrorKind {
-        if failure.needs_bus_reset() {
-            if matches!(failure, Failure::Timeout | Failure::Stalled) {
-                self.control.timeouts = self.control.timeouts.saturating_add(1);
-            }
-            let timing = self.control.timing;
-            self.shared.lock(I2c1::disable);
-            self.control.last_recovery = Some(self.control.clock_free());
-            self.shared.lock(|bus| bus.reenable(timing));
+impl<M: rtic::Mutex<T = I2c1>> Port for BoardPort<'_, M> {
+    type Regs = I2c1Registers;
+
+    fn lock<R>(&mut self, f: impl FnOnce(&mut Master, &mut I2c1Registers) -> R) -> R {
+        self.shared.lock(|bus| f(&mut bus.master, &mut bus.regs))
+    }
+
+    /// Peripheral off under the lock, the bus clocked free outside it (USB runs meanwhile),
+    /// then reset and on again under the lock.
+    fn reset_bus(&mut self, failure: Failure) {
+        if matches!(failure, Failure::Timeout | Failure::Stalled) {
+            self.control.timeouts = self.control.timeouts.saturating_add(1);
         }
-        failure.kind()
+        let timing = self.control.timing;
+        self.shared.lock(I2c1::disable);
+        self.control.last_recovery = Some(self.control.clock_free());
+        self.shared.lock(|bus| bus.reenable(timing));
     }
 }
 
-impl<M> ErrorType for Bus<'_, M> {
-    type Error = ErrorKind;
-}
+/// Deadlines on the TIM2 monotonic.
+#[derive(Debug, Clone, Copy)]
+pub struct MonoClock;
 
-impl<M: rtic::Mutex<T = I2c1>> embedded_hal_async::i2c::I2c for Bus<'_, M> {
-    async fn transaction(
-        &mut self,
-        address: u8,
-        operations: &mut [Operation<'_>],
-    ) -> Result<(), ErrorKind> {
-        let transfer = Transfer::new(address, operations)?;
-        let deadline = Mono::now() + Duration::micros(TRANSACTION_BUDGET_US);
-        // The previous STOP goes out within microseconds; CR1 must not be written before.
-        while self
-            .shared
-            .lock(|bus| bus.master.begin(&mut bus.regs, transfer))
-            .is_err()
-        {
-            if Mono::now() >= deadline {
-                return Err(self.fail(Failure::Timeout));
-            }
-            Mono::delay(Duration::micros(STOP_POLL_US)).await;
-        }
-        let shared = &mut *self.shared;
-        let end = poll_fn(|cx| shared.lock(|bus| bus.master.poll(cx.waker())));
-        match Mono::timeout_at(deadline, end).await {
-            Ok(Ok(received)) => {
-                transfer.copy_out(&received, operations);
-                Ok(())
-            }
-            Ok(Err(failure)) => Err(self.fail(failure)),
-            Err(_) => {
-                self.shared.lock(|bus| bus.master.abort(&mut bus.regs));
-                Err(self.fail(Failure::Timeout))
-            }
-        }
+impl Clock for MonoClock {
+    type Deadline = <Mono as Monotonic>::Instant;
+
+    fn deadline(&self) -> Self::Deadline {
+        Mono::now() + Duration::micros(TRANSACTION_BUDGET_US)
+    }
+
+    fn passed(&self, deadline: Self::Deadline) -> bool {
+        Mono::now() >= deadline
+    }
+
+    fn pause(&self) -> impl Future<Output = ()> {
+        Mono::delay(Duration::micros(STOP_POLL_US))
+    }
+
+    async fn until<F: Future>(&self, deadline: Self::Deadline, end: F) -> Option<F::Output> {
+        Mono::timeout_at(deadline, end).await.ok()
     }
 }
 

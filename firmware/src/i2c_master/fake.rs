@@ -172,6 +172,18 @@ impl Fake {
         self.events
     }
 
+    /// A bus reset: the slave clocked free and the peripheral reset (registers cleared, idle).
+    /// The wire log and the slaves stay.
+    pub fn reset(&mut self) {
+        let slaves = core::mem::take(&mut self.slaves);
+        let wire = core::mem::take(&mut self.wire);
+        let steps = self.steps;
+        *self = Fake::new(&[]);
+        self.slaves = slaves;
+        self.wire = wire;
+        self.steps = steps;
+    }
+
     fn set(&mut self, flag: u16) {
         self.sr1 |= flag;
     }

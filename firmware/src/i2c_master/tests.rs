@@ -1,7 +1,12 @@
 use super::fake::{Fake, Slave, Wire};
 use super::*;
 use crate::ina226::fault_of;
+use core::future::{poll_fn, Future};
+use core::pin::pin;
+use core::task::Context;
 use model_core::wire::ChipFault;
+use std::cell::RefCell;
+use std::rc::Rc;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::task::Wake;
@@ -446,7 +451,9 @@ fn transfers_from_embedded_hal_operations() {
         &[Operation::Read(&mut b), Operation::Read(&mut c)][..],
         &[Operation::Write(&too_long)][..],
     ] {
-        assert_eq!(Transfer::new(LEFT, ops), Err(ErrorKind::Other));
+        assert_eq!(Transfer::new(LEFT, ops), Err(Failure::Unsupported));
+        assert_eq!(Failure::Unsupported.kind(), ErrorKind::Other);
+        assert!(!Failure::Unsupported.needs_bus_reset());
     }
     let probe = Transfer::new(LEFT, &[]).expect("an address probe");
     let mut fake = chips();
@@ -457,4 +464,199 @@ fn transfers_from_embedded_hal_operations() {
         fake.wire,
         [Wire::Start, addr(LEFT, false, true), Wire::Stop]
     );
+}
+
+/// The hardware behind an [`AwaitedBus`] in these tests: the handler's state, the fake
+/// peripheral, the time in handler turns, and the bus resets asked for.
+#[derive(Debug)]
+struct Hardware {
+    master: Master,
+    fake: Fake,
+    now: u32,
+    resets: Vec<Failure>,
+}
+
+type Shared = Rc<RefCell<Hardware>>;
+
+#[derive(Debug)]
+struct TestPort(Shared);
+
+impl Port for TestPort {
+    type Regs = Fake;
+    fn lock<R>(&mut self, f: impl FnOnce(&mut Master, &mut Fake) -> R) -> R {
+        let hw = &mut *self.0.borrow_mut();
+        f(&mut hw.master, &mut hw.fake)
+    }
+    fn reset_bus(&mut self, failure: Failure) {
+        let hw = &mut *self.0.borrow_mut();
+        hw.resets.push(failure);
+        hw.fake.reset();
+    }
+}
+
+#[derive(Debug)]
+struct TestClock(Shared);
+
+impl Clock for TestClock {
+    type Deadline = u32;
+    fn deadline(&self) -> u32 {
+        self.0.borrow().now + DEADLINE_STEPS
+    }
+    fn passed(&self, deadline: u32) -> bool {
+        self.0.borrow().now >= deadline
+    }
+    fn pause(&self) -> impl Future<Output = ()> {
+        let mut paused = false;
+        poll_fn(move |_| {
+            if paused {
+                Poll::Ready(())
+            } else {
+                paused = true;
+                Poll::Pending
+            }
+        })
+    }
+    fn until<F: Future>(&self, deadline: u32, end: F) -> impl Future<Output = Option<F::Output>> {
+        let hw = self.0.clone();
+        async move {
+            let mut end = pin!(end);
+            poll_fn(|cx| match end.as_mut().poll(cx) {
+                Poll::Ready(out) => Poll::Ready(Some(out)),
+                Poll::Pending if hw.borrow().now >= deadline => Poll::Ready(None),
+                Poll::Pending => Poll::Pending,
+            })
+            .await
+        }
+    }
+}
+
+fn awaited(fake: Fake) -> (Shared, AwaitedBus<TestPort, TestClock>) {
+    let hw = Rc::new(RefCell::new(Hardware {
+        master: Master::new(),
+        fake,
+        now: 0,
+        resets: Vec::new(),
+    }));
+    let bus = AwaitedBus {
+        port: TestPort(hw.clone()),
+        clock: TestClock(hw.clone()),
+    };
+    (hw, bus)
+}
+
+/// Polls `future` as the sample task's executor would; between two polls the hardware moves
+/// `latency + 1` bus events and the interrupt handler runs once if requested.
+fn drive<F: Future>(hw: &Shared, latency: u32, future: F) -> F::Output {
+    let mut future = pin!(future);
+    let mut cx = Context::from_waker(Waker::noop());
+    loop {
+        if let Poll::Ready(out) = future.as_mut().poll(&mut cx) {
+            return out;
+        }
+        let hw = &mut *hw.borrow_mut();
+        hw.now += 1;
+        assert!(hw.now < 100_000, "never ends");
+        for _ in 0..=latency {
+            hw.fake.step();
+        }
+        if hw.fake.interrupt_pending() {
+            hw.master.on_interrupt(&mut hw.fake);
+        }
+    }
+}
+
+/// Both chips as INA226 register files: IDs, and shunt/bus of 2 A at 24 V (left) and −1 A (right).
+fn ina226_pair() -> Fake {
+    let ids = [(0xFE, 0x5449), (0xFF, 0x2260)];
+    let chip = |shunt: u16, bus: u16| {
+        let mut registers = ids.to_vec();
+        registers.extend([(0x01, shunt), (0x02, bus)]);
+        Slave::with(&registers)
+    };
+    Fake::new(&[(LEFT, chip(4000, 19_200)), (RIGHT, chip(0xF830, 19_200))])
+}
+
+#[test]
+fn the_sampler_reads_both_chips_over_the_awaited_bus() {
+    use crate::sampler::{Sampler, SamplerConfig, DEFAULT_SAMPLE_PERIOD_US};
+    use model_core::ina226::{BusVoltageRaw, Registers as Chip, ShuntVoltageRaw};
+    use model_core::wire::ChipReading;
+    for latency in [0, 2] {
+        let (hw, mut bus) = awaited(ina226_pair());
+        let mut sampler = Sampler::new(SamplerConfig::BOARD);
+        // Set-up (IDs, configuration, CAL), then the first reading a period later.
+        drive(&hw, latency, sampler.sample_async(&mut bus, 0));
+        let period = u64::from(DEFAULT_SAMPLE_PERIOD_US);
+        let sample = drive(&hw, latency, sampler.sample_async(&mut bus, period));
+        let cal = crate::ina226::BOARD_CALIBRATION.raw();
+        let want = |shunt: i16| Chip::derived(ShuntVoltageRaw(shunt), BusVoltageRaw(19_200), cal);
+        let chips = sample.expect("running").chips;
+        assert_eq!(chips.left, ChipReading::Fresh(want(4000)));
+        assert_eq!(chips.right, ChipReading::Fresh(want(-2000)));
+        let hw = hw.borrow();
+        assert_eq!(
+            hw.fake.slaves[&LEFT].registers.get(&0x05),
+            Some(&2048),
+            "CAL written"
+        );
+        assert_eq!(hw.fake.violations, Vec::<&str>::new());
+        assert_eq!(hw.resets, []);
+    }
+}
+
+#[test]
+fn a_stuck_bus_is_a_bus_error_then_a_reset_and_the_next_read_works() {
+    use embedded_hal_async::i2c::I2c as _;
+    let (hw, mut bus) = awaited(chips());
+    hw.borrow_mut().fake.stall_at = Some(3);
+    let mut buf = [0u8; 2];
+    let out = drive(&hw, 0, bus.write_read(LEFT, &[0x02], &mut buf));
+    assert_eq!(out, Err(ErrorKind::Bus));
+    assert_eq!(hw.borrow().resets, [Failure::Timeout]);
+    assert!(!hw.borrow().master.busy(), "aborted");
+    let out = drive(&hw, 0, bus.write_read(LEFT, &[0x02], &mut buf));
+    assert_eq!((out, buf), (Ok(()), [0x4B, 0x00]));
+}
+
+#[test]
+fn a_nack_is_an_error_without_a_bus_reset() {
+    use embedded_hal_async::i2c::I2c as _;
+    let (hw, mut bus) = awaited(chips());
+    let mut buf = [0u8; 2];
+    let out = drive(&hw, 1, bus.write_read(0x41, &[0x02], &mut buf));
+    assert_eq!(
+        out,
+        Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address))
+    );
+    // Back to back: the next START waits for the NACK's STOP.
+    let out = drive(&hw, 1, bus.write_read(RIGHT, &[0x01], &mut buf));
+    assert_eq!((out, buf), (Ok(()), [0xF8, 0x30]));
+    assert_eq!(hw.borrow().resets, []);
+    assert_eq!(hw.borrow().fake.violations, Vec::<&str>::new());
+}
+
+#[test]
+fn a_stop_that_never_goes_out_is_a_timeout() {
+    use embedded_hal_async::i2c::I2c as _;
+    let (hw, mut bus) = awaited(chips());
+    let mut buf = [0u8; 2];
+    assert_eq!(
+        drive(&hw, 0, bus.write_read(LEFT, &[0x01], &mut buf)),
+        Ok(())
+    );
+    hw.borrow_mut().fake.stop_stuck = true;
+    drive(&hw, 0, async { hw.borrow_mut().fake.step() });
+    let out = drive(&hw, 0, bus.write_read(LEFT, &[0x02], &mut buf));
+    assert_eq!(out, Err(ErrorKind::Bus));
+    assert_eq!(hw.borrow().resets, [Failure::Timeout]);
+}
+
+#[test]
+fn unsupported_operations_never_reach_the_bus() {
+    use embedded_hal_async::i2c::I2c as _;
+    let (hw, mut bus) = awaited(chips());
+    let long = [0u8; MAX_WRITE + 1];
+    assert_eq!(drive(&hw, 0, bus.write(LEFT, &long)), Err(ErrorKind::Other));
+    assert_eq!(hw.borrow().fake.wire, []);
+    assert_eq!(hw.borrow().resets, []);
 }
