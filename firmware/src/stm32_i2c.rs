@@ -8,8 +8,10 @@
 //! - its 2-byte read clears ACK only after byte 1 is read: preempted there for more than a byte
 //!   time (~20 µs at 400 kHz), byte 2 is ACKed and the INA226 keeps SDA low (stm32f4xx-hal PRs
 //!   #91, #736);
-//! - its interrupt/DMA helpers (`i2c::dma`) need a DMA stream pair per direction and still a
-//!   hand-written 2-byte tail for a 2-byte read; a register read is 2 bytes, so DMA buys nothing.
+//! - its DMA mode (`i2c::dma`, `I2CMasterDma`) moves only the data bytes by DMA: every START and
+//!   address phase still spins, without a timeout, on SB, MSL/BUSY and ADDR (`send_start`,
+//!   `send_address`), and it takes two DMA streams; for our 1-byte pointer and 2-byte result the
+//!   spinning would be most of the transfer.
 //!
 //! Here [`I2c1`] is an RTIC resource shared by the I2C1_EV/I2C1_ER handlers (priority above the
 //! USB task) and the sample task, which awaits each transfer through
