@@ -504,7 +504,7 @@ pub trait Port {
     fn lock<R>(&mut self, f: impl FnOnce(&mut Master, &mut Self::Regs) -> R) -> R;
     /// Resets the peripheral and clocks the bus free after `failure` (the handlers are held off
     /// only for the register writes).
-    fn reset_bus(&mut self, failure: Failure);
+    fn reset_bus(&mut self, failure: Failure) -> impl Future<Output = ()>;
 }
 
 /// Time for [`AwaitedBus`]: each transfer's deadline.
@@ -572,12 +572,13 @@ impl<P: Port, C: Clock> embedded_hal_async::i2c::I2c for AwaitedBus<P, C> {
         address: u8,
         operations: &mut [Operation<'_>],
     ) -> Result<(), ErrorKind> {
-        self.run(address, operations).await.map_err(|failure| {
+        let result = self.run(address, operations).await;
+        if let Err(failure) = result {
             if failure.needs_bus_reset() {
-                self.port.reset_bus(failure);
+                self.port.reset_bus(failure).await;
             }
-            failure.kind()
-        })
+        }
+        result.map_err(Failure::kind)
     }
 }
 

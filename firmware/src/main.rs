@@ -279,6 +279,7 @@ mod app {
         // `Some(None)`: "ok" was logged; `None`: nothing logged yet for that chip.
         let mut logged_faults = model_core::Sides::new(None, None);
         let mut logged_period_us = cx.local.board.sample_period_us();
+        let mut logged_bus_errors = 0;
         loop {
             let period = Duration::micros(u64::from(cx.local.board.sample_period_us()));
             next += period;
@@ -306,6 +307,15 @@ mod app {
             if cx.local.bus_control.timeouts() != timeouts {
                 defmt::warn!("I2C transfer timed out or stalled; bus reset");
                 log_recovery(cx.local.bus_control.last_recovery());
+            }
+            let bus_errors = cx.shared.i2c.lock(|i2c| i2c.bus_errors());
+            if bus_errors != logged_bus_errors && bus_errors.is_power_of_two() {
+                // 1, 2, 4, …: a noisy bus shows without flooding the log.
+                defmt::info!(
+                    "I2C: {=u32} BERR flags cleared (spurious in master mode: errata)",
+                    bus_errors
+                );
+                logged_bus_errors = bus_errors;
             }
 
             let sampler = cx.local.board.sampler();

@@ -22,6 +22,7 @@
 //! ([`crate::bus_recovery`]), and the transfer fails with `ErrorKind::Bus` (wire
 //! `ChipFault::Bus`, or the matching fault): a reported fault, not a watchdog reset.
 
+use crate::blocking;
 use crate::bus_recovery::{self, BusLines, Recovery};
 use crate::i2c_master::{AwaitedBus, Clock, Failure, Master, Port, Registers, Sr1};
 use core::future::Future;
@@ -40,6 +41,8 @@ pub const TRANSACTION_BUDGET_US: u64 = 1_000;
 /// How long to wait before looking again whether the previous STOP has gone out [µs] (a STOP
 /// takes about one SCL period, 2.5 µs).
 const STOP_POLL_US: u64 = 2;
+/// Half an SCL period of a bus recovery [µs] (100 kHz).
+const HALF_PERIOD_US: u32 = 5;
 
 /// SR1's flags cleared by writing 0 (RM0383 §18.6.6: BERR, ARLO, AF, OVR, PECERR, TIMEOUT,
 /// SMBALERT).
@@ -157,7 +160,6 @@ struct Timing {
 #[derive(Debug)]
 pub struct BusControl {
     timing: Timing,
-    sysclk_hz: u32,
     timeouts: u32,
     last_recovery: Option<Recovery>,
 }
@@ -179,15 +181,17 @@ impl BusControl {
             regs: I2c1Registers(i2c),
             master: Master::new(),
         };
-        let mut control = BusControl {
-            timing,
-            sysclk_hz,
-            timeouts: 0,
-            last_recovery: None,
-        };
         shared.disable();
-        control.last_recovery = Some(control.clock_free());
+        // Before the scheduler runs: each half period spun in a delay loop.
+        let mut lines = Pb8Pb9::take(Some(sysclk_hz / 1_000_000 * HALF_PERIOD_US));
+        let recovery = blocking::run(bus_recovery::recover(&mut lines));
+        drop(lines);
         shared.reenable(timing);
+        let control = BusControl {
+            timing,
+            timeouts: 0,
+            last_recovery: Some(recovery),
+        };
         (shared, control)
     }
 
@@ -199,12 +203,6 @@ impl BusControl {
     /// What the latest bus reset found (at init, then after each timeout).
     pub fn last_recovery(&self) -> Option<Recovery> {
         self.last_recovery
-    }
-
-    /// Clocks the bus free on the pins as GPIO (≈100 µs of bit-banging at 100 kHz, only after
-    /// a fault, in the sample task: the interrupt handlers and the USB task run meanwhile).
-    fn clock_free(&mut self) -> Recovery {
-        bus_recovery::recover(&mut Pb8Pb9::take(self.sysclk_hz))
     }
 
     /// The awaitable bus over the shared [`I2c1`] (`shared`: the sample task's RTIC lock).
@@ -236,15 +234,17 @@ impl<M: rtic::Mutex<T = I2c1>> Port for BoardPort<'_, M> {
         self.shared.lock(|bus| f(&mut bus.master, &mut bus.regs))
     }
 
-    /// Peripheral off under the lock, the bus clocked free outside it (USB runs meanwhile),
-    /// then reset and on again under the lock.
-    fn reset_bus(&mut self, failure: Failure) {
+    /// Peripheral off under the lock; the bus clocked free outside it, each half period
+    /// awaited on the monotonic (≈ 20 of them: USB and the LED task run meanwhile); then reset
+    /// and on again under the lock.
+    async fn reset_bus(&mut self, failure: Failure) {
         if matches!(failure, Failure::Timeout | Failure::Stalled) {
             self.control.timeouts = self.control.timeouts.saturating_add(1);
         }
         let timing = self.control.timing;
         self.shared.lock(I2c1::disable);
-        self.control.last_recovery = Some(self.control.clock_free());
+        let recovery = bus_recovery::recover(&mut Pb8Pb9::take(None)).await;
+        self.control.last_recovery = Some(recovery);
         self.shared.lock(|bus| bus.reenable(timing));
     }
 }
@@ -277,11 +277,12 @@ impl Clock for MonoClock {
 /// to their I²C alternate function when dropped.
 struct Pb8Pb9 {
     gpio: &'static pac::gpiob::RegisterBlock,
-    half_period_cycles: u32,
+    /// Half a period spun in CPU cycles (at init), or `None`: awaited on the monotonic.
+    spin_cycles: Option<u32>,
 }
 
 impl Pb8Pb9 {
-    fn take(sysclk_hz: u32) -> Self {
+    fn take(spin_cycles: Option<u32>) -> Self {
         // SAFETY: PB8/PB9 belong to I2C1, which this driver owns; BSRR writes are atomic, and
         // MODER is read-modified-written only here (at init, then from the sample task), after
         // init set up every GPIOB pin: no interrupt handler and nothing else changes GPIOB modes
@@ -292,10 +293,7 @@ impl Pb8Pb9 {
         gpio.bsrr().write(|w| w.bs8().set_bit().bs9().set_bit());
         gpio.moder()
             .modify(|_, w| w.moder8().output().moder9().output());
-        Self {
-            gpio,
-            half_period_cycles: sysclk_hz / 200_000,
-        }
+        Self { gpio, spin_cycles }
     }
 }
 
@@ -332,7 +330,10 @@ impl BusLines for Pb8Pb9 {
         self.gpio.idr().read().idr9().bit_is_set()
     }
 
-    fn half_period(&mut self) {
-        cortex_m::asm::delay(self.half_period_cycles);
+    async fn half_period(&mut self) {
+        match self.spin_cycles {
+            Some(cycles) => cortex_m::asm::delay(cycles),
+            None => Mono::delay(Duration::micros(u64::from(HALF_PERIOD_US))).await,
+        }
     }
 }

@@ -487,7 +487,7 @@ impl Port for TestPort {
         let hw = &mut *self.0.borrow_mut();
         f(&mut hw.master, &mut hw.fake)
     }
-    fn reset_bus(&mut self, failure: Failure) {
+    async fn reset_bus(&mut self, failure: Failure) {
         let hw = &mut *self.0.borrow_mut();
         hw.resets.push(failure);
         hw.fake.reset();
