@@ -1,7 +1,7 @@
 //! One period of the board, independent of the HAL: apply pending host commands, take a sample,
 //! and queue the sample plus the periodic model and status frames. The RTIC app calls
-//! [`Board::tick_async`] from its sample task (awaiting each
-//! interrupt-driven I²C transfer); the host's simulated board calls the same function.
+//! [`Board::tick_async`] from its sample task (awaiting each interrupt-driven I²C transfer); the
+//! host's simulated board runs the same code on its blocking bus through [`Board::tick`].
 
 use crate::link::Link;
 use crate::sampler::{Sampler, SamplerConfig};

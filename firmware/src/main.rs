@@ -5,8 +5,8 @@
 //! the LED pattern, the interrupt-driven I²C transfer) is in the library and tested on the host;
 //! its I2C1 register glue is the library's target-only `stm32_i2c`. The sample task awaits each
 //! I²C transfer (I2C1_EV/I2C1_ER handlers at priority 3, above USB): no task spins on the bus.
-//! defmt `info` logs tell the bring-up story: clocks, each
-//! chip found or failing and why, USB configured, DTR, the sampling rate.
+//! defmt `info` logs tell the bring-up story: clocks, each chip found or failing and why, USB
+//! configured, DTR, the sampling rate.
 //!
 //! Crystal: 25 MHz (WeAct Black Pill v3.x) by default; build with `--features hse-8mhz` for the
 //! boards that carry 8 MHz (README, "Bring-up").

@@ -14,9 +14,10 @@
 //!   spinning would be most of the transfer.
 //!
 //! Here [`I2c1`] is an RTIC resource shared by the I2C1_EV/I2C1_ER handlers (priority above the
-//! USB task) and the sample task, which awaits each transfer through
-//! [`AwaitedBus`] (an `embedded_hal_async::i2c::I2c`) over [`BoardPort`] and [`MonoClock`]: while the bus works the sample task is suspended, the USB task
-//! and the LED task run, and the CPU sleeps. Every transfer has a deadline on the TIM2 monotonic
+//! USB task) and the sample task, which awaits each transfer through [`AwaitedBus`] (an
+//! `embedded_hal_async::i2c::I2c`) over [`BoardPort`] and [`MonoClock`]: while the bus works the
+//! sample task is suspended and the USB and LED tasks run. Every transfer has a deadline on the
+//! TIM2 monotonic
 //! ([`TRANSACTION_BUDGET_US`]); when it passes, or the handler reports arbitration lost, an
 //! overrun or a stall, the peripheral is reset and the bus clocked free
 //! ([`crate::bus_recovery`]), and the transfer fails with `ErrorKind::Bus` (wire
