@@ -89,7 +89,8 @@ pub trait Registers {
     fn set_interrupts(&mut self, on: bool, buffer: bool);
 }
 
-/// The previous STOP is still going out: retry in a few microseconds.
+/// The previous STOP is still going out, or the previous transfer is still under way (its
+/// awaiting future was dropped): retry in a few microseconds; the deadline bounds the wait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Busy;
 
@@ -277,9 +278,11 @@ impl Master {
     }
 
     /// Starts `transfer` with a START; its end comes through [`Self::poll`]. [`Busy`] while the
-    /// previous transfer's STOP is still going out (CR1 must not be written until it has).
+    /// previous transfer's STOP is still going out (CR1 must not be written until it has), or
+    /// while a transfer nobody awaits any more is still running: a START then would cut it off
+    /// mid-byte and the handler would take its events for the new one's.
     pub fn begin<R: Registers>(&mut self, regs: &mut R, transfer: Transfer) -> Result<(), Busy> {
-        if regs.stop_pending() {
+        if self.in_flight() || regs.stop_pending() {
             return Err(Busy);
         }
         self.transfer = transfer;
@@ -295,6 +298,11 @@ impl Master {
         regs.set_interrupts(true, false);
         regs.start();
         Ok(())
+    }
+
+    /// Started and not yet ended by the handler (a finished transfer's result may still wait).
+    fn in_flight(&self) -> bool {
+        !matches!(self.phase, Phase::Idle | Phase::Done(_))
     }
 
     /// The transfer's end, once the handler has reached it; until then `waker` is woken at the
@@ -342,7 +350,7 @@ impl Master {
         }
         if self.step(regs, sr1) || sr1.has(Sr1::BERR) {
             self.idle_interrupts = 0;
-        } else if matches!(self.phase, Phase::Idle | Phase::Done(_)) {
+        } else if !self.in_flight() {
             // A leftover request after the end: nothing is waiting for it.
             regs.set_interrupts(false, false);
         } else {
@@ -356,7 +364,7 @@ impl Master {
 
     /// An error flag that ends the transfer.
     fn error_in(&self, sr1: Sr1) -> Option<Failure> {
-        if matches!(self.phase, Phase::Idle | Phase::Done(_)) {
+        if !self.in_flight() {
             return None;
         }
         if sr1.has(Sr1::ARLO) {

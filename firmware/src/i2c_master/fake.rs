@@ -128,6 +128,10 @@ pub struct Fake {
     pub berr_at: Option<u32>,
     /// CR1.STOP never clears.
     pub stop_stuck: bool,
+    /// Bus events a repeated START takes after it is asked for (the rest of SCL's low period,
+    /// the set-up time), BTF staying set meanwhile.
+    pub restart_delay: u32,
+    restart_waited: u32,
     /// Rule breaks: CR1 written with STOP pending, DR read empty or written full.
     pub violations: Vec<&'static str>,
 }
@@ -156,6 +160,8 @@ impl Fake {
             arlo_at: None,
             berr_at: None,
             stop_stuck: false,
+            restart_delay: 0,
+            restart_waited: 0,
             violations: Vec::new(),
         }
     }
@@ -232,6 +238,7 @@ impl Fake {
 
     fn send_start(&mut self) {
         self.start = false;
+        self.restart_waited = 0;
         self.wire.push(Wire::Start);
         self.clear(Sr1::BTF | Sr1::TXE);
         self.set(Sr1::SB);
@@ -288,6 +295,8 @@ impl Fake {
         } else if let Some(byte) = self.dr.take() {
             self.shift = Some(byte);
             self.set(Sr1::TXE);
+        } else if self.start && !self.stop && self.restart_waited < self.restart_delay {
+            self.restart_waited += 1;
         } else {
             // Everything sent and acknowledged (or nothing to send): STOP or repeated START,
             // if asked.
@@ -356,7 +365,9 @@ impl Registers for Fake {
 
     fn write_dr(&mut self, byte: u8) {
         if self.sr1 & Sr1::SB != 0 && self.sr1_read {
+            // The address goes out through DR: whatever a NACK left there is overwritten.
             self.clear(Sr1::SB);
+            self.dr = None;
             self.bus = Bus::AddressSent(byte);
         } else if self.dr.is_some() {
             self.violations.push("DR written while full");

@@ -228,17 +228,20 @@ fn a_nacked_data_byte_ends_the_write_with_a_stop() {
         fault_of(&Failure::Nack(NoAcknowledgeSource::Data).kind()),
         ChipFault::DataNack
     );
+    // 0x07 was already in DR behind the NACKed byte: it never goes out, and the next transfer
+    // (its address written over it) starts clean.
+    let (result, _) = run(&mut master, &mut fake, read_register(LEFT, 0x01), 0);
+    assert_eq!(result.map(|r| r.bytes().to_vec()), Ok(vec![0x0F, 0xA0]));
     fake.step();
-    assert_eq!(
-        fake.wire,
-        [
-            Wire::Start,
-            addr(LEFT, false, true),
-            byte(0x00, true),
-            byte(0x44, false),
-            Wire::Stop
-        ]
-    );
+    let mut want = vec![
+        Wire::Start,
+        addr(LEFT, false, true),
+        byte(0x00, true),
+        byte(0x44, false),
+        Wire::Stop,
+    ];
+    want.extend(register_read_wire(LEFT, 0x01, 0x0FA0));
+    assert_eq!(fake.wire, want);
     assert_eq!(fake.violations, Vec::<&str>::new());
 }
 
@@ -295,6 +298,27 @@ fn a_bus_stuck_mid_transfer_ends_at_the_deadline() {
         assert!(!master.busy(), "ended");
         assert_eq!(fault_of(&failure.kind()), ChipFault::Bus);
         assert!(failure.needs_bus_reset());
+    }
+}
+
+#[test]
+fn a_slow_repeated_start_is_waited_for_up_to_the_stall_count() {
+    // BTF stays set until the repeated START is on the wire (RM0383: BTF is cleared by hardware
+    // at a START), so the handler runs again and again meanwhile. At 400 kHz that is ~3 µs, 2–3
+    // runs of ~1.5 µs: far inside the count; only a START held off much longer is a stall.
+    let limit = u32::from(MAX_IDLE_INTERRUPTS);
+    for (delay, stalled) in [(limit - 1, false), (limit, true)] {
+        let mut fake = chips();
+        fake.restart_delay = delay;
+        let mut master = Master::new();
+        let (result, _) = run(&mut master, &mut fake, read_register(LEFT, 0x02), 0);
+        if stalled {
+            assert_eq!(result, Err(Failure::Stalled), "{delay}");
+        } else {
+            assert_eq!(result.map(|r| r.bytes().to_vec()), Ok(vec![0x4B, 0x00]));
+            fake.step();
+            assert_eq!(fake.wire, register_read_wire(LEFT, 0x02, 0x4B00));
+        }
     }
 }
 
@@ -545,7 +569,7 @@ fn awaited(fake: Fake) -> (Shared, AwaitedBus<TestPort, TestClock>) {
 }
 
 /// Polls `future` as the sample task's executor would; between two polls the hardware moves
-/// `latency + 1` bus events and the interrupt handler runs once if requested.
+/// on ([`tick`]).
 fn drive<F: Future>(hw: &Shared, latency: u32, future: F) -> F::Output {
     let mut future = pin!(future);
     let mut cx = Context::from_waker(Waker::noop());
@@ -553,15 +577,21 @@ fn drive<F: Future>(hw: &Shared, latency: u32, future: F) -> F::Output {
         if let Poll::Ready(out) = future.as_mut().poll(&mut cx) {
             return out;
         }
-        let hw = &mut *hw.borrow_mut();
-        hw.now += 1;
-        assert!(hw.now < 100_000, "never ends");
-        for _ in 0..=latency {
-            hw.fake.step();
-        }
-        if hw.fake.interrupt_pending() {
-            hw.master.on_interrupt(&mut hw.fake);
-        }
+        tick(hw, latency);
+    }
+}
+
+/// One turn of the hardware: `latency + 1` bus events, then the interrupt handler once if
+/// requested.
+fn tick(hw: &Shared, latency: u32) {
+    let hw = &mut *hw.borrow_mut();
+    hw.now += 1;
+    assert!(hw.now < 100_000, "never ends");
+    for _ in 0..=latency {
+        hw.fake.step();
+    }
+    if hw.fake.interrupt_pending() {
+        hw.master.on_interrupt(&mut hw.fake);
     }
 }
 
@@ -649,6 +679,34 @@ fn a_stop_that_never_goes_out_is_a_timeout() {
     let out = drive(&hw, 0, bus.write_read(LEFT, &[0x02], &mut buf));
     assert_eq!(out, Err(ErrorKind::Bus));
     assert_eq!(hw.borrow().resets, [Failure::Timeout]);
+}
+
+#[test]
+fn a_dropped_transaction_runs_out_before_the_next_starts() {
+    // A transaction future dropped mid-transfer (it lost a select!, say): the handler still
+    // carries that transfer to its STOP. The next transaction waits for it instead of
+    // setting START in the middle of a byte and taking the orphan's events for its own.
+    use embedded_hal_async::i2c::I2c as _;
+    let (hw, mut bus) = awaited(chips());
+    let mut orphan_buf = [0u8; 2];
+    {
+        let mut orphan = pin!(bus.write_read(LEFT, &[0x02], &mut orphan_buf));
+        let mut cx = Context::from_waker(Waker::noop());
+        for _ in 0..3 {
+            assert!(orphan.as_mut().poll(&mut cx).is_pending());
+            tick(&hw, 0);
+        }
+    }
+    let mut buf = [0u8; 2];
+    let out = drive(&hw, 0, bus.write_read(RIGHT, &[0x01], &mut buf));
+    assert_eq!((out, buf), (Ok(()), [0xF8, 0x30]));
+    drive(&hw, 0, async { hw.borrow_mut().fake.step() });
+    let hw = hw.borrow();
+    let mut want = register_read_wire(LEFT, 0x02, 0x4B00);
+    want.extend(register_read_wire(RIGHT, 0x01, 0xF830));
+    assert_eq!(hw.fake.wire, want);
+    assert_eq!(hw.fake.violations, Vec::<&str>::new());
+    assert_eq!(hw.resets, []);
 }
 
 #[test]
