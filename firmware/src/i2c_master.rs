@@ -35,8 +35,9 @@ use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
 pub const MAX_WRITE: usize = 8;
 /// Longest read of one transfer [bytes].
 pub const MAX_READ: usize = 8;
-/// Interrupts in a row that find nothing to do before the transfer is given up as stalled (a
-/// flag the handler cannot clear would otherwise hold the CPU in the handler). A few are
+/// Interrupts in a row that find nothing to do (or only a BERR to clear) before the transfer
+/// is given up as stalled (a flag the handler cannot clear would otherwise hold the CPU in the
+/// handler). A few are
 /// normal: BTF stays set for the microseconds until a repeated START goes out.
 pub const MAX_IDLE_INTERRUPTS: u8 = 64;
 
@@ -348,7 +349,9 @@ impl Master {
             self.finish(regs, Err(failure));
             return;
         }
-        if self.step(regs, sr1) || sr1.has(Sr1::BERR) {
+        // A BERR alone is no progress either: BERR raised again and again (noise making
+        // START/STOP conditions on the lines) must end in `Stalled`, not hold the CPU here.
+        if self.step(regs, sr1) {
             self.idle_interrupts = 0;
         } else if !self.in_flight() {
             // A leftover request after the end: nothing is waiting for it.
