@@ -5,10 +5,19 @@
 //! wire stay right. Slaves are register files (as the INA226): a write sets the pointer and
 //! optionally a 16-bit register; a read returns the pointed register big-endian, then 0xFF.
 //!
-//! What the model checks: CR1 written while STOP is pending (forbidden by RM0383), DR read empty
-//! or written full. ACK: without POS a received byte is ACKed if CR1.ACK is set when it
+//! What the model checks: CR1 written while STOP or START is pending (forbidden by RM0383), DR
+//! read empty or written full. ACK: without POS a received byte is ACKed if CR1.ACK is set when it
 //! completes; with POS, if ACK was set when the byte before it completed (the 2-byte
 //! procedure's "ACK controls the next byte").
+//!
+//! What it assumes, like the handler it tests (read against RM0383 and ST's interrupt driver,
+//! not checked on silicon): the bus stands still while the handler runs (on the chip it moves
+//! on, which matters only for steps RM0383 wants done before the current byte ends: STOP after
+//! ADDR for 1 byte, ACK cleared at N−2, DR read after STOP; the handler takes ~1.5 µs of a
+//! 22.5 µs byte at the top priority); TxE is set the moment ADDR is cleared (EV8_1), so the
+//! first byte may go into DR at once; with POS, the byte right after ADDR is ACKed whatever
+//! ACK is (ST's `I2C_Master_ADDR` clears ACK and sets POS before clearing ADDR); a BERR
+//! changes nothing (ES0287).
 
 use super::{Registers, Sr1};
 use std::collections::BTreeMap;
@@ -132,7 +141,7 @@ pub struct Fake {
     /// the set-up time), BTF staying set meanwhile.
     pub restart_delay: u32,
     restart_waited: u32,
-    /// Rule breaks: CR1 written with STOP pending, DR read empty or written full.
+    /// Rule breaks: CR1 written with STOP or START pending, DR read empty or written full.
     pub violations: Vec<&'static str>,
 }
 
@@ -201,6 +210,9 @@ impl Fake {
     fn cr1_write(&mut self) {
         if self.stop {
             self.violations.push("CR1 written while STOP pending");
+        }
+        if self.start {
+            self.violations.push("CR1 written while START pending");
         }
     }
 
