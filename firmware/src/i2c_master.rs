@@ -25,7 +25,8 @@
 //! (ES0287, I2C "spurious bus error detection in master mode") says a master's BERR can be
 //! raised wrongly and has no effect on the transfer, so the workaround is to clear it and go on
 //! (as the HAL does); a real bus error that breaks the transfer ends in the caller's deadline
-//! ([`Master::abort`], then a bus reset).
+//! ([`Master::abort`], then a bus reset), and BERR raised again and again in
+//! [`Failure::Stalled`].
 
 use core::future::{poll_fn, Future};
 use core::task::{Poll, Waker};
@@ -359,7 +360,9 @@ impl Master {
         } else {
             self.idle_interrupts = self.idle_interrupts.saturating_add(1);
             if self.idle_interrupts >= MAX_IDLE_INTERRUPTS {
-                regs.stop();
+                // No CR1.STOP: stalled waiting for SB, START is still pending, and RM0383
+                // forbids writing CR1 then (a second START or STOP may follow). The bus reset
+                // every stall gets sends the STOP from the pins.
                 self.finish(regs, Err(Failure::Stalled));
             }
         }

@@ -298,6 +298,8 @@ fn a_bus_stuck_mid_transfer_ends_at_the_deadline() {
         assert!(!master.busy(), "ended");
         assert_eq!(fault_of(&failure.kind()), ChipFault::Bus);
         assert!(failure.needs_bus_reset());
+        // The bus reset sends the STOP; no CR1 write lands on the START still pending.
+        assert_eq!(fake.violations, Vec::<&str>::new(), "stalled at {stall_at}");
     }
 }
 
@@ -345,6 +347,7 @@ fn a_flag_the_handler_cannot_clear_is_a_stall_not_a_storm() {
         assert_eq!(master.poll(&waker), Poll::Ready(Err(Failure::Stalled)));
         assert_eq!(master.bus_errors(), bus_errors);
         assert!(!stray.fake.interrupts_enabled());
+        assert_eq!(stray.fake.violations, Vec::<&str>::new());
     }
     assert_eq!(Failure::Stalled.kind(), ErrorKind::Bus);
 }
