@@ -336,6 +336,10 @@ impl BusLines for Pb8Pb9 {
         self.gpio.idr().read().idr9().bit_is_set()
     }
 
+    fn scl_is_high(&mut self) -> bool {
+        self.gpio.idr().read().idr8().bit_is_set()
+    }
+
     async fn half_period(&mut self) {
         match self.spin_cycles {
             Some(cycles) => cortex_m::asm::delay(cycles),
