@@ -133,6 +133,43 @@ fn a_register_read_is_right_whatever_the_interrupt_latency() {
 }
 
 #[test]
+fn an_end_before_the_first_poll_is_not_lost_and_a_late_interrupt_after_abort_does_nothing() {
+    // The handler can run the whole transfer between `begin` and the task's first poll (the
+    // task preempted): no waker yet, and none is needed, as poll sees the end under the lock.
+    let mut fake = chips();
+    let mut master = Master::new();
+    master
+        .begin(&mut fake, read_register(LEFT, 0x02))
+        .expect("free");
+    for _ in 0..DEADLINE_STEPS {
+        fake.step();
+        if fake.interrupt_pending() {
+            master.on_interrupt(&mut fake);
+        }
+    }
+    let wakes = Arc::new(Wakes::default());
+    let waker = Waker::from(wakes.clone());
+    let result = master.poll(&waker).map(|r| r.map(|r| r.bytes().to_vec()));
+    assert_eq!(result, Poll::Ready(Ok(vec![0x4B, 0x00])));
+    assert_eq!(wakes.0.load(Ordering::SeqCst), 0);
+    // Aborted with SB pending (the deadline raced the handler): the request the NVIC still
+    // holds runs the handler once more, which only switches the interrupts off again.
+    master
+        .begin(&mut fake, read_register(RIGHT, 0x01))
+        .expect("free");
+    fake.step();
+    assert!(fake.interrupt_pending(), "SB");
+    master.abort(&mut fake);
+    master.on_interrupt(&mut fake);
+    for _ in 0..4 {
+        fake.step();
+    }
+    assert_eq!(fake.wire.last(), Some(&Wire::Start), "no address written");
+    assert!(!fake.interrupts_enabled());
+    assert!(!master.busy());
+}
+
+#[test]
 fn a_short_read_and_a_register_write() {
     let mut fake = chips();
     let mut master = Master::new();
