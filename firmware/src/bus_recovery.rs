@@ -17,6 +17,8 @@ pub trait BusLines {
     fn set_sda(&mut self, high: bool);
     /// Whether SDA reads high (nobody pulls it low).
     fn sda_is_high(&mut self) -> bool;
+    /// Whether SCL reads high (released, and no slave stretches it).
+    fn scl_is_high(&mut self) -> bool;
     /// Waits half an SCL period (5 µs: 100 kHz, slow enough for weak pull-ups).
     fn half_period(&mut self) -> impl core::future::Future<Output = ()>;
 }
@@ -31,8 +33,9 @@ pub enum Recovery {
     WasFree,
     /// A slave held SDA low and let go after this many clock pulses.
     Freed { pulses: u8 },
-    /// SDA is still low after [`MAX_PULSES`] pulses and the STOP: a shorted line, a missing
-    /// pull-up, or a chip that is latched up (power cycle).
+    /// SDA is still low after [`MAX_PULSES`] pulses and the STOP, or SCL is low with the
+    /// master's side released: a shorted line, a missing pull-up, or a chip that is latched up
+    /// (power cycle). No clocks get through a held SCL, so SDA alone would call that bus free.
     Stuck,
 }
 
@@ -60,7 +63,7 @@ pub async fn recover<L: BusLines>(lines: &mut L) -> Recovery {
     lines.half_period().await;
     lines.set_sda(true);
     lines.half_period().await;
-    match (lines.sda_is_high(), pulses) {
+    match (lines.sda_is_high() && lines.scl_is_high(), pulses) {
         (false, _) => Recovery::Stuck,
         (true, 0) => Recovery::WasFree,
         (true, pulses) => Recovery::Freed { pulses },
@@ -73,10 +76,12 @@ mod tests {
     use crate::blocking::run;
 
     /// A slave that drives SDA low until it has seen `holds_for` more SCL rising edges (a stuck
-    /// transmitter sending zeros); `u8::MAX` is a shorted line. Records STOP conditions.
+    /// transmitter sending zeros); `u8::MAX` is a shorted line. With `holds_scl` it keeps SCL
+    /// low. Records STOP conditions.
     #[derive(Debug)]
     struct StuckSlave {
         holds_for: u8,
+        holds_scl: bool,
         scl: bool,
         sda_master: bool,
         stops: u32,
@@ -87,6 +92,7 @@ mod tests {
         fn new(holds_for: u8) -> Self {
             Self {
                 holds_for,
+                holds_scl: false,
                 scl: true,
                 sda_master: true,
                 stops: 0,
@@ -119,6 +125,9 @@ mod tests {
         fn sda_is_high(&mut self) -> bool {
             self.sda()
         }
+        fn scl_is_high(&mut self) -> bool {
+            self.scl && !self.holds_scl
+        }
         async fn half_period(&mut self) {}
     }
 
@@ -141,6 +150,14 @@ mod tests {
             assert_eq!(bus.stops, 1);
             assert!(bus.scl && bus.sda());
         }
+    }
+
+    #[test]
+    fn scl_held_low_is_stuck_not_free() {
+        // SDA is high, but no clock and no STOP gets through (before: reported `WasFree`).
+        let mut bus = StuckSlave::new(0);
+        bus.holds_scl = true;
+        assert_eq!(run(recover(&mut bus)), Recovery::Stuck);
     }
 
     #[test]

@@ -25,7 +25,8 @@
 //! (ES0287, I2C "spurious bus error detection in master mode") says a master's BERR can be
 //! raised wrongly and has no effect on the transfer, so the workaround is to clear it and go on
 //! (as the HAL does); a real bus error that breaks the transfer ends in the caller's deadline
-//! ([`Master::abort`], then a bus reset).
+//! ([`Master::abort`], then a bus reset), and BERR raised again and again in
+//! [`Failure::Stalled`].
 
 use core::future::{poll_fn, Future};
 use core::task::{Poll, Waker};
@@ -35,8 +36,9 @@ use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
 pub const MAX_WRITE: usize = 8;
 /// Longest read of one transfer [bytes].
 pub const MAX_READ: usize = 8;
-/// Interrupts in a row that find nothing to do before the transfer is given up as stalled (a
-/// flag the handler cannot clear would otherwise hold the CPU in the handler). A few are
+/// Interrupts in a row that find nothing to do (or only a BERR to clear) before the transfer
+/// is given up as stalled (a flag the handler cannot clear would otherwise hold the CPU in the
+/// handler). A few are
 /// normal: BTF stays set for the microseconds until a repeated START goes out.
 pub const MAX_IDLE_INTERRUPTS: u8 = 64;
 
@@ -89,7 +91,8 @@ pub trait Registers {
     fn set_interrupts(&mut self, on: bool, buffer: bool);
 }
 
-/// The previous STOP is still going out: retry in a few microseconds.
+/// The previous STOP is still going out, or the previous transfer is still under way (its
+/// awaiting future was dropped): retry in a few microseconds; the deadline bounds the wait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Busy;
 
@@ -277,9 +280,11 @@ impl Master {
     }
 
     /// Starts `transfer` with a START; its end comes through [`Self::poll`]. [`Busy`] while the
-    /// previous transfer's STOP is still going out (CR1 must not be written until it has).
+    /// previous transfer's STOP is still going out (CR1 must not be written until it has), or
+    /// while a transfer nobody awaits any more is still running: a START then would cut it off
+    /// mid-byte and the handler would take its events for the new one's.
     pub fn begin<R: Registers>(&mut self, regs: &mut R, transfer: Transfer) -> Result<(), Busy> {
-        if regs.stop_pending() {
+        if self.in_flight() || regs.stop_pending() {
             return Err(Busy);
         }
         self.transfer = transfer;
@@ -295,6 +300,11 @@ impl Master {
         regs.set_interrupts(true, false);
         regs.start();
         Ok(())
+    }
+
+    /// Started and not yet ended by the handler (a finished transfer's result may still wait).
+    fn in_flight(&self) -> bool {
+        !matches!(self.phase, Phase::Idle | Phase::Done(_))
     }
 
     /// The transfer's end, once the handler has reached it; until then `waker` is woken at the
@@ -340,15 +350,19 @@ impl Master {
             self.finish(regs, Err(failure));
             return;
         }
-        if self.step(regs, sr1) || sr1.has(Sr1::BERR) {
+        // A BERR alone is no progress either: BERR raised again and again (noise making
+        // START/STOP conditions on the lines) must end in `Stalled`, not hold the CPU here.
+        if self.step(regs, sr1) {
             self.idle_interrupts = 0;
-        } else if matches!(self.phase, Phase::Idle | Phase::Done(_)) {
+        } else if !self.in_flight() {
             // A leftover request after the end: nothing is waiting for it.
             regs.set_interrupts(false, false);
         } else {
             self.idle_interrupts = self.idle_interrupts.saturating_add(1);
             if self.idle_interrupts >= MAX_IDLE_INTERRUPTS {
-                regs.stop();
+                // No CR1.STOP: stalled waiting for SB, START is still pending, and RM0383
+                // forbids writing CR1 then (a second START or STOP may follow). The bus reset
+                // every stall gets sends the STOP from the pins.
                 self.finish(regs, Err(Failure::Stalled));
             }
         }
@@ -356,7 +370,7 @@ impl Master {
 
     /// An error flag that ends the transfer.
     fn error_in(&self, sr1: Sr1) -> Option<Failure> {
-        if matches!(self.phase, Phase::Idle | Phase::Done(_)) {
+        if !self.in_flight() {
             return None;
         }
         if sr1.has(Sr1::ARLO) {

@@ -258,7 +258,7 @@ mod app {
                 defmt::warn!("I2C: a chip held SDA low; freed after {=u8} clocks", pulses)
             }
             Some(Recovery::Stuck) => {
-                defmt::error!("I2C: SDA stays low (short, missing pull-up, latched chip)")
+                defmt::error!("I2C: SDA or SCL stays low (short, missing pull-up, latched chip)")
             }
         }
     }

@@ -126,13 +126,18 @@ impl I2c1 {
         self.master.bus_errors()
     }
 
-    /// Interrupts off, transfer forgotten, peripheral off: the bus is being reset.
+    /// Interrupts off, transfer forgotten, peripheral held in reset: the bus is being reset.
+    /// Not PE=0: RM0383 (I2C_CR1.PE) defers that to the end of a communication under way and
+    /// forbids it in master mode before then, and an aborted transfer has not ended, so the
+    /// peripheral could still hold SCL low when the pins go back to it. SWRST stops it at once
+    /// and holds the lines released until [`Self::reenable`].
     fn disable(&mut self) {
         self.master.abort(&mut self.regs);
-        self.regs.0.cr1().modify(|_, w| w.pe().clear_bit());
+        self.regs.0.cr1().write(|w| w.swrst().set_bit());
     }
 
-    /// Software reset (clears a latched BUSY), timing restored, peripheral on.
+    /// Software reset released (after the pins are back on the peripheral: it also clears a
+    /// latched BUSY), timing restored, peripheral on.
     #[allow(unsafe_code)]
     fn reenable(&mut self, timing: Timing) {
         let i2c = &self.regs.0;
@@ -235,7 +240,7 @@ impl<M: rtic::Mutex<T = I2c1>> Port for BoardPort<'_, M> {
         self.shared.lock(|bus| f(&mut bus.master, &mut bus.regs))
     }
 
-    /// Peripheral off under the lock; the bus clocked free outside it, each half period
+    /// Peripheral held in reset under the lock; the bus clocked free outside it, each half period
     /// awaited on the monotonic (≈ 20 of them: USB and the LED task run meanwhile); then reset
     /// and on again under the lock.
     async fn reset_bus(&mut self, failure: Failure) {
@@ -329,6 +334,10 @@ impl BusLines for Pb8Pb9 {
 
     fn sda_is_high(&mut self) -> bool {
         self.gpio.idr().read().idr9().bit_is_set()
+    }
+
+    fn scl_is_high(&mut self) -> bool {
+        self.gpio.idr().read().idr8().bit_is_set()
     }
 
     async fn half_period(&mut self) {

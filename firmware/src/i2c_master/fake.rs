@@ -5,10 +5,19 @@
 //! wire stay right. Slaves are register files (as the INA226): a write sets the pointer and
 //! optionally a 16-bit register; a read returns the pointed register big-endian, then 0xFF.
 //!
-//! What the model checks: CR1 written while STOP is pending (forbidden by RM0383), DR read empty
-//! or written full. ACK: without POS a received byte is ACKed if CR1.ACK is set when it
+//! What the model checks: CR1 written while STOP or START is pending (forbidden by RM0383), DR
+//! read empty or written full. ACK: without POS a received byte is ACKed if CR1.ACK is set when it
 //! completes; with POS, if ACK was set when the byte before it completed (the 2-byte
 //! procedure's "ACK controls the next byte").
+//!
+//! What it assumes, like the handler it tests (read against RM0383 and ST's interrupt driver,
+//! not checked on silicon): the bus stands still while the handler runs (on the chip it moves
+//! on, which matters only for steps RM0383 wants done before the current byte ends: STOP after
+//! ADDR for 1 byte, ACK cleared at N−2, DR read after STOP; the handler takes ~1.5 µs of a
+//! 22.5 µs byte at the top priority); TxE is set the moment ADDR is cleared (EV8_1), so the
+//! first byte may go into DR at once; with POS, the byte right after ADDR is ACKed whatever
+//! ACK is (ST's `I2C_Master_ADDR` clears ACK and sets POS before clearing ADDR); a BERR
+//! changes nothing (ES0287).
 
 use super::{Registers, Sr1};
 use std::collections::BTreeMap;
@@ -128,7 +137,11 @@ pub struct Fake {
     pub berr_at: Option<u32>,
     /// CR1.STOP never clears.
     pub stop_stuck: bool,
-    /// Rule breaks: CR1 written with STOP pending, DR read empty or written full.
+    /// Bus events a repeated START takes after it is asked for (the rest of SCL's low period,
+    /// the set-up time), BTF staying set meanwhile.
+    pub restart_delay: u32,
+    restart_waited: u32,
+    /// Rule breaks: CR1 written with STOP or START pending, DR read empty or written full.
     pub violations: Vec<&'static str>,
 }
 
@@ -156,6 +169,8 @@ impl Fake {
             arlo_at: None,
             berr_at: None,
             stop_stuck: false,
+            restart_delay: 0,
+            restart_waited: 0,
             violations: Vec::new(),
         }
     }
@@ -196,6 +211,9 @@ impl Fake {
         if self.stop {
             self.violations.push("CR1 written while STOP pending");
         }
+        if self.start {
+            self.violations.push("CR1 written while START pending");
+        }
     }
 
     /// One bus event, unless SCL is stretched.
@@ -232,6 +250,7 @@ impl Fake {
 
     fn send_start(&mut self) {
         self.start = false;
+        self.restart_waited = 0;
         self.wire.push(Wire::Start);
         self.clear(Sr1::BTF | Sr1::TXE);
         self.set(Sr1::SB);
@@ -288,6 +307,8 @@ impl Fake {
         } else if let Some(byte) = self.dr.take() {
             self.shift = Some(byte);
             self.set(Sr1::TXE);
+        } else if self.start && !self.stop && self.restart_waited < self.restart_delay {
+            self.restart_waited += 1;
         } else {
             // Everything sent and acknowledged (or nothing to send): STOP or repeated START,
             // if asked.
@@ -356,7 +377,9 @@ impl Registers for Fake {
 
     fn write_dr(&mut self, byte: u8) {
         if self.sr1 & Sr1::SB != 0 && self.sr1_read {
+            // The address goes out through DR: whatever a NACK left there is overwritten.
             self.clear(Sr1::SB);
+            self.dr = None;
             self.bus = Bus::AddressSent(byte);
         } else if self.dr.is_some() {
             self.violations.push("DR written while full");

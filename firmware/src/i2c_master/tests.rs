@@ -133,6 +133,43 @@ fn a_register_read_is_right_whatever_the_interrupt_latency() {
 }
 
 #[test]
+fn an_end_before_the_first_poll_is_not_lost_and_a_late_interrupt_after_abort_does_nothing() {
+    // The handler can run the whole transfer between `begin` and the task's first poll (the
+    // task preempted): no waker yet, and none is needed, as poll sees the end under the lock.
+    let mut fake = chips();
+    let mut master = Master::new();
+    master
+        .begin(&mut fake, read_register(LEFT, 0x02))
+        .expect("free");
+    for _ in 0..DEADLINE_STEPS {
+        fake.step();
+        if fake.interrupt_pending() {
+            master.on_interrupt(&mut fake);
+        }
+    }
+    let wakes = Arc::new(Wakes::default());
+    let waker = Waker::from(wakes.clone());
+    let result = master.poll(&waker).map(|r| r.map(|r| r.bytes().to_vec()));
+    assert_eq!(result, Poll::Ready(Ok(vec![0x4B, 0x00])));
+    assert_eq!(wakes.0.load(Ordering::SeqCst), 0);
+    // Aborted with SB pending (the deadline raced the handler): the request the NVIC still
+    // holds runs the handler once more, which only switches the interrupts off again.
+    master
+        .begin(&mut fake, read_register(RIGHT, 0x01))
+        .expect("free");
+    fake.step();
+    assert!(fake.interrupt_pending(), "SB");
+    master.abort(&mut fake);
+    master.on_interrupt(&mut fake);
+    for _ in 0..4 {
+        fake.step();
+    }
+    assert_eq!(fake.wire.last(), Some(&Wire::Start), "no address written");
+    assert!(!fake.interrupts_enabled());
+    assert!(!master.busy());
+}
+
+#[test]
 fn a_short_read_and_a_register_write() {
     let mut fake = chips();
     let mut master = Master::new();
@@ -228,17 +265,20 @@ fn a_nacked_data_byte_ends_the_write_with_a_stop() {
         fault_of(&Failure::Nack(NoAcknowledgeSource::Data).kind()),
         ChipFault::DataNack
     );
+    // 0x07 was already in DR behind the NACKed byte: it never goes out, and the next transfer
+    // (its address written over it) starts clean.
+    let (result, _) = run(&mut master, &mut fake, read_register(LEFT, 0x01), 0);
+    assert_eq!(result.map(|r| r.bytes().to_vec()), Ok(vec![0x0F, 0xA0]));
     fake.step();
-    assert_eq!(
-        fake.wire,
-        [
-            Wire::Start,
-            addr(LEFT, false, true),
-            byte(0x00, true),
-            byte(0x44, false),
-            Wire::Stop
-        ]
-    );
+    let mut want = vec![
+        Wire::Start,
+        addr(LEFT, false, true),
+        byte(0x00, true),
+        byte(0x44, false),
+        Wire::Stop,
+    ];
+    want.extend(register_read_wire(LEFT, 0x01, 0x0FA0));
+    assert_eq!(fake.wire, want);
     assert_eq!(fake.violations, Vec::<&str>::new());
 }
 
@@ -295,29 +335,58 @@ fn a_bus_stuck_mid_transfer_ends_at_the_deadline() {
         assert!(!master.busy(), "ended");
         assert_eq!(fault_of(&failure.kind()), ChipFault::Bus);
         assert!(failure.needs_bus_reset());
+        // The bus reset sends the STOP; no CR1 write lands on the START still pending.
+        assert_eq!(fake.violations, Vec::<&str>::new(), "stalled at {stall_at}");
+    }
+}
+
+#[test]
+fn a_slow_repeated_start_is_waited_for_up_to_the_stall_count() {
+    // BTF stays set until the repeated START is on the wire (RM0383: BTF is cleared by hardware
+    // at a START), so the handler runs again and again meanwhile. At 400 kHz that is ~3 µs, 2–3
+    // runs of ~1.5 µs: far inside the count; only a START held off much longer is a stall.
+    let limit = u32::from(MAX_IDLE_INTERRUPTS);
+    for (delay, stalled) in [(limit - 1, false), (limit, true)] {
+        let mut fake = chips();
+        fake.restart_delay = delay;
+        let mut master = Master::new();
+        let (result, _) = run(&mut master, &mut fake, read_register(LEFT, 0x02), 0);
+        if stalled {
+            assert_eq!(result, Err(Failure::Stalled), "{delay}");
+        } else {
+            assert_eq!(result.map(|r| r.bytes().to_vec()), Ok(vec![0x4B, 0x00]));
+            fake.step();
+            assert_eq!(fake.wire, register_read_wire(LEFT, 0x02, 0x4B00));
+        }
     }
 }
 
 #[test]
 fn a_flag_the_handler_cannot_clear_is_a_stall_not_a_storm() {
-    let mut fake = chips();
-    let mut master = Master::new();
-    master
-        .begin(&mut fake, read_register(LEFT, 0x02))
-        .expect("free");
-    // The handler waits for SB; a stray BTF (no reason to be set) keeps requesting.
-    let mut stray = Tampered {
-        fake,
-        stray_sr1: Sr1::BTF,
-        drop_pos: false,
-    };
-    for _ in 0..MAX_IDLE_INTERRUPTS {
-        master.on_interrupt(&mut stray);
+    // The handler waits for SB. A stray BTF (no reason to be set) keeps requesting; so does a
+    // BERR the hardware raises again each time it is cleared (a noisy line: before, each BERR
+    // reset the stall count and the handler could run for ever at the highest priority).
+    for (stray_sr1, bus_errors) in [(Sr1::BTF, 0), (Sr1::BERR, u32::from(MAX_IDLE_INTERRUPTS))] {
+        let mut fake = chips();
+        let mut master = Master::new();
+        master
+            .begin(&mut fake, read_register(LEFT, 0x02))
+            .expect("free");
+        let mut stray = Tampered {
+            fake,
+            stray_sr1,
+            drop_pos: false,
+        };
+        for _ in 0..MAX_IDLE_INTERRUPTS {
+            master.on_interrupt(&mut stray);
+        }
+        let waker = Waker::from(Arc::new(Wakes::default()));
+        assert_eq!(master.poll(&waker), Poll::Ready(Err(Failure::Stalled)));
+        assert_eq!(master.bus_errors(), bus_errors);
+        assert!(!stray.fake.interrupts_enabled());
+        assert_eq!(stray.fake.violations, Vec::<&str>::new());
     }
-    let waker = Waker::from(Arc::new(Wakes::default()));
-    assert_eq!(master.poll(&waker), Poll::Ready(Err(Failure::Stalled)));
     assert_eq!(Failure::Stalled.kind(), ErrorKind::Bus);
-    assert!(!stray.fake.interrupts_enabled());
 }
 
 /// The fake with a flag stuck on, or with CR1.POS never set (a driver that skips it).
@@ -545,7 +614,7 @@ fn awaited(fake: Fake) -> (Shared, AwaitedBus<TestPort, TestClock>) {
 }
 
 /// Polls `future` as the sample task's executor would; between two polls the hardware moves
-/// `latency + 1` bus events and the interrupt handler runs once if requested.
+/// on ([`tick`]).
 fn drive<F: Future>(hw: &Shared, latency: u32, future: F) -> F::Output {
     let mut future = pin!(future);
     let mut cx = Context::from_waker(Waker::noop());
@@ -553,15 +622,21 @@ fn drive<F: Future>(hw: &Shared, latency: u32, future: F) -> F::Output {
         if let Poll::Ready(out) = future.as_mut().poll(&mut cx) {
             return out;
         }
-        let hw = &mut *hw.borrow_mut();
-        hw.now += 1;
-        assert!(hw.now < 100_000, "never ends");
-        for _ in 0..=latency {
-            hw.fake.step();
-        }
-        if hw.fake.interrupt_pending() {
-            hw.master.on_interrupt(&mut hw.fake);
-        }
+        tick(hw, latency);
+    }
+}
+
+/// One turn of the hardware: `latency + 1` bus events, then the interrupt handler once if
+/// requested.
+fn tick(hw: &Shared, latency: u32) {
+    let hw = &mut *hw.borrow_mut();
+    hw.now += 1;
+    assert!(hw.now < 100_000, "never ends");
+    for _ in 0..=latency {
+        hw.fake.step();
+    }
+    if hw.fake.interrupt_pending() {
+        hw.master.on_interrupt(&mut hw.fake);
     }
 }
 
@@ -649,6 +724,34 @@ fn a_stop_that_never_goes_out_is_a_timeout() {
     let out = drive(&hw, 0, bus.write_read(LEFT, &[0x02], &mut buf));
     assert_eq!(out, Err(ErrorKind::Bus));
     assert_eq!(hw.borrow().resets, [Failure::Timeout]);
+}
+
+#[test]
+fn a_dropped_transaction_runs_out_before_the_next_starts() {
+    // A transaction future dropped mid-transfer (it lost a select!, say): the handler still
+    // carries that transfer to its STOP. The next transaction waits for it instead of
+    // setting START in the middle of a byte and taking the orphan's events for its own.
+    use embedded_hal_async::i2c::I2c as _;
+    let (hw, mut bus) = awaited(chips());
+    let mut orphan_buf = [0u8; 2];
+    {
+        let mut orphan = pin!(bus.write_read(LEFT, &[0x02], &mut orphan_buf));
+        let mut cx = Context::from_waker(Waker::noop());
+        for _ in 0..3 {
+            assert!(orphan.as_mut().poll(&mut cx).is_pending());
+            tick(&hw, 0);
+        }
+    }
+    let mut buf = [0u8; 2];
+    let out = drive(&hw, 0, bus.write_read(RIGHT, &[0x01], &mut buf));
+    assert_eq!((out, buf), (Ok(()), [0xF8, 0x30]));
+    drive(&hw, 0, async { hw.borrow_mut().fake.step() });
+    let hw = hw.borrow();
+    let mut want = register_read_wire(LEFT, 0x02, 0x4B00);
+    want.extend(register_read_wire(RIGHT, 0x01, 0xF830));
+    assert_eq!(hw.fake.wire, want);
+    assert_eq!(hw.fake.violations, Vec::<&str>::new());
+    assert_eq!(hw.resets, []);
 }
 
 #[test]
