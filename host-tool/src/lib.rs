@@ -20,4 +20,5 @@ pub mod rover;
 pub mod runs;
 pub mod serial;
 pub mod sim;
+pub mod table_row;
 pub mod validate;
