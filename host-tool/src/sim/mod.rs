@@ -360,6 +360,19 @@ mod tests {
         Ok(u16::from_be_bytes(buf))
     }
 
+    /// Writes CAL = 2048 to the left chip with pointer and data in two write buffers of one
+    /// transaction (one frame on the bus).
+    fn write_calibration_split(bus: &mut SimBus) {
+        bus.transaction(
+            LEFT,
+            &mut [
+                Operation::Write(&[reg::CALIBRATION]),
+                Operation::Write(&[0x08, 0x00]),
+            ],
+        )
+        .expect("acked");
+    }
+
     fn write(bus: &mut SimBus, address: u8, register: u8, value: u16) -> Result<(), ErrorKind> {
         let [hi, lo] = value.to_be_bytes();
         bus.write(address, &[register, hi, lo])
@@ -413,14 +426,7 @@ mod tests {
         write(&mut bus, LEFT, reg::CALIBRATION, 2048).expect("acked");
         assert_eq!(bus.bus_bits(), 48 + 38);
         // Split write buffers are still one frame.
-        bus.transaction(
-            LEFT,
-            &mut [
-                Operation::Write(&[reg::CALIBRATION]),
-                Operation::Write(&[0x08, 0x00]),
-            ],
-        )
-        .expect("acked");
+        write_calibration_split(&mut bus);
         assert_eq!(bus.bus_bits(), 48 + 2 * 38);
         // A NACKed address costs START, address byte, STOP; so does an injected fault.
         assert!(read(&mut bus, 0x41, reg::DIE_ID).is_err());
@@ -467,14 +473,7 @@ mod tests {
     fn adjacent_operations_form_one_frame() {
         let mut bus = SimBus::board();
         // Pointer and data split over two write buffers: still one 3-byte write frame.
-        bus.transaction(
-            LEFT,
-            &mut [
-                Operation::Write(&[reg::CALIBRATION]),
-                Operation::Write(&[0x08, 0x00]),
-            ],
-        )
-        .expect("acked");
+        write_calibration_split(&mut bus);
         assert_eq!(bus.peek(LEFT, reg::CALIBRATION), Some(2048));
         // A one-byte write sets the pointer for a later, separate read.
         bus.write(LEFT, &[reg::DIE_ID]).expect("acked");

@@ -8,6 +8,7 @@ use super::pose::{MeasuredSlipTrack, TrackStats};
 use super::segment::ManoeuvreKind;
 use super::turns::{ManoeuvreStats, SideTotal};
 use model_core::kinematics::{Regime, TurnDirection};
+use model_core::power::IcrHardGround;
 use model_core::{Rover, Sides};
 use serde::{Serialize, Serializer};
 use std::fmt;
@@ -157,20 +158,20 @@ pub struct RegimeSummary {
 /// The hard-ground ICR model used as a second reference (paper Eq 20–22, Table 2).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct HardGroundReference {
-    /// μ.
-    pub mu: f64,
-    /// G [N].
-    pub rolling_resistance_n: f64,
-    /// L [m].
-    pub length_m: f64,
-    /// W [m].
-    pub width_m: f64,
-    /// m [kg].
-    pub mass_kg: f64,
-    /// B_s of the terrain [m].
-    pub slip_track_m: f64,
+    /// The model's parameters (μ, G, L, W, m, B_s of the terrain), flat in the JSON.
+    #[serde(flatten)]
+    pub model: IcrHardGround,
     /// Paper Eq 22: F [N·m].
     pub skid_moment_nm: f64,
+}
+
+impl From<IcrHardGround> for HardGroundReference {
+    fn from(model: IcrHardGround) -> Self {
+        Self {
+            model,
+            skid_moment_nm: model.skid_moment_nm(),
+        }
+    }
 }
 
 /// One manoeuvre as a plot point (turns only: a straight line has no place on an R/R' axis).
@@ -669,11 +670,15 @@ impl ValidationReport {
 
     /// The hard-ground reference's parameters, then a blank line.
     fn fmt_hard_ground(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if let Some(hg) = &self.hard_ground {
+        if let Some(HardGroundReference {
+            model: hg,
+            skid_moment_nm,
+        }) = &self.hard_ground
+        {
             writeln!(
                 f,
                 "hard-ground reference (paper Eq 21): μ {}, G {} N, L {} m, W {} m, m {} kg, B_s {} m (F = {:.2} N·m)",
-                hg.mu, hg.rolling_resistance_n, hg.length_m, hg.width_m, hg.mass_kg, hg.slip_track_m, hg.skid_moment_nm
+                hg.mu, hg.rolling_resistance_n, hg.length_m, hg.width_m, hg.mass_kg, hg.slip_track_m, skid_moment_nm
             )?;
         } else {
             writeln!(
