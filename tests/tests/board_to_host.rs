@@ -110,7 +110,7 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
 
     // The board's latest model frame equals the host's recomputation at that sample, bit for
     // bit, and the board's own total at the end equals the host's.
-    let (model_seq, _) = assert_host_energy_is_the_boards(&dec, &rig.sim);
+    let (model_seq, board_total) = assert_host_energy_is_the_boards(&dec, &rig.sim);
     assert!(model_seq >= 3_980);
 
     // Against physics: ∫ V·I dt of the applied load (the load set at tick k flows until tick
