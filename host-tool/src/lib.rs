@@ -2,6 +2,7 @@
 //! `run` per command; `main.rs` a flat dispatch) parses arguments, calls in here and prints.
 
 pub mod check;
+pub mod csv_table;
 pub mod decode;
 pub mod demo;
 pub mod diagnose;
@@ -20,5 +21,4 @@ pub mod rover;
 pub mod runs;
 pub mod serial;
 pub mod sim;
-pub mod table_row;
 pub mod validate;

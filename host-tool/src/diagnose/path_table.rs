@@ -21,10 +21,10 @@
 //! error without Akaike's factor (see [`diagnose_path_table`]).
 
 use super::verdict::{Scope, Verdict};
+use crate::csv_table::{content_lines, csv_header, RowError};
 use crate::effect_id::EffectId;
 use crate::file_error::{read_bytes_and_parse, FileError};
 use crate::plan::{EnergyModel, ModelLaw};
-use crate::table_row::RowError;
 use model_core::kinematics::{Regime, RegimeBounds};
 use model_core::paths::{ClcEnds, ClcPath, SegmentEnergy};
 use model_core::Rover;
@@ -112,14 +112,6 @@ pub enum PathTableError {
     /// Fewer than three slices: nothing to hold out against.
     #[error("{0} slices: leave-one-slice-out needs at least 3")]
     TooFewRows(usize),
-}
-
-/// Splits `text` into (line number, trimmed line) without blanks and `#` comments.
-fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
-    text.lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim().trim_start_matches('\u{feff}')))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
 /// Whether `header`'s cells are the path table's six or seven columns, in order.
@@ -212,23 +204,7 @@ pub fn load_path_table(path: &Path) -> Result<Vec<PathRow>, FileError<PathTableE
 
 /// Whether `path` is a path table: a `.csv` whose first content line is its header.
 pub fn is_path_table_file(path: &Path) -> bool {
-    use std::io::BufRead;
-    if !path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
-    {
-        return false;
-    }
-    let Ok(file) = std::fs::File::open(path) else {
-        return false;
-    };
-    let header = std::io::BufReader::new(file)
-        .lines()
-        .take(64)
-        .map_while(Result::ok)
-        .map(|l| l.trim().trim_start_matches('\u{feff}').to_owned())
-        .find(|l| !l.is_empty() && !l.starts_with('#'));
-    header.is_some_and(|h| h.starts_with("start_deg,") && h.contains("delta_e_pct"))
+    csv_header(path).is_some_and(|h| h.starts_with("start_deg,") && h.contains("delta_e_pct"))
 }
 
 /// The hard-ground model of `rover` for a path table without calibration runs: paper Table 2's

@@ -19,8 +19,8 @@
 //! slip are invisible), and the whole file is one "run", so only leave-one-radius-out applies.
 
 use super::features::{Observed, SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
+use crate::csv_table::{content_lines, csv_header, RowError};
 use crate::file_error::{read_bytes_and_parse, FileError};
-use crate::table_row::RowError;
 use model_core::kinematics::{self, Regime, RegimeBounds, TurnDirection};
 use model_core::Rover;
 use serde::Serialize;
@@ -118,11 +118,7 @@ pub fn load_summary(path: &Path) -> Result<Vec<SummaryRow>, FileError<SummaryErr
 
 /// Parses a summary's text (see the module doc).
 pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let mut lines = content_lines(text);
     let (header_line, header) = lines.next().ok_or(SummaryError::NoHeader)?;
     // Column index in the file of each of SUMMARY_COLUMNS.
     let mut index: [Option<usize>; 4] = [None; 4];
@@ -228,27 +224,8 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
 /// that is neither blank nor a `#` comment names both `radius_m` and `avg_power_w`. Unreadable
 /// files are not summaries (loading them as runs reports the error).
 pub fn is_summary_file(path: &Path) -> bool {
-    use std::io::BufRead;
-    if !path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
-    {
-        return false;
-    }
-    let Ok(file) = std::fs::File::open(path) else {
-        return false;
-    };
-    let header = std::io::BufReader::new(file)
-        .lines()
-        .take(64)
-        .map_while(Result::ok)
-        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-    header.is_some_and(|h| {
-        let columns: Vec<&str> = h
-            .trim_start_matches('\u{feff}')
-            .split(',')
-            .map(str::trim)
-            .collect();
+    csv_header(path).is_some_and(|h| {
+        let columns: Vec<&str> = h.split(',').map(str::trim).collect();
         columns.contains(&"radius_m") && columns.contains(&"avg_power_w")
     })
 }
