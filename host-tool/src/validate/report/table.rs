@@ -23,11 +23,7 @@ impl ValidationReport {
         )?;
         for m in self.manoeuvres.iter().filter(|m| m.track.is_some()) {
             let Some(t) = &m.track else { continue };
-            let name = m.run.rsplit(['/', '\\']).next().unwrap_or(&m.run);
-            let run: String = name
-                .chars()
-                .skip(name.chars().count().saturating_sub(12))
-                .collect();
+            let run = run_column(&m.run);
             let notes: Vec<String> = t.notes.iter().map(ToString::to_string).collect();
             writeln!(
                 f,
@@ -71,6 +67,14 @@ impl ValidationReport {
         }
         writeln!(f)
     }
+}
+
+/// A run's column in the tables: its file name, the last 12 characters if longer.
+fn run_column(run: &str) -> String {
+    let name = run.rsplit(['/', '\\']).next().unwrap_or(run);
+    name.chars()
+        .skip(name.chars().count().saturating_sub(12))
+        .collect()
 }
 
 /// `v` with `prec` decimals, or "–".
@@ -139,12 +143,7 @@ impl ValidationReport {
         )?;
         for m in &self.manoeuvres {
             let s = &m.stats;
-            // The file name, its last 12 characters if longer.
-            let name = m.run.rsplit(['/', '\\']).next().unwrap_or(&m.run);
-            let run: String = name
-                .chars()
-                .skip(name.chars().count().saturating_sub(12))
-                .collect();
+            let run = run_column(&m.run);
             writeln!(
                 f,
                 "{:<12} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6.2} {:>6} {:>6} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
