@@ -1,4 +1,3 @@
-
 use super::*;
 
 fn husky(a: f64, c: f64, d: f64) -> PlanReport {

@@ -1,10 +1,11 @@
 use super::*;
-use crate::log::run_log::RunLog;
+use crate::log::run_log::{LogEvent, RunLog};
 use firmware::sampler::{Sampler, SamplerConfig};
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{BusVoltageRaw, CurrentRaw, PowerRaw, Registers, ShuntVoltageRaw};
-use model_core::wire::{ChipReading, Model};
+use model_core::wire::{BoardFrame, ChipReading, HostFrame, Model, Sample};
 use std::collections::VecDeque;
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
 /// A port that hands out scripted chunks, then reports end of file (the device vanished), and

@@ -1,4 +1,3 @@
-
 use super::ina226::{reg, MASK_CVRF};
 use super::*;
 use firmware::ina226::{Ina226, BOARD_CALIBRATION};

@@ -1,4 +1,3 @@
-
 use super::*;
 
 /// AVG 1, 140 µs + 140 µs, continuous shunt and bus: a result every 280 µs.
