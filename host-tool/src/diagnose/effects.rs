@@ -243,7 +243,7 @@ pub struct EffectFitError {
 }
 
 /// Most columns of a joint fit: every catalogue effect with its most parameters.
-const MAX_COLUMNS: usize = EffectId::COUNT * MAX_PARAMS;
+pub const MAX_COLUMNS: usize = EffectId::COUNT * MAX_PARAMS;
 
 /// Least squares (`model_core::fit::LinearFit`) for a column count known at run time (at most
 /// [`MAX_COLUMNS`]): the coefficients and the residual sum of squares; `None` when the columns

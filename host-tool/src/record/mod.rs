@@ -31,6 +31,11 @@
 //! - Wall time: at the first sample the log gets [`LogEvent::WallClock`], the host's Unix time
 //!   when its bytes were read; run time continues across resets and reconnections by the
 //!   wall-clock gap, so run time + that offset is wall time (to the crystal's drift).
+//!
+//! [`StreamDecoder::expect_ack`]: crate::decode::StreamDecoder::expect_ack
+//! [`LogEvent::DeviceVanished`]: crate::log::run_log::LogEvent::DeviceVanished
+//! [`LogEvent::Reconnected`]: crate::log::run_log::LogEvent::Reconnected
+//! [`LogEvent::WallClock`]: crate::log::run_log::LogEvent::WallClock
 
 mod clock;
 mod recorder;
