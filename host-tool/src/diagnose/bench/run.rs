@@ -11,6 +11,7 @@ use crate::diagnose::{DiagnoseError, Diagnosis};
 use crate::effect_id::EffectId;
 use crate::log::run_csv::RunSample;
 use crate::sim::world::{Timeline, WorldError};
+use crate::validate::pose::without_positions;
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions};
 use model_core::{Rover, Sides};
 use serde::Serialize;
@@ -136,18 +137,6 @@ pub fn rows_for(
     let report = validate::validate(rover, &inputs, &options)?;
     let slices: Vec<&[RunSample]> = runs.iter().map(Vec::as_slice).collect();
     Ok(features::rows(&report, &slices))
-}
-
-/// `samples` without their position fixes.
-pub(super) fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
-    samples
-        .iter()
-        .map(|s| RunSample {
-            x_m: None,
-            y_m: None,
-            ..*s
-        })
-        .collect()
 }
 
 /// What the diagnosis said on one dataset, against its truth.
