@@ -97,12 +97,15 @@ b2=$(addr bench_update_begin)
 e2=$(addr bench_update_end)
 b3=$(addr bench_inputs_begin)
 e3=$(addr bench_inputs_end)
-if [[ $(printf '%s\n' "$b1" "$e1" "$b2" "$e2" "$b3" "$e3" | sort -u | wc -l) -ne 6 ]]; then
+b4=$(addr bench_i2c_begin)
+e4=$(addr bench_i2c_end)
+if [[ $(printf '%s\n' "$b1" "$e1" "$b2" "$e2" "$b3" "$e3" "$b4" "$e4" | sort -u | wc -l) -ne 8 ]]; then
     echo "error: bench markers share addresses: folded by the compiler or linker?" >&2
     exit 1
 fi
 echo "markers: bench_begin 0x$b1 bench_end 0x$e1 bench_update_begin 0x$b2" \
-    "bench_update_end 0x$e2 bench_inputs_begin 0x$b3 bench_inputs_end 0x$e3"
+    "bench_update_end 0x$e2 bench_inputs_begin 0x$b3 bench_inputs_end 0x$e3" \
+    "bench_i2c_begin 0x$b4 bench_i2c_end 0x$e4"
 
 # A symbol-less copy keeps the trace lines short (QEMU appends the symbol name to every line).
 "$tools/llvm-objcopy" --strip-all "$elf" "$work/trace.elf"
@@ -117,7 +120,7 @@ echo "trace: $(wc -l <"$trace") lines, $(du -h "$trace" | cut -f1)"
 # 2 + 2 x 100 instruction asm loop: exact). Counted per marker pair: the lines after the first
 # instruction of the begin marker up to (not including) the first instruction of its end marker,
 # i.e. the K iterations plus about ten instructions of marker return and loop set-up.
-read -r n1 n2 n3 <<<"$(awk -v b="$b1 $b2 $b3" -v e="$e1 $e2 $e3" '
+read -r n1 n2 n3 n4 <<<"$(awk -v b="$b1 $b2 $b3 $b4" -v e="$e1 $e2 $e3 $e4" '
     BEGIN { np = split(b, begin, " "); split(e, end, " ") }
     /^Trace / {
         s = substr($0, index($0, "[") + 1)
@@ -132,15 +135,18 @@ read -r n1 n2 n3 <<<"$(awk -v b="$b1 $b2 $b3" -v e="$e1 $e2 $e3" '
     END { for (i = 1; i <= np; i++) printf "%d ", (st[i] == 2 ? n[i] : -1); print "" }
 ' "$trace")"
 rm -f "$trace"
-if [[ $n1 -lt 0 || $n2 -lt 0 || $n3 -lt 0 ]]; then
+if [[ $n1 -lt 0 || $n2 -lt 0 || $n3 -lt 0 || $n4 -lt 0 ]]; then
     echo "error: a bench marker pair was not found in the trace" >&2
     exit 1
 fi
 echo "instructions between markers (K = $k): update+encode $n1, update only $n2," \
     "loop and inputs only $n3"
-awk -v n1="$n1" -v n2="$n2" -v n3="$n3" -v k="$k" 'BEGIN {
+awk -v n1="$n1" -v n2="$n2" -v n3="$n3" -v n4="$n4" -v k="$k" 'BEGIN {
     printf "instructions per sample: update+encode %.1f, update only %.1f\n", n1 / k, n2 / k
     printf "  (both include deriving current and power from shunt and bus (Eq 3-4), the bench\n"
     printf "  loop and making the shunt and bus reads: %.1f per sample alone)\n", n3 / k
+    printf "I2C interrupt handler per sample (both chips: 2 short + 2 pointed reads, 18 handler\n"
+    printf "  runs, with begin and end of each transfer): %.1f instructions (%.1f per handler run;\n", 2 * n4 / k, n4 / k / 9
+    printf "  register accesses as plain memory, interrupt entry and exit not included)\n"
 }'
 echo "done in $((SECONDS - start)) s"

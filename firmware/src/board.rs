@@ -1,10 +1,11 @@
 //! One period of the board, independent of the HAL: apply pending host commands, take a sample,
 //! and queue the sample plus the periodic model and status frames. The RTIC app calls
-//! [`Board::tick`] from its sample task; the host's simulated board calls the same function.
+//! [`Board::tick_async`] from its sample task (awaiting each interrupt-driven I²C transfer); the
+//! host's simulated board runs the same code on its blocking bus through [`Board::tick`].
 
 use crate::link::Link;
 use crate::sampler::{Sampler, SamplerConfig};
-use embedded_hal::i2c::I2c;
+use embedded_hal_async::i2c::I2c;
 use model_core::wire::{BoardFrame, Command, Status};
 
 /// Model frames (power, energy, τ per side) every 100 ms.
@@ -60,18 +61,30 @@ impl Board {
     /// One sampling period at board time `now_us`; feeds `watchdog` when it completes (failed
     /// chip reads included: they are reported, not hung). I²C time is spent outside the link, so
     /// the USB interrupt is held off only while frames are queued.
-    pub fn tick<I: I2c, L: LinkAccess, W: Watchdog>(
+    pub async fn tick_async<I: I2c, L: LinkAccess, W: Watchdog>(
         &mut self,
         i2c: &mut I,
         link: &mut L,
         watchdog: &mut W,
         now_us: u64,
     ) {
-        self.run_tick(i2c, link, now_us);
+        self.run_tick(i2c, link, now_us).await;
         watchdog.feed();
     }
 
-    fn run_tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
+    /// [`Self::tick_async`] on a blocking bus (the simulated board).
+    pub fn tick<I: embedded_hal::i2c::I2c, L: LinkAccess, W: Watchdog>(
+        &mut self,
+        i2c: &mut I,
+        link: &mut L,
+        watchdog: &mut W,
+        now_us: u64,
+    ) {
+        let bus = &mut crate::blocking::Blocking(i2c);
+        crate::blocking::run(self.tick_async(bus, link, watchdog, now_us));
+    }
+
+    async fn run_tick<I: I2c, L: LinkAccess>(&mut self, i2c: &mut I, link: &mut L, now_us: u64) {
         if link.with_link(|l| l.take_hello_due()) {
             // No bus time at connect (a sampler at the I²C limit has none to spare): the chips'
             // registers are read back only for an explicit `GetHello`.
@@ -79,10 +92,13 @@ impl Board {
             link.with_link(|l| l.send(&BoardFrame::Hello(hello)));
         }
         while let Some(frame) = link.with_link(|l| l.next_command()) {
-            let outcome = self.sampler.apply(i2c, &frame.command);
+            let outcome = self.sampler.apply_async(i2c, &frame.command).await;
             // Read outside the link's lock: I²C time must not hold off the USB interrupt.
-            let hello = (outcome.is_ok() && matches!(frame.command, Command::GetHello))
-                .then(|| self.sampler.hello_read_back(i2c));
+            let hello = if outcome.is_ok() && matches!(frame.command, Command::GetHello) {
+                Some(self.sampler.hello_read_back_async(i2c).await)
+            } else {
+                None
+            };
             let reply = match outcome {
                 Ok(()) => BoardFrame::Ack { id: frame.id },
                 Err(reason) => BoardFrame::Rejected {
@@ -103,7 +119,7 @@ impl Board {
                 l.send(&reply);
             });
         }
-        let sample = self.sampler.sample(i2c, now_us);
+        let sample = self.sampler.sample_async(i2c, now_us).await;
         let model_due = due(&mut self.last_model_us, now_us, MODEL_PERIOD_US);
         let status_due = due(&mut self.last_status_us, now_us, STATUS_PERIOD_US);
         link.with_link(|l| {

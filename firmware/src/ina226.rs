@@ -1,8 +1,11 @@
-//! TI INA226 current/power monitor driver over `embedded_hal::i2c::I2c` (datasheet SBOS547).
+//! TI INA226 current/power monitor driver over `embedded_hal_async::i2c::I2c` (datasheet
+//! SBOS547): on the board each transfer is interrupt-driven and awaited; on the host a blocking
+//! bus runs it through [`crate::blocking`].
 //!
 //! The driver does not own the bus: both chips share I²C1, so each call borrows it.
 
-use embedded_hal::i2c::{ErrorKind, I2c, NoAcknowledgeSource};
+use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
+use embedded_hal_async::i2c::I2c;
 use model_core::ina226::{
     AdcConfig, BusVoltageRaw, CalibrationRaw, ConfigurationRaw, CurrentRaw, DieIdRaw,
     ManufacturerIdRaw, PowerRaw, Registers, Scale, ShuntVoltageRaw,
@@ -199,58 +202,73 @@ impl Ina226 {
     }
 
     /// Checks the IDs, then writes configuration and calibration.
-    pub fn init<I: I2c>(&mut self, i2c: &mut I) -> Result<(), Error<I::Error>> {
-        let manufacturer = self.read(i2c, Register::ManufacturerId)?;
-        let die = self.read(i2c, Register::DieId)?;
+    pub async fn init_async<I: I2c>(&mut self, i2c: &mut I) -> Result<(), Error<I::Error>> {
+        let manufacturer = self.read_async(i2c, Register::ManufacturerId).await?;
+        let die = self.read_async(i2c, Register::DieId).await?;
         if manufacturer != MANUFACTURER_ID || die != DIE_ID {
             return Err(Error::WrongId { manufacturer, die });
         }
-        self.configure(i2c, self.adc)?;
-        self.write(i2c, Register::Calibration, self.calibration.value)?;
+        self.configure_async(i2c, self.adc).await?;
+        self.write_async(i2c, Register::Calibration, self.calibration.value)
+            .await?;
         Ok(())
     }
 
     /// Sets averaging and conversion times (continuous shunt and bus).
-    pub fn configure<I: I2c>(&mut self, i2c: &mut I, adc: AdcConfig) -> Result<(), I::Error> {
+    pub async fn configure_async<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        adc: AdcConfig,
+    ) -> Result<(), I::Error> {
         self.adc = adc;
-        self.write(i2c, Register::Configuration, Self::config_word(adc))
+        self.write_async(i2c, Register::Configuration, Self::config_word(adc))
+            .await
     }
 
     /// Software reset: all registers return to their defaults (CAL = 0).
-    pub fn reset<I: I2c>(&mut self, i2c: &mut I) -> Result<(), I::Error> {
-        self.write(i2c, Register::Configuration, CONFIG_RESET)
+    pub async fn reset_async<I: I2c>(&mut self, i2c: &mut I) -> Result<(), I::Error> {
+        self.write_async(i2c, Register::Configuration, CONFIG_RESET)
+            .await
     }
 
     /// Whether a new conversion finished since the last call (reading clears the flag). The
     /// sampler does not poll it (a third read per sample); bring-up and tests do.
-    pub fn conversion_ready<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
-        Ok(self.read(i2c, Register::MaskEnable)? & MASK_CVRF != 0)
+    pub async fn conversion_ready_async<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
+        Ok(self.read_async(i2c, Register::MaskEnable).await? & MASK_CVRF != 0)
     }
 
     /// Whether the chip lost its calibration (it reset: brown-out or power cycle).
-    pub fn calibration_lost<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
-        Ok(self.read(i2c, Register::Calibration)? == 0)
+    pub async fn calibration_lost_async<I: I2c>(&mut self, i2c: &mut I) -> Result<bool, I::Error> {
+        Ok(self.read_async(i2c, Register::Calibration).await? == 0)
     }
 
     /// Reads the ID, configuration and calibration registers back (for the hello: the host's
     /// bring-up check compares them with what was written). Stops at the first failed read.
-    pub fn read_back<I: I2c>(&mut self, i2c: &mut I) -> Result<ChipRegistersReadBack, I::Error> {
+    pub async fn read_back_async<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+    ) -> Result<ChipRegistersReadBack, I::Error> {
         Ok(ChipRegistersReadBack {
-            manufacturer_id: ManufacturerIdRaw(self.read(i2c, Register::ManufacturerId)?),
-            die_id: DieIdRaw(self.read(i2c, Register::DieId)?),
-            configuration: ConfigurationRaw(self.read(i2c, Register::Configuration)?),
-            calibration: CalibrationRaw(self.read(i2c, Register::Calibration)?),
+            manufacturer_id: ManufacturerIdRaw(
+                self.read_async(i2c, Register::ManufacturerId).await?,
+            ),
+            die_id: DieIdRaw(self.read_async(i2c, Register::DieId).await?),
+            configuration: ConfigurationRaw(self.read_async(i2c, Register::Configuration).await?),
+            calibration: CalibrationRaw(self.read_async(i2c, Register::Calibration).await?),
         })
     }
 
     /// Reads all four measurement registers as the chip holds them (shunt, bus, current,
-    /// power): what [`Self::read_measurement`] computes, for checks.
-    pub fn read_registers<I: I2c>(&mut self, i2c: &mut I) -> Result<Registers, I::Error> {
+    /// power): what [`Self::read_measurement_async`] computes, for checks.
+    pub async fn read_registers_async<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+    ) -> Result<Registers, I::Error> {
         Ok(Registers {
-            shunt: ShuntVoltageRaw(self.read(i2c, Register::ShuntVoltage)? as i16),
-            bus: BusVoltageRaw(self.read(i2c, Register::BusVoltage)?),
-            current: CurrentRaw(self.read(i2c, Register::Current)? as i16),
-            power: PowerRaw(self.read(i2c, Register::Power)?),
+            shunt: ShuntVoltageRaw(self.read_async(i2c, Register::ShuntVoltage).await? as i16),
+            bus: BusVoltageRaw(self.read_async(i2c, Register::BusVoltage).await?),
+            current: CurrentRaw(self.read_async(i2c, Register::Current).await? as i16),
+            power: PowerRaw(self.read_async(i2c, Register::Power).await?),
         })
     }
 
@@ -259,7 +277,7 @@ impl Ina226 {
     /// (so the pointer ends on a measurement register and the next sample's first read is short
     /// again). Current and power are the chip's own Eq 3–4 on what was read, with this
     /// driver's CAL ([`Registers::derived`]).
-    pub fn read_measurement<I: I2c>(
+    pub async fn read_measurement_async<I: I2c>(
         &mut self,
         i2c: &mut I,
         check_calibration: bool,
@@ -269,13 +287,15 @@ impl Ina226 {
             _ => (Register::ShuntVoltage, Register::BusVoltage),
         };
         let retained = self.pointer == Some(first);
-        let first_value = self.read(i2c, first)?;
+        let first_value = self.read_async(i2c, first).await?;
         let calibration = if check_calibration {
-            Some(CalibrationRaw(self.read(i2c, Register::Calibration)?))
+            Some(CalibrationRaw(
+                self.read_async(i2c, Register::Calibration).await?,
+            ))
         } else {
             None
         };
-        let second_value = self.read(i2c, second)?;
+        let second_value = self.read_async(i2c, second).await?;
         let (shunt, bus) = if first == Register::ShuntVoltage {
             (first_value, second_value)
         } else {
@@ -293,28 +313,46 @@ impl Ina226 {
     }
 
     /// Reads a register, sending the pointer only when the chip points elsewhere.
-    pub fn read<I: I2c>(&mut self, i2c: &mut I, register: Register) -> Result<u16, I::Error> {
+    pub async fn read_async<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        register: Register,
+    ) -> Result<u16, I::Error> {
         let mut buf = [0u8; 2];
         let result = if self.pointer == Some(register) {
-            i2c.read(self.address, &mut buf)
+            i2c.read(self.address, &mut buf).await
         } else {
             i2c.write_read(self.address, &[register as u8], &mut buf)
+                .await
         };
         self.pointer = result.is_ok().then_some(register);
         result?;
         Ok(u16::from_be_bytes(buf))
     }
 
-    pub fn write<I: I2c>(
+    pub async fn write_async<I: I2c>(
         &mut self,
         i2c: &mut I,
         register: Register,
         value: u16,
     ) -> Result<(), I::Error> {
         let [hi, lo] = value.to_be_bytes();
-        let result = i2c.write(self.address, &[register as u8, hi, lo]);
+        let result = i2c.write(self.address, &[register as u8, hi, lo]).await;
         self.pointer = result.is_ok().then_some(register);
         result
+    }
+
+    crate::blocking::blocking_twins! {
+        fn init => init_async() -> Result<(), Error<I::Error>>;
+        fn configure => configure_async(adc: AdcConfig) -> Result<(), I::Error>;
+        fn reset => reset_async() -> Result<(), I::Error>;
+        fn conversion_ready => conversion_ready_async() -> Result<bool, I::Error>;
+        fn calibration_lost => calibration_lost_async() -> Result<bool, I::Error>;
+        fn read_back => read_back_async() -> Result<ChipRegistersReadBack, I::Error>;
+        fn read_registers => read_registers_async() -> Result<Registers, I::Error>;
+        fn read_measurement => read_measurement_async(check_calibration: bool) -> Result<Measurement, I::Error>;
+        fn read => read_async(register: Register) -> Result<u16, I::Error>;
+        fn write => write_async(register: Register, value: u16) -> Result<(), I::Error>;
     }
 
     /// Forgets where the chip points (it may have reset: its pointer is then 00h), so the next

@@ -2,9 +2,11 @@
 //!
 //! Only the hardware glue lives here: watchdog, core voltage, clocks, TIM2 monotonic, I²C1, USB
 //! CDC-ACM, the PC13 LED. The logic (`Board`, `Sampler`, `Link` with its DTR edges, bus recovery,
-//! the LED pattern) is in the library and tested on the host; the bounded I²C driver is the
-//! library's target-only `stm32_i2c`. defmt `info` logs tell the bring-up story: clocks, each
-//! chip found or failing and why, USB configured, DTR, the sampling rate.
+//! the LED pattern, the interrupt-driven I²C transfer) is in the library and tested on the host;
+//! its I2C1 register glue is the library's target-only `stm32_i2c`. The sample task awaits each
+//! I²C transfer (I2C1_EV/I2C1_ER handlers at priority 3, above USB): no task spins on the bus.
+//! defmt `info` logs tell the bring-up story: clocks, each chip found or failing and why, USB
+//! configured, DTR, the sampling rate.
 //!
 //! Crystal: 25 MHz (WeAct Black Pill v3.x) by default; build with `--features hse-8mhz` for the
 //! boards that carry 8 MHz (README, "Bring-up").
@@ -27,7 +29,7 @@ mod app {
     use firmware::led::LedPattern;
     use firmware::link::{DtrEdge, Link};
     use firmware::sampler::SamplerConfig;
-    use firmware::stm32_i2c::BoundedI2c;
+    use firmware::stm32_i2c::{BusControl, I2c1};
     use model_core::board_id::{BoardIdentity, SERIAL_LEN, UID_LEN};
     use rtic::Mutex;
     use rtic_time::Monotonic;
@@ -75,6 +77,9 @@ mod app {
         link: Link,
         /// Chosen by the sample task after each tick, shown by the LED task.
         led_pattern: LedPattern,
+        /// I2C1 and the transfer in flight: the interrupt handlers drive it, the sample task
+        /// starts and awaits it.
+        i2c: I2c1,
     }
 
     /// The HAL's IWDG as the board logic's watchdog.
@@ -89,7 +94,7 @@ mod app {
 
     #[local]
     struct Local {
-        i2c: BoundedI2c,
+        bus_control: BusControl,
         board: Board,
         watchdog: Iwdg,
         usb_dev: UsbDevice<'static, UsbBusType>,
@@ -129,12 +134,11 @@ mod app {
         led.set_high();
         // I²C1 at 400 kHz on PB8 (SCL) / PB9 (SDA), both INA226 on it; external 2.2–4.7 kΩ
         // pull-ups to 3V3 (the pins are open-drain without pulls). The HAL sets up peripheral and
-        // pins, `BoundedI2c` clocks the bus free and bounds every transaction (DWT cycles).
-        core.DCB.enable_trace();
-        core.DWT.enable_cycle_counter();
+        // pins; `BusControl` clocks the bus free, and every transfer is interrupt-driven with a
+        // deadline on the monotonic.
         let hal_i2c = I2c::new(dp.I2C1, (gpiob.pb8, gpiob.pb9), 400.kHz(), &mut rcc);
-        let i2c = BoundedI2c::new(hal_i2c, rcc.clocks.sysclk().raw());
-        log_recovery(i2c.last_recovery());
+        let (i2c, bus_control) = BusControl::new(hal_i2c, rcc.clocks.sysclk().raw());
+        log_recovery(bus_control.last_recovery());
 
         let identity = BoardIdentity {
             uid: unique_id(),
@@ -189,9 +193,10 @@ mod app {
             Shared {
                 link: Link::new(),
                 led_pattern: LedPattern::NoHost,
+                i2c,
             },
             Local {
-                i2c,
+                bus_control,
                 board,
                 watchdog: Iwdg(watchdog),
                 usb_dev,
@@ -253,7 +258,7 @@ mod app {
                 defmt::warn!("I2C: a chip held SDA low; freed after {=u8} clocks", pulses)
             }
             Some(Recovery::Stuck) => {
-                defmt::error!("I2C: SDA stays low (short, missing pull-up, latched chip)")
+                defmt::error!("I2C: SDA or SCL stays low (short, missing pull-up, latched chip)")
             }
         }
     }
@@ -268,12 +273,13 @@ mod app {
     }
 
     /// Drift-free sampling on absolute deadlines; the period can change at every tick.
-    #[task(priority = 1, local = [i2c, board, watchdog], shared = [link, led_pattern])]
+    #[task(priority = 1, local = [bus_control, board, watchdog], shared = [link, led_pattern, i2c])]
     async fn sample(mut cx: sample::Context) {
         let mut next: Instant = Mono::now();
         // `Some(None)`: "ok" was logged; `None`: nothing logged yet for that chip.
         let mut logged_faults = model_core::Sides::new(None, None);
         let mut logged_period_us = cx.local.board.sample_period_us();
+        let mut logged_bus_errors = 0;
         loop {
             let period = Duration::micros(u64::from(cx.local.board.sample_period_us()));
             next += period;
@@ -286,16 +292,30 @@ mod app {
             }
             Mono::delay_until(next).await;
             let t_us = Mono::now().ticks();
-            let timeouts = cx.local.i2c.timeouts();
-            cx.local.board.tick(
-                cx.local.i2c,
-                &mut Locked(&mut cx.shared.link),
-                cx.local.watchdog,
-                t_us,
-            );
-            if cx.local.i2c.timeouts() != timeouts {
-                defmt::warn!("I2C transaction timed out; bus reset");
-                log_recovery(cx.local.i2c.last_recovery());
+            let timeouts = cx.local.bus_control.timeouts();
+            let mut bus = cx.local.bus_control.bus(&mut cx.shared.i2c);
+            // Suspended while the bus works: USB and the LED task run meanwhile.
+            cx.local
+                .board
+                .tick_async(
+                    &mut bus,
+                    &mut Locked(&mut cx.shared.link),
+                    cx.local.watchdog,
+                    t_us,
+                )
+                .await;
+            if cx.local.bus_control.timeouts() != timeouts {
+                defmt::warn!("I2C transfer timed out or stalled; bus reset");
+                log_recovery(cx.local.bus_control.last_recovery());
+            }
+            let bus_errors = cx.shared.i2c.lock(|i2c| i2c.bus_errors());
+            if bus_errors != logged_bus_errors && bus_errors.is_power_of_two() {
+                // 1, 2, 4, …: a noisy bus shows without flooding the log.
+                defmt::info!(
+                    "I2C: {=u32} BERR flags cleared (spurious in master mode: errata)",
+                    bus_errors
+                );
+                logged_bus_errors = bus_errors;
             }
 
             let sampler = cx.local.board.sampler();
@@ -361,6 +381,19 @@ mod app {
             ),
         }
         *logged = Some(fault);
+    }
+
+    /// I2C1 events (SB, ADDR, BTF, TXE, RXNE): the next step of the transfer. Above USB, so no
+    /// step is split (RM0383's 1-byte read needs ADDR cleared and STOP set back to back).
+    #[task(binds = I2C1_EV, priority = 3, shared = [i2c])]
+    fn i2c_event(mut cx: i2c_event::Context) {
+        cx.shared.i2c.lock(I2c1::on_interrupt);
+    }
+
+    /// I2C1 errors (AF, ARLO, BERR, OVR): the same handler sorts them out.
+    #[task(binds = I2C1_ER, priority = 3, shared = [i2c])]
+    fn i2c_error(mut cx: i2c_error::Context) {
+        cx.shared.i2c.lock(I2c1::on_interrupt);
     }
 
     /// The LED on PC13: the pattern the sample task chose, redrawn every `LED_TICK_MS`.

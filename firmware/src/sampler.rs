@@ -2,7 +2,7 @@
 //! A failing chip never stops the other chip or the stream: its part of the sample says why.
 
 use crate::ina226::{Calibration, Ina226};
-use embedded_hal::i2c::I2c;
+use embedded_hal_async::i2c::I2c;
 use model_core::board_id::BoardIdentity;
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{AdcConfig, BUS_LSB_UV, SHUNT_LSB_NV};
@@ -120,8 +120,8 @@ impl Chip {
 
     /// Checks the IDs and writes configuration and calibration; its conversions restart at
     /// `t_us` (`None`: at the next sample's time).
-    fn set_up<I: I2c>(&mut self, i2c: &mut I, t_us: Option<u64>) -> Result<(), ChipFault> {
-        self.driver.init(i2c).map_err(|e| e.fault())?;
+    async fn set_up<I: I2c>(&mut self, i2c: &mut I, t_us: Option<u64>) -> Result<(), ChipFault> {
+        self.driver.init_async(i2c).await.map_err(|e| e.fault())?;
         if self.was_ready {
             self.reinits = self.reinits.saturating_add(1);
         }
@@ -133,13 +133,13 @@ impl Chip {
 
     /// The chip's ID and set-up registers read back, after setting it up if it is not (a
     /// `GetHello` may come before the first sample).
-    fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
+    async fn probe<I: I2c>(&mut self, i2c: &mut I) -> ChipProbe {
         if !self.ready {
-            if let Err(fault) = self.set_up(i2c, None) {
+            if let Err(fault) = self.set_up(i2c, None).await {
                 self.fail(fault);
             }
         }
-        match self.driver.read_back(i2c) {
+        match self.driver.read_back_async(i2c).await {
             Ok(registers) => ChipProbe::Answered(registers),
             Err(e) => ChipProbe::Failed(crate::ina226::fault_of(&e)),
         }
@@ -155,9 +155,14 @@ impl Chip {
     /// conversion period (with its margin) has passed since the settings were written, and the
     /// sample period is at least that long (`Command::validate`), so each read returns a result
     /// no earlier read returned, whole (the chip swaps in a result only once it is averaged).
-    fn read<I: I2c>(&mut self, i2c: &mut I, t_us: u64, check_calibration: bool) -> ChipReading {
+    async fn read<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        t_us: u64,
+        check_calibration: bool,
+    ) -> ChipReading {
         if !self.ready {
-            if let Err(fault) = self.set_up(i2c, Some(t_us)) {
+            if let Err(fault) = self.set_up(i2c, Some(t_us)).await {
                 return self.fail(fault);
             }
         }
@@ -167,17 +172,23 @@ impl Chip {
             // No bus traffic: nothing valid to read yet.
             return self.fail(ChipFault::AwaitingConversion);
         }
-        let measurement = match self.driver.read_measurement(i2c, check_calibration) {
+        let measurement = match self
+            .driver
+            .read_measurement_async(i2c, check_calibration)
+            .await
+        {
             Ok(m) => m,
             Err(e) => return self.fail(crate::ina226::fault_of(&e)),
         };
         let lost = match measurement.calibration {
             Some(cal) => cal.0 == 0,
             // The short read may have read register 00h of a chip that reset: CAL says.
-            None if measurement.suspect_reset => match self.driver.calibration_lost(i2c) {
-                Ok(lost) => lost,
-                Err(e) => return self.fail(crate::ina226::fault_of(&e)),
-            },
+            None if measurement.suspect_reset => {
+                match self.driver.calibration_lost_async(i2c).await {
+                    Ok(lost) => lost,
+                    Err(e) => return self.fail(crate::ina226::fault_of(&e)),
+                }
+            }
             None => false,
         };
         if lost {
@@ -231,18 +242,16 @@ impl Sampler {
     }
 
     /// Takes one sample stamped `t_us`; `None` while stopped by the host.
-    pub fn sample<I: I2c>(&mut self, i2c: &mut I, t_us: u64) -> Option<Sample> {
+    pub async fn sample_async<I: I2c>(&mut self, i2c: &mut I, t_us: u64) -> Option<Sample> {
         if !self.running {
             return None;
         }
         // Each chip's read-back in its own sample, half a cycle apart.
         let phase = self.seq % CALIBRATION_CHECK_EVERY;
-        let chips = Sides::new(
-            self.chips.left.read(i2c, t_us, phase == 0),
-            self.chips
-                .right
-                .read(i2c, t_us, phase == CALIBRATION_CHECK_EVERY / 2),
-        );
+        let left = self.chips.left.read(i2c, t_us, phase == 0).await;
+        let right_check = phase == CALIBRATION_CHECK_EVERY / 2;
+        let right = self.chips.right.read(i2c, t_us, right_check).await;
+        let chips = Sides::new(left, right);
         self.measurements.update(t_us, chips.map(|c| c.registers()));
         let sample = Sample {
             t_us,
@@ -255,7 +264,11 @@ impl Sampler {
     }
 
     /// Carries out a command that concerns sampling; the board answers with ack or rejection.
-    pub fn apply<I: I2c>(&mut self, i2c: &mut I, command: &Command) -> Result<(), Rejection> {
+    pub async fn apply_async<I: I2c>(
+        &mut self,
+        i2c: &mut I,
+        command: &Command,
+    ) -> Result<(), Rejection> {
         command.validate()?;
         match *command {
             Command::Configure {
@@ -266,7 +279,7 @@ impl Sampler {
                 let mut outcome = Ok(());
                 for chip in [&mut self.chips.left, &mut self.chips.right] {
                     chip.restart_conversions(None);
-                    if let Err(e) = chip.driver.configure(i2c, adc) {
+                    if let Err(e) = chip.driver.configure_async(i2c, adc).await {
                         // Re-initialised (with the new settings) at the next period.
                         chip.ready = false;
                         let fault = crate::ina226::fault_of(&e);
@@ -310,13 +323,22 @@ impl Sampler {
 
     /// The hello with each chip's ID and set-up registers read back now (the answer to
     /// `GetHello`); a chip not set up yet is set up first.
-    pub fn hello_read_back<I: I2c>(&mut self, i2c: &mut I) -> Hello {
-        let left = self.chips.left.probe(i2c);
-        let right = self.chips.right.probe(i2c);
+    pub async fn hello_read_back_async<I: I2c>(&mut self, i2c: &mut I) -> Hello {
+        let left = self.chips.left.probe(i2c).await;
+        let right = self.chips.right.probe(i2c).await;
         Hello {
             chips: Sides::new(left, right),
             ..self.hello()
         }
+    }
+
+    crate::blocking::blocking_twins! {
+        /// [`Self::sample_async`] on a blocking bus.
+        fn sample => sample_async(t_us: u64) -> Option<Sample>;
+        /// [`Self::apply_async`] on a blocking bus.
+        fn apply => apply_async(command: &Command) -> Result<(), Rejection>;
+        /// [`Self::hello_read_back_async`] on a blocking bus.
+        fn hello_read_back => hello_read_back_async() -> Hello;
     }
 
     /// The hello without touching the bus (chips [`ChipProbe::NotRead`]).
@@ -388,418 +410,4 @@ impl Sampler {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::ina226::{Register, CONFIG_POWER_ON};
-    use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
-    use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
-
-    const L: u8 = 0x40;
-    const R: u8 = 0x45;
-    /// The board's period (5 ms) against its 4.48 ms conversions (4.928 ms with the margin).
-    const P: u64 = DEFAULT_SAMPLE_PERIOD_US as u64;
-
-    /// The transactions a chip should see, with the register it points at, so the scripts
-    /// follow the driver's short reads.
-    struct Script {
-        addr: u8,
-        pointer: Option<Register>,
-    }
-
-    impl Script {
-        fn new(addr: u8) -> Self {
-            Self {
-                addr,
-                pointer: None,
-            }
-        }
-
-        fn read(&mut self, reg: Register, value: u16) -> T {
-            let bytes = value.to_be_bytes().to_vec();
-            let t = if self.pointer == Some(reg) {
-                T::read(self.addr, bytes)
-            } else {
-                T::write_read(self.addr, vec![reg as u8], bytes)
-            };
-            self.pointer = Some(reg);
-            t
-        }
-
-        fn write(&mut self, reg: Register, value: u16) -> T {
-            let [hi, lo] = value.to_be_bytes();
-            self.pointer = Some(reg);
-            T::write(self.addr, vec![reg as u8, hi, lo])
-        }
-
-        fn init(&mut self) -> Vec<T> {
-            self.init_with(0x4407)
-        }
-
-        fn init_with(&mut self, config: u16) -> Vec<T> {
-            vec![
-                self.read(Register::ManufacturerId, 0x5449),
-                self.read(Register::DieId, 0x2260),
-                self.write(Register::Configuration, config),
-                self.write(Register::Calibration, 2048),
-            ]
-        }
-
-        /// A sample's reads of `amps` at 24 V (on our board the shunt register counts current
-        /// LSBs), the calibration read-back between them when given.
-        fn measure(&mut self, amps: f64, calibration: Option<u16>) -> Vec<T> {
-            let shunt = (amps / 0.0005).round() as i16 as u16;
-            let (first, second) = match self.pointer {
-                Some(Register::BusVoltage) => (Register::BusVoltage, Register::ShuntVoltage),
-                _ => (Register::ShuntVoltage, Register::BusVoltage),
-            };
-            let value = |reg| {
-                if reg == Register::BusVoltage {
-                    19_200
-                } else {
-                    shunt
-                }
-            };
-            let mut tx = vec![self.read(first, value(first))];
-            if let Some(cal) = calibration {
-                tx.push(self.read(Register::Calibration, cal));
-            }
-            tx.push(self.read(second, value(second)));
-            tx
-        }
-    }
-
-    #[test]
-    fn first_sample_initialises_both_chips_and_counts() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        for _ in 0..2 {
-            tx.extend(l.measure(2.0, None));
-            tx.extend(r.measure(-1.0, None));
-        }
-        // Two periods missed: 4 results came and went, 2 unread.
-        tx.extend(l.measure(2.0, None));
-        tx.extend(r.measure(-1.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        let first = s.sample(&mut i2c, 0).expect("running");
-        assert_eq!(first.seq, 0);
-        // No conversion since the configuration write: nothing valid to read, so no read.
-        let waiting = ChipReading::Failed(ChipFault::AwaitingConversion);
-        assert_eq!(first.chips, Sides::new(waiting, waiting));
-        let second = s.sample(&mut i2c, P).expect("running");
-        assert_eq!((second.seq, second.t_us), (1, P));
-        let want = model_core::ina226::Registers::derived(
-            model_core::ina226::ShuntVoltageRaw(4000),
-            model_core::ina226::BusVoltageRaw(19_200),
-            crate::ina226::BOARD_CALIBRATION.raw(),
-        );
-        assert_eq!(second.chips.left, ChipReading::Fresh(want));
-        assert_eq!(want.power.0, 3840, "48 W in 12.5 mW LSBs");
-        assert!(matches!(second.chips.right, ChipReading::Fresh(r) if r.current.0 == -2000));
-        s.sample(&mut i2c, 2 * P).expect("running");
-        let snap = s.model().expect("sampled").snapshot;
-        // 48 W and −24 W for 5 ms (the first reading anchors time).
-        assert_eq!(snap.power_lsb, Sides::new(Some(3840), Some(-1920)));
-        assert_eq!(snap.energy_lsb_us, Sides::new(3840 * 5_000, -1920 * 5_000));
-        assert_eq!(s.skipped_results(), Sides::new(0, 0));
-        s.sample(&mut i2c, 5 * P).expect("running");
-        // Results at k × 4.48 ms: the 3rd (13.44 ms) was read at 15 ms; 4th–6th came by 25 ms.
-        assert_eq!(s.skipped_results(), Sides::new(2, 2));
-        assert_eq!(s.i2c_errors(), Sides::new(0, 0));
-        i2c.done();
-    }
-
-    #[test]
-    fn a_nacking_chip_does_not_stop_the_other_and_recovers() {
-        let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.push(T::write_read(R, vec![0xFE], vec![0, 0]).with_error(nack)); // right absent
-        tx.extend(l.measure(1.0, None));
-        tx.push(T::write_read(R, vec![0xFE], vec![0, 0]).with_error(nack));
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.init()); // right plugged in
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.measure(1.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        for k in 1..4u64 {
-            let sample = s.sample(&mut i2c, k * P).expect("running");
-            assert!(
-                matches!(sample.chips.left, ChipReading::Fresh(_)),
-                "left keeps streaming"
-            );
-            let right = match k {
-                1 => ChipReading::Failed(ChipFault::AddressNack),
-                2 => ChipReading::Failed(ChipFault::AwaitingConversion),
-                _ => sample.chips.right,
-            };
-            assert_eq!(sample.chips.right, right, "sample {k}");
-        }
-        assert_eq!(s.i2c_errors(), Sides::new(0, 2));
-        assert_eq!(s.last_faults(), Sides::new(None, None));
-        // First successful init of a chip is not a re-initialisation.
-        assert_eq!(s.reinits(), Sides::new(0, 0));
-        i2c.done();
-    }
-
-    #[test]
-    fn a_reset_chip_is_found_by_its_short_read_and_reinitialised() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.measure(1.0, None));
-        // Left browns out: it points at register 00h, which holds its power-on configuration.
-        tx.push(T::read(L, CONFIG_POWER_ON.to_be_bytes().to_vec()));
-        tx.push(T::write_read(L, vec![0x01], vec![0x07, 0xD0]));
-        tx.push(T::write_read(L, vec![0x05], vec![0, 0])); // CAL 0: confirmed
-        tx.extend(r.measure(1.0, None));
-        l.pointer = None;
-        tx.extend(l.init());
-        tx.extend(r.measure(1.0, None));
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.measure(1.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
-        let lost = s.sample(&mut i2c, 2 * P).expect("running");
-        assert_eq!(
-            lost.chips.left,
-            ChipReading::Failed(ChipFault::ResetDetected)
-        );
-        assert!(matches!(lost.chips.right, ChipReading::Fresh(_)));
-        let setup = s.sample(&mut i2c, 3 * P).expect("running");
-        assert_eq!(
-            setup.chips.left,
-            ChipReading::Failed(ChipFault::AwaitingConversion)
-        );
-        let back = s.sample(&mut i2c, 4 * P).expect("running");
-        assert!(matches!(back.chips.left, ChipReading::Fresh(_)));
-        assert_eq!(s.reinits(), Sides::new(1, 0));
-        assert_eq!(s.i2c_errors(), Sides::new(0, 0));
-        i2c.done();
-    }
-
-    #[test]
-    fn a_reading_that_looks_like_a_reset_is_checked_and_kept() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        tx.extend(l.measure(0.0, None));
-        tx.extend(r.measure(0.0, None));
-        // 0x4127 on the bus register (20.85 V) is a genuine reading: CAL is fine.
-        tx.push(T::read(L, CONFIG_POWER_ON.to_be_bytes().to_vec()));
-        tx.push(T::write_read(L, vec![0x01], vec![0, 3]));
-        tx.push(T::write_read(L, vec![0x05], 2048u16.to_be_bytes().to_vec()));
-        tx.extend(r.measure(0.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
-        let checked = s.sample(&mut i2c, 2 * P).expect("running");
-        assert!(
-            matches!(checked.chips.left, ChipReading::Fresh(r) if r.bus.0 == CONFIG_POWER_ON && r.shunt.0 == 3)
-        );
-        assert_eq!(s.reinits(), Sides::new(0, 0));
-        assert_eq!(s.last_faults(), Sides::new(None, None));
-        i2c.done();
-    }
-
-    #[test]
-    fn calibration_is_read_back_periodically_one_chip_per_sample() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        let half = CALIBRATION_CHECK_EVERY / 2;
-        for seq in 1..=CALIBRATION_CHECK_EVERY {
-            tx.extend(l.measure(0.0, (seq == CALIBRATION_CHECK_EVERY).then_some(2048)));
-            // An idle right chip that reset keeps reading plausible values: CAL shows it.
-            tx.extend(r.measure(0.0, (seq == half).then_some(0)));
-            if seq == half {
-                break;
-            }
-        }
-        r.pointer = None;
-        tx.extend(l.measure(0.0, None));
-        tx.extend(r.init());
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        for seq in 0..half {
-            let sample = s.sample(&mut i2c, u64::from(seq) * P).expect("running");
-            assert_ne!(
-                sample.chips.right,
-                ChipReading::Failed(ChipFault::ResetDetected)
-            );
-        }
-        let check = s.sample(&mut i2c, u64::from(half) * P).expect("running");
-        assert_eq!(
-            check.chips.right,
-            ChipReading::Failed(ChipFault::ResetDetected)
-        );
-        s.sample(&mut i2c, u64::from(half + 1) * P);
-        assert_eq!(s.reinits(), Sides::new(0, 1));
-        i2c.done();
-    }
-
-    #[test]
-    fn energy_does_not_accumulate_across_stop_and_start() {
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        for _ in 0..4 {
-            tx.extend(l.measure(2.0, None));
-            tx.extend(r.measure(2.0, None));
-        }
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
-        s.sample(&mut i2c, 2 * P);
-        let before = s.model().expect("sampled").snapshot.energy_lsb_us.left;
-        assert_eq!(before, 3840 * 5_000);
-        assert_eq!(s.apply(&mut i2c, &Command::Stop), Ok(()));
-        assert!(s.sample(&mut i2c, 3 * P).is_none());
-        assert_eq!(s.apply(&mut i2c, &Command::Start), Ok(()));
-        // A 60 s pause: the first reading after Start adds nothing, the next one 5 ms.
-        s.sample(&mut i2c, 60_000_000);
-        assert_eq!(
-            s.model().expect("sampled").snapshot.energy_lsb_us.left,
-            before
-        );
-        s.sample(&mut i2c, 60_005_000);
-        assert_eq!(
-            s.model().expect("sampled").snapshot.energy_lsb_us.left,
-            before + 3840 * 5_000
-        );
-        // Nor does the pause count as results the sampler skipped.
-        assert_eq!(s.skipped_results(), Sides::new(0, 0));
-        i2c.done();
-    }
-
-    #[test]
-    fn commands_change_sampling() {
-        let quad = AdcConfig {
-            averaging: model_core::ina226::Averaging::X4,
-            ..AdcConfig::BOARD_DEFAULT
-        };
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend(r.init());
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.measure(1.0, None));
-        tx.push(l.write(Register::Configuration, 0x4207));
-        tx.push(T::write(R, vec![0x00, 0x42, 0x07]).with_error(ErrorKind::Bus));
-        // The left chip restarted its conversions: 1.12 ms, 1.232 ms with the margin.
-        r.pointer = None;
-        tx.extend(r.init_with(0x4207));
-        tx.extend(l.measure(1.0, None));
-        tx.extend(r.measure(1.0, None));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        s.sample(&mut i2c, 0);
-        s.sample(&mut i2c, P);
-        let slowest = AdcConfig {
-            averaging: model_core::ina226::Averaging::X1024,
-            bus_conversion: model_core::ina226::ConversionTime::Us8244,
-            shunt_conversion: model_core::ina226::ConversionTime::Us8244,
-        };
-        let configure = |adc, sample_period_us| Command::Configure {
-            adc,
-            sample_period_us,
-        };
-        // The bus cannot go faster, the averaging cannot fill the period, or both.
-        for (adc, period) in [(quad, 499), (quad, 1_231), (slowest, 1_000_000)] {
-            assert_eq!(
-                s.apply(&mut i2c, &configure(adc, period)),
-                Err(Rejection::OutOfRange),
-                "{period} µs"
-            );
-        }
-        assert_eq!(
-            s.sample_period_us(),
-            DEFAULT_SAMPLE_PERIOD_US,
-            "refused command changes nothing"
-        );
-        assert_eq!(
-            s.apply(&mut i2c, &configure(quad, 1_250)),
-            Err(Rejection::Chip(ChipFault::Bus))
-        );
-        assert_eq!(s.sample_period_us(), 1_250);
-        assert_eq!(s.hello().adc, quad);
-        let t = P + 1_250;
-        let after = s.sample(&mut i2c, t).expect("running");
-        let waiting = ChipReading::Failed(ChipFault::AwaitingConversion);
-        assert_eq!(after.chips, Sides::new(waiting, waiting));
-        let fresh = s.sample(&mut i2c, t + 1_250).expect("running");
-        assert!(matches!(fresh.chips.left, ChipReading::Fresh(_)));
-        assert!(matches!(fresh.chips.right, ChipReading::Fresh(_)));
-        assert_eq!(s.apply(&mut i2c, &Command::Stop), Ok(()));
-        assert!(s.sample(&mut i2c, 0).is_none());
-        assert_eq!(
-            s.apply(&mut i2c, &Command::SetWheelRates(Sides::new(0.0, 3.6))),
-            Ok(())
-        );
-        assert_eq!(s.measurements().wheel_rates(), Some(Sides::new(0.0, 3.6)));
-        i2c.done();
-    }
-
-    #[test]
-    fn configurations_for_a_period() {
-        let fast = SamplerConfig::with_period(500).expect("2 kHz");
-        assert_eq!(fast.adc.update_period_us(), 408);
-        assert_eq!(
-            SamplerConfig::with_period(DEFAULT_SAMPLE_PERIOD_US),
-            Some(SamplerConfig::BOARD)
-        );
-        assert_eq!(SamplerConfig::with_period(499), None);
-        assert_eq!(SamplerConfig::with_period(2_000_000), None);
-    }
-
-    #[test]
-    fn the_boards_hello_carries_each_chips_registers_read_back_now() {
-        use model_core::ina226::{CalibrationRaw, ConfigurationRaw, DieIdRaw, ManufacturerIdRaw};
-        use model_core::wire::ChipRegistersReadBack;
-        let nack = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
-        // Neither chip is set up yet (a GetHello before the first sample): set up first.
-        let (mut l, mut r) = (Script::new(L), Script::new(R));
-        let mut tx = l.init();
-        tx.extend([
-            l.read(Register::ManufacturerId, 0x5449),
-            l.read(Register::DieId, 0x2260),
-            l.read(Register::Configuration, 0x4407),
-            l.read(Register::Calibration, 2048),
-            r.read(Register::ManufacturerId, 0).with_error(nack),
-        ]);
-        // A failed read leaves the pointer unknown: the next read sends it again.
-        r.pointer = None;
-        tx.push(r.read(Register::ManufacturerId, 0).with_error(nack));
-        let mut i2c = Mock::new(&tx);
-        let mut s = Sampler::new(SamplerConfig::BOARD);
-        let hello = s.hello_read_back(&mut i2c);
-        assert_eq!(
-            hello.chips,
-            Sides::new(
-                ChipProbe::Answered(ChipRegistersReadBack {
-                    manufacturer_id: ManufacturerIdRaw(0x5449),
-                    die_id: DieIdRaw(0x2260),
-                    configuration: ConfigurationRaw(0x4407),
-                    calibration: CalibrationRaw(2048),
-                }),
-                ChipProbe::Failed(ChipFault::AddressNack)
-            )
-        );
-        assert_eq!(
-            Hello {
-                chips: Sides::new(ChipProbe::NotRead, ChipProbe::NotRead),
-                ..hello
-            },
-            s.hello()
-        );
-        assert_eq!(s.last_faults().right, Some(ChipFault::AddressNack));
-        i2c.done();
-    }
-}
+mod tests;

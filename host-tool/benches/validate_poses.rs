@@ -11,6 +11,7 @@
 use host_tool::diagnose::bench::sample_run;
 use host_tool::log::run_csv::RunSample;
 use host_tool::sim::world::{Scenario, WorldConfig};
+use host_tool::validate::pose::without_positions;
 use host_tool::validate::{validate, RunInput, ValidateOptions, ValidationReport};
 use std::time::{Duration, Instant};
 
@@ -36,14 +37,7 @@ fn main() {
         .simulate(&Scenario::seed_turns(0.3, repeats_of_set), 4)
         .expect("the seed turn set simulates");
     let with: Vec<RunSample> = sample_run(&timeline, 200);
-    let without: Vec<RunSample> = with
-        .iter()
-        .map(|s| RunSample {
-            x_m: None,
-            y_m: None,
-            ..*s
-        })
-        .collect();
+    let without: Vec<RunSample> = without_positions(&with);
     let fixes = with.iter().filter(|s| s.position_m().is_some()).count();
     println!(
         "run: {:.0} s simulated, {} samples, {fixes} position fixes (generated in {:.1} s)",

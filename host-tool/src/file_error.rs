@@ -1,6 +1,7 @@
 //! One error for "this file could not be read, or its content is invalid", naming the file:
-//! the rover TOML ([`crate::rover::RoverFileError`]) and the plan model
-//! ([`crate::plan::ModelFileError`]) share it, each with its own content error `E`.
+//! the rover TOML ([`crate::rover::RoverFileError`]), the plan model
+//! ([`crate::plan::ModelFileError`]), the diagnosis' summaries and path tables share it, each
+//! with its own content error `E`.
 
 use std::path::{Path, PathBuf};
 
@@ -37,6 +38,22 @@ pub fn read_and_parse<T, E: std::error::Error + 'static>(
         source,
     })?;
     parse(&text).map_err(|source| FileError::Invalid {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+/// Reads `path` as bytes and parses them with `parse` (which judges the encoding itself, e.g.
+/// to name the line that is not UTF-8); either failure names the file.
+pub fn read_bytes_and_parse<T, E: std::error::Error + 'static>(
+    path: &Path,
+    parse: impl FnOnce(&[u8]) -> Result<T, E>,
+) -> Result<T, FileError<E>> {
+    let bytes = std::fs::read(path).map_err(|source| FileError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    parse(&bytes).map_err(|source| FileError::Invalid {
         path: path.to_owned(),
         source,
     })

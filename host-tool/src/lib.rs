@@ -2,6 +2,7 @@
 //! `run` per command; `main.rs` a flat dispatch) parses arguments, calls in here and prints.
 
 pub mod check;
+pub mod csv_table;
 pub mod decode;
 pub mod demo;
 pub mod diagnose;

@@ -232,15 +232,13 @@ fn diagnose_fails_clearly_on_bad_input() {
     // A calibration run without calibration manoeuvres: the baseline cannot be fitted.
     let still = dir.join("still.csv");
     let samples: Vec<RunSample> = (0..400)
-        .map(|k| RunSample {
-            t_s: k as f64 * 0.01,
-            bus_v: Sides::new(24.0, 24.0),
-            current_a: Sides::new(0.05, 0.05),
-            cmd_mps: Sides::new(0.0, 0.0),
-            yaw_rad: None,
-            pitch_deg: None,
-            x_m: None,
-            y_m: None,
+        .map(|k| {
+            RunSample::new(
+                k as f64 * 0.01,
+                Sides::new(24.0, 24.0),
+                Sides::new(0.05, 0.05),
+                Sides::new(0.0, 0.0),
+            )
         })
         .collect();
     write_run_csv_atomically(&still, &samples).expect("write");

@@ -7,7 +7,7 @@ pub const GRAVITY_M_S2: f64 = 9.81;
 /// The ICR-based hard-ground model in the paper's simplified form (paper Eq 20–22): symmetric
 /// ICRs at ±B_s/2, equal normal force p = mg/4 on the four wheels,
 /// P = F |ω_z| + G (|V_r| + |V_l|) with F = 2 μ p √(L² + (W − B_s)²).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct IcrHardGround {
     /// μ: friction coefficient.
     pub mu: f64,

@@ -1,6 +1,7 @@
 //! Cross-crate end-to-end tests live in `tests/tests/`; this library holds their shared fixtures.
 
 use firmware::sampler::SamplerConfig;
+use host_tool::decode::StreamDecoder;
 use host_tool::sim::board::{SideLoad, SimBoard};
 use model_core::Sides;
 
@@ -24,4 +25,21 @@ pub fn sim_board() -> SimBoard {
     let mut sim = SimBoard::new(SamplerConfig::BOARD);
     sim.set_load(turn_like_load);
     sim
+}
+
+/// The host's energy is the board's, bit for bit: the board's latest model frame equals the
+/// host's recomputation at that sample, and the board's own total at its last sample equals the
+/// host's. Returns that model frame's `seq` and the board's total [LSB·µs].
+pub fn assert_host_energy_is_the_boards(decoder: &StreamDecoder, board: &SimBoard) -> (u32, i64) {
+    let (model, host) = decoder.board_vs_host_energy().expect("model frames");
+    assert_eq!(
+        [
+            model.snapshot.energy_lsb_us.left,
+            model.snapshot.energy_lsb_us.right
+        ],
+        host
+    );
+    let board_total = board.board().sampler().measurements().total_energy_lsb_us();
+    assert_eq!(decoder.measurements().total_energy_lsb_us(), board_total);
+    (model.seq, board_total)
 }

@@ -11,7 +11,7 @@ use host_tool::sim::ina226::reg;
 use model_core::ina226::AdcConfig;
 use model_core::wire::{self, BoardFrame, ChipFault, ChipReading, Command, HostFrame, Rejection};
 use model_core::Sides;
-use rover_power_tests::turn_like_load;
+use rover_power_tests::{assert_host_energy_is_the_boards, turn_like_load};
 
 /// The board's sampling period in these tests [µs] (none of them reconfigures it).
 const PERIOD_US: u64 = 5_000;
@@ -108,24 +108,10 @@ fn every_sample_arrives_in_order_and_energy_matches_the_board() {
     let stats = dec.stats();
     assert_eq!((stats.bad_frames, stats.lost_samples), (0, 0));
 
-    // The board's latest model frame equals the host's recomputation at that sample, bit for bit.
-    let (model, host) = dec.board_vs_host_energy().expect("model frames");
-    assert_eq!(
-        [
-            model.snapshot.energy_lsb_us.left,
-            model.snapshot.energy_lsb_us.right
-        ],
-        host
-    );
-    assert!(model.seq >= 3_980);
-    // And the board's own total at the end equals the host's.
-    let board_total = rig
-        .sim
-        .board()
-        .sampler()
-        .measurements()
-        .total_energy_lsb_us();
-    assert_eq!(dec.measurements().total_energy_lsb_us(), board_total);
+    // The board's latest model frame equals the host's recomputation at that sample, bit for
+    // bit, and the board's own total at the end equals the host's.
+    let (model_seq, board_total) = assert_host_energy_is_the_boards(&dec, &rig.sim);
+    assert!(model_seq >= 3_980);
 
     // Against physics: ∫ V·I dt of the applied load (the load set at tick k flows until tick
     // k + 1; the board integrates from its first good reading at tick 1 to its last, 3999),

@@ -6,7 +6,7 @@ use host_tool::decode::{Event, StreamDecoder};
 use host_tool::serial::{self, PortReader, ReadOutcome};
 use host_tool::sim::board::{Pacing, PtyBoard};
 use model_core::wire::{BoardFrame, Sample};
-use rover_power_tests::sim_board;
+use rover_power_tests::{assert_host_energy_is_the_boards, sim_board};
 use std::time::{Duration, Instant};
 
 /// Upper bound on any test's wall-clock time; the runs below take well under a second.
@@ -85,28 +85,11 @@ fn every_sample_arrives_through_the_pty_in_order_and_energy_matches_the_board() 
     );
     assert_eq!(run.board.link().queue_drops(), 0);
 
-    // The board's latest model frame equals the host's recomputation, bit for bit.
-    let (model, host) = got.decoder.board_vs_host_energy().expect("model frames");
-    assert_eq!(
-        [
-            model.snapshot.energy_lsb_us.left,
-            model.snapshot.energy_lsb_us.right
-        ],
-        host
-    );
-    assert!(model.seq >= 1_980);
-    // And the board's own total at its last sample equals the host's.
-    let board_total = run
-        .board
-        .board()
-        .sampler()
-        .measurements()
-        .total_energy_lsb_us();
+    // The board's latest model frame equals the host's recomputation, bit for bit, and the
+    // board's own total at its last sample equals the host's.
+    let (model_seq, board_total) = assert_host_energy_is_the_boards(&got.decoder, &run.board);
+    assert!(model_seq >= 1_980);
     assert_ne!(board_total, 0);
-    assert_eq!(
-        got.decoder.measurements().total_energy_lsb_us(),
-        board_total
-    );
     // The device vanished when the writer closed the pty, after the host had read every byte.
     assert_eq!(got.bytes_read, run.bytes);
     eprintln!("vanished with {:?}", got.vanished_error);

@@ -89,16 +89,7 @@ fn csv_energy_j(rows: &[RunSample], max_step_s: f64) -> [f64; 2] {
 fn event_kinds(events: &[(f64, LogEvent)]) -> Vec<&'static str> {
     events
         .iter()
-        .map(|(_, e)| match e {
-            LogEvent::Started { .. } => "started",
-            LogEvent::DeviceVanished { .. } => "vanished",
-            LogEvent::Reconnected { .. } => "reconnected",
-            LogEvent::SamplesLost { .. } => "lost",
-            LogEvent::BadFrames { .. } => "bad",
-            LogEvent::BoardReset => "reset",
-            LogEvent::Stopped { .. } => "stopped",
-            LogEvent::WallClock { .. } => "clock",
-        })
+        .map(|(_, e)| e.short_name())
         .filter(|kind| *kind != "clock")
         .collect()
 }

@@ -7,7 +7,9 @@
 //!    the documented equations; prints one line per check over semihosting and exits QEMU with
 //!    failure if any check fails.
 //! 2. Runs the per-sample board work K times between `#[no_mangle]` markers, so the script can
-//!    count executed instructions in an instruction trace.
+//!    count executed instructions in an instruction trace; and the I²C interrupt handler's work
+//!    for one chip's reads of a sample (`firmware::i2c_master` against a replay of I2C1's
+//!    events), checked for the right bytes first.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 /// Host build: nothing to do; this keeps `cargo test/clippy --workspace --all-targets` green.
@@ -26,6 +28,8 @@ mod target {
 
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hprintln};
+    use embedded_hal::i2c::Operation;
+    use firmware::i2c_master as i2c;
 
     use model_core::energy::{EnergyAccumulator, RunningMeasurements};
     use model_core::ina226::{
@@ -373,6 +377,141 @@ mod target {
         reads(k).map(|(shunt, bus)| Some(Registers::derived(shunt, bus, BOARD_CAL)))
     }
 
+    #[allow(unsafe_code)]
+    #[inline(never)]
+    #[no_mangle]
+    pub extern "C" fn bench_i2c_begin() {
+        black_box(7u32);
+    }
+
+    #[allow(unsafe_code)]
+    #[inline(never)]
+    #[no_mangle]
+    pub extern "C" fn bench_i2c_end() {
+        black_box(8u32);
+    }
+
+    /// I2C1 as the interrupt handler meets it in a register read: each handler run reads the
+    /// next SR1 of the script; DR gives `rx` in turn. Writes are counted, not checked (the host
+    /// tests check the sequence against a model of the bus).
+    struct Replay {
+        sr1: &'static [u16],
+        next: usize,
+        rx: [u8; 2],
+        rx_next: usize,
+        dr_writes: u32,
+    }
+
+    impl Replay {
+        fn new(sr1: &'static [u16], rx: [u8; 2]) -> Self {
+            Self {
+                sr1,
+                next: 0,
+                rx,
+                rx_next: 0,
+                dr_writes: 0,
+            }
+        }
+    }
+
+    impl i2c::Registers for Replay {
+        fn sr1(&mut self) -> i2c::Sr1 {
+            let flags = self.sr1.get(self.next).copied().unwrap_or(0);
+            self.next += 1;
+            i2c::Sr1(flags)
+        }
+        fn read_sr2(&mut self) {}
+        fn clear_sr1(&mut self, _: u16) {}
+        fn write_dr(&mut self, byte: u8) {
+            self.dr_writes += u32::from(black_box(byte) != 0xFF);
+        }
+        fn read_dr(&mut self) -> u8 {
+            let byte = self.rx[self.rx_next % 2];
+            self.rx_next += 1;
+            byte
+        }
+        fn start(&mut self) {}
+        fn stop(&mut self) {}
+        fn stop_pending(&mut self) -> bool {
+            false
+        }
+        fn set_ack_pos(&mut self, _: bool, _: bool) {}
+        fn set_interrupts(&mut self, _: bool, _: bool) {}
+    }
+
+    /// SR1 at each interrupt of a register read with its pointer: SB, ADDR, BTF after the
+    /// pointer, SB of the repeated START, ADDR, BTF with both bytes in.
+    const POINTED_READ: [u16; 6] = [
+        i2c::Sr1::SB,
+        i2c::Sr1::ADDR | i2c::Sr1::TXE,
+        i2c::Sr1::BTF | i2c::Sr1::TXE,
+        i2c::Sr1::SB,
+        i2c::Sr1::ADDR,
+        i2c::Sr1::BTF | i2c::Sr1::RXNE,
+    ];
+    /// The short read (no pointer byte): SB, ADDR, BTF.
+    const SHORT_READ: [u16; 3] = [i2c::Sr1::SB, i2c::Sr1::ADDR, i2c::Sr1::BTF | i2c::Sr1::RXNE];
+
+    /// One transfer through the handler: begin, one handler run per scripted event, the end.
+    fn replay_read(
+        master: &mut i2c::Master,
+        transfer: i2c::Transfer,
+        sr1: &'static [u16],
+        rx: [u8; 2],
+    ) -> Option<[u8; 2]> {
+        let mut regs = Replay::new(sr1, rx);
+        master.begin(&mut regs, transfer).ok()?;
+        for _ in 0..sr1.len() {
+            master.on_interrupt(&mut regs);
+        }
+        match master.poll(core::task::Waker::noop()) {
+            core::task::Poll::Ready(Ok(received)) => {
+                let mut out = [0u8; 2];
+                out.copy_from_slice(received.bytes());
+                Some(out)
+            }
+            _ => None,
+        }
+    }
+
+    /// A chip's reads in one sample: the short read, then the other register with its pointer.
+    fn chip_reads(master: &mut i2c::Master, k: u32) -> Option<([u8; 2], [u8; 2])> {
+        let mut buf = [0u8; 2];
+        let short = i2c::Transfer::new(0x40, &[Operation::Read(&mut buf)]).ok()?;
+        let pointed = i2c::Transfer::new(
+            0x40,
+            &[Operation::Write(&[0x02]), Operation::Read(&mut buf)],
+        )
+        .ok()?;
+        let [hi, lo] = (k as u16).to_be_bytes();
+        let first = replay_read(master, short, &SHORT_READ, [hi, lo])?;
+        let second = replay_read(master, pointed, &POINTED_READ, [lo, hi])?;
+        Some((first, second))
+    }
+
+    fn i2c_checks(c: &mut Checks) {
+        let mut master = i2c::Master::new();
+        let reads = chip_reads(&mut master, 0x4B00);
+        c.check(
+            "I2C handler: short read and pointed read end with the right bytes",
+            reads == Some(([0x4B, 0x00], [0x00, 0x4B])) && !master.busy(),
+            format_args!("{reads:?}"),
+        );
+    }
+
+    /// The interrupt handler's work for one chip per sample (a short read and a pointed read:
+    /// 9 handler runs), register accesses as plain memory.
+    fn bench_i2c() -> u32 {
+        let mut master = i2c::Master::new();
+        let mut ok = 0;
+        bench_i2c_begin();
+        for k in 0..K {
+            ok += u32::from(black_box(chip_reads(&mut master, k)).is_some());
+        }
+        bench_i2c_end();
+        ok
+    }
+
     /// The board's calibration register (5 mΩ, 0.5 mA LSB).
     const BOARD_CAL: CalibrationRaw = CalibrationRaw(2048);
 
@@ -432,6 +571,7 @@ mod target {
         kinematics_checks(&mut c);
         energy_checks(&mut c);
         wire_checks(&mut c);
+        i2c_checks(&mut c);
         hprintln!("{} of {} checks passed", c.total - c.failed, c.total);
         if c.failed != 0 {
             debug::exit(debug::EXIT_FAILURE);
@@ -453,6 +593,8 @@ mod target {
             m.total_energy_lsb_us()
         );
         bench_inputs_only();
+        let ok = bench_i2c();
+        hprintln!("bench I2C handler:   K = {}, {} chip-samples read", K, ok);
 
         debug::exit(debug::EXIT_SUCCESS);
         loop {

@@ -1,5 +1,5 @@
 use super::*;
-use embedded_hal::i2c::{ErrorKind, ErrorType, Operation};
+use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, Operation};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;

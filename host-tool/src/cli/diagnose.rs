@@ -181,9 +181,7 @@ impl DiagnoseArgs {
         }
         let mut rows = Vec::new();
         for path in &self.runs {
-            rows.extend(
-                path_table::load_path_table(path).with_context(|| path.display().to_string())?,
-            );
+            rows.extend(path_table::load_path_table(path)?);
         }
         let model = path_table::hard_ground_for(rover);
         let diagnosis = path_table::diagnose_path_table(&model, &rows)?;

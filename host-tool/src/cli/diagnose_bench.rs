@@ -4,8 +4,9 @@ use super::output::{self, JsonOut};
 use anyhow::Context;
 use anyhow::Result;
 use host_tool::diagnose::bench::{
-    dump::dump_dataset, generate_all, run_bench, BenchOptions, PartChoice,
+    dump::dump_dataset, generate_all, run::explain, run_bench, BenchOptions, PartChoice,
 };
+use host_tool::diagnose::report;
 use host_tool::log::run_csv::CURRENT_A_MAX;
 use std::path::{Path, PathBuf};
 
@@ -42,6 +43,12 @@ pub struct DiagnoseBenchArgs {
     /// With --dump: only the dataset of this index (the `index` of the --json report).
     #[arg(long, value_name = "INDEX", requires = "dump")]
     only: Option<usize>,
+    /// Instead of running the bench, diagnose the dataset of this index (of `--part`, which
+    /// must then be `tuning` or `held-out`) as the bench does and print its spec, its truth and
+    /// the whole report `diagnose` would print (also for datasets `--dump` cannot hand to
+    /// `diagnose`: the Argo J5's currents beyond the board's range).
+    #[arg(long, value_name = "INDEX", conflicts_with_all = ["dump", "json"])]
+    explain: Option<usize>,
 }
 
 /// `--part` values.
@@ -70,12 +77,40 @@ impl DiagnoseBenchArgs {
         if let Some(dir) = &self.dump {
             return dump(&options, dir, self.only);
         }
+        if let Some(index) = self.explain {
+            return explain_one(&options, index);
+        }
         let report = run_bench(&options);
         if !self.json.emit(&report, "bench", self.force)? {
             output::print(&report)?;
         }
         Ok(())
     }
+}
+
+/// `--explain INDEX`: one dataset's spec, truth and diagnosis report.
+fn explain_one(options: &BenchOptions, index: usize) -> Result<()> {
+    anyhow::ensure!(
+        !matches!(options.part, PartChoice::Both),
+        "--explain needs --part tuning or --part held-out (each part has its own indices)"
+    );
+    let spec = generate_all(options)
+        .into_iter()
+        .find(|s| s.index == index)
+        .with_context(|| format!("no dataset has index {index}"))?;
+    let (truth, diagnosis) =
+        explain(&spec, options.poses).with_context(|| format!("dataset {index}"))?;
+    let mut text = format!(
+        "dataset {}-{}: {} ({})\nspec: {}\ntruth: {}\n\n",
+        spec.part.id(),
+        spec.index,
+        spec.class.label(),
+        spec.structure_label,
+        serde_json::to_string(&spec)?,
+        serde_json::to_string(&truth)?,
+    );
+    text.push_str(&report::table(&diagnosis).to_string());
+    output::print(text)
 }
 
 /// `--dump DIR [--only INDEX]`: each chosen dataset into its own directory under `dir`.

@@ -143,13 +143,14 @@ pub fn skid_feature_mps(row: &TurnRow, side: usize) -> f64 {
     }
 }
 
-/// (P/V)², the copper-loss regressor of a side drawing motor power `motor_w` at its commanded
-/// speed: the square of its traction force, ∝ torque² ∝ motor current² (Eq 1.18–1.19: I²R
-/// depends on the torque, not on the speed) [N²]; 0 for a side (nearly) at rest.
-fn copper_regressor(motor_w: f64, row: &TurnRow, side: usize) -> f64 {
+/// F², the copper-loss regressor of a side of `b`: the square of its traction force P/V, ∝
+/// torque² ∝ motor current² (Eq 1.18–1.19: I²R depends on the torque, not on the speed) [N²]; 0
+/// for a side commanded (nearly) still: at R ≈ R′ the inner tread sits at its ICR and slides
+/// lengthwise hardly at all, so it carries no longitudinal force (ICR kinematics, Eq 2.2).
+fn copper_regressor(b: &Baseline, row: &TurnRow, side: usize) -> f64 {
     let v = row.sides[side].cmd_mps.abs();
     if v > MIN_FORCE_SPEED_MPS {
-        (motor_w / v).powi(2)
+        (b.shaft_power_w(plain_regressors(row, side)) / v).powi(2)
     } else {
         0.0
     }
@@ -195,7 +196,7 @@ fn current_regressors(prev: Option<&Baseline>, row: &TurnRow, side: usize) -> [f
     [
         x[0] * scale,
         x[1] * scale,
-        copper_regressor(prev.shaft_power_w(x), row, side),
+        copper_regressor(prev, row, side),
     ]
 }
 
@@ -253,7 +254,15 @@ impl Baseline {
             rows: calibration.len(),
         };
         let mut current = Baseline::with_parameters(rover, structure, [0.0; 3]);
-        let iterations = if structure == Structure::PLAIN { 1 } else { 4 };
+        // The copper regressor comes from the previous fit: a fixed point that needs more
+        // passes than the clamp to settle below the repeat noise (4 left ~0.3 W of lack of fit).
+        let iterations = match structure {
+            Structure::PLAIN => 1,
+            Structure {
+                copper_loss: true, ..
+            } => 12,
+            _ => 4,
+        };
         let mut solved = None;
         for i in 0..iterations {
             // The first pass fits the unclamped, copper-free regressors.
@@ -347,11 +356,10 @@ impl Baseline {
     /// The model's power of one side of `row` [W]: motor power, copper loss and the side's
     /// measured standstill draw ([`quiescent_draw_w`]).
     pub fn side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
-        let x = plain_regressors(row, side);
         // Copper loss follows the torque, which a generating side has too, whatever the
         // driver does with the generated power.
         self.motor_power_w(row, side)
-            + self.copper_w_per_n2 * copper_regressor(self.shaft_power_w(x), row, side)
+            + self.copper_w_per_n2 * copper_regressor(self, row, side)
             + quiescent_draw_w(row, side)
     }
 

@@ -26,6 +26,7 @@ use super::baseline::Baseline;
 use super::features::{SideRole, TurnRow};
 use super::observe;
 use crate::effect_id::EffectId;
+use model_core::fit::{LinearFit, RankTest};
 use model_core::power::GRAVITY_M_S2;
 use model_core::Rover;
 use serde::Serialize;
@@ -241,56 +242,21 @@ pub struct EffectFitError {
     pub reason: String,
 }
 
-/// Least squares by Givens rotations for a column count known at run time; `None` when the
-/// columns are (numerically) dependent or there are fewer rows than columns.
+/// Most columns of a joint fit: every catalogue effect with its most parameters.
+pub const MAX_COLUMNS: usize = EffectId::COUNT * MAX_PARAMS;
+
+/// Least squares (`model_core::fit::LinearFit`) for a column count known at run time (at most
+/// [`MAX_COLUMNS`]): the coefficients and the residual sum of squares; `None` when the columns
+/// are (numerically) dependent or there are fewer rows than columns.
 pub fn least_squares(rows: &[(Vec<f64>, f64)]) -> Option<(Vec<f64>, f64)> {
     let k = rows.first()?.0.len();
-    if k == 0 || rows.len() < k {
-        return None;
-    }
-    let mut r = vec![vec![0.0f64; k]; k];
-    let mut qty = vec![0.0f64; k];
-    let mut ssr = 0.0;
-    let mut col_norm = vec![0.0f64; k];
+    let mut fit = LinearFit::<MAX_COLUMNS>::with_columns(k).ok()?;
     for (x, y) in rows {
-        let (mut row, mut rhs) = (x.clone(), *y);
-        for (n, v) in col_norm.iter_mut().zip(x) {
-            *n += v * v;
-        }
-        for i in 0..k {
-            let xi = row[i];
-            if xi == 0.0 {
-                continue;
-            }
-            let h = r[i][i].hypot(xi);
-            let (c, s) = (r[i][i] / h, xi / h);
-            r[i][i] = h;
-            for j in (i + 1)..k {
-                let (rij, xj) = (r[i][j], row[j]);
-                r[i][j] = c * rij + s * xj;
-                row[j] = c * xj - s * rij;
-            }
-            let zi = qty[i];
-            qty[i] = c * zi + s * rhs;
-            rhs = c * rhs - s * zi;
-        }
-        ssr += rhs * rhs;
+        fit.add_row(x, *y).ok()?;
     }
     // A column whose pivot is a tiny fraction of its norm is a combination of the others.
-    for i in 0..k {
-        if r[i][i].is_nan() || r[i][i] <= 1e-7 * col_norm[i].sqrt() {
-            return None;
-        }
-    }
-    let mut b = vec![0.0; k];
-    for i in (0..k).rev() {
-        let mut acc = qty[i];
-        for j in (i + 1)..k {
-            acc -= r[i][j] * b[j];
-        }
-        b[i] = acc / r[i][i];
-    }
-    b.iter().all(|v| v.is_finite()).then_some((b, ssr))
+    let b = fit.coefficients_with(RankTest::RelativePivot(1e-7)).ok()?;
+    Some((b[..k].to_vec(), fit.residual_sum_of_squares()))
 }
 
 impl FittedModel {

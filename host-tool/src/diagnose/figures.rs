@@ -13,6 +13,11 @@ use model_core::Rover;
 /// Horizontal offset of the before/after points of one turn in the residual figure (R/R′).
 pub const DODGE: f64 = 0.025;
 
+/// The panel of one side against R/R′, titled by the side.
+fn side_chart(role: SideRole, y_label: &str) -> Chart {
+    Chart::new(format!("{} side", role.id()), "R / R′", y_label)
+}
+
 /// Markers at R = B/2 and R = R′ (R/R′ axis).
 fn regime_markers(rover: &Rover) -> Vec<Marker> {
     let r_prime = f64::from(rover.r_prime_m());
@@ -118,11 +123,7 @@ pub fn residuals_vs_radius(
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
         .map(|role| {
-            let mut chart = Chart::new(
-                format!("{} side", role.id()),
-                "R / R′",
-                "held-out residual, measured − model [W]",
-            );
+            let mut chart = side_chart(role, "held-out residual, measured − model [W]");
             // Before and after are dodged by ∓DODGE in R/R′ so that equal residuals (where the
             // effect adds nothing) stay visible.
             let points = |res: &HeldOut, dx: f64| {
@@ -171,11 +172,7 @@ pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow], phases: &[GroupStat]) -
     let charts = [SideRole::Inner, SideRole::Outer]
         .into_iter()
         .map(|role| {
-            let mut chart = Chart::new(
-                format!("{} side", role.id()),
-                "R / R′",
-                "growth through the turn [W]",
-            );
+            let mut chart = side_chart(role, "growth through the turn [W]");
             let measured = rows
                 .iter()
                 .filter(|r| !r.is_straight())

@@ -244,6 +244,9 @@ pub fn diagnose_with(
     // the residuals' spread out of sample, which cross-validation itself tests.
     let selected = match select(&candidates) {
         Some(e) => Some(e),
+        None if admission.offset_measured && measured_offset_helps(&candidates) => {
+            Some(EffectId::CurrentOffset)
+        }
         None if !significant_gaps.regimes.is_empty() => select_where_the_gap_is(
             rover,
             rows,
@@ -363,6 +366,9 @@ fn schemes(rows: &[TurnRow]) -> (Scheme, Scheme) {
 struct Admission {
     heating_identifiable: bool,
     offset_seen: bool,
+    /// A standstill current beyond a driver's quiescent draw was measured (not merely
+    /// unknown): the offset is then observed directly, as in the seed's Fig. 3.3.
+    offset_measured: bool,
 }
 
 impl Admission {
@@ -396,6 +402,7 @@ impl Admission {
         let admission = Self {
             heating_identifiable,
             offset_seen,
+            offset_measured: offset_measured_at_standstill(rows),
         };
         (admission, notes)
     }
@@ -497,14 +504,24 @@ fn scope_of(
 /// the drivers' quiescent draw ([`baseline::QUIESCENT_MAX_A`]), or no run has standstill
 /// samples (a per-turn summary, runs without pauses) so it cannot be ruled out.
 fn offset_seen_at_standstill(rows: &[TurnRow]) -> bool {
-    let mut known = rows
-        .iter()
-        .filter_map(|r| r.standstill_current_a)
-        .peekable();
-    known.peek().is_none()
-        || known.any(|s| {
-            s.left.abs() > baseline::QUIESCENT_MAX_A || s.right.abs() > baseline::QUIESCENT_MAX_A
-        })
+    rows.iter().all(|r| r.standstill_current_a.is_none()) || offset_measured_at_standstill(rows)
+}
+
+/// Whether some run's standstill current exceeds a driver's quiescent draw on a side.
+fn offset_measured_at_standstill(rows: &[TurnRow]) -> bool {
+    rows.iter().filter_map(|r| r.standstill_current_a).any(|s| {
+        s.left.abs() > baseline::QUIESCENT_MAX_A || s.right.abs() > baseline::QUIESCENT_MAX_A
+    })
+}
+
+/// With the offset measured at standstill, `current-offset` needs no clear margin over the
+/// other candidates: it is named when it is the best of them out of sample and closes part of
+/// the held-out error. At one v_c the turns cannot show it apart (G·|V| absorbs a constant per
+/// side except where a side stands still, at R′), but the standstill samples show it directly.
+fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
+    candidates
+        .first()
+        .is_some_and(|c| c.effect == EffectId::CurrentOffset && c.shrink_pct > 0.0)
 }
 
 /// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its

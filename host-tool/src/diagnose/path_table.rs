@@ -21,14 +21,16 @@
 //! error without Akaike's factor (see [`diagnose_path_table`]).
 
 use super::verdict::{Scope, Verdict};
+use crate::csv_table::{content_lines, csv_header, RowError};
 use crate::effect_id::EffectId;
+use crate::file_error::{read_bytes_and_parse, FileError};
 use crate::plan::{EnergyModel, ModelLaw};
 use model_core::kinematics::{Regime, RegimeBounds};
 use model_core::paths::{ClcEnds, ClcPath, SegmentEnergy};
 use model_core::Rover;
 use serde::Serialize;
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The header of a path table; the last column is optional.
 pub const PATH_TABLE_COLUMNS: [&str; 7] = [
@@ -72,15 +74,6 @@ pub struct PathRow {
 /// What is wrong with a path table.
 #[derive(Debug, thiserror::Error)]
 pub enum PathTableError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
     /// Not UTF-8.
     #[error("not UTF-8 text")]
     NotUtf8,
@@ -92,30 +85,9 @@ pub enum PathTableError {
         /// As written.
         found: String,
     },
-    /// A row with a different number of cells than the header.
-    #[error("line {line}: row has {found} cells, the header has {expected}")]
-    CellCount {
-        /// The line.
-        line: usize,
-        /// Cells found.
-        found: usize,
-        /// Cells in the header.
-        expected: usize,
-    },
-    /// A cell that is not a valid value for its column.
-    #[error("line {line}, column {column} ({name}): `{value}` {problem}")]
-    Cell {
-        /// The line.
-        line: usize,
-        /// 1-based column.
-        column: usize,
-        /// The column's name.
-        name: &'static str,
-        /// The cell as written.
-        value: String,
-        /// What is wrong.
-        problem: &'static str,
-    },
+    /// A row that does not parse.
+    #[error(transparent)]
+    Row(#[from] RowError),
     /// A slice whose lower bound is not below its upper bound.
     #[error("line {line}: slice {lo} – {hi} of R/R' is empty (r_lo_over_r_prime must be < r_hi_over_r_prime)")]
     EmptySlice {
@@ -140,14 +112,6 @@ pub enum PathTableError {
     /// Fewer than three slices: nothing to hold out against.
     #[error("{0} slices: leave-one-slice-out needs at least 3")]
     TooFewRows(usize),
-}
-
-/// Splits `text` into (line number, trimmed line) without blanks and `#` comments.
-fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
-    text.lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim().trim_start_matches('\u{feff}')))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
 /// Whether `header`'s cells are the path table's six or seven columns, in order.
@@ -175,18 +139,21 @@ pub fn parse_path_table(text: &str) -> Result<Vec<PathRow>, PathTableError> {
     for (line, text) in lines {
         let cells: Vec<&str> = text.split(',').map(str::trim).collect();
         if cells.len() != columns {
-            return Err(PathTableError::CellCount {
+            return Err(RowError::CellCount {
                 line,
                 found: cells.len(),
                 expected: columns,
-            });
+            }
+            .into());
         }
-        let bad = |k: usize, problem: &'static str| PathTableError::Cell {
-            line,
-            column: k + 1,
-            name: PATH_TABLE_COLUMNS[k],
-            value: cells[k].to_owned(),
-            problem,
+        let bad = |k: usize, problem: &'static str| {
+            PathTableError::from(RowError::Cell {
+                line,
+                column: k + 1,
+                name: PATH_TABLE_COLUMNS[k],
+                value: cells[k].to_owned(),
+                problem,
+            })
         };
         let number = |k: usize| match cells[k].parse::<f64>() {
             Ok(x) if x.is_finite() => Ok(x),
@@ -228,35 +195,16 @@ pub fn parse_path_table(text: &str) -> Result<Vec<PathRow>, PathTableError> {
     Ok(rows)
 }
 
-/// Reads and parses the path table at `path`.
-pub fn load_path_table(path: &Path) -> Result<Vec<PathRow>, PathTableError> {
-    let bytes = std::fs::read(path).map_err(|source| PathTableError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let text = std::str::from_utf8(&bytes).map_err(|_| PathTableError::NotUtf8)?;
-    parse_path_table(text)
+/// Reads and parses the path table at `path`; an error names the file.
+pub fn load_path_table(path: &Path) -> Result<Vec<PathRow>, FileError<PathTableError>> {
+    read_bytes_and_parse(path, |bytes| {
+        parse_path_table(std::str::from_utf8(bytes).map_err(|_| PathTableError::NotUtf8)?)
+    })
 }
 
 /// Whether `path` is a path table: a `.csv` whose first content line is its header.
 pub fn is_path_table_file(path: &Path) -> bool {
-    use std::io::BufRead;
-    if !path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
-    {
-        return false;
-    }
-    let Ok(file) = std::fs::File::open(path) else {
-        return false;
-    };
-    let header = std::io::BufReader::new(file)
-        .lines()
-        .take(64)
-        .map_while(Result::ok)
-        .map(|l| l.trim().trim_start_matches('\u{feff}').to_owned())
-        .find(|l| !l.is_empty() && !l.starts_with('#'));
-    header.is_some_and(|h| h.starts_with("start_deg,") && h.contains("delta_e_pct"))
+    csv_header(path).is_some_and(|h| h.starts_with("start_deg,") && h.contains("delta_e_pct"))
 }
 
 /// The hard-ground model of `rover` for a path table without calibration runs: paper Table 2's

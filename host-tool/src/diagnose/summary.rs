@@ -19,10 +19,12 @@
 //! slip are invisible), and the whole file is one "run", so only leave-one-radius-out applies.
 
 use super::features::{Observed, SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
+use crate::csv_table::{content_lines, csv_header, RowError};
+use crate::file_error::{read_bytes_and_parse, FileError};
 use model_core::kinematics::{self, Regime, RegimeBounds, TurnDirection};
 use model_core::Rover;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// v_c assumed when the file does not give one (seed Section 4.1 and every seed experiment) [m/s].
 pub const DEFAULT_V_C_MPS: f64 = 0.3;
@@ -50,15 +52,6 @@ pub struct SummaryRow {
 /// What is wrong with a summary file.
 #[derive(Debug, thiserror::Error)]
 pub enum SummaryError {
-    /// The file could not be read.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
     /// A line is not UTF-8.
     #[error("line {line}: not UTF-8 text")]
     NotUtf8 {
@@ -96,30 +89,9 @@ pub enum SummaryError {
         /// The column.
         name: &'static str,
     },
-    /// A row with a different number of cells than the header.
-    #[error("line {line}: row has {found} cells, the header has {expected}")]
-    CellCount {
-        /// The line.
-        line: usize,
-        /// Cells found.
-        found: usize,
-        /// Cells in the header.
-        expected: usize,
-    },
-    /// A cell that is not a valid value for its column.
-    #[error("line {line}, column {column} ({name}): `{value}` {problem}")]
-    Cell {
-        /// The line.
-        line: usize,
-        /// 1-based column.
-        column: usize,
-        /// The column's name.
-        name: &'static str,
-        /// The cell as written.
-        value: String,
-        /// What is wrong.
-        problem: &'static str,
-    },
+    /// A row that does not parse.
+    #[error(transparent)]
+    Row(#[from] RowError),
     /// A header and no row.
     #[error("no rows after the header")]
     NoRows,
@@ -139,22 +111,14 @@ pub fn parse_summary_bytes(bytes: &[u8]) -> Result<Vec<SummaryRow>, SummaryError
     }
 }
 
-/// Reads and parses the summary at `path`.
-pub fn load_summary(path: &Path) -> Result<Vec<SummaryRow>, SummaryError> {
-    let bytes = std::fs::read(path).map_err(|source| SummaryError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse_summary_bytes(&bytes)
+/// Reads and parses the summary at `path`; an error names the file.
+pub fn load_summary(path: &Path) -> Result<Vec<SummaryRow>, FileError<SummaryError>> {
+    read_bytes_and_parse(path, parse_summary_bytes)
 }
 
 /// Parses a summary's text (see the module doc).
 pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let mut lines = content_lines(text);
     let (header_line, header) = lines.next().ok_or(SummaryError::NoHeader)?;
     // Column index in the file of each of SUMMARY_COLUMNS.
     let mut index: [Option<usize>; 4] = [None; 4];
@@ -187,22 +151,23 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
     for (line, text) in lines {
         let cells: Vec<&str> = text.split(',').map(str::trim).collect();
         if cells.len() != names.len() {
-            return Err(SummaryError::CellCount {
+            return Err(RowError::CellCount {
                 line,
                 found: cells.len(),
                 expected: names.len(),
-            });
+            }
+            .into());
         }
         let cell = |c: usize| index[c].map(|k| (k, cells[k]));
         let bad = |c: usize, problem: &'static str| {
             let (k, v) = cell(c).unwrap_or((0, ""));
-            SummaryError::Cell {
+            SummaryError::from(RowError::Cell {
                 line,
                 column: k + 1,
                 name: SUMMARY_COLUMNS[c],
                 value: v.to_owned(),
                 problem,
-            }
+            })
         };
         let number = |c: usize| -> Result<Option<f64>, SummaryError> {
             match cell(c) {
@@ -259,27 +224,8 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
 /// that is neither blank nor a `#` comment names both `radius_m` and `avg_power_w`. Unreadable
 /// files are not summaries (loading them as runs reports the error).
 pub fn is_summary_file(path: &Path) -> bool {
-    use std::io::BufRead;
-    if !path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
-    {
-        return false;
-    }
-    let Ok(file) = std::fs::File::open(path) else {
-        return false;
-    };
-    let header = std::io::BufReader::new(file)
-        .lines()
-        .take(64)
-        .map_while(Result::ok)
-        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-    header.is_some_and(|h| {
-        let columns: Vec<&str> = h
-            .trim_start_matches('\u{feff}')
-            .split(',')
-            .map(str::trim)
-            .collect();
+    csv_header(path).is_some_and(|h| {
+        let columns: Vec<&str> = h.split(',').map(str::trim).collect();
         columns.contains(&"radius_m") && columns.contains(&"avg_power_w")
     })
 }

@@ -26,6 +26,20 @@ pub struct CommandRow {
     pub y_m: Option<f64>,
 }
 
+impl CommandRow {
+    /// Side speeds from `t_s` on, without a tracked pose.
+    pub fn new(t_s: f64, cmd_mps: Sides<f64>) -> Self {
+        Self {
+            t_s,
+            cmd_mps,
+            yaw_rad: None,
+            pitch_deg: None,
+            x_m: None,
+            y_m: None,
+        }
+    }
+}
+
 /// The columns of a commands CSV, in the order this tool writes them; the first three are
 /// required. They are the run CSV's columns of the same names (same units and signs).
 pub const COMMAND_COLUMNS: [Column; 7] = [
@@ -196,14 +210,7 @@ mod tests {
     }
 
     fn row(t_s: f64, left: f64, right: f64) -> CommandRow {
-        CommandRow {
-            t_s,
-            cmd_mps: Sides::new(left, right),
-            yaw_rad: None,
-            pitch_deg: None,
-            x_m: None,
-            y_m: None,
-        }
+        CommandRow::new(t_s, Sides::new(left, right))
     }
 
     #[test]

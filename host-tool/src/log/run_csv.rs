@@ -58,6 +58,20 @@ pub struct RunSample {
 }
 
 impl RunSample {
+    /// A sample of the required cells only: no yaw, pitch or tracked position.
+    pub fn new(t_s: f64, bus_v: Sides<f64>, current_a: Sides<f64>, cmd_mps: Sides<f64>) -> Self {
+        Self {
+            t_s,
+            bus_v,
+            current_a,
+            cmd_mps,
+            yaw_rad: None,
+            pitch_deg: None,
+            x_m: None,
+            y_m: None,
+        }
+    }
+
     /// The required cells' values in column order: t, bus V and current per side, commanded
     /// speed per side.
     pub fn required_values(&self) -> [f64; 7] {

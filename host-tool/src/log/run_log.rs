@@ -38,6 +38,23 @@ pub enum LogEvent {
     WallClock { unix_ns: u64 },
 }
 
+impl LogEvent {
+    /// A one-word name of the event's kind (`started`, `vanished`, `reconnected`, `lost`, `bad`,
+    /// `reset`, `stopped`, `clock`), for summaries and checks of a run's event sequence.
+    pub fn short_name(&self) -> &'static str {
+        match self {
+            LogEvent::Started { .. } => "started",
+            LogEvent::DeviceVanished { .. } => "vanished",
+            LogEvent::Reconnected { .. } => "reconnected",
+            LogEvent::SamplesLost { .. } => "lost",
+            LogEvent::BadFrames { .. } => "bad",
+            LogEvent::BoardReset => "reset",
+            LogEvent::Stopped { .. } => "stopped",
+            LogEvent::WallClock { .. } => "clock",
+        }
+    }
+}
+
 /// A whole recorded run in memory, as read back from any log format.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunLog {

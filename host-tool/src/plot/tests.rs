@@ -82,30 +82,27 @@ fn svg_texts(svg: &str) -> Vec<String> {
         .collect()
 }
 
-/// The `<polyline>` elements stroked in `rgb`.
-fn polylines_in(svg: &str, rgb: (u8, u8, u8)) -> usize {
-    let stroke = format!("stroke=\"#{:02X}{:02X}{:02X}\"", rgb.0, rgb.1, rgb.2);
-    svg.split("<polyline")
+/// The `<tag>` elements whose `attr` (`stroke` or `fill`) is `rgb`.
+fn elements_in(svg: &str, tag: &str, attr: &str, rgb: (u8, u8, u8)) -> usize {
+    let colour = format!("{attr}=\"#{:02X}{:02X}{:02X}\"", rgb.0, rgb.1, rgb.2);
+    svg.split(&format!("<{tag}"))
         .skip(1)
         .filter(|p| {
             p.split('>')
                 .next()
-                .is_some_and(|attrs| attrs.contains(&stroke))
+                .is_some_and(|attrs| attrs.contains(&colour))
         })
         .count()
 }
 
+/// The `<polyline>` elements stroked in `rgb`.
+fn polylines_in(svg: &str, rgb: (u8, u8, u8)) -> usize {
+    elements_in(svg, "polyline", "stroke", rgb)
+}
+
 /// The `<circle>` elements filled with `rgb`.
 fn circles_in(svg: &str, rgb: (u8, u8, u8)) -> usize {
-    let fill = format!("fill=\"#{:02X}{:02X}{:02X}\"", rgb.0, rgb.1, rgb.2);
-    svg.split("<circle")
-        .skip(1)
-        .filter(|p| {
-            p.split('>')
-                .next()
-                .is_some_and(|attrs| attrs.contains(&fill))
-        })
-        .count()
+    elements_in(svg, "circle", "fill", rgb)
 }
 
 struct Decoded {

@@ -1,10 +1,11 @@
 use super::*;
-use crate::log::run_log::RunLog;
+use crate::log::run_log::{LogEvent, RunLog};
 use firmware::sampler::{Sampler, SamplerConfig};
 use model_core::energy::RunningMeasurements;
 use model_core::ina226::{BusVoltageRaw, CurrentRaw, PowerRaw, Registers, ShuntVoltageRaw};
-use model_core::wire::{ChipReading, Model};
+use model_core::wire::{BoardFrame, ChipReading, HostFrame, Model, Sample};
 use std::collections::VecDeque;
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
 /// A port that hands out scripted chunks, then reports end of file (the device vanished), and
@@ -62,6 +63,20 @@ fn regs(current: i16, power: u16) -> Registers {
     }
 }
 
+/// Feeds `sample` to the board's measurements and appends its frame, and a model frame after
+/// every 20th sample, as the firmware sends them.
+fn push_sample(frames: &mut Vec<BoardFrame>, board: &mut RunningMeasurements, sample: Sample) {
+    board.update(sample.t_us, sample.chips.map(|c| c.registers()));
+    frames.push(BoardFrame::Sample(sample));
+    if sample.seq % 20 == 19 {
+        frames.push(BoardFrame::Model(Model {
+            t_us: sample.t_us,
+            seq: sample.seq,
+            snapshot: board.snapshot(),
+        }));
+    }
+}
+
 /// A board's stream: hello, then `n` samples from `t0_us` every 5 ms with model frames every
 /// 20 samples, as the firmware's measurements see them. Returns the bytes and the board's
 /// measurements after the last sample.
@@ -78,15 +93,7 @@ fn board_stream(t0_us: u64, n: u32, failed_right: &[u32]) -> (Vec<u8>, RunningMe
             ChipReading::Fresh(regs(-2_000 + seq as i16, 400))
         };
         let chips = Sides::new(ChipReading::Fresh(regs(4_000, 3_920 + seq as u16)), right);
-        board.update(t_us, chips.map(|c| c.registers()));
-        frames.push(BoardFrame::Sample(Sample { t_us, seq, chips }));
-        if seq % 20 == 19 {
-            frames.push(BoardFrame::Model(Model {
-                t_us,
-                seq,
-                snapshot: board.snapshot(),
-            }));
-        }
+        push_sample(&mut frames, &mut board, Sample { t_us, seq, chips });
     }
     (encode_all(&frames), board)
 }
@@ -136,16 +143,7 @@ fn record_ports(
 fn kinds(log: &RunLog) -> Vec<&'static str> {
     log.events
         .iter()
-        .map(|(_, e)| match e {
-            LogEvent::Started { .. } => "started",
-            LogEvent::DeviceVanished { .. } => "vanished",
-            LogEvent::Reconnected { .. } => "reconnected",
-            LogEvent::SamplesLost { .. } => "lost",
-            LogEvent::BadFrames { .. } => "bad",
-            LogEvent::BoardReset => "reset",
-            LogEvent::Stopped { .. } => "stopped",
-            LogEvent::WallClock { .. } => "clock",
-        })
+        .map(|(_, e)| e.short_name())
         .filter(|kind| *kind != "clock")
         .collect()
 }
@@ -452,15 +450,7 @@ fn stream_with_reported_rates(n: u32, changes: &[(u32, Sides<f64>)]) -> Vec<u8> 
             ChipReading::Fresh(regs(4_000, 3_920)),
             ChipReading::Fresh(regs(-2_000, 400)),
         );
-        board.update(t_us, chips.map(|c| c.registers()));
-        frames.push(BoardFrame::Sample(Sample { t_us, seq, chips }));
-        if seq % 20 == 19 {
-            frames.push(BoardFrame::Model(Model {
-                t_us,
-                seq,
-                snapshot: board.snapshot(),
-            }));
-        }
+        push_sample(&mut frames, &mut board, Sample { t_us, seq, chips });
     }
     encode_all(&frames)
 }

@@ -115,19 +115,17 @@ fn a_recordings_commands_travel_as_the_boards_status_reports() {
 #[test]
 fn csv_samples_replay_with_their_commanded_speeds() {
     let samples: Vec<RunSample> = (0..400)
-        .map(|i| RunSample {
-            t_s: f64::from(i) * 0.005,
-            bus_v: Sides::new(24.0, 24.0),
-            current_a: Sides::new(2.0, 3.0),
-            cmd_mps: if i < 200 {
-                Sides::new(0.0, 0.0)
-            } else {
-                Sides::new(-0.3, 0.3)
-            },
-            yaw_rad: None,
-            pitch_deg: None,
-            x_m: None,
-            y_m: None,
+        .map(|i| {
+            RunSample::new(
+                f64::from(i) * 0.005,
+                Sides::new(24.0, 24.0),
+                Sides::new(2.0, 3.0),
+                if i < 200 {
+                    Sides::new(0.0, 0.0)
+                } else {
+                    Sides::new(-0.3, 0.3)
+                },
+            )
         })
         .collect();
     let frames = synthesise_frames(&samples, Some(&Rover::HUSKY_A200));
@@ -167,16 +165,12 @@ fn csv_samples_replay_as_frames_within_quantisation() {
     let samples: Vec<RunSample> = (0..300)
         .map(|i| {
             let t = f64::from(i) * 0.01;
-            RunSample {
-                t_s: 2.0 + t,
-                bus_v: Sides::new(24.6 - 0.1 * t, 24.5),
-                current_a: Sides::new(3.0 * (t * 2.0).sin(), 5.123_456),
-                cmd_mps: Sides::new(0.4, 0.6),
-                yaw_rad: None,
-                pitch_deg: None,
-                x_m: None,
-                y_m: None,
-            }
+            RunSample::new(
+                2.0 + t,
+                Sides::new(24.6 - 0.1 * t, 24.5),
+                Sides::new(3.0 * (t * 2.0).sin(), 5.123_456),
+                Sides::new(0.4, 0.6),
+            )
         })
         .collect();
     let run = RunLog {
@@ -228,15 +222,13 @@ fn csv_samples_replay_as_frames_within_quantisation() {
 #[test]
 fn synthesised_model_frames_match_the_hosts_recomputation() {
     let samples: Vec<RunSample> = (0..1000)
-        .map(|i| RunSample {
-            t_s: f64::from(i) * 0.005,
-            bus_v: Sides::new(24.0, 23.9),
-            current_a: Sides::new(2.5, -1.25),
-            cmd_mps: Sides::new(0.0, 0.0),
-            yaw_rad: None,
-            pitch_deg: None,
-            x_m: None,
-            y_m: None,
+        .map(|i| {
+            RunSample::new(
+                f64::from(i) * 0.005,
+                Sides::new(24.0, 23.9),
+                Sides::new(2.5, -1.25),
+                Sides::new(0.0, 0.0),
+            )
         })
         .collect();
     let frames = frames_of(

@@ -246,25 +246,16 @@ impl<'a> CrossChecker<'a> {
                 None
             }
         };
-        let dp = Sides::new(
-            diff(
-                host.power_lsb.left.map(f64::from),
-                board.power_lsb.left.map(f64::from),
-            ),
-            diff(
-                host.power_lsb.right.map(f64::from),
-                board.power_lsb.right.map(f64::from),
-            ),
+        let mut diff_sides = |h: Sides<Option<f64>>, b: Sides<Option<f64>>| {
+            Sides::new(diff(h.left, b.left), diff(h.right, b.right))
+        };
+        let dp = diff_sides(
+            host.power_lsb.map(|p| p.map(f64::from)),
+            board.power_lsb.map(|p| p.map(f64::from)),
         );
-        let dt = Sides::new(
-            diff(
-                host.torque_proportional.left.map(f64::from),
-                board.torque_proportional.left.map(f64::from),
-            ),
-            diff(
-                host.torque_proportional.right.map(f64::from),
-                board.torque_proportional.right.map(f64::from),
-            ),
+        let dt = diff_sides(
+            host.torque_proportional.map(|t| t.map(f64::from)),
+            board.torque_proportional.map(|t| t.map(f64::from)),
         );
         if mismatch {
             out.definedness_mismatches += 1;
@@ -377,14 +368,7 @@ mod tests {
     }
 
     fn command(left: f64, right: f64) -> CommandRow {
-        CommandRow {
-            t_s: 0.0,
-            cmd_mps: Sides::new(left, right),
-            yaw_rad: None,
-            pitch_deg: None,
-            x_m: None,
-            y_m: None,
-        }
+        CommandRow::new(0.0, Sides::new(left, right))
     }
 
     #[test]

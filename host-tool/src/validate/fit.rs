@@ -16,7 +16,7 @@
 //! c₃ is fitted only when every fitted turn has a pitch and their mean pitches span at least
 //! [`MIN_PITCH_SPREAD_DEG`]; otherwise c₃ is not identifiable and c₁, c₂ are fitted alone.
 
-use model_core::fit::{Estimate, LinearFit, TurnPitchModel, MAX_FIT_RADIUS_M};
+use model_core::fit::{Estimate, LinearFit, LinearFitResult, TurnPitchModel, MAX_FIT_RADIUS_M};
 use model_core::power::SimplifiedIcr;
 use serde::Serialize;
 
@@ -105,9 +105,10 @@ pub struct IcrFit {
     pub t_quantile: f64,
     /// B_s of the plateau below R' (the rover's slip track) [m].
     pub slip_track_m: f64,
-    /// (XᵀX)⁻¹ of the fitted regressors, for prediction intervals.
+    /// The least-squares result over (1/max(R, R'), 1, θ), θ's column unused without c₃: the
+    /// prediction intervals come from its covariance.
     #[serde(skip)]
-    xtx_inv: Vec<Vec<f64>>,
+    least_squares: LinearFitResult<3>,
 }
 
 /// A prediction of the fitted model with its 95 % prediction interval.
@@ -180,45 +181,25 @@ impl IcrFit {
                 })
             }
         };
-        let ls = |e: model_core::fit::FitError| IcrFitError::LeastSquares(e.to_string());
-        if c3_note.is_none() && points.len() >= 4 {
-            let mut fit = LinearFit::<3>::new();
-            let mut rows = Vec::with_capacity(points.len());
-            for p in &points {
-                let row = [inv_r(p), 1.0, p.pitch_deg.unwrap_or(0.0)];
-                fit.add(row, p.power_w).map_err(ls)?;
-                rows.push(row.to_vec());
+        let c3_note = match c3_note {
+            None if points.len() < 4 => {
+                Some("not identifiable: 4 turns are needed to fit c3 beside c1 and c2".to_owned())
             }
-            let r = fit.solve().map_err(ls)?;
-            return Ok(IcrFit {
-                c1_w_m: r.estimates[0].into(),
-                c2_w: r.estimates[1].into(),
-                c3_w_per_deg: Some(r.estimates[2].into()),
-                c3_note: None,
-                r_squared: r.r_squared,
-                residual_standard_error_w: r.residual_standard_error,
-                n: r.n,
-                dof: r.dof,
-                t_quantile: r.t_quantile,
-                slip_track_m,
-                xtx_inv: inverse_gram(&rows)
-                    .ok_or_else(|| IcrFitError::LeastSquares("singular design".into()))?,
-            });
-        }
-        let c3_note = c3_note.or_else(|| {
-            Some("not identifiable: 4 turns are needed to fit c3 beside c1 and c2".to_owned())
-        });
-        let mut fit = LinearFit::<2>::new();
-        let mut rows = Vec::with_capacity(points.len());
+            note => note,
+        };
+        let ls = |e: model_core::fit::FitError| IcrFitError::LeastSquares(e.to_string());
+        // c₃'s column is the third: without it the fit is of the first two.
+        let columns = if c3_note.is_none() { 3 } else { 2 };
+        let mut fit = LinearFit::<3>::with_columns(columns).map_err(ls)?;
         for p in &points {
-            fit.add([inv_r(p), 1.0], p.power_w).map_err(ls)?;
-            rows.push(vec![inv_r(p), 1.0]);
+            let row = [inv_r(p), 1.0, p.pitch_deg.unwrap_or(0.0)];
+            fit.add_row(&row[..columns], p.power_w).map_err(ls)?;
         }
         let r = fit.solve().map_err(ls)?;
         Ok(IcrFit {
             c1_w_m: r.estimates[0].into(),
             c2_w: r.estimates[1].into(),
-            c3_w_per_deg: None,
+            c3_w_per_deg: c3_note.is_none().then(|| r.estimates[2].into()),
             c3_note,
             r_squared: r.r_squared,
             residual_standard_error_w: r.residual_standard_error,
@@ -226,8 +207,7 @@ impl IcrFit {
             dof: r.dof,
             t_quantile: r.t_quantile,
             slip_track_m,
-            xtx_inv: inverse_gram(&rows)
-                .ok_or_else(|| IcrFitError::LeastSquares("singular design".into()))?,
+            least_squares: r,
         })
     }
 
@@ -258,64 +238,13 @@ impl IcrFit {
         } else {
             1.0 / radius_m.max(r_prime)
         };
-        let x0: Vec<f64> = if self.c3_w_per_deg.is_some() {
-            vec![inv_r, 1.0, pitch_deg.unwrap_or(0.0)]
-        } else {
-            vec![inv_r, 1.0]
-        };
-        let leverage: f64 = (0..x0.len())
-            .map(|i| {
-                (0..x0.len())
-                    .map(|j| x0[i] * self.xtx_inv[i][j] * x0[j])
-                    .sum::<f64>()
-            })
-            .sum();
+        // Without a fitted c₃ its column is zero in the result, so the pitch drops out.
+        let x0 = [inv_r, 1.0, pitch_deg.unwrap_or(0.0)];
         Prediction {
             power_w,
-            half_width_w: self.t_quantile
-                * self.residual_standard_error_w
-                * (1.0 + leverage.max(0.0)).sqrt(),
+            half_width_w: self.least_squares.prediction_interval_half_width(x0),
         }
     }
-}
-
-/// (XᵀX)⁻¹ by Gauss–Jordan elimination with partial pivoting; `None` if singular.
-#[allow(clippy::needless_range_loop)] // matrix code: rows and columns index the same matrix
-fn inverse_gram(rows: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
-    let n = rows.first()?.len();
-    let mut a = vec![vec![0.0; 2 * n]; n];
-    for row in rows {
-        for i in 0..n {
-            for j in 0..n {
-                a[i][j] += row[i] * row[j];
-            }
-        }
-    }
-    for (i, r) in a.iter_mut().enumerate() {
-        r[n + i] = 1.0;
-    }
-    for col in 0..n {
-        let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))?;
-        if a[pivot][col] == 0.0 || !a[pivot][col].is_finite() {
-            return None;
-        }
-        a.swap(col, pivot);
-        let p = a[col][col];
-        for v in a[col].iter_mut() {
-            *v /= p;
-        }
-        for r in 0..n {
-            if r != col {
-                let factor = a[r][col];
-                if factor != 0.0 {
-                    for c in 0..2 * n {
-                        a[r][c] -= factor * a[col][c];
-                    }
-                }
-            }
-        }
-    }
-    Some(a.into_iter().map(|r| r[n..].to_vec()).collect())
 }
 
 /// How a manoeuvre's measured power compares with the fitted model.

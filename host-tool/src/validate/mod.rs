@@ -302,15 +302,7 @@ pub(crate) fn assemble(
         manoeuvres: rows,
         fit: icr_fit,
         fit_error,
-        hard_ground: options.hard_ground.map(|hg| report::HardGroundReference {
-            mu: hg.mu,
-            rolling_resistance_n: hg.rolling_resistance_n,
-            length_m: hg.length_m,
-            width_m: hg.width_m,
-            mass_kg: hg.mass_kg,
-            slip_track_m: hg.slip_track_m,
-            skid_moment_nm: hg.skid_moment_nm(),
-        }),
+        hard_ground: options.hard_ground.map(report::HardGroundReference::from),
         regimes,
         plot,
     })

@@ -24,6 +24,18 @@ use model_core::{Rover, Sides};
 use serde::Serialize;
 use std::fmt;
 
+/// The samples without their pose fixes: the run as a recorder without a tracker logs it.
+pub fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
+    samples
+        .iter()
+        .map(|s| RunSample {
+            x_m: None,
+            y_m: None,
+            ..*s
+        })
+        .collect()
+}
+
 /// A turn must sweep at least this much about its fitted centre for R_ACT [deg] (a shorter arc
 /// pins no circle down).
 pub const MIN_SWEPT_DEG: f64 = 15.0;

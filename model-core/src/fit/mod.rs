@@ -8,6 +8,11 @@
 //!
 //! This is post-processing (host) code, so it works in `f64`; it is still `no_std` and allocation-
 //! free: observations stream in one at a time and the state is O(N²).
+//!
+//! It is the workspace's one least-squares solver: the host tool's fits (validate's ICR fit with
+//! its prediction intervals, diagnose's baseline and effect terms) call it too.
+//! [`LinearFit::with_columns`] fits a column count chosen at run time within the capacity N, and
+//! [`RankTest`] picks how a (nearly) dependent design is refused.
 #![warn(missing_docs)]
 
 mod linear;

@@ -519,3 +519,98 @@ proptest! {
         let _ = student_t_cdf(p, dof);
     }
 }
+
+#[test]
+fn fewer_columns_than_capacity_fit_like_the_exact_width() {
+    // Two of four columns against LinearFit<2>: the same arithmetic, so the same bits.
+    let rows: Vec<[f64; 2]> = (0..9).map(|i| [1.0 / (0.5 + i as f64), 1.0]).collect();
+    let ys: Vec<f64> = (0..9)
+        .map(|i| 50.0 / (0.5 + i as f64) + 20.0 + [0.3, -0.2, 0.1][i % 3])
+        .collect();
+    let exact = LinearFit::from_rows(&rows, &ys).expect("finite");
+    let mut wide = LinearFit::<4>::with_columns(2).expect("2 ≤ 4");
+    for (x, &y) in rows.iter().zip(&ys) {
+        wide.add_row(x, y).expect("finite");
+    }
+    assert_eq!(wide.columns(), 2);
+    let (a, b) = (exact.solve().expect("fits"), wide.solve().expect("fits"));
+    assert_eq!(
+        a.coefficients(),
+        [b.estimates[0].value, b.estimates[1].value]
+    );
+    assert_eq!(a.estimates[..], b.estimates[..2]);
+    assert_eq!(b.estimates[2..], [Estimate::default(); 2]);
+    assert_eq!((a.dof, a.t_quantile), (b.dof, b.t_quantile));
+    assert_eq!(a.covariance[1][0], b.covariance[1][0]);
+    assert_eq!(b.covariance[3], [0.0; 4]);
+    assert_eq!(
+        exact.residual_sum_of_squares(),
+        wide.residual_sum_of_squares()
+    );
+    assert_eq!(
+        a.prediction_interval_half_width([0.8, 1.0]),
+        b.prediction_interval_half_width([0.8, 1.0, 0.0, 0.0])
+    );
+    // A row of the wrong width, or a width beyond the capacity, is refused.
+    assert_eq!(wide.add_row(&[1.0; 3], 1.0), Err(FitError::LengthMismatch));
+    assert_eq!(wide.add([1.0; 4], 1.0), Err(FitError::LengthMismatch));
+    assert_eq!(
+        LinearFit::<4>::with_columns(5),
+        Err(FitError::InvalidParameter)
+    );
+    assert_eq!(
+        LinearFit::<4>::with_columns(0),
+        Err(FitError::InvalidParameter)
+    );
+}
+
+#[test]
+fn relative_pivot_test_refuses_a_column_that_adds_no_direction() {
+    // Third column = first + 1e-9 · (something independent): its pivot is ~1e-9 of its norm.
+    let rows: Vec<[f64; 3]> = (0..12)
+        .map(|i| {
+            let x = i as f64;
+            [x, 1.0, x + 1e-9 * (x * x)]
+        })
+        .collect();
+    let ys: Vec<f64> = (0..12).map(|i| 2.0 * i as f64 + 1.0).collect();
+    let fit = LinearFit::from_rows(&rows, &ys).expect("finite");
+    assert_eq!(
+        fit.coefficients_with(RankTest::RelativePivot(1e-7)),
+        Err(FitError::Singular)
+    );
+    // A looser pivot floor accepts it (the columns are independent in exact arithmetic).
+    assert!(fit
+        .coefficients_with(RankTest::RelativePivot(1e-12))
+        .is_ok());
+    // Independent columns pass both tests with the same coefficients.
+    let rows: Vec<[f64; 2]> = (0..12).map(|i| [i as f64, 1.0]).collect();
+    let fit = LinearFit::from_rows(&rows, &ys).expect("finite");
+    let by_pivot = fit
+        .coefficients_with(RankTest::RelativePivot(1e-7))
+        .expect("independent");
+    assert_eq!(by_pivot, fit.coefficients().expect("independent"));
+    assert!(close(by_pivot[0], 2.0, 1e-12) && close(by_pivot[1], 1.0, 1e-12));
+    assert!(fit.residual_sum_of_squares() < 1e-20);
+}
+
+#[test]
+fn prediction_interval_is_t_s_sqrt_one_plus_leverage() {
+    // y = b0 + b1 x: leverage 1/n + (x0 − x̄)²/Sxx.
+    let xs = [1.0, 1.5, 2.0, 2.5, 1.2];
+    let ys = [70.0, 55.0, 46.0, 40.0, 62.0];
+    let rows: Vec<[f64; 2]> = xs.iter().map(|&x| [x, 1.0]).collect();
+    let r = LinearFit::from_rows(&rows, &ys)
+        .expect("finite")
+        .solve()
+        .expect("fits");
+    let n = xs.len() as f64;
+    let xbar = xs.iter().sum::<f64>() / n;
+    let sxx: f64 = xs.iter().map(|x| (x - xbar).powi(2)).sum();
+    let x0 = 1.25;
+    let want = r.t_quantile
+        * r.residual_standard_error
+        * (1.0 + 1.0 / n + (x0 - xbar).powi(2) / sxx).sqrt();
+    let got = r.prediction_interval_half_width([x0, 1.0]);
+    assert!(close(got, want, 1e-9 * want), "{got} vs {want}");
+}

@@ -184,6 +184,40 @@ fn without_repeats_adequacy_is_not_tested() {
     assert_eq!(a.total.df_pure_error, 0);
 }
 
+/// Copper loss escalates the family: a world whose copper loss the copper-free members misfit
+/// gets a copper member that fits; an excess at the point turn alone (sinkage-like, an effect)
+/// is not bent into one.
+#[test]
+fn the_family_escalates_to_copper_loss_only_when_it_fits() {
+    const C: f64 = 1e-3;
+    let copper = |vi: f64, vo: f64| {
+        let p = couple(vi, vo);
+        [
+            p[0] + C * (p[0] / vi).powi(2),
+            p[1] + C * (p[1] / vo).powi(2),
+        ]
+    };
+    let point_turn_excess = |vi: f64, vo: f64| {
+        let p = couple(vi, vo);
+        if vi < 0.0 && (vi + vo).abs() < 1e-12 {
+            p.map(|w| w + 15.0)
+        } else {
+            p
+        }
+    };
+    for (power, escalates) in [
+        (&copper as &dyn Fn(f64, f64) -> [f64; 2], true),
+        (&point_turn_excess, false),
+    ] {
+        let rows = calibration(2, power);
+        let refs: Vec<&TurnRow> = rows.iter().collect();
+        let b = Baseline::fit(&HUSKY, &refs).expect("fits");
+        assert_eq!(b.structure.copper_loss, escalates, "{b:?}");
+        let a = test(&refs, 2, |r, s| b.side_power_w(r, s));
+        assert_eq!(a.adequate, Some(escalates), "{a:#?}");
+    }
+}
+
 /// The copper-loss fit (not a family member, see `baseline::family::members`) recovers the
 /// coefficient of a world whose sides add c·F², F = P/V the traction force.
 #[test]

@@ -6,9 +6,10 @@
 //! which `diagnose` is never shown).
 
 use super::family::{DatasetSpec, RoverKind};
-use super::run::{simulate, without_positions, DatasetError};
+use super::run::{simulate, DatasetError};
 use super::truth::Truth;
 use crate::log::run_csv::{write_run_csv_atomically, RunCsvFileError, CURRENT_A_MAX};
+use crate::validate::pose::without_positions;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 

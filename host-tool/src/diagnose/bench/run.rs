@@ -11,6 +11,7 @@ use crate::diagnose::{DiagnoseError, Diagnosis};
 use crate::effect_id::EffectId;
 use crate::log::run_csv::RunSample;
 use crate::sim::world::{Timeline, WorldError};
+use crate::validate::pose::without_positions;
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions};
 use model_core::{Rover, Sides};
 use serde::Serialize;
@@ -136,18 +137,6 @@ pub fn rows_for(
     let report = validate::validate(rover, &inputs, &options)?;
     let slices: Vec<&[RunSample]> = runs.iter().map(Vec::as_slice).collect();
     Ok(features::rows(&report, &slices))
-}
-
-/// `samples` without their position fixes.
-pub(super) fn without_positions(samples: &[RunSample]) -> Vec<RunSample> {
-    samples
-        .iter()
-        .map(|s| RunSample {
-            x_m: None,
-            y_m: None,
-            ..*s
-        })
-        .collect()
 }
 
 /// What the diagnosis said on one dataset, against its truth.
@@ -283,13 +272,35 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
         }
     };
     let t1 = Instant::now();
-    let diagnosis = crate::diagnose::diagnose_with(&rover, &rows, Calibration::Rows(&cal_rows));
+    let diagnosis = diagnose_rows(&rover, &cal_rows, &rows);
     result.diagnose_s = t1.elapsed().as_secs_f64();
     match diagnosis {
         Ok(d) => score(&mut result, &d),
         Err(e) => result.error = Some(DatasetError::from(e).to_string()),
     }
     result
+}
+
+/// The diagnosis the bench makes of a dataset's rows: calibrated on its calibration runs.
+fn diagnose_rows(
+    rover: &Rover,
+    cal_rows: &[TurnRow],
+    rows: &[TurnRow],
+) -> Result<Diagnosis, DiagnoseError> {
+    crate::diagnose::diagnose_with(rover, rows, Calibration::Rows(cal_rows))
+}
+
+/// Simulates and diagnoses one dataset as the bench does, for reading the diagnosis whole
+/// (`diagnose-bench --explain`): works for datasets `--dump` cannot hand to `diagnose` (the
+/// Argo J5's currents beyond the board's range).
+pub fn explain(spec: &DatasetSpec, poses: bool) -> Result<(Truth, Diagnosis), DatasetError> {
+    let rover = spec.rover.rover();
+    let offset = poses.then(|| spec.world().tracker.offset_m);
+    let d = simulate(spec)?;
+    let cal_rows = rows_for(&rover, &d.calibration, "cal", offset)?;
+    let rows = rows_for(&rover, &d.runs, "run", offset)?;
+    let diagnosis = diagnose_rows(&rover, &cal_rows, &rows)?;
+    Ok((d.truth, diagnosis))
 }
 
 /// The verdict as the bench's label (`none`, `ambiguous`, `baseline-misfit` or an effect id):

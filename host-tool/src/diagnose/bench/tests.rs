@@ -262,3 +262,24 @@ fn small_bench_tabulates_every_dataset_per_part() {
     assert_eq!(json["parts"][0]["summary"]["controls"], 2);
     assert_eq!(json["datasets"].as_array().map(Vec::len), Some(40));
 }
+
+/// The Argo J5's current offsets at one v_c (bench seed 1, tuning 46, 56, 66: the offset is
+/// absorbed by G·|V| except where a side stands still, and the Argo's 5 % manoeuvre-to-manoeuvre
+/// power variation hides the rest) are named from the standstill current that measures them.
+#[test]
+fn argo_offsets_measured_at_standstill_are_named() {
+    let specs = generate(Part::Tuning, 100, 1);
+    for index in [46, 56, 66] {
+        let spec = &specs[index];
+        assert_eq!(spec.class, DatasetClass::Effect(EffectId::CurrentOffset));
+        assert_eq!(spec.rover, RoverKind::ArgoJ5);
+        let result = run_dataset(spec);
+        let report =
+            run::explain(spec, false).map(|(_, d)| crate::diagnose::report::table(&d).to_string());
+        assert!(
+            result.named_right(),
+            "{index}: {} {report:?}",
+            result.diagnosed
+        );
+    }
+}

@@ -1,5 +1,6 @@
 use super::*;
 use crate::plan::sweep::TABLE_6_1;
+use std::path::PathBuf;
 
 fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)

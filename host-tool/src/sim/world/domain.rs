@@ -9,10 +9,13 @@ struct Check<'a> {
 
 impl Check<'_> {
     fn bad(&self, key: &str, v: f64, what: &str) -> Result<(), WorldError> {
+        self.invalid(key, format!("= {v} must be {what}"))
+    }
+    fn invalid(&self, key: &str, reason: String) -> Result<(), WorldError> {
         Err(WorldError::Invalid {
             origin: self.origin.to_string(),
             key: key.to_string(),
-            reason: format!("= {v} must be {what}"),
+            reason,
         })
     }
     fn pos(&self, key: &str, v: f64) -> Result<(), WorldError> {
@@ -141,18 +144,10 @@ impl WorldConfig {
             sb.counter_rotation_gain,
         )?;
         if let Err(err) = model_core::soil::SlipSinkage2d::new(sb.sinkage_params()) {
-            return Err(WorldError::Invalid {
-                origin: c.origin.to_string(),
-                key: "sinkage-bulldozing".into(),
-                reason: format!("sinkage parameters: {err}"),
-            });
+            c.invalid("sinkage-bulldozing", format!("sinkage parameters: {err}"))?;
         }
         if let Err(err) = model_core::soil::SandBulldozing::new(sb.soil()) {
-            return Err(WorldError::Invalid {
-                origin: c.origin.to_string(),
-                key: "sinkage-bulldozing".into(),
-                reason: format!("soil parameters: {err}"),
-            });
+            c.invalid("sinkage-bulldozing", format!("soil parameters: {err}"))?;
         }
         for (key, v) in [
             ("angular-slip.at_zero", e.angular_slip.at_zero),

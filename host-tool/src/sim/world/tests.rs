@@ -6,6 +6,7 @@ use super::*;
 use crate::sim::board::SimBoard;
 use model_core::kinematics::side_speeds_for;
 use model_core::kinematics::Regime;
+use std::path::Path;
 use std::sync::Arc;
 
 const V_C: f64 = 0.3;

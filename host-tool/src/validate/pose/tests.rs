@@ -144,14 +144,7 @@ fn bad_tracks_get_a_note_not_an_error() {
     let ctx = context(TurnDirection::Left, 0.55, 0.21);
     let mut fixes = track(0.7, 0.4, 4.0, 0.21, 0.0);
     // No fix at all, then one.
-    let none: Vec<RunSample> = fixes
-        .iter()
-        .map(|s| RunSample {
-            x_m: None,
-            y_m: None,
-            ..*s
-        })
-        .collect();
+    let none: Vec<RunSample> = without_positions(&fixes);
     assert_eq!(analyse_track(&none, &ctx).notes, [TrackNote::NoFixes]);
     assert_eq!(
         analyse_track(&fixes[..1], &ctx).notes,
@@ -306,14 +299,7 @@ fn runs_without_positions_validate_as_before() {
         .simulate(&Scenario::seed_turns(0.3, 1), 3)
         .expect("simulates");
     let with = sample_run(&timeline, 100);
-    let without: Vec<RunSample> = with
-        .iter()
-        .map(|s| RunSample {
-            x_m: None,
-            y_m: None,
-            ..*s
-        })
-        .collect();
+    let without: Vec<RunSample> = without_positions(&with);
     let options = ValidateOptions {
         tracker_offset_m: 0.21,
         ..ValidateOptions::for_rover(&world.rover)
