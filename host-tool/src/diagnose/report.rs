@@ -344,6 +344,16 @@ fn baseline_line(d: &Diagnosis) -> String {
             format!("{:.0} % of generated power returned", 100.0 * fraction)
         }
     };
+    // Copper loss enters only when the copper-free members misfit the calibration: say so.
+    let split = if b.structure.copper_loss {
+        format!(
+            "{split}, plus copper loss c·F² with c = {:.3e} W/N² (the copper-free members \
+             misfit the calibration)",
+            b.copper_w_per_n2
+        )
+    } else {
+        split
+    };
     let chosen = match b.cv_rmse_w {
         Some(cv) => format!("chosen by leave-one-run-out CV, RMS {cv:.2} W"),
         None => "plain (fewer than 2 calibration runs to choose by CV)".to_string(),

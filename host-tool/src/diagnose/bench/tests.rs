@@ -283,3 +283,15 @@ fn argo_offsets_measured_at_standstill_are_named() {
         );
     }
 }
+
+/// A motor-loss world whose calibration the copper-free members misfit (bench seed 1, tuning 2:
+/// a structure with losses): the family escalates to copper loss, and the report says so.
+#[test]
+fn an_escalated_copper_baseline_is_reported() {
+    let spec = &generate(Part::Tuning, 100, 1)[2];
+    assert!(spec.structure.losses, "{spec:?}");
+    let (_, d) = run::explain(spec, false).expect("diagnoses");
+    assert!(d.baseline.structure.copper_loss, "{:?}", d.baseline);
+    let text = crate::diagnose::report::table(&d).to_string();
+    assert!(text.contains("plus copper loss c·F²"), "{text}");
+}
