@@ -391,7 +391,10 @@ impl Admission {
         // quiescent draw there, a constant extra power in the turns is something else (copper
         // loss, say).
         notes.extend(features::radius_source_note(rows));
-        let offset_seen = offset_seen_at_standstill(rows);
+        let offset_measured = offset_measured_at_standstill(rows);
+        // Without standstill samples (a per-turn summary, runs without pauses) an offset
+        // cannot be ruled out.
+        let offset_seen = offset_measured || rows.iter().all(|r| r.standstill_current_a.is_none());
         if !offset_seen {
             notes.push(format!(
                 "current-offset not scored: the standstill current is within ±{} A on both sides \
@@ -402,7 +405,7 @@ impl Admission {
         let admission = Self {
             heating_identifiable,
             offset_seen,
-            offset_measured: offset_measured_at_standstill(rows),
+            offset_measured,
         };
         (admission, notes)
     }
@@ -500,14 +503,8 @@ fn scope_of(
     })
 }
 
-/// Whether a current offset is possible: some run's standstill current on some side exceeds
-/// the drivers' quiescent draw ([`baseline::QUIESCENT_MAX_A`]), or no run has standstill
-/// samples (a per-turn summary, runs without pauses) so it cannot be ruled out.
-fn offset_seen_at_standstill(rows: &[TurnRow]) -> bool {
-    rows.iter().all(|r| r.standstill_current_a.is_none()) || offset_measured_at_standstill(rows)
-}
-
-/// Whether some run's standstill current exceeds a driver's quiescent draw on a side.
+/// Whether some run's standstill current on some side exceeds the drivers' quiescent draw
+/// ([`baseline::QUIESCENT_MAX_A`]).
 fn offset_measured_at_standstill(rows: &[TurnRow]) -> bool {
     rows.iter().filter_map(|r| r.standstill_current_a).any(|s| {
         s.left.abs() > baseline::QUIESCENT_MAX_A || s.right.abs() > baseline::QUIESCENT_MAX_A

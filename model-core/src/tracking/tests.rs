@@ -63,6 +63,16 @@ fn samples_for(turn: &Turn, angle_rad: f64) -> usize {
     (angle_rad / (turn.yaw_rate_rad_s * DT)).round() as usize + 1
 }
 
+/// [`r_prime_turn`] at actual radius `r_act` [m], and the samples of its 90°.
+fn quarter_turn_at(r_act: f64) -> (Turn, usize) {
+    let turn = Turn {
+        r_act_m: r_act,
+        ..r_prime_turn()
+    };
+    let n = samples_for(&turn, PI / 2.0);
+    (turn, n)
+}
+
 #[test]
 fn circle_fit_is_exact_on_noiseless_points() {
     let turn = r_prime_turn();
@@ -565,11 +575,7 @@ fn rigid_turn_wheel_speeds_are_yaw_rate_times_distance_to_the_centre() {
     let (b, l) = (f64::from(HUSKY.track_width_m), f64::from(HUSKY.length_m));
     // Below B/2, dragged inner (B/2 < R < R'), at R' and beyond, and a point turn.
     for r_act in [0.0, 0.15, 0.4, 0.55, 0.8, 2.0] {
-        let turn = Turn {
-            r_act_m: r_act,
-            ..r_prime_turn()
-        };
-        let n = samples_for(&turn, PI / 2.0);
+        let (turn, n) = quarter_turn_at(r_act);
         let Processed {
             track,
             theta_h,
@@ -624,11 +630,7 @@ fn wheel_velocity_directions_give_the_eq_5_1_slip_angles() {
     // forward above (Section 2.1.2).
     let r_prime_act = 0.55;
     for r_act in [0.15, 0.4, 0.8, 2.0] {
-        let turn = Turn {
-            r_act_m: r_act,
-            ..r_prime_turn()
-        };
-        let n = samples_for(&turn, PI / 2.0);
+        let (turn, n) = quarter_turn_at(r_act);
         let Processed {
             circle,
             track,

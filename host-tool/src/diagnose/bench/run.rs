@@ -46,6 +46,21 @@ pub struct SimulatedDataset {
     pub truth: Truth,
 }
 
+impl SimulatedDataset {
+    /// The calibration runs' rows and the test runs' rows, as the bench diagnoses them
+    /// ([`rows_for`]).
+    pub fn rows(
+        &self,
+        rover: &Rover,
+        tracker_offset_m: Option<f64>,
+    ) -> Result<(Vec<TurnRow>, Vec<TurnRow>), ValidateError> {
+        Ok((
+            rows_for(rover, &self.calibration, "cal", tracker_offset_m)?,
+            rows_for(rover, &self.runs, "run", tracker_offset_m)?,
+        ))
+    }
+}
+
 /// `timeline` sampled at `sample_hz` into run samples (what a recorder would log, without the
 /// board and the pty). Each tracker fix lands on the first sample at or after it, as the
 /// recorder places them.
@@ -257,11 +272,9 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
     let rover = spec.rover.rover();
     let offset = poses.then(|| spec.world().tracker.offset_m);
     let rows = simulate(spec).and_then(|d| {
-        result.truth = Some(d.truth);
-        Ok((
-            rows_for(&rover, &d.calibration, "cal", offset)?,
-            rows_for(&rover, &d.runs, "run", offset)?,
-        ))
+        // The truth is kept even when validation fails.
+        result.truth = Some(d.truth.clone());
+        Ok(d.rows(&rover, offset)?)
     });
     result.simulate_s = t0.elapsed().as_secs_f64();
     let (cal_rows, rows) = match rows {
@@ -297,8 +310,7 @@ pub fn explain(spec: &DatasetSpec, poses: bool) -> Result<(Truth, Diagnosis), Da
     let rover = spec.rover.rover();
     let offset = poses.then(|| spec.world().tracker.offset_m);
     let d = simulate(spec)?;
-    let cal_rows = rows_for(&rover, &d.calibration, "cal", offset)?;
-    let rows = rows_for(&rover, &d.runs, "run", offset)?;
+    let (cal_rows, rows) = d.rows(&rover, offset)?;
     let diagnosis = diagnose_rows(&rover, &cal_rows, &rows)?;
     Ok((d.truth, diagnosis))
 }
