@@ -17,9 +17,10 @@
 
 pub mod family;
 
+use super::adequacy::LEVEL_PITCH_DEG;
 use super::features::{SideRole, TurnRow};
 use super::observe::{self, Residuals};
-use model_core::fit::LinearFit;
+use model_core::fit::{FitError, LinearFit};
 use model_core::power::{IcrHardGround, GRAVITY_M_S2};
 use model_core::Rover;
 use serde::Serialize;
@@ -70,6 +71,11 @@ pub struct Baseline {
     /// Leave-one-run-out RMS error of the chosen member on the calibration manoeuvres' average
     /// power [W]; `None` with fewer than 2 calibration runs (the plain member is used).
     pub cv_rmse_w: Option<f64>,
+    /// Φ m g of the calibration's slopes [N]: fitted (as a nuisance) only when some calibration
+    /// manoeuvre is pitched beyond [`LEVEL_PITCH_DEG`], so a calibration driven on undulating
+    /// ground does not bend a and G; 0 otherwise. Not part of the model's prediction: a slope
+    /// in the diagnosed runs is the `slope` effect (the paper's model is level).
+    pub calibration_grade_n: f64,
     /// Covariance of (a, G) from the fit [N²]; zero when given, not fitted.
     #[serde(skip)]
     pub covariance: [[f64; 2]; 2],
@@ -143,6 +149,28 @@ pub fn skid_feature_mps(row: &TurnRow, side: usize) -> f64 {
     }
 }
 
+/// The slope feature of a side: sin θ · v_y, shared between the sides in proportion to their
+/// |V| (Eq 1.16's Φ m g v_y sin θ, supplied by both sides as they drive) [m/s]; 0 without
+/// pitch or without speed.
+pub fn grade_feature_mps(row: &TurnRow, side: usize) -> f64 {
+    let (vl, vr) = (row.sides[0].cmd_mps.abs(), row.sides[1].cmd_mps.abs());
+    match row.pitch_deg {
+        Some(pitch) if vl + vr > 0.0 => {
+            let v_y = 0.5 * (row.sides[0].cmd_mps + row.sides[1].cmd_mps);
+            pitch.to_radians().sin() * v_y * row.sides[side].cmd_mps.abs() / (vl + vr)
+        }
+        _ => 0.0,
+    }
+}
+
+/// Whether `calibration` has a manoeuvre off level ground: its baseline then fits the slope as
+/// a nuisance ([`Baseline::calibration_grade_n`]).
+fn is_graded(calibration: &[&TurnRow]) -> bool {
+    calibration
+        .iter()
+        .any(|r| r.pitch_deg.is_some_and(|p| p.abs() > LEVEL_PITCH_DEG))
+}
+
 /// F², the copper-loss regressor of a side of `b`: the square of its traction force P/V, ∝
 /// torque² ∝ motor current² (Eq 1.18–1.19: I²R depends on the torque, not on the speed) [N²]; 0
 /// for a side commanded (nearly) still: at R ≈ R′ the inner tread sits at its ICR and slides
@@ -186,42 +214,66 @@ fn plain_regressors(row: &TurnRow, side: usize) -> [f64; 2] {
     [skid_feature_mps(row, side), row.sides[side].cmd_mps.abs()]
 }
 
-/// A side's regressors [a, G, c] given the previous iteration's fit (`None`: the first pass).
-fn current_regressors(prev: Option<&Baseline>, row: &TurnRow, side: usize) -> [f64; 3] {
+/// A side's regressors [a, G, c, Φ m g] given the previous iteration's fit (`None`: the first
+/// pass).
+fn current_regressors(prev: Option<&Baseline>, row: &TurnRow, side: usize) -> [f64; 4] {
     let x = plain_regressors(row, side);
+    let grade = grade_feature_mps(row, side);
     let Some(prev) = prev else {
-        return [x[0], x[1], 0.0];
+        return [x[0], x[1], 0.0, grade];
     };
     let scale = prev.split_scale(x);
     [
         x[0] * scale,
         x[1] * scale,
         copper_regressor(prev, row, side),
+        grade,
     ]
 }
 
-/// Least squares of the calibration observations' average power on `x_of`'s regressors:
-/// (estimate, 95 % half-width) per parameter, the residual standard error and n.
-/// (estimate, 95 % half-width) per parameter, the residual standard error, n and the
-/// covariance of the first two parameters (a, G).
-type Solved<const N: usize> = ([(f64, f64); N], f64, usize, [[f64; 2]; 2]);
+/// (estimate, 95 % half-width) of [a, G, c, Φ m g] (0 for a column not fitted), the residual
+/// standard error, n and the covariance of a and G.
+type Solved = ([(f64, f64); 4], f64, usize, [[f64; 2]; 2]);
 
-fn solve<const N: usize>(
+/// Least squares of the calibration observations' average power (less the measured standstill
+/// draw) on a, G and the columns `used` ([copper, grade]) of `x_of`'s regressors.
+fn solve(
     calibration: &[&TurnRow],
-    x_of: impl Fn(&TurnRow, usize) -> [f64; N],
-) -> Result<Solved<N>, model_core::fit::FitError> {
-    let mut fit = LinearFit::<N>::new();
+    used: [bool; 2],
+    x_of: impl Fn(&TurnRow, usize) -> [f64; 4],
+) -> Result<Solved, FitError> {
+    // The columns fitted: a and G always, then copper and grade when `used` (no allocation:
+    // the family's cross-validation fits this many times per dataset).
+    let mut columns = [0usize; 4];
+    let mut k = 0;
+    for j in 0..4 {
+        if j < 2 || used[j - 2] {
+            columns[k] = j;
+            k += 1;
+        }
+    }
+    let columns = &columns[..k];
+    let mut fit = LinearFit::<4>::with_columns(k)?;
     for row in calibration {
         for sides in observe::observations(row) {
-            let x = observe::sum_sides(sides, |side| x_of(row, side));
+            let all = observe::sum_sides(sides, |side| x_of(row, side));
+            let mut x = [0.0; 4];
+            for (slot, &j) in x.iter_mut().zip(columns) {
+                *slot = all[j];
+            }
             let draw: f64 = sides.iter().map(|&side| quiescent_draw_w(row, side)).sum();
-            fit.add(x, observe::measured_avg_w(row, sides) - draw)?;
+            fit.add_row(&x[..k], observe::measured_avg_w(row, sides) - draw)?;
         }
     }
     let solved = fit.solve()?;
+    let mut estimates = [(0.0, 0.0); 4];
+    for (k, &j) in columns.iter().enumerate() {
+        let e = solved.estimates[k];
+        estimates[j] = (e.value, e.half_width());
+    }
     let c = &solved.covariance;
     Ok((
-        solved.estimates.map(|e| (e.value, e.half_width())),
+        estimates,
         solved.residual_standard_error,
         solved.n,
         [[c[0][0], c[0][1]], [c[1][0], c[1][1]]],
@@ -253,6 +305,7 @@ impl Baseline {
             reason,
             rows: calibration.len(),
         };
+        let graded = is_graded(calibration);
         let mut current = Baseline::with_parameters(rover, structure, [0.0; 3]);
         // The copper regressor comes from the previous fit: a fixed point that needs more
         // passes than the clamp to settle below the repeat noise (4 left ~0.3 W of lack of fit).
@@ -269,21 +322,21 @@ impl Baseline {
             let prev = (i > 0).then_some(&current);
             let x_of = |row: &TurnRow, side: usize| current_regressors(prev, row, side);
             // The first pass has no copper regressor yet (it comes from the previous fit).
-            let result = if structure.copper_loss && i > 0 {
-                solve::<3>(calibration, |r, s| x_of(r, s))
-            } else {
-                solve::<2>(calibration, |r, s| {
-                    let [a, g, _] = x_of(r, s);
-                    [a, g]
+            let copper = structure.copper_loss && i > 0;
+            // Too few pitched manoeuvres to separate the grade from a and G: fit them alone.
+            let result = solve(calibration, [copper, graded], x_of)
+                .or_else(|e| match e {
+                    FitError::Singular | FitError::TooFewSamples if graded => {
+                        solve(calibration, [copper, false], x_of)
+                    }
+                    e => Err(e),
                 })
-                .map(|(est, rse, n, cov)| ([est[0], est[1], (0.0, 0.0)], rse, n, cov))
-            }
-            .map_err(|e| err(e.to_string()))?;
-            let [(a, _), (g, _), (c, _)] = result.0;
+                .map_err(|e| err(e.to_string()))?;
+            let [(a, _), (g, _), (c, _), _] = result.0;
             current = Baseline::with_parameters(rover, structure, [a, g, c]);
             solved = Some(result);
         }
-        let Some(([(a, a_hw), (g, g_hw), (c, _)], rse, n, covariance)) = solved else {
+        let Some(([(a, a_hw), (g, g_hw), (c, _), (grade, _)], rse, n, covariance)) = solved else {
             return Err(err("no iteration".into()));
         };
         if structure.copper_loss && c < 0.0 {
@@ -295,6 +348,7 @@ impl Baseline {
         b.residual_std_w = rse;
         b.n = n;
         b.covariance = covariance;
+        b.calibration_grade_n = grade;
         Ok(b)
     }
 
@@ -317,6 +371,7 @@ impl Baseline {
             copper_w_per_n2: c,
             turn_slip: 0.0,
             cv_rmse_w: None,
+            calibration_grade_n: 0.0,
             covariance: [[0.0; 2]; 2],
         }
     }
@@ -361,6 +416,13 @@ impl Baseline {
         self.motor_power_w(row, side)
             + self.copper_w_per_n2 * copper_regressor(self, row, side)
             + quiescent_draw_w(row, side)
+    }
+
+    /// The side's power as fitted to the calibration: the model's plus the calibration's slope
+    /// nuisance ([`Baseline::calibration_grade_n`]) [W]. What the family's cross-validation and
+    /// lack-of-fit tests judge the fit by.
+    pub fn calibration_side_power_w(&self, row: &TurnRow, side: usize) -> f64 {
+        self.side_power_w(row, side) + self.calibration_grade_n * grade_feature_mps(row, side)
     }
 
     /// Both sides' model power [W].

@@ -22,7 +22,7 @@
 //!
 //! [`features`]: super::features
 
-use super::baseline::Baseline;
+use super::baseline::{self, Baseline};
 use super::features::{SideRole, TurnRow};
 use super::observe;
 use crate::effect_id::EffectId;
@@ -191,15 +191,9 @@ pub fn regressors(
             }
         }
         EffectId::Slope => {
-            let pitch = row.pitch_deg?;
-            let (vl, vr) = (row.sides[0].cmd_mps.abs(), row.sides[1].cmd_mps.abs());
-            if vl + vr > 0.0 {
-                let mg = f64::from(ctx.rover.mass_kg) * GRAVITY_M_S2;
-                let v_y = 0.5 * (row.sides[0].cmd_mps + row.sides[1].cmd_mps);
-                [mg * pitch.to_radians().sin() * v_y * v / (vl + vr), 0.0]
-            } else {
-                [0.0, 0.0]
-            }
+            row.pitch_deg?;
+            let mg = f64::from(ctx.rover.mass_kg) * GRAVITY_M_S2;
+            [mg * baseline::grade_feature_mps(row, side), 0.0]
         }
     };
     Some(x)

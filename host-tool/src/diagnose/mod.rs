@@ -212,8 +212,9 @@ pub fn diagnose_with(
         return Err(DiagnoseError::NoRows);
     }
     let baseline = calibration.baseline(rover, rows)?;
+    // Judged as fitted: with the calibration's slope nuisance (`calibration_grade_n`).
     let adequacy = adequacy::test(&calibration.manoeuvres(rows), 2, |r, s| {
-        baseline.side_power_w(r, s)
+        baseline.calibration_side_power_w(r, s)
     });
 
     // One significance rule for the gaps and the "where" groups (gaps::judge); groups without

@@ -459,6 +459,7 @@ mod tests {
             copper_w_per_n2: 0.0,
             turn_slip: 0.0,
             cv_rmse_w: None,
+            calibration_grade_n: 0.0,
             covariance: [[0.0; 2]; 2],
         };
         let at = Conditions {

@@ -80,7 +80,10 @@ fn fit_best(rover: &Rover, train: &[&TurnRow], variants: &[Structure]) -> Option
 fn squared_errors<'a>(b: &'a Baseline, rows: &'a [&TurnRow]) -> impl Iterator<Item = f64> + 'a {
     rows.iter().flat_map(move |row| {
         observe::observations(row).iter().map(move |sides| {
-            let model: f64 = sides.iter().map(|&s| b.side_power_w(row, s)).sum();
+            let model: f64 = sides
+                .iter()
+                .map(|&s| b.calibration_side_power_w(row, s))
+                .sum();
             (observe::measured_avg_w(row, sides) - model).powi(2)
         })
     })
@@ -170,37 +173,30 @@ thread_local! {
 }
 
 fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
-    // The structure is chosen on level manoeuvres, as the adequacy test judges it: a slope is an
-    // effect, not a structure of the level-ground model.
-    let level: Vec<&TurnRow> = calibration
-        .iter()
-        .copied()
-        .filter(|r| r.pitch_deg.is_none_or(|p| p.abs() <= LEVEL_PITCH_DEG))
-        .collect();
-    let mut runs: Vec<usize> = level.iter().map(|r| r.run_index).collect();
+    // Pitched manoeuvres take part: each fit carries the calibration's slope as a nuisance
+    // (`Baseline::calibration_grade_n`), so a calibration on undulating ground still chooses.
+    let mut runs: Vec<usize> = calibration.iter().map(|r| r.run_index).collect();
     runs.sort_unstable();
     runs.dedup();
     if runs.len() < 2 {
         return Baseline::fit_plain(rover, calibration);
     }
+    let level: Vec<&TurnRow> = calibration
+        .iter()
+        .copied()
+        .filter(|r| r.pitch_deg.is_none_or(|p| p.abs() <= LEVEL_PITCH_DEG))
+        .collect();
     let turn_slip = constant_turn_slip(&level)
         .filter(|&s| !explained_by_slip_track(rover, &level, s))
         .unwrap_or(0.0);
-    let Some(plain) = pick(rover, calibration, &level, &runs, members(), turn_slip)? else {
+    let Some(plain) = pick(rover, calibration, &runs, members(), turn_slip)? else {
         return Baseline::fit_plain(rover, calibration);
     };
     if misfits(&plain, calibration) {
         // Escalation: copper loss is admitted only when the simpler family cannot fit the
         // calibration manoeuvres at all. As an ordinary member it absorbed current offsets and
         // point-turn sinkage in worlds the plain family fits (see `members`).
-        if let Some(copper) = pick(
-            rover,
-            calibration,
-            &level,
-            &runs,
-            copper_members(),
-            turn_slip,
-        )? {
+        if let Some(copper) = pick(rover, calibration, &runs, copper_members(), turn_slip)? {
             if fits_testably(&copper, calibration) {
                 return Ok(copper);
             }
@@ -214,7 +210,6 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
 fn pick(
     rover: &Rover,
     calibration: &[&TurnRow],
-    level: &[&TurnRow],
     runs: &[usize],
     family: Vec<Vec<Structure>>,
     turn_slip: f64,
@@ -222,7 +217,7 @@ fn pick(
     let scored: Vec<(Vec<Structure>, f64, f64)> = family
         .into_iter()
         .filter_map(|m| {
-            let e = cv_errors(rover, level, runs, &m)?;
+            let e = cv_errors(rover, calibration, runs, &m)?;
             let (mean, se) = mean_and_se(&e)?;
             Some((m, mean, se))
         })
@@ -248,7 +243,7 @@ fn pick(
 /// the data, or it bends a and c around an effect such as point-turn sinkage).
 fn fits_testably(b: &Baseline, calibration: &[&TurnRow]) -> bool {
     let a = adequacy::test(calibration, b.structure.parameters(), |r, s| {
-        b.side_power_w(r, s)
+        b.calibration_side_power_w(r, s)
     });
     let p_values: Vec<f64> = [Some(&a.total), a.per_side.as_ref()]
         .into_iter()
@@ -261,7 +256,8 @@ fn fits_testably(b: &Baseline, calibration: &[&TurnRow]) -> bool {
 /// Whether `b` fails the lack-of-fit test on its own `calibration` manoeuvres.
 fn misfits(b: &Baseline, calibration: &[&TurnRow]) -> bool {
     let params = b.structure.parameters();
-    adequacy::test(calibration, params, |r, s| b.side_power_w(r, s)).adequate == Some(false)
+    adequacy::test(calibration, params, |r, s| b.calibration_side_power_w(r, s)).adequate
+        == Some(false)
 }
 
 /// Whether the calibration turns' constant slip `slip` is what their pose track measured: a

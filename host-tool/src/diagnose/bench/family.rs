@@ -54,7 +54,8 @@ pub const ANGULAR_SLIP_RANGE: (f64, f64) = (0.03, 0.15);
 pub const THRESHOLD_RADIUS_RANGE_M: (f64, f64) = (10.0, 30.0);
 /// Motor efficiency range of the `loss` structure.
 pub const EFFICIENCY_RANGE: (f64, f64) = (0.6, 0.95);
-/// Winding resistance range of the `loss` structure [Ω].
+/// Winding resistance range of the `loss` structure [Ω] (the Husky's; divided by the mass ratio
+/// for the Argo, see [`RoverKind::world`]).
 pub const WINDING_RESISTANCE_RANGE_OHM: (f64, f64) = (0.05, 0.5);
 
 /// The part of the family a dataset belongs to.
@@ -115,6 +116,13 @@ impl RoverKind {
             w.motor.gear_ratio *=
                 f64::from(ARGO_J5.wheel_radius_m / Rover::HUSKY_A200.wheel_radius_m);
             w.effects.slip_track.slip_track_m = Some(ARGO_HARD_GROUND.slip_track_m);
+            // Motors and battery sized for the load: at the same bus voltage the Argo's currents
+            // are the mass ratio larger, so its windings and battery have that much less
+            // resistance, and copper loss and sag take the same share of the power as on the
+            // Husky. With the Husky's, an Argo with motor losses asked more than the battery
+            // can give (V₀²/4R_int ≈ 3.6 kW): the bus sat at its collapse floor (V₀/2).
+            w.motor.winding_resistance_ohm /= self.force_scale();
+            w.battery.internal_resistance_ohm /= self.force_scale();
         }
         w
     }
@@ -642,7 +650,7 @@ fn draw(part: Part, index: usize, bench_seed: u64) -> DatasetSpec {
         motor_losses: structure.losses.then(|| {
             (
                 within(&mut rng, EFFICIENCY_RANGE),
-                within(&mut rng, WINDING_RESISTANCE_RANGE_OHM),
+                within(&mut rng, WINDING_RESISTANCE_RANGE_OHM) / rover.force_scale(),
             )
         }),
         offset_right_over_left: if effect == Some(EffectId::CurrentOffset) {

@@ -146,6 +146,16 @@ fn the_argo_world_file_is_the_family_argo() {
     assert_eq!(file.icr, family.icr);
     assert!((file.motor.gear_ratio - family.motor.gear_ratio).abs() < 1e-4);
     assert_eq!(file.motor.efficiency, family.motor.efficiency);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b;
+    assert!(close(
+        file.motor.winding_resistance_ohm,
+        family.motor.winding_resistance_ohm
+    ));
+    assert!(close(
+        file.battery.internal_resistance_ohm,
+        family.battery.internal_resistance_ohm
+    ));
+    assert_eq!(file.battery.nominal_v, family.battery.nominal_v);
     assert_eq!(file.effects.slip_track, family.effects.slip_track);
     let rover = crate::rover::load_rover(&root.join("rovers/argo-j5.toml")).expect("rover");
     assert_eq!(rover, ARGO_J5);
@@ -294,4 +304,27 @@ fn an_escalated_copper_baseline_is_reported() {
     assert!(d.baseline.structure.copper_loss, "{:?}", d.baseline);
     let text = crate::diagnose::report::table(&d).to_string();
     assert!(text.contains("plus copper loss c·F²"), "{text}");
+}
+
+/// Every drawn world can be driven: the bus stays well above the battery's collapse point
+/// (V₀/2, where the demanded power exceeds V₀²/4R_int). The Argo with motor losses and the
+/// Husky's windings and battery asked 2.8 kW a side and sat at 12 V.
+#[test]
+fn no_drawn_world_collapses_the_bus() {
+    for spec in both(100, 1) {
+        let world = spec.world();
+        let timeline = world
+            .simulate(&spec.calibration_scenario(), spec.seed)
+            .expect("simulates");
+        let min_v = run::sample_run(&timeline, 50)
+            .iter()
+            .map(|s| s.bus_v.left.min(s.bus_v.right))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            min_v > 0.8 * world.battery.nominal_v,
+            "{:?}-{}: {min_v:.1} V",
+            spec.part,
+            spec.index
+        );
+    }
 }
