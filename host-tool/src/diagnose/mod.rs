@@ -513,13 +513,20 @@ fn offset_measured_at_standstill(rows: &[TurnRow]) -> bool {
 }
 
 /// With the offset measured at standstill, `current-offset` needs no clear margin over the
-/// other candidates: it is named when it is the best of them out of sample and closes part of
-/// the held-out error. At one v_c the turns cannot show it apart (G·|V| absorbs a constant per
-/// side except where a side stands still, at R′), but the standstill samples show it directly.
+/// other candidates: it is named when no other candidate beats it clearly out of sample
+/// (penalised error within [`cv::CLEAR_MARGIN`] of the best) and it closes part of the held-out
+/// error. At one v_c the turns cannot show it apart (G·|V| absorbs a constant per side except
+/// where a side stands still, at R′), but the standstill samples show it directly: a near tie
+/// in the turns is decided by that direct observation.
 fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
-    candidates
-        .first()
-        .is_some_and(|c| c.effect == EffectId::CurrentOffset && c.shrink_pct > 0.0)
+    let Some(best) = candidates.first() else {
+        return false;
+    };
+    candidates.iter().any(|c| {
+        c.effect == EffectId::CurrentOffset
+            && c.shrink_pct > 0.0
+            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
+    })
 }
 
 /// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its

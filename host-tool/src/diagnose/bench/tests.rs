@@ -294,6 +294,23 @@ fn argo_offsets_measured_at_standstill_are_named() {
     }
 }
 
+/// A measured standstill offset decides a near tie in the turns: on bench seed 3, tuning 26 (an
+/// Argo offset at one v_c) `braked-inner` scored a little better out of sample than
+/// `current-offset`, and the dataset was `ambiguous` while the standstill samples showed the
+/// offset directly.
+#[test]
+fn a_measured_offset_decides_a_near_tie() {
+    let spec = &generate(Part::Tuning, 100, 3)[26];
+    assert_eq!(spec.class, DatasetClass::Effect(EffectId::CurrentOffset));
+    let result = run_dataset(spec);
+    assert!(result.named_right(), "{}", result.diagnosed);
+    assert_ne!(
+        result.best_candidate.as_ref().map(|b| b.0),
+        Some(EffectId::CurrentOffset),
+        "no longer a near tie: the test shows nothing"
+    );
+}
+
 /// A motor-loss world whose calibration the copper-free members misfit (bench seed 1, tuning 2:
 /// a structure with losses): the family escalates to copper loss, and the report says so.
 #[test]
