@@ -33,9 +33,14 @@ fn layout(header_line: &[u8]) -> Option<usize> {
         .find(|&n| header_line == header(&Column::ALL[..n]).as_bytes())
 }
 
-/// The samples of the run CSV at `path` if it is valid and in this tool's layout, read in
-/// blocks of `block` bytes; `Ok(None)` otherwise (see the module docs).
-pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunSample>>> {
+/// The samples of the run CSV at `path` if it is valid, in this tool's layout and at most
+/// `max_bytes` long, read in blocks of `block` bytes; `Ok(None)` otherwise (see the module
+/// docs).
+pub(super) fn read_file(
+    path: &Path,
+    block: usize,
+    max_bytes: u64,
+) -> io::Result<Option<Vec<RunSample>>> {
     let mut file = File::open(path)?;
     let metadata = file.metadata()?;
     if !metadata.is_file() {
@@ -43,6 +48,9 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
         return Ok(None);
     }
     let len = metadata.len();
+    if len > max_bytes {
+        return Ok(None);
+    }
     let mut head = Vec::new();
     (&mut file).take(4096).read_to_end(&mut head)?;
     let Some(header_end) = memchr::memchr(b'\n', &head) else {
