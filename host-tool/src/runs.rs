@@ -155,8 +155,12 @@ impl StreamedRuns {
             ..StreamedRuns::default()
         };
         for path in paths {
-            let read = match read_held(path, held_max_bytes)? {
-                Some(samples) => FirstRead::held(samples),
+            // The digest is taken as the samples are read (in file order, on the core that
+            // parsed them); it is dropped if the file is not held.
+            let mut digest = RunDigest::default();
+            let mut hash = |rows: &[RunSample]| rows.iter().for_each(|s| digest.push(s));
+            let read = match read_held(path, held_max_bytes, &mut hash)? {
+                Some(samples) => FirstRead::Held { samples, digest },
                 None => {
                     let mut scan = RunScan::default();
                     let found = stream_salvaging(path, salvage, &mut scan)?;
@@ -243,14 +247,6 @@ enum FirstRead {
 }
 
 impl FirstRead {
-    fn held(samples: Vec<RunSample>) -> Self {
-        let mut digest = RunDigest::default();
-        for s in &samples {
-            digest.push(s);
-        }
-        FirstRead::Held { samples, digest }
-    }
-
     fn digest(&self) -> &RunDigest {
         match self {
             FirstRead::Held { digest, .. } => digest,
@@ -260,12 +256,17 @@ impl FirstRead {
 }
 
 /// The samples of `path` if it is one of this tool's own run CSVs (valid throughout) of at
-/// most `max_bytes`; `None` for any other log (streamed: read twice).
-fn read_held(path: &Path, max_bytes: u64) -> Result<Option<Vec<RunSample>>, LoadError> {
+/// most `max_bytes`; `None` for any other log (streamed: read twice). `visit` as
+/// [`read_own_run_csv`]'s.
+fn read_held(
+    path: &Path,
+    max_bytes: u64,
+    visit: &mut (dyn FnMut(&[RunSample]) + Send),
+) -> Result<Option<Vec<RunSample>>, LoadError> {
     if RunFormat::of(path)? != RunFormat::Csv {
         return Ok(None);
     }
-    Ok(read_own_run_csv(path, max_bytes)?)
+    Ok(read_own_run_csv(path, max_bytes, visit)?)
 }
 
 /// A held run's samples handed to `sink` again, as [`stream_salvaging`] would read them from

@@ -33,13 +33,18 @@ fn layout(header_line: &[u8]) -> Option<usize> {
         .find(|&n| header_line == header(&Column::ALL[..n]).as_bytes())
 }
 
+/// A function handed the samples in file order, a stretch at a time, as they are read.
+pub type Visit<'a> = &'a mut (dyn FnMut(&[RunSample]) + Send);
+
 /// The samples of the run CSV at `path` if it is valid, in this tool's layout and at most
 /// `max_bytes` long, read in blocks of `block` bytes; `Ok(None)` otherwise (see the module
-/// docs).
+/// docs). `visit` gets them in file order as they are assembled (by the core that parsed them,
+/// while they are in its cache); on `Ok(None)` it may have had some of them.
 pub(super) fn read_file(
     path: &Path,
     block: usize,
     max_bytes: u64,
+    visit: Visit<'_>,
 ) -> io::Result<Option<Vec<RunSample>>> {
     let mut file = File::open(path)?;
     let metadata = file.metadata()?;
@@ -85,13 +90,16 @@ pub(super) fn read_file(
     if data_len < PARALLEL_BYTES {
         let mut samples = Vec::with_capacity(capacity);
         let ok = reader.read(&mut file, data_start, len, false, &mut samples)?;
+        if ok {
+            visit(&samples);
+        }
         return Ok(ok.then_some(samples));
     }
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
     let job = 4 * block as u64;
     let jobs = data_len.div_ceil(job);
     let bounds = |j: u64| data_start + (j * job).min(data_len);
-    let assembly = Assembly::new(capacity);
+    let assembly = Assembly::new(capacity, visit);
     std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads as u64)
             .map(|first| {
@@ -128,24 +136,26 @@ pub(super) fn read_file(
 /// The samples of the parallel reader's jobs, appended in file order by the thread that read
 /// each job as soon as its turn comes (so a job's rows are copied while they are in that
 /// core's cache, and the next job is read meanwhile on the other core).
-struct Assembly {
-    state: Mutex<Assembled>,
+struct Assembly<'a> {
+    state: Mutex<Assembled<'a>>,
     turn: Condvar,
 }
 
-struct Assembled {
+struct Assembled<'a> {
     samples: Vec<RunSample>,
+    visit: Visit<'a>,
     /// The job whose rows come next.
     next: u64,
     /// A job was not in this tool's layout (or could not be read): the result is `None`.
     failed: bool,
 }
 
-impl Assembly {
-    fn new(capacity: usize) -> Self {
+impl<'a> Assembly<'a> {
+    fn new(capacity: usize, visit: Visit<'a>) -> Self {
         Self {
             state: Mutex::new(Assembled {
                 samples: Vec::with_capacity(capacity),
+                visit,
                 next: 0,
                 failed: false,
             }),
@@ -172,6 +182,7 @@ impl Assembly {
         match rows {
             Some(rows) if !state.failed && seamless(rows) => {
                 state.samples.extend_from_slice(rows);
+                (state.visit)(rows);
             }
             _ => state.failed = true,
         }
@@ -195,9 +206,9 @@ impl Assembly {
 }
 
 /// Fails the [`Assembly`] if its thread unwinds.
-struct FailOnPanic<'a>(&'a Assembly);
+struct FailOnPanic<'a, 'b>(&'a Assembly<'b>);
 
-impl Drop for FailOnPanic<'_> {
+impl Drop for FailOnPanic<'_, '_> {
     fn drop(&mut self) {
         if std::thread::panicking() {
             self.0.fail();
