@@ -34,7 +34,7 @@
 //! Every ratio is printed from this one run, and each Rust path against its fastest peer.
 //!
 //! The Rust paths and the Python scripts must agree (same spans — for the run CSV, each
-//! manoeuvre `validate` analysed is a span of theirs —, same per-span energies within 1e-6
+//! manoeuvre `validate` analysed is a span of theirs —, same per-span energies within 1e-14
 //! relative, the raw and MCAP paths' samples equal to the CSV's) or the bench fails.
 //! Without python3 or its packages the Rust figures are still printed, with the install line.
 //! Under `cargo test --benches` (no `--bench` argument) the log is two simulated minutes and each
@@ -88,7 +88,7 @@ const GENERATOR_VERSION: u32 = 4;
 /// peer on the same file.
 const GOAL_RATIO: f64 = 2.0;
 /// Largest relative difference of a per-span energy between Rust and numpy.
-const ENERGY_TOLERANCE: f64 = 1e-6;
+const ENERGY_TOLERANCE: f64 = 1e-14;
 
 fn main() -> Result<()> {
     // Like divan: without cargo bench's `--bench` (i.e. under `cargo test`), or with `--test`,
