@@ -90,14 +90,15 @@ impl Runs {
     }
 }
 
-/// Largest run CSV of this tool's own that [`StreamedRuns`] holds in memory rather than reading
-/// it twice [bytes]: about two hours at 200 Hz; its samples take ~1.4× the file in the layout
-/// with a tracked point (120 B a row), at most 3× in the shortest layout.
+/// How much of this tool's own run CSVs [`StreamedRuns`] holds in memory rather than reading
+/// them twice, all runs together [bytes]: about two hours at 200 Hz; the samples take ~1.4×
+/// the files in the layout with a tracked point (120 B a row), at most 3× in the shortest.
 pub const HELD_CSV_MAX_BYTES: u64 = 128 << 20;
 
 /// Run logs validated as streams, for `validate`: memory stays bounded whatever the logs'
-/// length (each file is read twice, see [`validate::stream`]; one of this tool's own run CSVs
-/// up to [`HELD_CSV_MAX_BYTES`] is read once, on every core, and validated from memory), and
+/// length (each file is read twice, see [`validate::stream`]; this tool's own run CSVs, up to
+/// [`HELD_CSV_MAX_BYTES`] of them in all, are read once, on every core, and validated from
+/// memory), and
 /// the report is the one [`Runs::validate`] gives, to the bit.
 #[derive(Debug, Default)]
 pub struct StreamedRuns {
@@ -143,7 +144,8 @@ impl StreamedRuns {
         Self::scan_holding(paths, salvage, HELD_CSV_MAX_BYTES)
     }
 
-    /// [`Self::scan`], holding this tool's run CSVs of up to `held_max_bytes`.
+    /// [`Self::scan`], holding this tool's run CSVs up to `held_max_bytes` in all (in order:
+    /// a file that would pass it streams, as do the rest once it is spent).
     fn scan_holding(
         paths: &[PathBuf],
         salvage: bool,
@@ -154,13 +156,18 @@ impl StreamedRuns {
             salvage,
             ..StreamedRuns::default()
         };
+        let mut held_bytes = 0;
         for path in paths {
             // The digest is taken as the samples are read (in file order, on the core that
             // parsed them); it is dropped if the file is not held.
             let mut digest = RunDigest::default();
             let mut hash = |rows: &[RunSample]| rows.iter().for_each(|s| digest.push(s));
-            let read = match read_held(path, held_max_bytes, &mut hash)? {
-                Some(samples) => FirstRead::Held { samples, digest },
+            let budget = held_max_bytes - held_bytes;
+            let read = match read_held(path, budget, &mut hash)? {
+                Some((samples, bytes)) => {
+                    held_bytes += bytes;
+                    FirstRead::Held { samples, digest }
+                }
                 None => {
                     let mut scan = RunScan::default();
                     let found = stream_salvaging(path, salvage, &mut scan)?;
@@ -255,18 +262,23 @@ impl FirstRead {
     }
 }
 
-/// The samples of `path` if it is one of this tool's own run CSVs (valid throughout) of at
-/// most `max_bytes`; `None` for any other log (streamed: read twice). `visit` as
-/// [`read_own_run_csv`]'s.
+/// The samples of `path` and its size if it is one of this tool's own run CSVs (valid
+/// throughout) of at most `max_bytes`; `None` for any other log (streamed: read twice).
+/// `visit` as [`read_own_run_csv`]'s.
 fn read_held(
     path: &Path,
     max_bytes: u64,
     visit: &mut (dyn FnMut(&[RunSample]) + Send),
-) -> Result<Option<Vec<RunSample>>, LoadError> {
+) -> Result<Option<(Vec<RunSample>, u64)>, LoadError> {
     if RunFormat::of(path)? != RunFormat::Csv {
         return Ok(None);
     }
-    Ok(read_own_run_csv(path, max_bytes, visit)?)
+    let Some(samples) = read_own_run_csv(path, max_bytes, visit)? else {
+        return Ok(None);
+    };
+    // Its size as read (the reader refused a larger file).
+    let bytes = std::fs::metadata(path).map_or(max_bytes, |m| m.len().min(max_bytes));
+    Ok(Some((samples, bytes)))
 }
 
 /// A held run's samples handed to `sink` again, as [`stream_salvaging`] would read them from
@@ -395,6 +407,26 @@ mod tests {
                 assert_eq!(again.samples, in_memory.logs[0].samples);
             }
             let held = StreamedRuns::scan(&paths, false).expect("scans");
+            // The budget is for all runs together: room for the first CSV only.
+            let first_only = paths
+                .iter()
+                .find(|p| **p == a.csv || **p == b.csv)
+                .and_then(|p| std::fs::metadata(p).ok())
+                .map_or(0, |m| m.len());
+            let partly = StreamedRuns::scan_holding(&paths, false, first_only).expect("scans");
+            let held_count = |runs: &StreamedRuns| {
+                runs.reads
+                    .iter()
+                    .filter(|r| matches!(r, FirstRead::Held { .. }))
+                    .count()
+            };
+            assert_eq!(
+                held_count(&partly),
+                usize::from(first_only > 0),
+                "{paths:?}"
+            );
+            let got = partly.validate(&rover, &validate_options).expect("valid");
+            assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
             let kinds: Vec<bool> = held
                 .reads
                 .iter()
