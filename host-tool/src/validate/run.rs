@@ -4,7 +4,7 @@
 //! from a file read twice, so both give the same report.
 
 use super::crosscheck::CrossCheck;
-use super::segment::{gap_threshold_s, IntervalMedian, RunCheck, Segment, SegmentError};
+use super::segment::{IntervalMedian, RunCheck, Segment, SegmentError};
 use super::ValidateOptions;
 use super::{apply_measured_slip_track, pose, turns, ManoeuvreKind, ManoeuvreRow, RunReport};
 use crate::log::run_csv::RunSample;
@@ -30,20 +30,12 @@ pub struct RunFacts {
 }
 
 impl RunFacts {
-    /// The facts of a run held in memory (of at least two samples).
+    /// The facts of a run held in memory (of at least two samples): [`FactsScan`]'s, in one
+    /// pass over the samples.
     pub fn of(samples: &[RunSample], gap_factor: f64) -> Self {
-        let duration_s = match (samples.first(), samples.last()) {
-            (Some(first), Some(last)) => last.t_s - first.t_s,
-            _ => 0.0,
-        };
-        Self {
-            samples: samples.len(),
-            duration_s,
-            has_yaw: samples.iter().all(|s| s.yaw_rad.is_some()),
-            has_pitch: samples.iter().any(|s| s.pitch_deg.is_some()),
-            has_positions: pose::has_positions(samples),
-            gap_threshold_s: gap_threshold_s(samples, gap_factor),
-        }
+        let mut scan = FactsScan::default();
+        samples.iter().for_each(|s| scan.push(s));
+        scan.facts(gap_factor)
     }
 }
 
