@@ -340,7 +340,8 @@ fn segment_halves(
     };
     let cut = (samples.len() / 2..samples.len()).find(|&i| certain(i))?;
     // Time must increase across the cut too (each half checks its own).
-    if !(samples[cut].t_s > samples[cut - 1].t_s) {
+    let increasing = samples[cut].t_s > samples[cut - 1].t_s;
+    if !increasing {
         return None;
     }
     let (first, second) = std::thread::scope(|s| {
