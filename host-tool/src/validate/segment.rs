@@ -340,8 +340,7 @@ fn segment_halves(
     };
     let cut = (samples.len() / 2..samples.len()).find(|&i| certain(i))?;
     // Time must increase across the cut too (each half checks its own).
-    let increasing = samples[cut].t_s > samples[cut - 1].t_s;
-    if !increasing {
+    if !(samples[cut].t_s > samples[cut - 1].t_s) {
         return None;
     }
     let (first, second) = std::thread::scope(|s| {
