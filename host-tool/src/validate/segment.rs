@@ -301,74 +301,7 @@ pub fn segment(
     rover: &Rover,
     options: &SegmentOptions,
 ) -> Result<Vec<Segment>, SegmentError> {
-    segment_from(samples, rover, options, PARALLEL_SAMPLES)
-}
-
-/// Runs of at least this many samples are cut on two cores ([`segment_halves`]).
-const PARALLEL_SAMPLES: usize = 1 << 16;
-
-/// [`segment`], on two cores for runs of `parallel_from` samples or more.
-fn segment_from(
-    samples: &[RunSample],
-    rover: &Rover,
-    options: &SegmentOptions,
-    parallel_from: usize,
-) -> Result<Vec<Segment>, SegmentError> {
     check_options(options)?;
-    if samples.len() >= parallel_from.max(4) {
-        if let Some(segments) = segment_halves(samples, rover, options) {
-            return Ok(segments);
-        }
-    }
-    segment_part(samples, rover, options)
-}
-
-/// [`segment`] on two cores: the run split where a manoeuvre certainly starts, the first place
-/// from the middle on where a commanded side speed jumps by more than three tolerances from one
-/// sample to the next (so it is more than one tolerance from the first sample of the span the
-/// previous sample is in, rounding included), each half cut on its own core. `None` (cut it
-/// whole) without such a place, or if a half is refused: the whole run's cut words the error.
-fn segment_halves(
-    samples: &[RunSample],
-    rover: &Rover,
-    options: &SegmentOptions,
-) -> Option<Vec<Segment>> {
-    let jump = 3.0 * options.speed_tolerance_mps;
-    let certain = |i: usize| {
-        let (a, b) = (samples[i].cmd_mps, samples[i - 1].cmd_mps);
-        (a.left - b.left).abs() > jump || (a.right - b.right).abs() > jump
-    };
-    let cut = (samples.len() / 2..samples.len()).find(|&i| certain(i))?;
-    // Time must increase across the cut too (each half checks its own).
-    if !(samples[cut].t_s > samples[cut - 1].t_s) {
-        return None;
-    }
-    let (first, second) = std::thread::scope(|s| {
-        let second = s.spawn(|| segment_part(&samples[cut..], rover, options));
-        let first = segment_part(&samples[..cut], rover, options);
-        // A panic there is a bug: pass it on.
-        (
-            first,
-            second
-                .join()
-                .unwrap_or_else(|e| std::panic::resume_unwind(e)),
-        )
-    });
-    let mut segments = first.ok()?;
-    segments.extend(second.ok()?.into_iter().map(|s| Segment {
-        start: s.start + cut,
-        end: s.end + cut,
-        ..s
-    }));
-    Some(segments)
-}
-
-/// [`segment`] on one core.
-fn segment_part(
-    samples: &[RunSample],
-    rover: &Rover,
-    options: &SegmentOptions,
-) -> Result<Vec<Segment>, SegmentError> {
     match samples.len() {
         0 => return Err(SegmentError::Empty),
         1 => return Err(SegmentError::SingleSample),
@@ -670,42 +603,6 @@ mod tests {
         }
     }
 
-    /// Cut on two cores, a run with a problem in either half or at the cut gets the error of
-    /// the whole run's cut.
-    #[test]
-    fn two_core_cut_words_errors_as_the_whole_run() {
-        let opts = SegmentOptions::default();
-        let good = run(
-            &[(1.0, 0.3, 0.3), (1.0, 0.0, 0.6), (1.0, 0.3, 0.3)],
-            0.01,
-            0.0,
-        );
-        let cut = (good.len() / 2..good.len())
-            .find(|&i| good[i].cmd_mps != good[i - 1].cmd_mps)
-            .expect("a command change");
-        for at in [3, cut - 1, cut, cut + 1, good.len() - 2] {
-            for damage in 0..2 {
-                let mut samples = good.clone();
-                if damage == 0 {
-                    samples[at].t_s = samples[at - 1].t_s;
-                } else {
-                    samples[at].cmd_mps.left = f64::NAN;
-                }
-                let whole = segment_part(&samples, &HUSKY, &opts);
-                assert!(whole.is_err(), "{at} {damage}");
-                assert_eq!(
-                    segment_from(&samples, &HUSKY, &opts, 0),
-                    whole,
-                    "{at} {damage}"
-                );
-            }
-        }
-        assert_eq!(
-            segment_from(&good, &HUSKY, &opts, 0),
-            segment_part(&good, &HUSKY, &opts)
-        );
-    }
-
     #[test]
     fn malformed_runs_are_clear_errors() {
         let opts = SegmentOptions::default();
@@ -767,8 +664,6 @@ mod tests {
                 .collect();
             let opts = SegmentOptions::default();
             let segs = segment(&samples, &HUSKY, &opts).expect("valid run");
-            // Cut on two cores (split where a command jumps), the same spans.
-            prop_assert_eq!(&segment_from(&samples, &HUSKY, &opts, 0).expect("valid run"), &segs);
             let mut next = 0;
             for s in &segs {
                 prop_assert_eq!(s.start, next);
