@@ -13,14 +13,17 @@
 //! was made by another version of this generator).
 //!
 //! Timed, best of [`REPEATS`] in one process, each from the file on disk to the statistics
-//! (on all cores, as the multi-threaded Python readers: `read_run_csv`'s fast path parses on
-//! every core; the gap threshold runs beside `segment`, and `analyse` takes the spans in
-//! shares of about equal samples, one per core):
-//! 1. Rust, run CSV: `read_run_csv` → `segment` → `analyse` per manoeuvre.
+//! (on all cores, as the multi-threaded Python readers):
+//! 1. Rust, run CSV: what `host-tool validate --rover rovers/husky-a200.toml --runs FILE`
+//!    runs, the same library calls: [`StreamedRuns::scan`] (this tool's run CSV read once,
+//!    parsed on every core, and its content digest) → [`StreamedRuns::validate`]
+//!    (segmentation beside the gap threshold, each manoeuvre's statistics and tracked turn on
+//!    every core, the ICR fit, the report); only the printing is left out.
 //! 2. Rust, raw capture: the recorder over the capture bytes (decode, scale, commands from the
 //!    commands file) → `segment` → `analyse`.
 //! 3. Rust, MCAP: `load_run` (every channel: frames decoded, samples, commands, events) →
-//!    `segment` → `analyse`.
+//!    `segment` → `analyse` (the raw and MCAP paths: the gap threshold beside `segment`, then
+//!    `analyse` in shares of about equal samples, one per core).
 //! 4. The page-cache floor: the run CSV's bytes read again, nothing parsed.
 //! 5. Python peers on the run CSV (subprocesses; their own timing): `bench/numpy_turn_stats.py`
 //!    (`numpy.loadtxt`), `bench/arrow_turn_stats.py` (`pyarrow.csv`, multi-threaded),
@@ -30,8 +33,9 @@
 //!
 //! Every ratio is printed from this one run, and each Rust path against its fastest peer.
 //!
-//! The Rust paths and the Python scripts must agree (same spans, same per-span energies within
-//! 1e-6 relative, the raw and MCAP paths' samples equal to the CSV's) or the bench fails.
+//! The Rust paths and the Python scripts must agree (same spans — for the run CSV, each
+//! manoeuvre `validate` analysed is a span of theirs —, same per-span energies within 1e-14
+//! relative, the raw and MCAP paths' samples equal to the CSV's) or the bench fails.
 //! Without python3 or its packages the Rust figures are still printed, with the install line.
 //! Under `cargo test --benches` (no `--bench` argument) the log is two simulated minutes and each
 //! path runs once.
@@ -50,11 +54,14 @@ use host_tool::log::run_csv::{read_run_csv, write_run_csv_atomically, RunSample}
 use host_tool::log::run_log::{LogEvent, RunLogSink};
 use host_tool::log::write_atomically;
 use host_tool::record::{record_on, BoardPort, RecordOptions, RecordSummary, StopReason};
+use host_tool::rover::load_rover_file;
+use host_tool::runs::StreamedRuns;
 use host_tool::serial::SerialError;
 use host_tool::sim::board::SimBoard;
 use host_tool::sim::world::{Scenario, WorldConfig};
 use host_tool::validate::segment::{gap_threshold_s, segment, Segment, SegmentOptions};
 use host_tool::validate::turns::{analyse, ManoeuvreStats, TurnOptions, DEFAULT_SETTLE_S};
+use host_tool::validate::ValidateOptions;
 use model_core::wire::BoardFrame;
 use model_core::Rover;
 use std::io::{self, Read, Write};
@@ -81,7 +88,7 @@ const GENERATOR_VERSION: u32 = 4;
 /// peer on the same file.
 const GOAL_RATIO: f64 = 2.0;
 /// Largest relative difference of a per-span energy between Rust and numpy.
-const ENERGY_TOLERANCE: f64 = 1e-6;
+const ENERGY_TOLERANCE: f64 = 1e-14;
 
 fn main() -> Result<()> {
     // Like divan: without cargo bench's `--bench` (i.e. under `cargo test`), or with `--test`,
@@ -106,7 +113,10 @@ fn main() -> Result<()> {
     let bin_bytes = std::fs::metadata(&files.bin)?.len();
     let mcap_bytes = std::fs::metadata(&files.mcap)?.len();
 
-    let rover = Rover::HUSKY_A200;
+    let validate = ValidateSetup::load()?;
+    let rover = validate.rover;
+    // The run CSV's samples, for the other paths to be compared with (not timed).
+    let csv_samples = read_run_csv(&files.csv)?;
     let mut baselines = [
         Baseline::new("numpy_turn_stats.py", &files.csv, &["numpy"]),
         Baseline::new("arrow_turn_stats.py", &files.csv, &["numpy", "pyarrow"]),
@@ -118,7 +128,7 @@ fn main() -> Result<()> {
     // Round by round, so all paths see the same load on a shared machine.
     let (mut csv_best, mut raw_best, mut mcap_best) = (None, None, None);
     for _ in 0..repeats {
-        keep_best(&mut csv_best, rust_from_csv(&files, &rover)?);
+        keep_best(&mut csv_best, rust_from_csv(&files, &validate)?);
         keep_best(&mut raw_best, rust_from_raw(&files, &rover)?);
         keep_best(&mut mcap_best, rust_from_mcap(&files, &rover)?);
         let t = Instant::now();
@@ -134,21 +144,22 @@ fn main() -> Result<()> {
     let (raw_time, raw_result) = raw_best.context("no run")?;
     let (mcap_time, mcap_result) = mcap_best.context("no run")?;
     ensure!(
-        raw_result.samples == csv_result.samples,
+        raw_result.samples == csv_samples,
         "the raw capture's samples differ from the run CSV's"
     );
     ensure!(
-        mcap_result.samples == csv_result.samples,
+        mcap_result.samples == csv_samples,
         "the MCAP log's samples differ from the run CSV's"
     );
-    let rows = csv_result.samples.len();
-    let spans = csv_result.stats.len();
+    let rows = csv_samples.len();
+    let spans = raw_result.spans.len();
     println!(
-        "Log: {} ({rows} rows, {:.1} MB run CSV; {:.1} MB raw capture; {:.1} MB MCAP), {spans} spans of ≥ 2 samples",
+        "Log: {} ({rows} rows, {:.1} MB run CSV; {:.1} MB raw capture; {:.1} MB MCAP), {spans} spans of ≥ 2 samples, {} manoeuvres analysed by validate",
         files.csv.display(),
         csv_bytes as f64 / 1e6,
         bin_bytes as f64 / 1e6,
         mcap_bytes as f64 / 1e6,
+        csv_result.spans.len(),
     );
     let line = |what: &str, t: Duration, bytes: u64| {
         let s = t.as_secs_f64();
@@ -160,7 +171,7 @@ fn main() -> Result<()> {
         );
     };
     println!("Best of {repeats}, from the file on disk to per-manoeuvre statistics:");
-    line("Rust, run CSV", csv_time, csv_bytes);
+    line("Rust, run CSV (validate's path)", csv_time, csv_bytes);
     println!("    ({})", csv_result.stages);
     line("Rust, raw capture", raw_time, bin_bytes);
     println!("    ({})", raw_result.stages);
@@ -198,10 +209,14 @@ fn main() -> Result<()> {
             }
             Some((seconds, spans)) => {
                 line(&label, Duration::from_secs_f64(*seconds), bytes);
-                let diff = cross_check(rust, spans)?;
+                // validate analyses the manoeuvres (not standstill or too short): each is a
+                // span of the peer's.
+                let every_span = rust_name != "run CSV";
+                let diff = cross_check(rust, spans, every_span)?;
                 println!(
-                    "    agreement with Rust ({rust_name}): {} spans in both; span starts equal; largest relative energy difference {diff:.1e}",
-                    spans.len()
+                    "    agreement with Rust ({rust_name}): {} spans, {} of them in Rust, starts equal; largest relative energy difference {diff:.1e}",
+                    spans.len(),
+                    rust.spans.len()
                 );
                 if rust_name == "run CSV" {
                     ratios.push(("run CSV", baseline.script, seconds / csv_time.as_secs_f64()));
@@ -247,8 +262,9 @@ fn print_ratios(ratios: &[(&str, &str, f64)]) {
 
 /// `-- --csv-only`: the Rust run-CSV path alone, each run's stages printed (for a profiler).
 fn profile_csv(files: &Files, repeats: usize) -> Result<()> {
+    let validate = ValidateSetup::load()?;
     for _ in 0..repeats {
-        let result = rust_from_csv(files, &Rover::HUSKY_A200)?;
+        let result = rust_from_csv(files, &validate)?;
         println!(
             "Rust, run CSV: {:.1} ms ({})",
             result.stages.total().as_secs_f64() * 1e3,
@@ -531,9 +547,11 @@ impl RunLogSink for Tee {
 
 /// What one Rust path produced.
 struct RustResult {
+    /// The samples (raw and MCAP paths; the run CSV path's stay inside `validate`).
     samples: Vec<RunSample>,
-    /// (first sample, statistics) of every span of ≥ 2 samples.
-    stats: Vec<(usize, ManoeuvreStats)>,
+    /// (start time [s], statistics) of every span of ≥ 2 samples (raw and MCAP paths), of every
+    /// manoeuvre analysed (run CSV path).
+    spans: Vec<(f64, ManoeuvreStats)>,
     /// Where the time went.
     stages: Stages,
 }
@@ -593,10 +611,10 @@ fn statistics(samples: Vec<RunSample>, rover: &Rover, mut stages: Stages) -> Res
     let cuts: Vec<usize> = (0..=cores)
         .map(|k| spans.partition_point(|s| s.start < samples.len() * k / cores))
         .collect();
-    let analyse_all = |spans: &[&Segment]| -> Vec<(usize, ManoeuvreStats)> {
+    let analyse_all = |spans: &[&Segment]| -> Vec<(f64, ManoeuvreStats)> {
         spans
             .iter()
-            .map(|s| (s.start, analyse(&samples, s, rover, &turn_options)))
+            .map(|s| (s.t_start_s, analyse(&samples, s, rover, &turn_options)))
             .collect()
     };
     let stats = std::thread::scope(|s| {
@@ -617,7 +635,7 @@ fn statistics(samples: Vec<RunSample>, rover: &Rover, mut stages: Stages) -> Res
     stages.mark("statistics");
     Ok(RustResult {
         samples,
-        stats,
+        spans: stats,
         stages,
     })
 }
@@ -630,11 +648,46 @@ fn turn_options(samples: &[RunSample], options: &SegmentOptions) -> TurnOptions 
     }
 }
 
-fn rust_from_csv(files: &Files, rover: &Rover) -> Result<RustResult> {
+/// The rover and options `host-tool validate --rover rovers/husky-a200.toml` uses.
+struct ValidateSetup {
+    rover: Rover,
+    options: ValidateOptions,
+}
+
+impl ValidateSetup {
+    fn load() -> Result<Self> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rovers/husky-a200.toml");
+        let file = load_rover_file(&path)?;
+        // As `validate`'s arguments set them, with their defaults.
+        let options = ValidateOptions {
+            tracker_offset_m: file.tracker_offset_m,
+            ..ValidateOptions::for_rover(&file.rover)
+        };
+        Ok(Self {
+            rover: file.rover,
+            options,
+        })
+    }
+}
+
+/// `host-tool validate`'s path on the run CSV: the library calls its command makes.
+fn rust_from_csv(files: &Files, setup: &ValidateSetup) -> Result<RustResult> {
     let mut stages = Stages::start();
-    let samples = read_run_csv(&files.csv)?;
-    stages.mark("read run CSV");
-    statistics(samples, rover, stages)
+    let runs = StreamedRuns::scan(std::slice::from_ref(&files.csv), false)?;
+    stages.mark("read + digest (scan)");
+    let report = runs.validate(&setup.rover, &setup.options)?;
+    stages.mark("segment, gap threshold, statistics, fit (validate)");
+    let spans = report
+        .manoeuvres
+        .iter()
+        .map(|row| (row.t_start_s, row.stats.clone()))
+        .collect();
+    std::hint::black_box(report);
+    Ok(RustResult {
+        samples: Vec::new(),
+        spans,
+        stages,
+    })
 }
 
 fn rust_from_raw(files: &Files, rover: &Rover) -> Result<RustResult> {
@@ -757,23 +810,32 @@ fn python_probe(packages: &[&str]) -> Option<String> {
     }
 }
 
-/// Checks that Rust and numpy found the same spans with the same energies; returns the largest
-/// relative energy difference.
-fn cross_check(rust: &RustResult, numpy: &[NumpySpan]) -> Result<f64> {
-    ensure!(
-        rust.stats.len() == numpy.len(),
-        "Rust found {} spans of ≥ 2 samples, numpy {}",
-        rust.stats.len(),
-        numpy.len()
-    );
-    let mut largest: f64 = 0.0;
-    for ((start, stats), np) in rust.stats.iter().zip(numpy) {
-        let t = rust.samples[*start].t_s;
+/// Checks that Rust and numpy found the same spans with the same energies — with
+/// `every_span`, the same list; without, each Rust span one of numpy's (by its start) —;
+/// returns the largest relative energy difference.
+fn cross_check(rust: &RustResult, numpy: &[NumpySpan], every_span: bool) -> Result<f64> {
+    if every_span {
         ensure!(
-            t == np.start_s,
-            "span starting at {t} s in Rust starts at {} s in numpy",
-            np.start_s
+            rust.spans.len() == numpy.len(),
+            "Rust found {} spans of ≥ 2 samples, numpy {}",
+            rust.spans.len(),
+            numpy.len()
         );
+    }
+    let mut largest: f64 = 0.0;
+    let mut next = 0;
+    for (t, stats) in &rust.spans {
+        // numpy's spans are in time order, as Rust's.
+        let Some(at) = numpy[next..].iter().position(|np| np.start_s == *t) else {
+            bail!("span starting at {t} s in Rust has no span starting then in numpy");
+        };
+        ensure!(
+            !every_span || at == 0,
+            "span starting at {t} s in Rust starts at {} s in numpy",
+            numpy[next].start_s
+        );
+        let np = &numpy[next + at];
+        next += at + 1;
         ensure!(
             stats.gaps == 0,
             "span at {t} s has gaps (numpy integrates across them)"

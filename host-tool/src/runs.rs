@@ -4,10 +4,10 @@
 use crate::figures::RunSamples;
 use crate::log::load::{
     load_salvaging, refuse_duplicate_digests, refuse_duplicate_runs, stream_salvaging, LoadError,
-    StreamFound,
+    RunDigest, RunFormat, StreamFound,
 };
 use crate::log::mcap::{Loss, Truncation};
-use crate::log::run_csv::{DroppedRow, RunSample};
+use crate::log::run_csv::{read_own_run_csv, DroppedRow, RunCsvFileError, RunSample};
 use crate::log::run_log::{RunLog, RunLogSink};
 use crate::progress;
 use crate::validate::stream::{RunPass, RunScan};
@@ -90,16 +90,23 @@ impl Runs {
     }
 }
 
+/// How much of this tool's own run CSVs [`StreamedRuns`] holds in memory rather than reading
+/// them twice, all runs together [bytes]: about two hours at 200 Hz; the samples take ~1.4×
+/// the files in the layout with a tracked point (120 B a row), at most 3× in the shortest.
+pub const HELD_CSV_MAX_BYTES: u64 = 128 << 20;
+
 /// Run logs validated as streams, for `validate`: memory stays bounded whatever the logs'
-/// length (each file is read twice, see [`validate::stream`]), and the report is the one
-/// [`Runs::validate`] gives, to the bit.
+/// length (each file is read twice, see [`validate::stream`]; this tool's own run CSVs, up to
+/// [`HELD_CSV_MAX_BYTES`] of them in all, are read once, on every core, and validated from
+/// memory), and
+/// the report is the one [`Runs::validate`] gives, to the bit.
 #[derive(Debug, Default)]
 pub struct StreamedRuns {
     /// Each run's name (its path as given).
     pub names: Vec<String>,
     paths: Vec<PathBuf>,
     salvage: bool,
-    scans: Vec<RunScan>,
+    reads: Vec<FirstRead>,
     /// MCAP files that ended before their footer (a killed recorder) and how much was used.
     pub truncated: Vec<(PathBuf, Truncation)>,
     /// What damage cost each file, one warning per stretch or row ([`damage_warnings`]).
@@ -134,27 +141,52 @@ impl StreamedRuns {
     /// needs, its damage and truncation, its content digest. Errors as [`Runs::load`]'s, the
     /// same run given twice too.
     pub fn scan(paths: &[PathBuf], salvage: bool) -> Result<StreamedRuns, LoadError> {
+        Self::scan_holding(paths, salvage, HELD_CSV_MAX_BYTES)
+    }
+
+    /// [`Self::scan`], holding this tool's run CSVs up to `held_max_bytes` in all (in order:
+    /// a file that would pass it streams, as do the rest once it is spent).
+    fn scan_holding(
+        paths: &[PathBuf],
+        salvage: bool,
+        held_max_bytes: u64,
+    ) -> Result<StreamedRuns, LoadError> {
         let bar = progress::bar(paths.len() as u64, "reading runs");
         let mut runs = StreamedRuns {
             salvage,
             ..StreamedRuns::default()
         };
+        let mut held_bytes = 0;
         for path in paths {
-            let mut scan = RunScan::default();
-            let found = stream_salvaging(path, salvage, &mut scan)?;
-            if let Some(t) = found.truncated {
-                runs.truncated.push((path.clone(), t));
-            }
-            runs.damage
-                .extend(damage_warnings(path, &found.losses, &found.dropped_rows));
-            runs.lost_data |= found.lost_data();
+            // The digest is taken as the samples are read (in file order, on the core that
+            // parsed them); it is dropped if the file is not held.
+            let mut digest = RunDigest::default();
+            let mut hash = |rows: &[RunSample]| rows.iter().for_each(|s| digest.push(s));
+            let budget = held_max_bytes - held_bytes;
+            let read = match read_held(path, budget, &mut hash)? {
+                Some((samples, bytes)) => {
+                    held_bytes += bytes;
+                    FirstRead::Held { samples, digest }
+                }
+                None => {
+                    let mut scan = RunScan::default();
+                    let found = stream_salvaging(path, salvage, &mut scan)?;
+                    if let Some(t) = found.truncated {
+                        runs.truncated.push((path.clone(), t));
+                    }
+                    runs.damage
+                        .extend(damage_warnings(path, &found.losses, &found.dropped_rows));
+                    runs.lost_data |= found.lost_data();
+                    FirstRead::Scanned(scan)
+                }
+            };
             runs.names.push(path.display().to_string());
             runs.paths.push(path.clone());
-            runs.scans.push(scan);
+            runs.reads.push(read);
             bar.inc(1);
         }
         bar.finish_and_clear();
-        let digests: Vec<_> = runs.scans.iter().map(RunScan::digest).collect();
+        let digests: Vec<_> = runs.reads.iter().map(FirstRead::digest).collect();
         refuse_duplicate_digests(&runs.names, &digests)?;
         Ok(runs)
     }
@@ -167,7 +199,10 @@ impl StreamedRuns {
         sink: &mut dyn RunLogSink,
     ) -> Option<Result<StreamFound, LoadError>> {
         let path = self.paths.get(index)?;
-        Some(stream_salvaging(path, self.salvage, sink))
+        match self.reads.get(index)? {
+            FirstRead::Held { samples, .. } => Some(replay_held(path, samples, sink)),
+            FirstRead::Scanned(_) => Some(stream_salvaging(path, self.salvage, sink)),
+        }
     }
 
     /// The second pass: validates the runs together, as [`Runs::validate`] does.
@@ -176,10 +211,19 @@ impl StreamedRuns {
         rover: &Rover,
         options: &ValidateOptions,
     ) -> Result<ValidationReport, StreamedRunsError> {
-        validate::stream::begin(self.scans.len(), options)?;
-        let bar = progress::bar(self.scans.len() as u64, "validating runs");
-        let mut runs = Vec::with_capacity(self.scans.len());
-        for ((name, path), scan) in self.names.iter().zip(&self.paths).zip(&self.scans) {
+        validate::stream::begin(self.reads.len(), options)?;
+        let bar = progress::bar(self.reads.len() as u64, "validating runs");
+        let mut runs = Vec::with_capacity(self.reads.len());
+        for ((name, path), read) in self.names.iter().zip(&self.paths).zip(&self.reads) {
+            let scan = match read {
+                FirstRead::Held { samples, .. } => {
+                    let run = RunInput::from_samples(name, samples);
+                    runs.push(validate::validate_run(rover, &run, options)?);
+                    bar.inc(1);
+                    continue;
+                }
+                FirstRead::Scanned(scan) => scan,
+            };
             let mut pass = RunPass::new(name, scan, rover, options)?;
             stream_salvaging(path, self.salvage, &mut pass)?;
             if pass.samples() != scan.samples() {
@@ -195,6 +239,68 @@ impl StreamedRuns {
         bar.finish_and_clear();
         Ok(validate::stream::finish(rover, options, runs)?)
     }
+}
+
+/// A run's first read by [`StreamedRuns::scan`].
+#[derive(Debug)]
+enum FirstRead {
+    /// Read whole ([`read_held`]): validated from memory, not read again.
+    Held {
+        samples: Vec<RunSample>,
+        digest: RunDigest,
+    },
+    /// Scanned as a stream: read again to validate.
+    Scanned(RunScan),
+}
+
+impl FirstRead {
+    fn digest(&self) -> &RunDigest {
+        match self {
+            FirstRead::Held { digest, .. } => digest,
+            FirstRead::Scanned(scan) => scan.digest(),
+        }
+    }
+}
+
+/// The samples of `path` and its size if it is one of this tool's own run CSVs (valid
+/// throughout) of at most `max_bytes`; `None` for any other log (streamed: read twice).
+/// `visit` as [`read_own_run_csv`]'s.
+fn read_held(
+    path: &Path,
+    max_bytes: u64,
+    visit: &mut (dyn FnMut(&[RunSample]) + Send),
+) -> Result<Option<(Vec<RunSample>, u64)>, LoadError> {
+    if RunFormat::of(path)? != RunFormat::Csv {
+        return Ok(None);
+    }
+    let Some(samples) = read_own_run_csv(path, max_bytes, visit)? else {
+        return Ok(None);
+    };
+    // Its size as read (the reader refused a larger file).
+    let bytes = std::fs::metadata(path).map_or(max_bytes, |m| m.len().min(max_bytes));
+    Ok(Some((samples, bytes)))
+}
+
+/// A held run's samples handed to `sink` again, as [`stream_salvaging`] would read them from
+/// its file (a valid run CSV: nothing cut, damaged or dropped).
+fn replay_held(
+    path: &Path,
+    samples: &[RunSample],
+    sink: &mut dyn RunLogSink,
+) -> Result<StreamFound, LoadError> {
+    for s in samples {
+        sink.sample(s).map_err(|e| RunCsvFileError {
+            path: path.to_owned(),
+            source: e.into(),
+        })?;
+    }
+    Ok(StreamFound {
+        run: (),
+        format: RunFormat::Csv,
+        truncated: None,
+        losses: Vec::new(),
+        dropped_rows: Vec::new(),
+    })
 }
 
 /// The warning for a truncated MCAP file.
@@ -277,19 +383,57 @@ mod tests {
         for paths in [
             vec![a.mcap.clone(), b.mcap.clone()],
             vec![a.csv.clone(), b.mcap.clone()],
+            vec![b.csv.clone(), a.csv.clone()],
             vec![damaged.clone(), cut.clone()],
         ] {
             let in_memory = Runs::load(&paths, false).expect("loads");
             let want = in_memory
                 .validate(&rover, &validate_options)
                 .expect("valid");
-            let streamed = StreamedRuns::scan(&paths, false).expect("scans");
-            let got = streamed.validate(&rover, &validate_options).expect("valid");
+            // This tool's run CSVs held in memory (as `validate` reads them) and streamed.
+            for held_max_bytes in [HELD_CSV_MAX_BYTES, 0] {
+                let streamed =
+                    StreamedRuns::scan_holding(&paths, false, held_max_bytes).expect("scans");
+                let got = streamed.validate(&rover, &validate_options).expect("valid");
+                assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
+                assert_eq!(streamed.names, in_memory.names);
+                assert_eq!(streamed.truncated, in_memory.truncated);
+                assert_eq!(streamed.damage, in_memory.damage);
+                assert_eq!(streamed.lost_data, in_memory.lost_data);
+                // A third pass (diagnose's) gets the samples of the first.
+                let mut again = RunLog::default();
+                let found = streamed.read_again(0, &mut again).expect("a run");
+                assert_eq!(found.expect("reads").dropped_rows, []);
+                assert_eq!(again.samples, in_memory.logs[0].samples);
+            }
+            let held = StreamedRuns::scan(&paths, false).expect("scans");
+            // The budget is for all runs together: room for the first CSV only.
+            let first_only = paths
+                .iter()
+                .find(|p| **p == a.csv || **p == b.csv)
+                .and_then(|p| std::fs::metadata(p).ok())
+                .map_or(0, |m| m.len());
+            let partly = StreamedRuns::scan_holding(&paths, false, first_only).expect("scans");
+            let held_count = |runs: &StreamedRuns| {
+                runs.reads
+                    .iter()
+                    .filter(|r| matches!(r, FirstRead::Held { .. }))
+                    .count()
+            };
+            assert_eq!(
+                held_count(&partly),
+                usize::from(first_only > 0),
+                "{paths:?}"
+            );
+            let got = partly.validate(&rover, &validate_options).expect("valid");
             assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
-            assert_eq!(streamed.names, in_memory.names);
-            assert_eq!(streamed.truncated, in_memory.truncated);
-            assert_eq!(streamed.damage, in_memory.damage);
-            assert_eq!(streamed.lost_data, in_memory.lost_data);
+            let kinds: Vec<bool> = held
+                .reads
+                .iter()
+                .map(|r| matches!(r, FirstRead::Held { .. }))
+                .collect();
+            let own_csv: Vec<bool> = paths.iter().map(|p| *p == a.csv || *p == b.csv).collect();
+            assert_eq!(kinds, own_csv, "{paths:?}");
         }
         // The damage was seen (so the last case compared salvaged reads).
         let streamed = StreamedRuns::scan(&[damaged, cut], false).expect("scans");
@@ -302,6 +446,8 @@ mod tests {
         for paths in [
             vec![a.mcap.clone(), b.mcap.clone(), a.mcap.clone()],
             vec![a.mcap.clone(), a.csv.clone()],
+            vec![a.csv.clone(), a.mcap.clone()],
+            vec![a.csv.clone(), a.csv.clone()],
         ] {
             let want = Runs::load(&paths, false)
                 .expect_err("duplicate")

@@ -6,9 +6,7 @@ use super::run_csv::{
     read_run_csv_salvaging, DroppedRow, RunCsvFileError, RunCsvReader, RunSample,
 };
 use super::run_log::{RunLog, RunLogSink};
-use std::collections::hash_map::DefaultHasher;
 use std::fmt;
-use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
 /// A run log file format.
@@ -116,43 +114,57 @@ fn duplicate_run(names: &[String], first: usize, second: usize) -> LoadError {
 }
 
 /// What identifies a run's content without keeping it, for runs read as streams: the samples'
-/// count and two independent 64-bit hashes of their bits (the values
-/// [`refuse_duplicate_runs`] compares), so two runs match only if their samples do, but for a
-/// 2⁻¹²⁸ chance.
+/// count and a 128-bit hash of their bits (the values [`refuse_duplicate_runs`] compares), so
+/// two runs match only if their samples do, but for a chance of about 2⁻⁶⁴ (a difference
+/// changes one of four independent 64-bit lanes). Lanes of a folded multiply (as wyhash's)
+/// rather than SipHash: the digest runs on every sample of the run, on one core.
 #[derive(Debug, Clone)]
 pub struct RunDigest {
     samples: u64,
-    hashes: [DefaultHasher; 2],
+    lanes: [u64; 4],
 }
+
+/// Odd 64-bit constants (wyhash's), one per lane: each lane's multiplier and start.
+const LANE_KEYS: [u64; 4] = [
+    0xa076_1d64_78bd_642f,
+    0xe703_7ed1_a0b4_28db,
+    0x8ebc_6af0_9c88_c6e3,
+    0x5899_65cc_7537_4cc3,
+];
 
 impl Default for RunDigest {
     fn default() -> Self {
-        // The second hash starts from another state: independent of the first.
-        let mut second = DefaultHasher::new();
-        0xA5u8.hash(&mut second);
         Self {
             samples: 0,
-            hashes: [DefaultHasher::new(), second],
+            lanes: LANE_KEYS.map(|k| k.rotate_left(32)),
         }
     }
+}
+
+/// The 128-bit product of `a` and `b`, its halves folded into 64 bits.
+fn folded_multiply(a: u64, b: u64) -> u64 {
+    let p = u128::from(a) * u128::from(b);
+    (p as u64) ^ ((p >> 64) as u64)
 }
 
 impl RunDigest {
     /// The run's next sample.
     pub fn push(&mut self, s: &RunSample) {
         self.samples += 1;
-        for hasher in &mut self.hashes {
-            for v in s.required_values() {
-                v.to_bits().hash(hasher);
-            }
+        // Value i into lane i mod 4: four independent chains (the multiplies overlap).
+        for (i, v) in s.required_values().into_iter().enumerate() {
+            let lane = i % LANE_KEYS.len();
+            let key = LANE_KEYS[lane];
+            self.lanes[lane] = folded_multiply(self.lanes[lane] ^ v.to_bits(), key) ^ key;
         }
     }
 
     fn key(&self) -> (u64, u64, u64) {
+        let [a, b, c, d] = self.lanes;
         (
             self.samples,
-            self.hashes[0].finish(),
-            self.hashes[1].finish(),
+            folded_multiply(a ^ LANE_KEYS[2], b ^ LANE_KEYS[3]),
+            folded_multiply(c ^ LANE_KEYS[0], d ^ LANE_KEYS[1]),
         )
     }
 }
@@ -347,6 +359,56 @@ mod tests {
         assert!(
             refuse_duplicate_runs(&names[..2], &[RunLog::default(), RunLog::default()]).is_ok()
         );
+    }
+
+    #[test]
+    fn digests_tell_runs_apart_by_any_value() {
+        use crate::log::run_csv::RunSample;
+        use model_core::Sides;
+        let run: Vec<RunSample> = (0..40)
+            .map(|i| {
+                let x = f64::from(i);
+                RunSample::new(
+                    x * 0.005,
+                    Sides::new(24.0 + x, 24.5),
+                    Sides::new(1.0, -x),
+                    Sides::new(0.3, 0.1),
+                )
+            })
+            .collect();
+        let digest = |samples: &[RunSample]| {
+            let mut d = RunDigest::default();
+            samples.iter().for_each(|s| d.push(s));
+            d.key()
+        };
+        assert_eq!(digest(&run), digest(&run.clone()));
+        assert_ne!(digest(&run), digest(&run[..39]));
+        // One value changed, in each column and at each place: another digest.
+        for at in [0, 17, 39] {
+            for column in 0..7 {
+                let mut changed = run.clone();
+                let s = &mut changed[at];
+                let v = match column {
+                    0 => &mut s.t_s,
+                    1 => &mut s.bus_v.left,
+                    2 => &mut s.bus_v.right,
+                    3 => &mut s.current_a.left,
+                    4 => &mut s.current_a.right,
+                    5 => &mut s.cmd_mps.left,
+                    _ => &mut s.cmd_mps.right,
+                };
+                *v = -*v - 1e-9;
+                assert_ne!(
+                    digest(&run),
+                    digest(&changed),
+                    "sample {at}, column {column}"
+                );
+            }
+        }
+        // Two samples swapped: another digest.
+        let mut swapped = run.clone();
+        swapped.swap(3, 4);
+        assert_ne!(digest(&run), digest(&swapped));
     }
 
     #[test]

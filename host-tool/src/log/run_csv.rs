@@ -387,9 +387,7 @@ pub fn read_run_csv_salvaging(
     salvage: bool,
 ) -> Result<(Vec<RunSample>, Vec<DroppedRow>), RunCsvFileError> {
     // This tool's own files, valid throughout: read and parsed in parallel, block by block.
-    if let Some(samples) =
-        fast::read_file(path, fast::BLOCK_BYTES).map_err(|e| RunCsvFileError::new(path, e))?
-    {
+    if let Some(samples) = read_own_run_csv(path, u64::MAX, &mut |_| {})? {
         return Ok((samples, Vec::new()));
     }
     let bytes = std::fs::read(path).map_err(|e| RunCsvFileError::new(path, e))?;
@@ -401,6 +399,21 @@ pub fn read_run_csv_salvaging(
         .collect::<Result<_, _>>()
         .map_err(|e| RunCsvFileError::new(path, e))?;
     Ok((samples, reader.dropped))
+}
+
+/// The samples of the run CSV at `path` if it is one of this tool's own (its header and layout,
+/// valid throughout) of at most `max_bytes`, read once and parsed on every core; `Ok(None)`
+/// for any other file, which [`RunCsvReader`] reads and judges (it words the errors, drops a
+/// cut last row). `visit` is handed the samples in file order, a stretch at a time, as they
+/// are read (e.g. to hash them while they are in the cache); after `Ok(None)` what it was
+/// handed is not the file's samples.
+pub fn read_own_run_csv(
+    path: &Path,
+    max_bytes: u64,
+    visit: &mut (dyn FnMut(&[RunSample]) + Send),
+) -> Result<Option<Vec<RunSample>>, RunCsvFileError> {
+    fast::read_file(path, fast::BLOCK_BYTES, max_bytes, visit)
+        .map_err(|e| RunCsvFileError::new(path, e))
 }
 
 /// Writes `samples` to a run CSV at `path`, all or nothing (see [`write_atomically`]): if any

@@ -181,32 +181,43 @@ pub fn validate(
     runs: &[RunInput<'_>],
     options: &ValidateOptions,
 ) -> Result<ValidationReport, ValidateError> {
-    if runs.is_empty() {
-        return Err(ValidateError::NoRuns);
-    }
-    check_options(options)?;
-    let mut reports = Vec::with_capacity(runs.len());
-    let mut rows = Vec::new();
-    let mut any_positions = false;
-    for run in runs {
-        let segs = segment::segment(run.samples, rover, &options.segment).map_err(|source| {
-            ValidateError::Run {
-                name: run.name.to_owned(),
-                source,
-            }
-        })?;
-        let facts = RunFacts::of(run.samples, options.segment.gap_factor);
-        any_positions |= facts.has_positions;
-        let mut validation = RunValidation::new(run.name, &facts, rover, options);
-        for seg in &segs {
-            validation.manoeuvre(seg, &run.samples[seg.start..seg.end]);
-        }
-        let (report, run_rows) =
-            validation.finish(crosscheck::cross_check(run.frames, run.commands, rover));
-        reports.push(report);
-        rows.extend(run_rows);
-    }
-    assemble(rover, options, reports, rows, any_positions)
+    stream::begin(runs.len(), options)?;
+    let runs = runs
+        .iter()
+        .map(|run| validate_run(rover, run, options))
+        .collect::<Result<Vec<_>, _>>()?;
+    stream::finish(rover, options, runs)
+}
+
+/// One run held in memory, validated on every core: its report, its manoeuvre rows and whether
+/// it has tracked positions (what [`stream::finish`] assembles). The segmentation and the
+/// run's facts (the gap threshold: a median over the run) are found side by side, then the
+/// manoeuvres measured in shares ([`RunValidation::manoeuvres`]).
+pub fn validate_run(
+    rover: &Rover,
+    run: &RunInput<'_>,
+    options: &ValidateOptions,
+) -> Result<(RunReport, Vec<ManoeuvreRow>, bool), ValidateError> {
+    let (segs, facts) = std::thread::scope(|s| {
+        let facts = s.spawn(|| RunFacts::of(run.samples, options.segment.gap_factor));
+        let segs = segment::segment(run.samples, rover, &options.segment);
+        // A panic there is a bug: pass it on.
+        (
+            segs,
+            facts
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e)),
+        )
+    });
+    let segs = segs.map_err(|source| ValidateError::Run {
+        name: run.name.to_owned(),
+        source,
+    })?;
+    let mut validation = RunValidation::new(run.name, &facts, rover, options);
+    validation.manoeuvres(&segs, run.samples);
+    let (report, rows) =
+        validation.finish(crosscheck::cross_check(run.frames, run.commands, rover));
+    Ok((report, rows, facts.has_positions))
 }
 
 /// The report of validated runs: each run's report and manoeuvre rows (in run order) → the

@@ -4,7 +4,7 @@
 //! from a file read twice, so both give the same report.
 
 use super::crosscheck::CrossCheck;
-use super::segment::{gap_threshold_s, IntervalMedian, RunCheck, Segment, SegmentError};
+use super::segment::{IntervalMedian, RunCheck, Segment, SegmentError};
 use super::ValidateOptions;
 use super::{apply_measured_slip_track, pose, turns, ManoeuvreKind, ManoeuvreRow, RunReport};
 use crate::log::run_csv::RunSample;
@@ -30,20 +30,12 @@ pub struct RunFacts {
 }
 
 impl RunFacts {
-    /// The facts of a run held in memory (of at least two samples).
+    /// The facts of a run held in memory (of at least two samples): [`FactsScan`]'s, in one
+    /// pass over the samples.
     pub fn of(samples: &[RunSample], gap_factor: f64) -> Self {
-        let duration_s = match (samples.first(), samples.last()) {
-            (Some(first), Some(last)) => last.t_s - first.t_s,
-            _ => 0.0,
-        };
-        Self {
-            samples: samples.len(),
-            duration_s,
-            has_yaw: samples.iter().all(|s| s.yaw_rad.is_some()),
-            has_pitch: samples.iter().any(|s| s.pitch_deg.is_some()),
-            has_positions: pose::has_positions(samples),
-            gap_threshold_s: gap_threshold_s(samples, gap_factor),
-        }
+        let mut scan = FactsScan::default();
+        samples.iter().for_each(|s| scan.push(s));
+        scan.facts(gap_factor)
     }
 }
 
@@ -95,6 +87,13 @@ impl FactsScan {
             gap_threshold_s: self.intervals.gap_threshold_s(gap_factor),
         }
     }
+}
+
+/// What [`RunValidation`] measures of one analysed manoeuvre.
+#[derive(Debug)]
+struct Measured {
+    stats: turns::ManoeuvreStats,
+    track: Option<pose::TrackStats>,
 }
 
 /// One run being validated, manoeuvre by manoeuvre.
@@ -153,17 +152,61 @@ impl<'a> RunValidation<'a> {
     /// The run's next manoeuvre `seg` (as [`super::segment::segment`] cuts it) and its
     /// samples.
     pub fn manoeuvre(&mut self, seg: &Segment, span: &[RunSample]) {
-        let index = self.report.segments;
-        self.report.segments += 1;
-        if seg.kind == ManoeuvreKind::Standstill {
-            self.report.standstill += 1;
-            return;
+        let measured = self.measure(seg, span);
+        self.record(seg, measured);
+    }
+
+    /// All the manoeuvres `segs` of a run held in memory (`samples`), in order: measured on
+    /// every core, in shares of about equal samples (the statistics are independent per
+    /// manoeuvre), then recorded in order, so the rows are [`Self::manoeuvre`]'s one by one.
+    pub fn manoeuvres(&mut self, segs: &[Segment], samples: &[RunSample]) {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
+        // Segment index where each core's share begins.
+        let cuts: Vec<usize> = (0..=cores)
+            .map(|k| segs.partition_point(|s| s.start < samples.len() * k / cores))
+            .collect();
+        let this = &*self;
+        let measure_all = |segs: &[Segment]| -> Vec<Option<Measured>> {
+            segs.iter()
+                .map(|seg| this.measure(seg, &samples[seg.start..seg.end]))
+                .collect()
+        };
+        let measured: Vec<Vec<Option<Measured>>> = if cores == 1 || segs.len() < 2 {
+            vec![measure_all(segs)]
+        } else {
+            std::thread::scope(|s| {
+                let shares: Vec<_> = cuts
+                    .windows(2)
+                    .skip(1)
+                    .map(|w| {
+                        let share = &segs[w[0]..w[1]];
+                        s.spawn(move || measure_all(share))
+                    })
+                    .collect();
+                // The first share on this thread.
+                let mut all = vec![measure_all(&segs[..cuts[1]])];
+                for share in shares {
+                    // A panic in a share is a bug: pass it on.
+                    all.push(
+                        share
+                            .join()
+                            .unwrap_or_else(|e| std::panic::resume_unwind(e)),
+                    );
+                }
+                all
+            })
+        };
+        for (seg, m) in segs.iter().zip(measured.into_iter().flatten()) {
+            self.record(seg, m);
         }
-        if seg.too_short {
-            self.report.too_short += 1;
-            return;
+    }
+
+    /// The statistics of manoeuvre `seg` (its samples `span`); `None` for a standstill or a
+    /// manoeuvre too short to analyse.
+    fn measure(&self, seg: &Segment, span: &[RunSample]) -> Option<Measured> {
+        if seg.kind == ManoeuvreKind::Standstill || seg.too_short {
+            return None;
         }
-        self.report.analysed += 1;
         let (rover, options) = (self.rover, self.options);
         // The statistics see the span alone: the same manoeuvre, counted from 0.
         let local = Segment {
@@ -183,6 +226,23 @@ impl<'a> RunValidation<'a> {
             };
             pose::analyse_track(turns::steady_part(span, &local, options.settle_s), &turn)
         });
+        Some(Measured { stats, track })
+    }
+
+    /// Counts manoeuvre `seg` and adds its row if it was `measured`.
+    fn record(&mut self, seg: &Segment, measured: Option<Measured>) {
+        let index = self.report.segments;
+        self.report.segments += 1;
+        let Some(Measured { stats, track }) = measured else {
+            if seg.kind == ManoeuvreKind::Standstill {
+                self.report.standstill += 1;
+            } else {
+                self.report.too_short += 1;
+            }
+            return;
+        };
+        self.report.analysed += 1;
+        let rover = self.rover;
         let speeds = SideSpeeds::new(seg.cmd_mps.left as f32, seg.cmd_mps.right as f32);
         let r_prime = f64::from(rover.r_prime_m());
         self.rows.push(ManoeuvreRow {

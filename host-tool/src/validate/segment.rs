@@ -225,7 +225,7 @@ pub fn gap_threshold_s(samples: &[RunSample], gap_factor: f64) -> f64 {
 #[derive(Debug, Clone, Default)]
 pub struct IntervalMedian {
     /// Occurrences of each interval, by its bits.
-    counts: std::collections::HashMap<u64, u64>,
+    counts: std::collections::HashMap<u64, u64, BitsHash>,
     intervals: u64,
     last_t_s: Option<f64>,
 }
@@ -258,6 +258,38 @@ impl IntervalMedian {
             }
         }
         f64::INFINITY
+    }
+}
+
+/// The hasher of [`IntervalMedian`]'s keys: a few distinct interval bits, one lookup per
+/// sample, so one multiply (Fibonacci hashing) rather than SipHash (the keys come from the
+/// run, not from an adversary choosing collisions).
+#[derive(Debug, Clone, Copy, Default)]
+struct BitsHash;
+
+impl std::hash::BuildHasher for BitsHash {
+    type Hasher = BitsHasher;
+    fn build_hasher(&self) -> BitsHasher {
+        BitsHasher(0)
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct BitsHasher(u64);
+
+impl std::hash::Hasher for BitsHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+    fn write_u64(&mut self, bits: u64) {
+        // The high bits select the bucket (hashbrown takes the top 7 as the tag too).
+        let mixed = (self.0 ^ bits).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        self.0 = mixed ^ (mixed >> 29);
     }
 }
 
@@ -546,6 +578,29 @@ mod tests {
         // The gap does not split the manoeuvre (the command did not change).
         let segs = segment(&samples, &HUSKY, &SegmentOptions::default()).expect("valid run");
         assert_eq!(segs.len(), 1);
+    }
+
+    proptest! {
+        /// The streamed median (counts of distinct intervals) is the in-memory one
+        /// (`select_nth_unstable_by`) to the bit, whatever the intervals: repeated, jittered
+        /// in the last bits as recorded times are, with gaps.
+        #[test]
+        fn interval_median_is_the_select_nth_median(
+            steps in proptest::collection::vec((0usize..6, 0u64..4), 0..400),
+            start in -1e3f64..1e6,
+        ) {
+            let mut t = start;
+            let mut samples = Vec::new();
+            for (kind, jitter) in steps {
+                samples.push(sample(t, 0.1, 0.1));
+                let dt = [0.005, 0.01, 0.005, 0.5, 0.004_999_999_999_999_893, 1e-6][kind];
+                t = f64::from_bits((t + dt).to_bits() + jitter);
+            }
+            let mut median = IntervalMedian::default();
+            samples.iter().for_each(|s| median.push(s.t_s));
+            let (want, got) = (gap_threshold_s(&samples, 5.0), median.gap_threshold_s(5.0));
+            prop_assert_eq!(got.to_bits(), want.to_bits(), "{} vs {}", got, want);
+        }
     }
 
     #[test]

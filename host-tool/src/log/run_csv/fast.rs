@@ -3,8 +3,8 @@
 //! ended): the file is cut at line ends into one part per core, each part read and parsed on
 //! its own thread in blocks (a block's bytes are parsed while they are in the cache, and no
 //! buffer of the whole file is allocated) straight from the bytes: no per-row allocation, one
-//! pass over the bytes, decimals by Clinger's exact fast path (or, past 2⁵³, an exact 128-bit
-//! integer division), anything else by `str::parse`.
+//! pass over the bytes, numbers by `fast_float2` (correctly rounded, as `str::parse`), a
+//! cell it does not take whole by `str::parse`.
 //! It gives the same samples as the general reader or gives up: on the first cell, row or
 //! layout it does not accept it returns `None`, and the general reader reads the file and
 //! words the error (or drops the cut row) exactly as before.
@@ -33,9 +33,19 @@ fn layout(header_line: &[u8]) -> Option<usize> {
         .find(|&n| header_line == header(&Column::ALL[..n]).as_bytes())
 }
 
-/// The samples of the run CSV at `path` if it is valid and in this tool's layout, read in
-/// blocks of `block` bytes; `Ok(None)` otherwise (see the module docs).
-pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunSample>>> {
+/// A function handed the samples in file order, a stretch at a time, as they are read.
+pub type Visit<'a> = &'a mut (dyn FnMut(&[RunSample]) + Send);
+
+/// The samples of the run CSV at `path` if it is valid, in this tool's layout and at most
+/// `max_bytes` long, read in blocks of `block` bytes; `Ok(None)` otherwise (see the module
+/// docs). `visit` gets them in file order as they are assembled (by the core that parsed them,
+/// while they are in its cache); on `Ok(None)` it may have had some of them.
+pub(super) fn read_file(
+    path: &Path,
+    block: usize,
+    max_bytes: u64,
+    visit: Visit<'_>,
+) -> io::Result<Option<Vec<RunSample>>> {
     let mut file = File::open(path)?;
     let metadata = file.metadata()?;
     if !metadata.is_file() {
@@ -43,6 +53,9 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
         return Ok(None);
     }
     let len = metadata.len();
+    if len > max_bytes {
+        return Ok(None);
+    }
     let mut head = Vec::new();
     (&mut file).take(4096).read_to_end(&mut head)?;
     let Some(header_end) = memchr::memchr(b'\n', &head) else {
@@ -77,13 +90,16 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
     if data_len < PARALLEL_BYTES {
         let mut samples = Vec::with_capacity(capacity);
         let ok = reader.read(&mut file, data_start, len, false, &mut samples)?;
+        if ok {
+            visit(&samples);
+        }
         return Ok(ok.then_some(samples));
     }
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
     let job = 4 * block as u64;
     let jobs = data_len.div_ceil(job);
     let bounds = |j: u64| data_start + (j * job).min(data_len);
-    let assembly = Assembly::new(capacity);
+    let assembly = Assembly::new(capacity, visit);
     std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads as u64)
             .map(|first| {
@@ -120,24 +136,26 @@ pub(super) fn read_file(path: &Path, block: usize) -> io::Result<Option<Vec<RunS
 /// The samples of the parallel reader's jobs, appended in file order by the thread that read
 /// each job as soon as its turn comes (so a job's rows are copied while they are in that
 /// core's cache, and the next job is read meanwhile on the other core).
-struct Assembly {
-    state: Mutex<Assembled>,
+struct Assembly<'a> {
+    state: Mutex<Assembled<'a>>,
     turn: Condvar,
 }
 
-struct Assembled {
+struct Assembled<'a> {
     samples: Vec<RunSample>,
+    visit: Visit<'a>,
     /// The job whose rows come next.
     next: u64,
     /// A job was not in this tool's layout (or could not be read): the result is `None`.
     failed: bool,
 }
 
-impl Assembly {
-    fn new(capacity: usize) -> Self {
+impl<'a> Assembly<'a> {
+    fn new(capacity: usize, visit: Visit<'a>) -> Self {
         Self {
             state: Mutex::new(Assembled {
                 samples: Vec::with_capacity(capacity),
+                visit,
                 next: 0,
                 failed: false,
             }),
@@ -164,6 +182,7 @@ impl Assembly {
         match rows {
             Some(rows) if !state.failed && seamless(rows) => {
                 state.samples.extend_from_slice(rows);
+                (state.visit)(rows);
             }
             _ => state.failed = true,
         }
@@ -187,9 +206,9 @@ impl Assembly {
 }
 
 /// Fails the [`Assembly`] if its thread unwinds.
-struct FailOnPanic<'a>(&'a Assembly);
+struct FailOnPanic<'a, 'b>(&'a Assembly<'b>);
 
-impl Drop for FailOnPanic<'_> {
+impl Drop for FailOnPanic<'_, '_> {
     fn drop(&mut self) {
         if std::thread::panicking() {
             self.0.fail();
@@ -347,132 +366,23 @@ fn row_sample(cells: &[Option<f64>; Column::ALL.len()], columns: usize) -> Optio
     })
 }
 
-/// Exact powers of ten as `f64` (10²² is the largest one a double holds exactly).
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// Largest integer every smaller one of which a double holds exactly (2⁵³).
-const EXACT_INT: u64 = 1 << 53;
-
 /// The cell starting at `start` of `bytes`: its number (`None`: empty) and the index of the
-/// byte after it (its delimiter, or the end), as `str::parse::<f64>` reads the cell. Plain
-/// decimals (`-12.345`) whose digits make an integer below 2⁵³ with at most 22 after the point
-/// take Clinger's fast path — an integer and a power of ten, both exact as doubles, divided
-/// once, so correctly rounded like `str::parse` —, those of up to 19 digits above 2⁵³ take
-/// [`exact_quotient`], and everything else (more digits, exponents, `NaN`) goes to
-/// `str::parse`. `None` overall for a cell that is not a number.
+/// byte after it (its delimiter, or the end), as `str::parse::<f64>` reads the cell; `None`
+/// overall for a cell that is not a number. The number is read straight from the bytes by
+/// `fast_float2` (Clinger's fast path, else Eisel–Lemire, else exact big-decimal arithmetic:
+/// correctly rounded, as `str::parse`, without its UTF-8 check and split); where it stops
+/// before a delimiter (a stray byte, an exponent cut short) `str::parse` judges the cell.
 fn parse_cell(bytes: &[u8], start: usize) -> Option<(Option<f64>, usize)> {
-    let mut i = start;
-    let negative = bytes.get(i) == Some(&b'-');
-    if negative {
-        i += 1;
+    let rest = bytes.get(start..)?;
+    if matches!(rest.first(), None | Some(b',' | b'\n')) {
+        return Some((None, start));
     }
-    // 19 digits never overflow; longer ones take the general parser below.
-    let mut mantissa: u64 = 0;
-    let int_start = i;
-    i = digits_into(bytes, i, &mut mantissa);
-    let mut digits = i - int_start;
-    let mut fraction = 0;
-    if bytes.get(i) == Some(&b'.') {
-        i += 1;
-        let fraction_start = i;
-        i = digits_into(bytes, i, &mut mantissa);
-        fraction = i - fraction_start;
-        digits += fraction;
-    }
-    match bytes.get(i) {
-        None | Some(b',' | b'\n') => {}
-        // An exponent, `NaN`, `inf`, a stray byte: the general parser decides.
-        Some(_) => return slow_cell(bytes, start),
-    }
-    if i == start {
-        return Some((None, i));
-    }
-    if digits == 0 || digits > 19 || fraction >= POW10.len() {
-        return Some((Some(slow(&bytes[start..i])?), i));
-    }
-    let value = if mantissa <= EXACT_INT {
-        mantissa as f64 / POW10[fraction]
-    } else {
-        match exact_quotient(mantissa, fraction) {
-            Some(v) => v,
-            None => return Some((Some(slow(&bytes[start..i])?), i)),
+    if let Ok((value, n)) = fast_float2::parse_partial::<f64, _>(rest) {
+        if matches!(rest.get(n), None | Some(b',' | b'\n')) {
+            return Some((Some(value), start + n));
         }
-    };
-    Some((Some(if negative { -value } else { value }), i))
-}
-
-/// The decimal digits of `bytes` from `i` on appended to `mantissa` (wrapping), eight at a
-/// time while eight are there (SWAR: one 64-bit load, checked and converted with a few
-/// multiplications), then one by one; returns the index after the last digit.
-fn digits_into(bytes: &[u8], mut i: usize, mantissa: &mut u64) -> usize {
-    while let Some(chunk) = bytes
-        .get(i..i + 8)
-        .and_then(|c| <[u8; 8]>::try_from(c).ok())
-    {
-        let v = u64::from_le_bytes(chunk);
-        if !eight_digits(v) {
-            break;
-        }
-        *mantissa = mantissa
-            .wrapping_mul(100_000_000)
-            .wrapping_add(eight_digits_value(v));
-        i += 8;
     }
-    while let Some(&b) = bytes.get(i) {
-        let d = b.wrapping_sub(b'0');
-        if d >= 10 {
-            break;
-        }
-        *mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-        i += 1;
-    }
-    i
-}
-
-/// Whether all eight bytes of `v` (little-endian) are ASCII digits.
-fn eight_digits(v: u64) -> bool {
-    const HIGH: u64 = 0xF0F0_F0F0_F0F0_F0F0;
-    ((v & HIGH) | ((v.wrapping_add(0x0606_0606_0606_0606) & HIGH) >> 4)) == 0x3333_3333_3333_3333
-}
-
-/// The number the eight ASCII digits of `v` (little-endian: first digit in the low byte) write.
-fn eight_digits_value(v: u64) -> u64 {
-    const MASK: u64 = 0x0000_00FF_0000_00FF;
-    const MUL1: u64 = 100 + (1_000_000 << 32);
-    const MUL2: u64 = 1 + (10_000 << 32);
-    let v = v.wrapping_sub(0x3030_3030_3030_3030);
-    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
-    (v & MASK)
-        .wrapping_mul(MUL1)
-        .wrapping_add(((v >> 16) & MASK).wrapping_mul(MUL2))
-        >> 32
-}
-
-/// `mantissa` / 10^`fraction` correctly rounded (to nearest, ties to even) for a mantissa above
-/// 2⁵³ (17 to 19 digits, where Clinger's path is not exact), by integer arithmetic: the
-/// quotient to 54+ bits in 128-bit integers, its remainder as the sticky bit. `None` when
-/// 10^`fraction` does not fit in 64 bits (the general parser takes those).
-fn exact_quotient(mantissa: u64, fraction: usize) -> Option<f64> {
-    let divisor = 10u64.checked_pow(u32::try_from(fraction).ok()?)?;
-    // mantissa < 2⁶⁴ and divisor < 2⁶⁴: mantissa · 2⁶⁴ fits, and the quotient has at least
-    // 54 bits (mantissa > 2⁵³, divisor ≤ 10¹⁹ < 2⁶⁴).
-    let scaled = u128::from(mantissa) << 64;
-    let q = scaled / u128::from(divisor);
-    let sticky = scaled % u128::from(divisor) != 0;
-    let bits = 128 - q.leading_zeros();
-    let drop = bits.checked_sub(53).filter(|&d| d > 0)?;
-    let kept = q >> drop;
-    let rest = q & ((1u128 << drop) - 1);
-    let half = 1u128 << (drop - 1);
-    let round_up = rest > half || (rest == half && (sticky || kept & 1 == 1));
-    let kept = u64::try_from(kept + u128::from(round_up)).ok()?;
-    // kept ≤ 2⁵³: exact as f64; the power of two 2^(drop − 64) (drop ≤ 75) is built from its
-    // bits and scales exactly (no overflow or underflow for these magnitudes).
-    let scale = f64::from_bits(u64::from(1023 + drop - 64) << 52);
-    Some(kept as f64 * scale)
+    slow_cell(bytes, start)
 }
 
 /// A cell the fast path does not read: up to its delimiter, by `str::parse`.
@@ -523,12 +433,49 @@ mod tests {
             "0.30000000000000004",
             "inf",
             "NaN",
+            // Negative zero, 2⁵³ ± 1 and halfway between doubles, 19 and 20+ digits, the
+            // smallest normal and subnormal, overflow and underflow, exponents of every form.
+            "-0.0",
+            "-0e5",
+            "0.000",
+            "9007199254740991",
+            "9007199254740993",
+            "9007199254740992.5",
+            "9007199254740993.0000000000000001",
+            "4503599627370496.5",
+            "4503599627370497.5",
+            "9999999999999999999",
+            "18446744073709551615",
+            "18446744073709551616",
+            "99999999999999999999.5",
+            "0.10000000000000000555111512312578270211815834045410156250",
+            "2.2250738585072011e-308",
+            "2.2250738585072014e-308",
+            "4.9406564584124654e-324",
+            "2.4703282292062327e-324",
+            "2.4703282292062328e-324",
+            "1e-400",
+            "1e309",
+            "-1e309",
+            "1E5",
+            "1e+5",
+            "1.5e-3",
+            "-103.50905522591594",
+            "0.0013172703733747985",
+            "infinity",
+            "-inf",
+            "+inf",
+            "nan",
+            "-NaN",
         ] {
             let want: Option<f64> = text.parse().ok();
             let got = parse_number(text.as_bytes());
             assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{text}");
         }
-        for bad in ["", "-", ".", "1..2", "1,2", "1 ", "abc", "--1"] {
+        for bad in [
+            "", "-", ".", "1..2", "1,2", "1 ", " 1", "abc", "--1", "1e", "1e+", "1.5e-", "e5",
+            "0x10", "1_000", "infin", "nana", "+-1", "1-", "١",
+        ] {
             assert_eq!(
                 parse_number(bad.as_bytes()),
                 bad.parse::<f64>().ok(),
@@ -537,22 +484,48 @@ mod tests {
         }
     }
 
-    #[test]
-    fn eight_digits_at_once() {
-        for text in ["00000000", "12345678", "99999999", "40960000", "00000001"] {
-            let v = u64::from_le_bytes(text.as_bytes().try_into().expect("8 bytes"));
-            assert!(eight_digits(v), "{text}");
-            assert_eq!(eight_digits_value(v), text.parse::<u64>().expect("digits"));
-        }
-        for text in [
-            "1234567.", "/2345678", ":2345678", "1234567:", "-1234567", "1234 678",
-        ] {
-            let v = u64::from_le_bytes(text.as_bytes().try_into().expect("8 bytes"));
-            assert!(!eight_digits(v), "{text}");
-        }
-    }
-
     proptest! {
+        /// Random cells of every shape a run CSV may hold: signs, 1 to 25 digits with the
+        /// point anywhere (or none), an optional exponent of either case and sign.
+        #[test]
+        fn any_numeric_cell_reads_as_str_parse_reads_it(
+            sign in prop::sample::select(vec!["", "-", "+"]),
+            digits in "[0-9]{1,25}",
+            point in 0usize..27,
+            exponent in prop::option::of((prop::sample::select(vec!["e", "E"]), prop::sample::select(vec!["", "-", "+"]), 0u32..400)),
+        ) {
+            let mut text = format!("{sign}{digits}");
+            if point <= digits.len() {
+                text.insert(sign.len() + point, '.');
+            }
+            if let Some((e, esign, value)) = exponent {
+                text.push_str(&format!("{e}{esign}{value}"));
+            }
+            let want: Option<f64> = text.parse().ok();
+            prop_assert_eq!(parse_number(text.as_bytes()).map(f64::to_bits), want.map(f64::to_bits), "{}", text);
+        }
+
+        /// Decimals at and next to the exact halfway point between two adjacent doubles (the
+        /// hardest to round): x = m·2^(p−52) with a 53-bit m; the midpoint (2m+1)·2^(p−53) is
+        /// (2m+1)·5^k / 10^k with k = 53 − p, written out exactly (k ≤ 31 keeps it in 128
+        /// bits), then as is (a tie: to even), cut in its last place (below) or with a digit
+        /// added (above).
+        #[test]
+        fn halfway_decimals_read_as_str_parse_reads_them(m in (1u64 << 52)..(1u64 << 53), p in 22u32..=52, how in 0u8..3) {
+            let k = 53 - p;
+            let n = u128::from(2 * m + 1) * 5u128.pow(k);
+            let digits = n.to_string();
+            let (int, frac) = digits.split_at(digits.len() - k as usize);
+            let exact = format!("{int}.{frac}");
+            let text = match how {
+                0 => exact,
+                1 => exact[..exact.len() - 1].to_owned(),
+                _ => format!("{exact}1"),
+            };
+            let want: Option<f64> = text.parse().ok();
+            prop_assert_eq!(parse_number(text.as_bytes()).map(f64::to_bits), want.map(f64::to_bits), "{}", text);
+        }
+
         #[test]
         fn long_decimals_read_bit_for_bit(int in 0u64..1000, frac in 0u64..u64::MAX, neg: bool, digits in 14usize..20) {
             let frac = frac % 10u64.pow(u32::try_from(digits).unwrap_or(19).min(19));
