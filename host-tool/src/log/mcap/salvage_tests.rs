@@ -218,3 +218,22 @@ fn a_damaged_opcode_or_index_length_loses_nothing_silently() {
     assert_eq!(got.losses.len(), 1, "{:?}", got.losses);
     assert_eq!(got.losses[0].start_byte, index as u64);
 }
+
+/// A message index's opcode with one bit flipped (0x07 → 0x0F) reads as a data end record:
+/// taken at its word, the reader stopped there and returned 135 of 600 samples with no loss
+/// reported (found by the bounded fuzz run). A data end of any length but the spec's 4 bytes
+/// is damage: the reader resynchronises, and every sample comes back.
+#[test]
+fn a_message_index_damaged_into_a_data_end_loses_nothing() {
+    let (run, mut bytes) = many_chunks();
+    let at = 18858;
+    assert_eq!(bytes[at], 0x07, "a message index opcode in the fixture");
+    bytes[at] ^= 0x08;
+    let got = read(&bytes).expect("salvaged");
+    assert_eq!(got.run.samples, run.samples);
+    assert_eq!(got.losses.len(), 1, "{:?}", got.losses);
+    assert!(got.losses[0]
+        .detail
+        .contains("data end record of 310 bytes"));
+    assert_eq!(got.truncated, None);
+}

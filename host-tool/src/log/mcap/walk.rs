@@ -36,6 +36,9 @@ fn resync_opcode(opcode: u8) -> bool {
     )
 }
 
+/// Body of the spec's data end record: the data section's CRC-32 [bytes].
+const DATA_END_BODY_BYTES: u64 = 4;
+
 /// Opcodes a well-formed file may hold at the top level: the spec's (0x01–0x0F) and the
 /// private range (0x80–0xFF, skipped unread).
 fn valid_opcode(opcode: u8) -> bool {
@@ -217,6 +220,17 @@ impl<R: Read + Seek> Walker<R> {
                     offset,
                     body: &self.body,
                 }))
+            }
+            // The spec's data end holds only the data section's CRC-32. Any other length is a
+            // damaged opcode (a message index's 0x07 with one bit flipped reads 0x0F): taken as
+            // the end of the data, it would drop every chunk after it without a word.
+            op::DATA_END if body_len != DATA_END_BODY_BYTES => {
+                self.last_unchecked = None;
+                let detail = format!(
+                    "data end record of {body_len} bytes (the spec's holds a {DATA_END_BODY_BYTES}-byte \
+                     CRC): a damaged opcode"
+                );
+                self.resync_after(offset, detail)
             }
             _ => {
                 // Not needed by the reader (schemas, indexes, statistics, attachments, private
