@@ -25,6 +25,12 @@ use std::collections::BTreeMap;
 /// a level-ground model, and a slope's Φ m g v sin θ is an effect, not a misfit [deg].
 pub const LEVEL_PITCH_DEG: f64 = 1.0;
 
+/// Whether `row` was driven on level ground: its mean pitch within [`LEVEL_PITCH_DEG`], or not
+/// measured.
+pub fn is_level(row: &TurnRow) -> bool {
+    row.pitch_deg.is_none_or(|p| p.abs() <= LEVEL_PITCH_DEG)
+}
+
 /// Significance level of the lack-of-fit test.
 pub const ALPHA: f64 = 0.01;
 
@@ -187,9 +193,7 @@ pub fn test(
 ) -> Adequacy {
     let mut total = Vec::new();
     let mut sides = Vec::new();
-    let level = rows
-        .iter()
-        .filter(|r| r.pitch_deg.is_none_or(|p| p.abs() <= LEVEL_PITCH_DEG));
+    let level = rows.iter().filter(|r| is_level(r));
     for row in level {
         let (r, v, label) = manoeuvre_key(row);
         let model = [model_w(row, 0), model_w(row, 1)];

@@ -17,7 +17,7 @@
 
 pub mod family;
 
-use super::adequacy::LEVEL_PITCH_DEG;
+use super::adequacy;
 use super::features::{SideRole, TurnRow};
 use super::observe::{self, Residuals};
 use model_core::fit::{FitError, LinearFit};
@@ -72,7 +72,7 @@ pub struct Baseline {
     /// power [W]; `None` with fewer than 2 calibration runs (the plain member is used).
     pub cv_rmse_w: Option<f64>,
     /// Φ m g of the calibration's slopes [N]: fitted (as a nuisance) only when some calibration
-    /// manoeuvre is pitched beyond [`LEVEL_PITCH_DEG`], so a calibration driven on undulating
+    /// manoeuvre is off level ground ([`adequacy::is_level`]), so a calibration driven on undulating
     /// ground does not bend a and G; 0 otherwise. Not part of the model's prediction: a slope
     /// in the diagnosed runs is the `slope` effect (the paper's model is level).
     pub calibration_grade_n: f64,
@@ -166,9 +166,7 @@ pub fn grade_feature_mps(row: &TurnRow, side: usize) -> f64 {
 /// Whether `calibration` has a manoeuvre off level ground: its baseline then fits the slope as
 /// a nuisance ([`Baseline::calibration_grade_n`]).
 fn is_graded(calibration: &[&TurnRow]) -> bool {
-    calibration
-        .iter()
-        .any(|r| r.pitch_deg.is_some_and(|p| p.abs() > LEVEL_PITCH_DEG))
+    calibration.iter().any(|r| !adequacy::is_level(r))
 }
 
 /// F², the copper-loss regressor of a side of `b`: the square of its traction force P/V, ∝

@@ -16,7 +16,7 @@
 //! inside each training fold (it is a parameter of that member, not of the selection).
 
 use super::{Baseline, BaselineError, Split, Structure};
-use crate::diagnose::adequacy::{self, LEVEL_PITCH_DEG};
+use crate::diagnose::adequacy;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::observe;
 use model_core::Rover;
@@ -184,7 +184,7 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
     let level: Vec<&TurnRow> = calibration
         .iter()
         .copied()
-        .filter(|r| r.pitch_deg.is_none_or(|p| p.abs() <= LEVEL_PITCH_DEG))
+        .filter(|r| adequacy::is_level(r))
         .collect();
     let turn_slip = constant_turn_slip(&level)
         .filter(|&s| !explained_by_slip_track(rover, &level, s))
