@@ -17,7 +17,7 @@
 //! | `slip-track` | Eq 2.2, Table D.1 | P_side on turns (ω scales by B_s,ctrl/B_s,terrain everywhere) |
 //! | `braked-inner` | Section 6.2, Fig 6.10–6.11 | at R = R' only: outer \|V_o\| |
 //! | `current-offset` | Section 3.2, Fig 3.3 | V_bus (an offset current on every manoeuvre and side) |
-//! | `motor-heating` | Section 1.1.3 | (P_side/V_bus)²·(1 − e^(−t/τ)), t the run time at mid-manoeuvre, τ from a grid (copper loss × a first-order winding temperature rise) |
+//! | `motor-heating` | Section 1.1.3 | mean of I²·x_τ over the manoeuvre, x_τ the measured I² low-passed with τ from a grid (copper loss × a first-order winding temperature rise, [`winding_heat`](super::winding_heat)); without samples (P_side/V_bus)²·(1 − e^(−t/τ)) at mid-manoeuvre |
 //! | `slope` | Eq 1.16, 2.12 | m g sin θ · v_c · \|V_side\|/(\|V_l\| + \|V_r\|) |
 //!
 //! [`features`]: super::features
@@ -182,10 +182,17 @@ pub fn regressors(
         }
         EffectId::CurrentOffset => [row.bus_v, 0.0],
         EffectId::MotorHeating => {
-            if row.bus_v > 0.0 {
+            let tau = HEATING_TAU_GRID_S
+                .iter()
+                .position(|&t| t == ctx.heating_tau_s);
+            if let (Some(h), Some(k)) = (row.copper_heat_a4, tau) {
+                [h[k][side], 0.0]
+            } else if row.bus_v > 0.0 {
+                // No samples (a per-turn table, the model file's rows): as if the model's
+                // current had flowed since the run's start, x_τ = I²(1 − e^(−t/τ)).
                 let i = ctx.baseline.side_power_w(row, side) / row.bus_v;
                 let t_mid_s = row.t_start_s + 0.5 * row.duration_s;
-                [i * i * heating_rise(t_mid_s, ctx.heating_tau_s), 0.0]
+                [i.powi(4) * heating_rise(t_mid_s, ctx.heating_tau_s), 0.0]
             } else {
                 [0.0, 0.0]
             }

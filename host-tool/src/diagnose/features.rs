@@ -19,6 +19,7 @@
 //! on measured ratios but tabulated on commanded ones moved the demo's planned arc from 2R′
 //! to 1.6R′. Whether a manoeuvre is a calibration kind stays a property of the command too.
 
+use super::winding_heat::{CopperHeat, WindingHeat};
 use crate::log::run_csv::RunSample;
 use crate::validate::{ManoeuvreKind, ValidationReport};
 use model_core::kinematics::{Regime, RegimeBounds, TurnDirection};
@@ -127,6 +128,9 @@ pub struct TurnRow {
     pub calibration_kind: bool,
     /// Per side or the total only.
     pub observed: Observed,
+    /// The manoeuvre's copper-loss history per τ, inner then outer
+    /// ([`winding_heat`](super::winding_heat)); `None` without samples (per-turn tables).
+    pub copper_heat_a4: Option<CopperHeat>,
     /// The turn as measured by a pose track; `None` without one (the regime is then the
     /// command's).
     pub measured: Option<MeasuredRadius>,
@@ -236,6 +240,9 @@ pub struct RunSampleFacts {
     /// Mean of the two sides' bus voltage over each manoeuvre's samples [V], by the
     /// manoeuvre's index in the report (0 for a manoeuvre of another run or without samples).
     pub span_bus_v: Vec<f64>,
+    /// Mean copper-loss history over each manoeuvre's samples (left, right), by the same index
+    /// (`None` for a manoeuvre without samples in this run).
+    pub span_copper_heat_a4: Vec<Option<CopperHeat>>,
 }
 
 impl crate::log::run_log::RunLogSink for RunSampleScan {
@@ -257,6 +264,8 @@ pub struct RunSampleScan {
     /// Samples pushed.
     index: usize,
     sum: Vec<(f64, usize)>,
+    heat: WindingHeat,
+    heat_sum: Vec<CopperHeat>,
 }
 
 impl RunSampleScan {
@@ -278,12 +287,15 @@ impl RunSampleScan {
             index: 0,
             // -0.0: where `Iterator::sum` starts, so the sums are its to the bit.
             sum: vec![(-0.0, 0); report.manoeuvres.len()],
+            heat: WindingHeat::default(),
+            heat_sum: vec![CopperHeat::default(); report.manoeuvres.len()],
         }
     }
 
     /// The run's next sample.
     pub fn push(&mut self, s: &RunSample) {
         self.still.push(s);
+        let heat = self.heat.push(s.t_s, [s.current_a.left, s.current_a.right]);
         let k = self.index;
         self.index += 1;
         while self.spans.get(self.at).is_some_and(|&(_, _, end)| end <= k) {
@@ -294,6 +306,10 @@ impl RunSampleScan {
                 let (sum, n) = &mut self.sum[i];
                 *sum += 0.5 * (s.bus_v.left + s.bus_v.right);
                 *n += 1;
+                for (acc, h) in self.heat_sum[i].iter_mut().zip(heat) {
+                    acc[0] += h[0];
+                    acc[1] += h[1];
+                }
             }
         }
     }
@@ -306,6 +322,12 @@ impl RunSampleScan {
                 .sum
                 .iter()
                 .map(|&(sum, n)| if n == 0 { 0.0 } else { sum / n as f64 })
+                .collect(),
+            span_copper_heat_a4: self
+                .sum
+                .iter()
+                .zip(&self.heat_sum)
+                .map(|(&(_, n), h)| (n > 0).then(|| h.map(|s| s.map(|x| x / n as f64))))
                 .collect(),
         }
     }
@@ -378,6 +400,9 @@ pub fn rows_from_facts(report: &ValidationReport, facts: &[RunSampleFacts]) -> V
             .and_then(|f| f.span_bus_v.get(index))
             .copied()
             .unwrap_or(0.0);
+        let copper_heat_a4 = run_facts
+            .and_then(|f| f.span_copper_heat_a4.get(index).copied().flatten())
+            .map(|h| h.map(|[l, r]| if left_inner { [l, r] } else { [r, l] }));
         let r_over_r_prime_cmd = m.r_over_r_prime.unwrap_or(f64::INFINITY);
         let measured = measured_radius(report, run_index, m.r_act_m, m.r_act_over_r_prime_act);
         let regime = match measured {
@@ -420,6 +445,7 @@ pub fn rows_from_facts(report: &ValidationReport, facts: &[RunSampleFacts]) -> V
                 || m.regime == Some(Regime::Point)
                 || r_over_r_prime_cmd >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
             observed: Observed::Sides,
+            copper_heat_a4,
             measured: measured.filter(|_| !straight),
         });
     }

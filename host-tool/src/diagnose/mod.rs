@@ -24,6 +24,7 @@ pub mod path_table;
 pub mod report;
 pub mod summary;
 pub mod verdict;
+pub mod winding_heat;
 
 #[cfg(test)]
 mod tests;

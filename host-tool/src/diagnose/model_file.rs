@@ -190,6 +190,7 @@ pub fn synthetic_row(
             || regime == Regime::Point
             || r_over_r_prime >= CALIBRATION_MIN_R_OVER_R_PRIME - 1e-9,
         observed: Observed::Sides,
+        copper_heat_a4: None,
         measured: None,
     };
     for k in 0..2 {

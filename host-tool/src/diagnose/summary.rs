@@ -333,6 +333,7 @@ pub fn summary_rows(rover: &Rover, rows: &[SummaryRow], run: &str) -> Vec<TurnRo
                 observed: Observed::Total {
                     avg_power_w: s.avg_power_w,
                 },
+                copper_heat_a4: None,
                 measured: None,
             }
         })

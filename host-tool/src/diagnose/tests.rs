@@ -473,7 +473,10 @@ fn motor_heating_is_named_on_long_runs() {
     assert_eq!(d.effect, "motor-heating", "{}", summary(&d));
     // Its regime is where I² is largest (at-r-prime's outer side): the term is ∝ I², under
     // half the practical floor on the low-current straights, so the `all` rule does not fire.
-    assert!(d.candidates[0].shrink_pct > 70.0, "{}", summary(&d));
+    // The term follows each side's measured I² history (`winding_heat`), while the heat added
+    // here follows run time alone, as if every manoeuvre's current had flowed since the start:
+    // a shape it fits closely but not exactly (67 % closed; 72 % with the run-time term it had).
+    assert!(d.candidates[0].shrink_pct > 60.0, "{}", summary(&d));
     // Without the added heating the same long runs show no significant gap.
     let plain = super::diagnose(&HUSKY, &rows_of(&runs)).expect("diagnoses");
     assert_eq!(plain.effect, "none", "{}", summary(&plain));

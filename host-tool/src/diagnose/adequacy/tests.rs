@@ -75,6 +75,7 @@ fn row(
         ],
         calibration_kind: true,
         observed: Observed::Sides,
+        copper_heat_a4: None,
         measured: None,
     }
 }
