@@ -96,9 +96,11 @@ pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
 pub fn simulate(spec: &DatasetSpec) -> Result<SimulatedDataset, DatasetError> {
     let world = spec.world();
     let cal = spec.calibration_scenario();
+    let mut cal_truths = Vec::new();
     let calibration = (0..CALIBRATION_RUNS)
         .map(|k| {
             let t = world.simulate(&cal, spec.seed.wrapping_add(k as u64))?;
+            cal_truths.extend(t.manoeuvres().iter().cloned());
             Ok(sample_run(&t, spec.sample_hz))
         })
         .collect::<Result<Vec<_>, WorldError>>()?;
@@ -113,7 +115,7 @@ pub fn simulate(spec: &DatasetSpec) -> Result<SimulatedDataset, DatasetError> {
     Ok(SimulatedDataset {
         calibration,
         runs,
-        truth: truth_of(spec.effect(), &truths),
+        truth: truth_of(spec.effect(), &truths, &cal_truths),
     })
 }
 
@@ -221,6 +223,20 @@ impl DatasetResult {
                 .truth
                 .as_ref()
                 .is_some_and(|t| t.peak_extra_power_w >= crate::diagnose::cv::PRACTICAL_FLOOR_W)
+    }
+
+    /// Whether the effect shows beyond what the calibration runs absorb
+    /// ([`Truth::visible_after_calibration`]); `current-offset` always (a sensor offset reads at
+    /// standstill, which the diagnosis looks at directly). No effect: false.
+    pub fn visible_after_calibration(&self) -> bool {
+        match self.spec.effect() {
+            None => false,
+            Some(EffectId::CurrentOffset) => true,
+            Some(_) => self
+                .truth
+                .as_ref()
+                .is_some_and(|t| t.visible_after_calibration),
+        }
     }
 
     /// Whether the diagnosed regime is the true one.

@@ -197,7 +197,37 @@ fn truth_regimes_follow_where_the_extra_power_goes() {
     let t = truth(EffectId::CurrentOffset);
     assert_eq!(t.regime, "all", "{t:?}");
     assert_eq!(truth(EffectId::Slope).regime, "all");
-    assert_eq!(truth_of(None, []).regime, "none");
+    assert_eq!(truth_of(None, &[], &[]).regime, "none");
+}
+
+/// What the calibration runs absorb: a terrain slip track only scales every turn's time, which
+/// the baseline's constant angular slip fitted on the calibration turns takes whole (nothing
+/// left to see), while braked inner wheels at R′ (a radius the calibration does not drive) stay
+/// visible nearly whole.
+#[test]
+fn the_truth_says_what_calibration_absorbs() {
+    let truth = |effect: EffectId| {
+        let mut s = generate(Part::Tuning, 100, 11)
+            .into_iter()
+            .find(|s| s.effect() == Some(effect) && s.rover == RoverKind::HuskyA200)
+            .expect("class present");
+        s.structure = DEFAULT_STRUCTURE;
+        (s.threshold_radius_m, s.angular_slip, s.motor_losses) = (None, 0.0, None);
+        simulate(&s).expect("simulates").truth
+    };
+    let slip_track = truth(EffectId::SlipTrack);
+    assert!(slip_track.peak_extra_power_w > 5.0, "{slip_track:?}");
+    assert!(
+        slip_track.unabsorbed_peak_w < 0.05 * slip_track.peak_extra_power_w,
+        "{slip_track:?}"
+    );
+    assert!(!slip_track.visible_after_calibration);
+    let braked = truth(EffectId::BrakedInner);
+    assert!(
+        braked.unabsorbed_peak_w > 0.8 * braked.peak_extra_power_w,
+        "{braked:?}"
+    );
+    assert!(braked.visible_after_calibration);
 }
 
 /// A small bench over both parts (20 datasets each: every class twice): the tables add up,

@@ -7,6 +7,8 @@
 //! `motor-heating` are `all` by definition: their extra power follows the pitch along the path
 //! and the winding temperature over run time, not the turn radius.
 
+use crate::diagnose::cv::{PRACTICAL_FLOOR_W, RELATIVE_FLOOR};
+use crate::diagnose::effects::{is_power_type, least_squares};
 use crate::effect_id::EffectId;
 use crate::sim::world::ManoeuvreTruth;
 use model_core::kinematics::Regime;
@@ -28,12 +30,20 @@ pub struct Truth {
     pub extra_power_w: Vec<(String, f64)>,
     /// The largest of them [W].
     pub peak_extra_power_w: f64,
+    /// The largest mean, over the regimes, of the extra effective power left once its
+    /// calibration-run part is absorbed (see the module docs) [W, both sides, signed mean
+    /// taken absolute].
+    pub unabsorbed_peak_w: f64,
+    /// Whether that unabsorbed mean reaches the diagnosis' practical floor in some regime:
+    /// max([`PRACTICAL_FLOOR_W`], [`RELATIVE_FLOOR`] × the regime's mean true side power).
+    pub visible_after_calibration: bool,
 }
 
 /// The truth of `effect` (None: control) over the manoeuvres of every run.
-pub fn truth_of<'a>(
+pub fn truth_of(
     effect: Option<EffectId>,
-    manoeuvres: impl IntoIterator<Item = &'a ManoeuvreTruth>,
+    manoeuvres: &[ManoeuvreTruth],
+    calibration: &[ManoeuvreTruth],
 ) -> Truth {
     let Some(effect) = effect else {
         return Truth {
@@ -41,8 +51,12 @@ pub fn truth_of<'a>(
             regime: "none".into(),
             extra_power_w: Vec::new(),
             peak_extra_power_w: 0.0,
+            unabsorbed_peak_w: 0.0,
+            visible_after_calibration: false,
         };
     };
+    let (unabsorbed_peak_w, visible_after_calibration) =
+        unabsorbed(effect, manoeuvres, calibration);
     let mut sums = [(0.0f64, 0usize); Regime::ALL.len()];
     for m in manoeuvres {
         let Some(regime) = m.regime else { continue };
@@ -86,5 +100,73 @@ pub fn truth_of<'a>(
             .map(|(r, w)| (r.id().to_owned(), *w))
             .collect(),
         peak_extra_power_w: peak.map_or(0.0, |p| p.1),
+        unabsorbed_peak_w,
+        visible_after_calibration,
     }
+}
+
+/// The regressors by which a baseline calibrated on these runs absorbs an effect's extra
+/// effective power of `m` (both sides): the skid term |ω_cmd|, the rolling term Σ|V| and, for
+/// the terms that lengthen the turn, the turn's power (a constant angular slip of the
+/// terrain); `None` for pauses.
+fn absorbing_features(effect: EffectId, m: &ManoeuvreTruth) -> Option<Vec<f64>> {
+    m.regime?;
+    if m.expected_duration_s <= 0.0 {
+        return None;
+    }
+    let mut x = vec![
+        m.commanded_yaw_rate_rad_s.abs(),
+        m.cmd_mps.left.abs() + m.cmd_mps.right.abs(),
+    ];
+    if !is_power_type(effect) {
+        let turn = m.commanded_yaw_rate_rad_s != 0.0;
+        x.push(if turn {
+            m.avg_power_w.left + m.avg_power_w.right
+        } else {
+            0.0
+        });
+    }
+    Some(x)
+}
+
+/// The effect's extra effective power of `m` [W, both sides, signed].
+fn extra_effective_w(effect: EffectId, m: &ManoeuvreTruth) -> f64 {
+    m.effect_energy(effect).unwrap_or(0.0) / m.expected_duration_s
+}
+
+/// The largest regime mean of the extra power the calibration does not absorb, and whether it
+/// reaches the practical floor there.
+fn unabsorbed(
+    effect: EffectId,
+    manoeuvres: &[ManoeuvreTruth],
+    calibration: &[ManoeuvreTruth],
+) -> (f64, bool) {
+    let design: Vec<(Vec<f64>, f64)> = calibration
+        .iter()
+        .filter_map(|m| Some((absorbing_features(effect, m)?, extra_effective_w(effect, m))))
+        .collect();
+    // Too few calibration manoeuvres to fit: nothing is absorbed.
+    let beta = least_squares(&design).map(|(b, _)| b);
+    let mut sums = [(0.0f64, 0.0f64, 0usize); Regime::ALL.len()];
+    for m in manoeuvres {
+        let (Some(regime), Some(x)) = (m.regime, absorbing_features(effect, m)) else {
+            continue;
+        };
+        let Some(k) = Regime::ALL.iter().position(|r| *r == regime) else {
+            continue;
+        };
+        let absorbed: f64 = beta
+            .as_ref()
+            .map_or(0.0, |b| b.iter().zip(&x).map(|(b, x)| b * x).sum());
+        sums[k].0 += extra_effective_w(effect, m) - absorbed;
+        sums[k].1 += 0.5 * (m.avg_power_w.left.abs() + m.avg_power_w.right.abs());
+        sums[k].2 += 1;
+    }
+    sums.iter()
+        .filter(|(_, _, n)| *n > 0)
+        .fold((0.0, false), |(peak, visible), &(s, p, n)| {
+            let mean = (s / n as f64).abs();
+            let floor = PRACTICAL_FLOOR_W.max(RELATIVE_FLOOR * p / n as f64);
+            (peak.max(mean), visible || mean >= floor)
+        })
 }
