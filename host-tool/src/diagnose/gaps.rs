@@ -102,6 +102,9 @@ pub struct Gap {
     /// 95 % interval [W]: over repeats, or without repeats from the leave-one-out prediction
     /// intervals (unadjusted; ±∞ when neither exists).
     pub ci_w: (f64, f64),
+    /// The practical floor |mean| must exceed: max(1.5 W, 5 % of the group's mean model
+    /// effective power) [W].
+    pub floor_w: f64,
     /// Beyond the noise and the practical floor ([`judge`]).
     pub significant: bool,
     /// Without repeats: the leave-one-out test of each observation (empty with repeats).
@@ -171,6 +174,7 @@ pub fn effective_gaps(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdi
                     n: picked.len(),
                     mean_w: j.mean,
                     ci_w: j.ci,
+                    floor_w: j.floor,
                     significant: j.significant,
                     loo: j.loo,
                 });
@@ -256,8 +260,12 @@ pub struct TurnResidual {
     pub part: Part,
     /// Whether the row is a calibration manoeuvre.
     pub calibration_kind: bool,
-    /// The baseline's power of this observation [W] (the relative practical floor's base).
+    /// The baseline's power of this observation [W] (the relative practical floor's base for
+    /// the average and peak power).
     pub model_w: f64,
+    /// The baseline's effective power of this observation [W] (the floor's base for the
+    /// effective power and the energy, as in [`effective_gaps`]).
+    pub model_effective_w: f64,
     /// Standard error of the baseline's effective power here [W].
     pub model_se_w: f64,
     /// Run time at the middle of the manoeuvre [s]; `None` for total-only rows.
@@ -286,6 +294,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             part,
             calibration_kind: row.calibration_kind,
             model_w: 0.0,
+            model_effective_w: 0.0,
             model_se_w: 0.0,
             t_mid_s: None,
             avg_power_w: 0.0,
@@ -299,6 +308,7 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
             let r = row.effective_power_w() - model_w;
             out.push(TurnResidual {
                 model_w,
+                model_effective_w: model_w,
                 model_se_w: baseline.effective_power_se_w(row),
                 avg_power_w: r,
                 effective_power_w: r,
@@ -308,16 +318,16 @@ pub fn turn_residuals(baseline: &Baseline, rows: &[TurnRow]) -> Vec<TurnResidual
         }
         for (k, s) in row.sides.iter().enumerate() {
             let model_w = baseline.side_power_w(row, k);
+            let model_effective_w = baseline.effective_side_power_w(row, k);
             out.push(TurnResidual {
                 model_w,
+                model_effective_w,
                 model_se_w: baseline.effective_side_power_se_w(row, k),
                 t_mid_s: Some(row.t_start_s + 0.5 * row.duration_s),
                 avg_power_w: s.avg_power_w - model_w,
                 peak_over_model_w: Some(s.max_power_w - model_w),
-                energy_j: Some(
-                    s.energy_j - baseline.effective_side_power_w(row, k) * row.expected_duration_s,
-                ),
-                effective_power_w: s.effective_power_w - baseline.effective_side_power_w(row, k),
+                energy_j: Some(s.energy_j - model_effective_w * row.expected_duration_s),
+                effective_power_w: s.effective_power_w - model_effective_w,
                 growth_w: s.growth_w,
                 ..base(Part::from(s.role))
             });
@@ -373,14 +383,14 @@ fn stat(
     })
 }
 
-fn obs_of(t: &TurnResidual, value: f64, duration_s: f64) -> Obs {
+fn obs_of(t: &TurnResidual, value: f64, duration_s: f64, model_w: f64) -> Obs {
     Obs {
         value,
         run: t.run_index,
         key: repeat_key(t.r_over_r_prime),
         row: t.row,
         part: t.part,
-        model_w: t.model_w,
+        model_w,
         model_se_w: t.model_se_w,
         duration_s,
     }
@@ -393,17 +403,18 @@ fn seed_of(label: &str) -> u64 {
     })
 }
 
-/// Groups by regime × side and by side (turns only) of per-observation values.
+/// Groups by regime × side and by side (turns only) of per-observation values (with each
+/// observation's duration and model power, the floor's base).
 fn grouped(
     prefix: &str,
-    items: &[(&TurnResidual, f64, f64)],
+    items: &[(&TurnResidual, f64, f64, f64)],
     floor: Floor,
     tests: &[LooTest],
 ) -> (Vec<GroupStat>, Vec<GroupStat>) {
     let mut by_regime: BTreeMap<(Regime, Part), Values> = BTreeMap::new();
     let mut by_side: BTreeMap<Part, Values> = BTreeMap::new();
-    for (t, v, dur) in items {
-        let x = obs_of(t, *v, *dur);
+    for (t, v, dur, model_w) in items {
+        let x = obs_of(t, *v, *dur, *model_w);
         by_regime.entry((t.regime, t.part)).or_default().push(x);
         if t.regime != Regime::Straight {
             by_side.entry(t.part).or_default().push(x);
@@ -524,7 +535,7 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         } else {
             0
         };
-        thirds_values[k].push(obs_of(t, centred(t), 0.0));
+        thirds_values[k].push(obs_of(t, centred(t), 0.0, t.model_effective_w));
     }
     let thirds = ["first-third", "middle-third", "last-third"]
         .iter()

@@ -15,9 +15,10 @@ use std::collections::BTreeMap;
 pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) -> WhereAnalysis {
     let turns = turn_residuals(baseline, rows);
     let metrics = metric_wheres(&turns, rows, verdicts);
-    let growth: Vec<(&TurnResidual, f64, f64)> = turns
+    // Growth has a fixed floor: no model power.
+    let growth: Vec<(&TurnResidual, f64, f64, f64)> = turns
         .iter()
-        .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0)))
+        .filter_map(|t| t.growth_w.map(|g| (t, g, 0.0, 0.0)))
         .collect();
     let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
     let run_time = run_time(&turns);
@@ -68,7 +69,7 @@ fn metric_wheres(
         (n > 0.0).then(|| s / n)
     };
     for metric in Metric::ALL {
-        let items: Vec<(&TurnResidual, f64, f64)> = turns
+        let items: Vec<(&TurnResidual, f64, f64, f64)> = turns
             .iter()
             .filter_map(|t| {
                 let dur = rows[t.row].expected_duration_s;
@@ -80,7 +81,14 @@ fn metric_wheres(
                     Metric::Energy => t.energy_j,
                     Metric::EffectivePower => Some(t.effective_power_w),
                 }?;
-                Some((t, v, dur))
+                // The floor is a share of the power the metric's model stands for: the
+                // effective power for it and for the energy (so these groups are the gaps'
+                // to the bit), the steady power for the average and the peak.
+                let model_w = match metric {
+                    Metric::AvgPower | Metric::MaxPower => t.model_w,
+                    Metric::Energy | Metric::EffectivePower => t.model_effective_w,
+                };
+                Some((t, v, dur, model_w))
             })
             .collect();
         if items.is_empty() {

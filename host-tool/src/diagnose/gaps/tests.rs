@@ -80,8 +80,8 @@ fn assert_gaps_are_where_groups(d: &super::super::Diagnosis) {
             .find(|w| w.group == label)
             .expect("group");
         assert_eq!(
-            (g.mean_w, g.ci_w, g.significant),
-            (w.mean, w.ci, w.significant),
+            (g.mean_w, g.ci_w, g.floor_w, g.significant),
+            (w.mean, w.ci, w.floor, w.significant),
             "{label}"
         );
     }
@@ -139,6 +139,22 @@ fn one_run_never_contradicts_itself() {
     let d = super::super::diagnose(&HUSKY, &rows_of(&runs)).expect("diagnoses");
     assert_eq!(d.significant, d.where_.significant);
     assert!(d.gaps.iter().all(|g| g.loo.is_empty()));
+    assert_gaps_are_where_groups(&d);
+}
+
+/// With a constant angular slip on the terrain the baseline's effective power (over the
+/// expected duration) exceeds its steady power: the "where" groups of the effective power and
+/// the energy take their floor from the effective power, as the gaps do, so a gap just above
+/// one floor and below the other cannot be significant in one place and not in the other.
+#[test]
+fn gaps_and_where_share_the_floor_under_a_constant_slip() {
+    let mut world = WorldConfig::hard_ground();
+    world.structure.angular_slip = 0.1;
+    let runs: Vec<_> = (0..3)
+        .map(|k| simulate_run(&world, &scenario(), 20 + k))
+        .collect();
+    let d = super::super::diagnose(&HUSKY, &rows_of(&runs)).expect("diagnoses");
+    assert!(d.baseline.turn_slip > 0.05, "{:?}", d.baseline);
     assert_gaps_are_where_groups(&d);
 }
 
