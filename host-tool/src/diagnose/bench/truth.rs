@@ -30,9 +30,10 @@ pub struct Truth {
     pub extra_power_w: Vec<(String, f64)>,
     /// The largest of them [W].
     pub peak_extra_power_w: f64,
-    /// The largest mean, over the regimes, of the extra effective power left once its
-    /// calibration-run part is absorbed (see the module docs) [W, both sides, signed mean
-    /// taken absolute].
+    /// Mean per regime id of the extra effective power left once its calibration-run part is
+    /// absorbed (see the module docs) [W, both sides, signed].
+    pub unabsorbed_w: Vec<(String, f64)>,
+    /// The largest of them in magnitude [W].
     pub unabsorbed_peak_w: f64,
     /// Whether that unabsorbed mean reaches the diagnosis' practical floor in some regime:
     /// max([`PRACTICAL_FLOOR_W`], [`RELATIVE_FLOOR`] × the regime's mean true side power).
@@ -51,12 +52,16 @@ pub fn truth_of(
             regime: "none".into(),
             extra_power_w: Vec::new(),
             peak_extra_power_w: 0.0,
+            unabsorbed_w: Vec::new(),
             unabsorbed_peak_w: 0.0,
             visible_after_calibration: false,
         };
     };
-    let (unabsorbed_peak_w, visible_after_calibration) =
-        unabsorbed(effect, manoeuvres, calibration);
+    let unabsorbed_w = unabsorbed(effect, manoeuvres, calibration);
+    let unabsorbed_peak_w = unabsorbed_w
+        .iter()
+        .fold(0.0f64, |m, u| m.max(u.mean_w.abs()));
+    let visible_after_calibration = unabsorbed_w.iter().any(|u| u.mean_w.abs() >= u.floor_w);
     let mut sums = [(0.0f64, 0usize); Regime::ALL.len()];
     for m in manoeuvres {
         let Some(regime) = m.regime else { continue };
@@ -100,9 +105,22 @@ pub fn truth_of(
             .map(|(r, w)| (r.id().to_owned(), *w))
             .collect(),
         peak_extra_power_w: peak.map_or(0.0, |p| p.1),
+        unabsorbed_w: unabsorbed_w
+            .iter()
+            .map(|u| (u.regime.id().to_owned(), u.mean_w))
+            .collect(),
         unabsorbed_peak_w,
         visible_after_calibration,
     }
+}
+
+/// One regime's unabsorbed extra power and the practical floor there.
+struct Unabsorbed {
+    regime: Regime,
+    /// Mean over the regime's manoeuvres [W, both sides, signed].
+    mean_w: f64,
+    /// max([`PRACTICAL_FLOOR_W`], [`RELATIVE_FLOOR`] × the regime's mean true side power) [W].
+    floor_w: f64,
 }
 
 /// The regressors by which a baseline calibrated on these runs absorbs an effect's extra
@@ -134,13 +152,12 @@ fn extra_effective_w(effect: EffectId, m: &ManoeuvreTruth) -> f64 {
     m.effect_energy(effect).unwrap_or(0.0) / m.expected_duration_s
 }
 
-/// The largest regime mean of the extra power the calibration does not absorb, and whether it
-/// reaches the practical floor there.
+/// Per regime, the mean extra power the calibration does not absorb and the floor there.
 fn unabsorbed(
     effect: EffectId,
     manoeuvres: &[ManoeuvreTruth],
     calibration: &[ManoeuvreTruth],
-) -> (f64, bool) {
+) -> Vec<Unabsorbed> {
     let design: Vec<(Vec<f64>, f64)> = calibration
         .iter()
         .filter_map(|m| Some((absorbing_features(effect, m)?, extra_effective_w(effect, m))))
@@ -162,11 +179,14 @@ fn unabsorbed(
         sums[k].1 += 0.5 * (m.avg_power_w.left.abs() + m.avg_power_w.right.abs());
         sums[k].2 += 1;
     }
-    sums.iter()
-        .filter(|(_, _, n)| *n > 0)
-        .fold((0.0, false), |(peak, visible), &(s, p, n)| {
-            let mean = (s / n as f64).abs();
-            let floor = PRACTICAL_FLOOR_W.max(RELATIVE_FLOOR * p / n as f64);
-            (peak.max(mean), visible || mean >= floor)
+    Regime::ALL
+        .iter()
+        .zip(sums)
+        .filter(|(_, (_, _, n))| *n > 0)
+        .map(|(&regime, (s, p, n))| Unabsorbed {
+            regime,
+            mean_w: s / n as f64,
+            floor_w: PRACTICAL_FLOOR_W.max(RELATIVE_FLOOR * p / n as f64),
         })
+        .collect()
 }
