@@ -178,25 +178,27 @@ fn scaling_an_effect_scales_its_parameters() {
     assert_eq!(w.effects.angular_slip.at_r_prime, 0.95);
 }
 
+/// The truth of a Husky dataset of `effect` with the default structure, one pass per run.
+fn husky_truth(effect: EffectId) -> Truth {
+    let mut s = generate(Part::Tuning, 100, 11)
+        .into_iter()
+        .find(|s| s.effect() == Some(effect) && s.rover == RoverKind::HuskyA200)
+        .expect("class present");
+    s.repeats = 1;
+    s.structure = DEFAULT_STRUCTURE;
+    (s.threshold_radius_m, s.angular_slip, s.motor_losses) = (None, 0.0, None);
+    simulate(&s).expect("simulates").truth
+}
+
 /// Truth regimes on Husky datasets: braked-inner and angular-slip at R', current-offset and
 /// slope `all`, no effect `none`.
 #[test]
 fn truth_regimes_follow_where_the_extra_power_goes() {
-    let truth = |effect: EffectId| {
-        let mut s = generate(Part::Tuning, 100, 11)
-            .into_iter()
-            .find(|s| s.effect() == Some(effect) && s.rover == RoverKind::HuskyA200)
-            .expect("class present");
-        s.repeats = 1;
-        s.structure = DEFAULT_STRUCTURE;
-        (s.threshold_radius_m, s.angular_slip, s.motor_losses) = (None, 0.0, None);
-        simulate(&s).expect("simulates").truth
-    };
-    assert_eq!(truth(EffectId::BrakedInner).regime, "at-r-prime");
-    assert_eq!(truth(EffectId::AngularSlip).regime, "at-r-prime");
-    let t = truth(EffectId::CurrentOffset);
+    assert_eq!(husky_truth(EffectId::BrakedInner).regime, "at-r-prime");
+    assert_eq!(husky_truth(EffectId::AngularSlip).regime, "at-r-prime");
+    let t = husky_truth(EffectId::CurrentOffset);
     assert_eq!(t.regime, "all", "{t:?}");
-    assert_eq!(truth(EffectId::Slope).regime, "all");
+    assert_eq!(husky_truth(EffectId::Slope).regime, "all");
     assert_eq!(truth_of(None, &[], &[]).regime, "none");
 }
 
@@ -206,23 +208,14 @@ fn truth_regimes_follow_where_the_extra_power_goes() {
 /// visible nearly whole.
 #[test]
 fn the_truth_says_what_calibration_absorbs() {
-    let truth = |effect: EffectId| {
-        let mut s = generate(Part::Tuning, 100, 11)
-            .into_iter()
-            .find(|s| s.effect() == Some(effect) && s.rover == RoverKind::HuskyA200)
-            .expect("class present");
-        s.structure = DEFAULT_STRUCTURE;
-        (s.threshold_radius_m, s.angular_slip, s.motor_losses) = (None, 0.0, None);
-        simulate(&s).expect("simulates").truth
-    };
-    let slip_track = truth(EffectId::SlipTrack);
+    let slip_track = husky_truth(EffectId::SlipTrack);
     assert!(slip_track.peak_extra_power_w > 5.0, "{slip_track:?}");
     assert!(
         slip_track.unabsorbed_peak_w < 0.05 * slip_track.peak_extra_power_w,
         "{slip_track:?}"
     );
     assert!(!slip_track.visible_after_calibration);
-    let braked = truth(EffectId::BrakedInner);
+    let braked = husky_truth(EffectId::BrakedInner);
     assert!(
         braked.unabsorbed_peak_w > 0.8 * braked.peak_extra_power_w,
         "{braked:?}"
