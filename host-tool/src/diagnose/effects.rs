@@ -17,7 +17,7 @@
 //! | `slip-track` | Eq 2.2, Table D.1 | P_side on turns (ω scales by B_s,ctrl/B_s,terrain everywhere) |
 //! | `braked-inner` | Section 6.2, Fig 6.10–6.11 | at R = R' only: outer \|V_o\| |
 //! | `current-offset` | Section 3.2, Fig 3.3 | V_bus (an offset current on every manoeuvre and side) |
-//! | `motor-heating` | Section 1.1.3 | mean of I²·x_τ over the manoeuvre, x_τ the measured I² low-passed with τ from a grid (copper loss × a first-order winding temperature rise, [`winding_heat`](super::winding_heat)); without samples (P_side/V_bus)²·(1 − e^(−t/τ)) at mid-manoeuvre |
+//! | `motor-heating` | Section 1.1.3 | mean of I²·x_τ over the manoeuvre, x_τ the measured I² low-passed with τ from a grid (copper loss × a first-order winding temperature rise, [`winding_heat`](super::winding_heat)); without samples (P_side/V_bus)⁴·(1 − e^(−t/τ)) at mid-manoeuvre, a constant current since the run's start |
 //! | `slope` | Eq 1.16, 2.12 | m g sin θ · v_c · \|V_side\|/(\|V_l\| + \|V_r\|) |
 //!
 //! [`features`]: super::features

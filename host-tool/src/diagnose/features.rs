@@ -232,7 +232,7 @@ impl StandstillCurrent {
 }
 
 /// What [`rows`] needs of one run's samples besides the report: its standstill draw and
-/// each of its manoeuvres' mean bus voltage.
+/// each of its manoeuvres' mean bus voltage and copper-loss history.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSampleFacts {
     /// [`standstill_current_a`] of the run.
