@@ -673,10 +673,15 @@ impl ValidateSetup {
 /// `host-tool validate`'s path on the run CSV: the library calls its command makes.
 fn rust_from_csv(files: &Files, setup: &ValidateSetup) -> Result<RustResult> {
     let mut stages = Stages::start();
-    let runs = StreamedRuns::scan(std::slice::from_ref(&files.csv), false)?;
-    stages.mark("read + digest (scan)");
-    let report = runs.validate(&setup.rover, &setup.options)?;
-    stages.mark("segment, gap threshold, statistics, fit (validate)");
+    let runs = StreamedRuns::scan(
+        std::slice::from_ref(&files.csv),
+        false,
+        &setup.rover,
+        &setup.options,
+    )?;
+    stages.mark("read, digest, segment, statistics (scan)");
+    let report = runs.validate()?;
+    stages.mark("fit, report (validate)");
     let spans = report
         .manoeuvres
         .iter()
