@@ -220,7 +220,7 @@ impl StreamedRuns {
         for ((name, path), read) in self.names.iter().zip(&self.paths).zip(&self.reads) {
             let scan = match read {
                 FirstRead::Validated { result, .. } => {
-                    runs.push(result.clone()?);
+                    runs.push(result.as_ref().clone()?);
                     bar.inc(1);
                     continue;
                 }
@@ -249,7 +249,8 @@ enum FirstRead {
     /// This tool's run CSV, validated as it was read ([`OnePass`]): not read again.
     Validated {
         scan: RunScan,
-        result: Result<RunResult, ValidateError>,
+        // Boxed: a run's report is large beside the scan.
+        result: Box<Result<RunResult, ValidateError>>,
     },
     /// Scanned as a stream: read again to validate.
     Scanned(RunScan),
@@ -283,7 +284,10 @@ fn validate_own_csv(
         return Ok(None);
     }
     Ok(Some(match pass.finish() {
-        (scan, Some(result)) => FirstRead::Validated { scan, result },
+        (scan, Some(result)) => FirstRead::Validated {
+            scan,
+            result: Box::new(result),
+        },
         (scan, None) => FirstRead::Scanned(scan),
     }))
 }
@@ -406,8 +410,8 @@ mod tests {
             }
         }
         // The damage was seen (so the last case compared salvaged reads).
-        let streamed = StreamedRuns::scan(&[damaged, cut], false, &rover, &validate_options)
-            .expect("scans");
+        let streamed =
+            StreamedRuns::scan(&[damaged, cut], false, &rover, &validate_options).expect("scans");
         assert!(
             streamed.lost_data && streamed.damage.len() >= 2,
             "{streamed:?}"

@@ -70,7 +70,10 @@ impl<'a> OnePass<'a> {
             // Whether a manoeuvre's samples include tracked positions is known as it is
             // measured; whether the run has any, only at its end: each turn's track is measured
             // and dropped at the end if the run has none (as the run's facts would skip it).
-            let gap_threshold_s = scan.facts().facts(options.segment.gap_factor).gap_threshold_s;
+            let gap_threshold_s = scan
+                .facts()
+                .facts(options.segment.gap_factor)
+                .gap_threshold_s;
             let facts = RunFacts {
                 samples: 0,
                 duration_s: 0.0,
