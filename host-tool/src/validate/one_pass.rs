@@ -58,38 +58,12 @@ impl<'a> OnePass<'a> {
     /// The run's next samples, in order.
     pub fn push(&mut self, samples: &[RunSample]) {
         samples.iter().for_each(|s| self.scan.push(s));
-        let Self {
-            name,
-            rover,
-            options,
-            scan,
-            segmenter,
-            guess,
-        } = self;
-        let guess = guess.get_or_insert_with(|| {
-            // Whether a manoeuvre's samples include tracked positions is known as it is
-            // measured; whether the run has any, only at its end: each turn's track is measured
-            // and dropped at the end if the run has none (as the run's facts would skip it).
-            let gap_threshold_s = scan
-                .facts()
-                .facts(options.segment.gap_factor)
-                .gap_threshold_s;
-            let facts = RunFacts {
-                samples: 0,
-                duration_s: 0.0,
-                has_yaw: false,
-                has_pitch: false,
-                has_positions: true,
-                gap_threshold_s,
-            };
-            Guess {
-                gap_threshold_s,
-                validation: RunValidation::new(name, &facts, rover, options),
-                measured: Vec::new(),
-            }
-        });
+        let guess = self
+            .guess
+            .get_or_insert_with(|| Guess::new(&self.name, &self.scan, self.rover, self.options));
         for s in samples {
-            segmenter.push(s, |seg, span| guess.manoeuvre(seg, span));
+            self.segmenter
+                .push(s, |seg, span| guess.manoeuvre(seg, span));
         }
     }
 
@@ -133,7 +107,31 @@ impl<'a> OnePass<'a> {
     }
 }
 
-impl Guess<'_> {
+impl<'a> Guess<'a> {
+    /// The guess from the samples `scan` has seen (the run's first stretch).
+    fn new(name: &str, scan: &RunScan, rover: &'a Rover, options: &'a ValidateOptions) -> Self {
+        // Whether a manoeuvre's samples include tracked positions is known as it is measured;
+        // whether the run has any, only at its end: each turn's track is measured and dropped
+        // at the end if the run has none (as the run's facts would skip it).
+        let gap_threshold_s = scan
+            .facts()
+            .facts(options.segment.gap_factor)
+            .gap_threshold_s;
+        let facts = RunFacts {
+            samples: 0,
+            duration_s: 0.0,
+            has_yaw: false,
+            has_pitch: false,
+            has_positions: true,
+            gap_threshold_s,
+        };
+        Self {
+            gap_threshold_s,
+            validation: RunValidation::new(name, &facts, rover, options),
+            measured: Vec::new(),
+        }
+    }
+
     fn manoeuvre(&mut self, seg: &Segment, span: &[RunSample]) {
         let measured = self.validation.measure(seg, span);
         self.measured.push((*seg, measured));
