@@ -138,7 +138,7 @@ struct Assembled<'a> {
     last_t_s: Option<f64>,
     /// The job whose rows come next.
     next: u64,
-    /// A job was not in this tool's layout (or could not be read): the result is `None`.
+    /// A job was not in this tool's layout (or could not be read): the result is `false`.
     failed: bool,
 }
 
