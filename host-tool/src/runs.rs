@@ -4,12 +4,13 @@
 use crate::figures::RunSamples;
 use crate::log::load::{
     load_salvaging, refuse_duplicate_digests, refuse_duplicate_runs, stream_salvaging, LoadError,
-    RunDigest, RunFormat, StreamFound,
+    RunFormat, StreamFound,
 };
 use crate::log::mcap::{Loss, Truncation};
-use crate::log::run_csv::{read_own_run_csv, DroppedRow, RunCsvFileError, RunSample};
+use crate::log::run_csv::{visit_own_run_csv, DroppedRow, RunSample};
 use crate::log::run_log::{RunLog, RunLogSink};
 use crate::progress;
+use crate::validate::one_pass::{OnePass, RunResult};
 use crate::validate::stream::{RunPass, RunScan};
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions, ValidationReport};
 use model_core::Rover;
@@ -90,22 +91,19 @@ impl Runs {
     }
 }
 
-/// How much of this tool's own run CSVs [`StreamedRuns`] holds in memory rather than reading
-/// them twice, all runs together [bytes]: about two hours at 200 Hz; the samples take ~1.4×
-/// the files in the layout with a tracked point (120 B a row), at most 3× in the shortest.
-pub const HELD_CSV_MAX_BYTES: u64 = 128 << 20;
-
 /// Run logs validated as streams, for `validate`: memory stays bounded whatever the logs'
-/// length (each file is read twice, see [`validate::stream`]; this tool's own run CSVs, up to
-/// [`HELD_CSV_MAX_BYTES`] of them in all, are read once, on every core, and validated from
-/// memory), and
-/// the report is the one [`Runs::validate`] gives, to the bit.
-#[derive(Debug, Default)]
+/// length. Each file is read twice (see [`validate::stream`]), except this tool's own run
+/// CSVs: read once, parsed on every core and validated as they are read
+/// ([`validate::one_pass`]; read again only if its guess of the gap threshold fails). The
+/// report is the one [`Runs::validate`] gives, to the bit.
+#[derive(Debug)]
 pub struct StreamedRuns {
     /// Each run's name (its path as given).
     pub names: Vec<String>,
     paths: Vec<PathBuf>,
     salvage: bool,
+    rover: Rover,
+    options: ValidateOptions,
     reads: Vec<FirstRead>,
     /// MCAP files that ended before their footer (a killed recorder) and how much was used.
     pub truncated: Vec<(PathBuf, Truncation)>,
@@ -137,37 +135,48 @@ pub enum StreamedRunsError {
 }
 
 impl StreamedRuns {
-    /// The first pass over `paths` in order (with a progress bar): what each run's validation
-    /// needs, its damage and truncation, its content digest. Errors as [`Runs::load`]'s, the
-    /// same run given twice too.
-    pub fn scan(paths: &[PathBuf], salvage: bool) -> Result<StreamedRuns, LoadError> {
-        Self::scan_holding(paths, salvage, HELD_CSV_MAX_BYTES)
-    }
-
-    /// [`Self::scan`], holding this tool's run CSVs up to `held_max_bytes` in all (in order:
-    /// a file that would pass it streams, as do the rest once it is spent).
-    fn scan_holding(
+    /// The first pass over `paths` in order (with a progress bar), for validating them against
+    /// `rover` with `options`: what each run's validation needs, its damage and truncation, its
+    /// content digest (this tool's own run CSVs: validated already). Errors as [`Runs::load`]'s,
+    /// the same run given twice too.
+    pub fn scan(
         paths: &[PathBuf],
         salvage: bool,
-        held_max_bytes: u64,
+        rover: &Rover,
+        options: &ValidateOptions,
+    ) -> Result<StreamedRuns, LoadError> {
+        Self::scan_with(paths, salvage, rover, options, true)
+    }
+
+    /// [`Self::scan`]; without `one_pass`, this tool's run CSVs are streamed as the others.
+    fn scan_with(
+        paths: &[PathBuf],
+        salvage: bool,
+        rover: &Rover,
+        options: &ValidateOptions,
+        one_pass: bool,
     ) -> Result<StreamedRuns, LoadError> {
         let bar = progress::bar(paths.len() as u64, "reading runs");
         let mut runs = StreamedRuns {
+            names: Vec::with_capacity(paths.len()),
+            paths: Vec::with_capacity(paths.len()),
             salvage,
-            ..StreamedRuns::default()
+            rover: *rover,
+            options: *options,
+            reads: Vec::with_capacity(paths.len()),
+            truncated: Vec::new(),
+            damage: Vec::new(),
+            lost_data: false,
         };
-        let mut held_bytes = 0;
         for path in paths {
-            // The digest is taken as the samples are read (in file order, on the core that
-            // parsed them); it is dropped if the file is not held.
-            let mut digest = RunDigest::default();
-            let mut hash = |rows: &[RunSample]| rows.iter().for_each(|s| digest.push(s));
-            let budget = held_max_bytes - held_bytes;
-            let read = match read_held(path, budget, &mut hash)? {
-                Some((samples, bytes)) => {
-                    held_bytes += bytes;
-                    FirstRead::Held { samples, digest }
-                }
+            let name = path.display().to_string();
+            let validated = if one_pass {
+                validate_own_csv(path, &name, rover, options)?
+            } else {
+                None
+            };
+            let read = match validated {
+                Some(read) => read,
                 None => {
                     let mut scan = RunScan::default();
                     let found = stream_salvaging(path, salvage, &mut scan)?;
@@ -180,45 +189,38 @@ impl StreamedRuns {
                     FirstRead::Scanned(scan)
                 }
             };
-            runs.names.push(path.display().to_string());
+            runs.names.push(name);
             runs.paths.push(path.clone());
             runs.reads.push(read);
             bar.inc(1);
         }
         bar.finish_and_clear();
-        let digests: Vec<_> = runs.reads.iter().map(FirstRead::digest).collect();
+        let digests: Vec<_> = runs.reads.iter().map(|r| r.scan().digest()).collect();
         refuse_duplicate_digests(&runs.names, &digests)?;
         Ok(runs)
     }
 
     /// Reads run `index` again into `sink` (e.g. a third pass, for what the report does not
-    /// hold); `None` for an index past the runs.
+    /// hold), as a stream; `None` for an index past the runs.
     pub fn read_again(
         &self,
         index: usize,
         sink: &mut dyn RunLogSink,
     ) -> Option<Result<StreamFound, LoadError>> {
         let path = self.paths.get(index)?;
-        match self.reads.get(index)? {
-            FirstRead::Held { samples, .. } => Some(replay_held(path, samples, sink)),
-            FirstRead::Scanned(_) => Some(stream_salvaging(path, self.salvage, sink)),
-        }
+        Some(stream_salvaging(path, self.salvage, sink))
     }
 
     /// The second pass: validates the runs together, as [`Runs::validate`] does.
-    pub fn validate(
-        &self,
-        rover: &Rover,
-        options: &ValidateOptions,
-    ) -> Result<ValidationReport, StreamedRunsError> {
+    pub fn validate(&self) -> Result<ValidationReport, StreamedRunsError> {
+        let (rover, options) = (&self.rover, &self.options);
         validate::stream::begin(self.reads.len(), options)?;
         let bar = progress::bar(self.reads.len() as u64, "validating runs");
         let mut runs = Vec::with_capacity(self.reads.len());
         for ((name, path), read) in self.names.iter().zip(&self.paths).zip(&self.reads) {
             let scan = match read {
-                FirstRead::Held { samples, .. } => {
-                    let run = RunInput::from_samples(name, samples);
-                    runs.push(validate::validate_run(rover, &run, options)?);
+                FirstRead::Validated { result, .. } => {
+                    runs.push(result.as_ref().clone()?);
                     bar.inc(1);
                     continue;
                 }
@@ -244,63 +246,50 @@ impl StreamedRuns {
 /// A run's first read by [`StreamedRuns::scan`].
 #[derive(Debug)]
 enum FirstRead {
-    /// Read whole ([`read_held`]): validated from memory, not read again.
-    Held {
-        samples: Vec<RunSample>,
-        digest: RunDigest,
+    /// This tool's run CSV, validated as it was read ([`OnePass`]): not read again.
+    Validated {
+        scan: RunScan,
+        // Boxed: a run's report is large beside the scan.
+        result: Box<Result<RunResult, ValidateError>>,
     },
     /// Scanned as a stream: read again to validate.
     Scanned(RunScan),
 }
 
 impl FirstRead {
-    fn digest(&self) -> &RunDigest {
+    fn scan(&self) -> &RunScan {
         match self {
-            FirstRead::Held { digest, .. } => digest,
-            FirstRead::Scanned(scan) => scan.digest(),
+            FirstRead::Validated { scan, .. } | FirstRead::Scanned(scan) => scan,
         }
     }
 }
 
-/// The samples of `path` and its size if it is one of this tool's own run CSVs (valid
-/// throughout) of at most `max_bytes`; `None` for any other log (streamed: read twice).
-/// `visit` as [`read_own_run_csv`]'s.
-fn read_held(
+/// The first read of `path` if it is one of this tool's own run CSVs (valid throughout),
+/// validated as it is read ([`OnePass`]): its scan alone when the pass's guess failed (the run
+/// is validated from a second read). `None` for any other log, or for options `validate`
+/// refuses (streamed: read twice).
+fn validate_own_csv(
     path: &Path,
-    max_bytes: u64,
-    visit: &mut (dyn FnMut(&[RunSample]) + Send),
-) -> Result<Option<(Vec<RunSample>, u64)>, LoadError> {
+    name: &str,
+    rover: &Rover,
+    options: &ValidateOptions,
+) -> Result<Option<FirstRead>, LoadError> {
     if RunFormat::of(path)? != RunFormat::Csv {
         return Ok(None);
     }
-    let Some(samples) = read_own_run_csv(path, max_bytes, visit)? else {
+    let Some(mut pass) = OnePass::new(name, rover, options) else {
         return Ok(None);
     };
-    // Its size as read (the reader refused a larger file).
-    let bytes = std::fs::metadata(path).map_or(max_bytes, |m| m.len().min(max_bytes));
-    Ok(Some((samples, bytes)))
-}
-
-/// A held run's samples handed to `sink` again, as [`stream_salvaging`] would read them from
-/// its file (a valid run CSV: nothing cut, damaged or dropped).
-fn replay_held(
-    path: &Path,
-    samples: &[RunSample],
-    sink: &mut dyn RunLogSink,
-) -> Result<StreamFound, LoadError> {
-    for s in samples {
-        sink.sample(s).map_err(|e| RunCsvFileError {
-            path: path.to_owned(),
-            source: e.into(),
-        })?;
+    if !visit_own_run_csv(path, &mut |rows| pass.push(rows))? {
+        return Ok(None);
     }
-    Ok(StreamFound {
-        run: (),
-        format: RunFormat::Csv,
-        truncated: None,
-        losses: Vec::new(),
-        dropped_rows: Vec::new(),
-    })
+    Ok(Some(match pass.finish() {
+        (scan, Some(result)) => FirstRead::Validated {
+            scan,
+            result: Box::new(result),
+        },
+        (scan, None) => FirstRead::Scanned(scan),
+    }))
 }
 
 /// The warning for a truncated MCAP file.
@@ -339,6 +328,7 @@ mod tests {
     use super::*;
     use crate::demo::{self, DemoOptions};
     use crate::log::tests_support::TempDir;
+    use model_core::Sides;
 
     /// Everything `validate` prints or writes of a report.
     fn outputs(report: &ValidationReport) -> (String, String, Vec<u8>) {
@@ -390,11 +380,13 @@ mod tests {
             let want = in_memory
                 .validate(&rover, &validate_options)
                 .expect("valid");
-            // This tool's run CSVs held in memory (as `validate` reads them) and streamed.
-            for held_max_bytes in [HELD_CSV_MAX_BYTES, 0] {
+            // This tool's run CSVs validated in one pass (as `validate` reads them) and
+            // streamed.
+            for one_pass in [true, false] {
                 let streamed =
-                    StreamedRuns::scan_holding(&paths, false, held_max_bytes).expect("scans");
-                let got = streamed.validate(&rover, &validate_options).expect("valid");
+                    StreamedRuns::scan_with(&paths, false, &rover, &validate_options, one_pass)
+                        .expect("scans");
+                let got = streamed.validate().expect("valid");
                 assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
                 assert_eq!(streamed.names, in_memory.names);
                 assert_eq!(streamed.truncated, in_memory.truncated);
@@ -405,38 +397,21 @@ mod tests {
                 let found = streamed.read_again(0, &mut again).expect("a run");
                 assert_eq!(found.expect("reads").dropped_rows, []);
                 assert_eq!(again.samples, in_memory.logs[0].samples);
-            }
-            let held = StreamedRuns::scan(&paths, false).expect("scans");
-            // The budget is for all runs together: room for the first CSV only.
-            let first_only = paths
-                .iter()
-                .find(|p| **p == a.csv || **p == b.csv)
-                .and_then(|p| std::fs::metadata(p).ok())
-                .map_or(0, |m| m.len());
-            let partly = StreamedRuns::scan_holding(&paths, false, first_only).expect("scans");
-            let held_count = |runs: &StreamedRuns| {
-                runs.reads
+                let kinds: Vec<bool> = streamed
+                    .reads
                     .iter()
-                    .filter(|r| matches!(r, FirstRead::Held { .. }))
-                    .count()
-            };
-            assert_eq!(
-                held_count(&partly),
-                usize::from(first_only > 0),
-                "{paths:?}"
-            );
-            let got = partly.validate(&rover, &validate_options).expect("valid");
-            assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
-            let kinds: Vec<bool> = held
-                .reads
-                .iter()
-                .map(|r| matches!(r, FirstRead::Held { .. }))
-                .collect();
-            let own_csv: Vec<bool> = paths.iter().map(|p| *p == a.csv || *p == b.csv).collect();
-            assert_eq!(kinds, own_csv, "{paths:?}");
+                    .map(|r| matches!(r, FirstRead::Validated { .. }))
+                    .collect();
+                let own_csv: Vec<bool> = paths
+                    .iter()
+                    .map(|p| one_pass && (*p == a.csv || *p == b.csv))
+                    .collect();
+                assert_eq!(kinds, own_csv, "{paths:?}");
+            }
         }
         // The damage was seen (so the last case compared salvaged reads).
-        let streamed = StreamedRuns::scan(&[damaged, cut], false).expect("scans");
+        let streamed =
+            StreamedRuns::scan(&[damaged, cut], false, &rover, &validate_options).expect("scans");
         assert!(
             streamed.lost_data && streamed.damage.len() >= 2,
             "{streamed:?}"
@@ -452,10 +427,72 @@ mod tests {
             let want = Runs::load(&paths, false)
                 .expect_err("duplicate")
                 .to_string();
-            let got = StreamedRuns::scan(&paths, false)
+            let got = StreamedRuns::scan(&paths, false, &rover, &validate_options)
                 .expect_err("duplicate")
                 .to_string();
             assert_eq!(got, want);
         }
+    }
+
+    #[test]
+    fn a_wrong_guess_of_the_gap_threshold_reads_the_run_again() {
+        let dir = TempDir::new("one-pass-guess");
+        let path = dir.path().join("run.csv");
+        let rover = Rover::HUSKY_A200;
+        let options = ValidateOptions::for_rover(&rover);
+        let commands = [(0.3, 0.3), (0.3, -0.3), (0.0, 0.0), (-0.2, 0.4)];
+        // Past the parallel reader's threshold; with `slow_from`, the first job's intervals
+        // (5 ms) are not the run's median (40 ms), and the guessed threshold calls the 40 ms
+        // intervals gaps where the run's does not.
+        for (slow_from, guessed) in [(30_000, false), (usize::MAX, true)] {
+            let mut t_s = 0.0;
+            let samples: Vec<RunSample> = (0..90_000)
+                .map(|i| {
+                    t_s += if i >= slow_from { 0.04 } else { 0.005 };
+                    let (l, r) = commands[(i / 500) % commands.len()];
+                    let current = 1.5 + 0.001 * (i % 7) as f64;
+                    RunSample::new(
+                        t_s,
+                        Sides::new(24.0, 23.9),
+                        Sides::new(current, current + 0.25),
+                        Sides::new(l, r),
+                    )
+                })
+                .collect();
+            crate::log::run_csv::write_run_csv_atomically(&path, &samples).expect("write");
+            let paths = [path.clone()];
+            let want = Runs::load(&paths, false)
+                .expect("loads")
+                .validate(&rover, &options)
+                .expect("valid");
+            let streamed = StreamedRuns::scan(&paths, false, &rover, &options).expect("scans");
+            assert_eq!(
+                matches!(streamed.reads[0], FirstRead::Validated { .. }),
+                guessed
+            );
+            let got = streamed.validate().expect("valid");
+            assert_eq!(outputs(&got), outputs(&want));
+        }
+        // A run that cannot be segmented: the in-memory path's error.
+        crate::log::run_csv::write_run_csv_atomically(
+            &path,
+            &[RunSample::new(
+                0.0,
+                Sides::new(24.0, 24.0),
+                Sides::new(1.0, 1.0),
+                Sides::new(0.0, 0.0),
+            )],
+        )
+        .expect("write");
+        let paths = [path.clone()];
+        let want = Runs::load(&paths, false)
+            .expect("loads")
+            .validate(&rover, &options)
+            .expect_err("one sample")
+            .to_string();
+        let streamed = StreamedRuns::scan(&paths, false, &rover, &options).expect("scans");
+        assert!(matches!(streamed.reads[0], FirstRead::Validated { .. }));
+        let got = streamed.validate().expect_err("one sample").to_string();
+        assert_eq!(got, want);
     }
 }

@@ -88,9 +88,9 @@ pub fn stream_and_validate(
     paths: &[PathBuf],
     options: &ValidateOptions,
 ) -> Result<(StreamedRuns, ValidationReport)> {
-    let runs = StreamedRuns::scan(paths, super::salvage())?;
+    let runs = StreamedRuns::scan(paths, super::salvage(), rover, options)?;
     warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
-    let report = runs.validate(rover, options)?;
+    let report = runs.validate()?;
     Ok((runs, report))
 }
 

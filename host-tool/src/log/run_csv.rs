@@ -387,7 +387,7 @@ pub fn read_run_csv_salvaging(
     salvage: bool,
 ) -> Result<(Vec<RunSample>, Vec<DroppedRow>), RunCsvFileError> {
     // This tool's own files, valid throughout: read and parsed in parallel, block by block.
-    if let Some(samples) = read_own_run_csv(path, u64::MAX, &mut |_| {})? {
+    if let Some(samples) = read_own_run_csv(path)? {
         return Ok((samples, Vec::new()));
     }
     let bytes = std::fs::read(path).map_err(|e| RunCsvFileError::new(path, e))?;
@@ -402,18 +402,26 @@ pub fn read_run_csv_salvaging(
 }
 
 /// The samples of the run CSV at `path` if it is one of this tool's own (its header and layout,
-/// valid throughout) of at most `max_bytes`, read once and parsed on every core; `Ok(None)`
+/// valid throughout), read once and parsed on every core ([`visit_own_run_csv`]); `Ok(None)`
 /// for any other file, which [`RunCsvReader`] reads and judges (it words the errors, drops a
-/// cut last row). `visit` is handed the samples in file order, a stretch at a time, as they
-/// are read (e.g. to hash them while they are in the cache); after `Ok(None)` what it was
-/// handed is not the file's samples.
-pub fn read_own_run_csv(
+/// cut last row).
+pub fn read_own_run_csv(path: &Path) -> Result<Option<Vec<RunSample>>, RunCsvFileError> {
+    let mut samples = Vec::new();
+    let own = visit_own_run_csv(path, &mut |rows| samples.extend_from_slice(rows))?;
+    Ok(own.then_some(samples))
+}
+
+/// Hands `visit` the samples of the run CSV at `path`, in file order, a stretch at a time as
+/// they are read (on the core that parsed them, while they are in its cache), and returns
+/// true if the file is one of this tool's own (its header and layout, valid throughout): read
+/// once, parsed on every core, in memory of a few stretches whatever its length. False for any
+/// other file, which [`RunCsvReader`] reads and judges; `visit` may have had some of its
+/// samples by then (not all).
+pub fn visit_own_run_csv(
     path: &Path,
-    max_bytes: u64,
     visit: &mut (dyn FnMut(&[RunSample]) + Send),
-) -> Result<Option<Vec<RunSample>>, RunCsvFileError> {
-    fast::read_file(path, fast::BLOCK_BYTES, max_bytes, visit)
-        .map_err(|e| RunCsvFileError::new(path, e))
+) -> Result<bool, RunCsvFileError> {
+    fast::read_file(path, fast::BLOCK_BYTES, visit).map_err(|e| RunCsvFileError::new(path, e))
 }
 
 /// Writes `samples` to a run CSV at `path`, all or nothing (see [`write_atomically`]): if any

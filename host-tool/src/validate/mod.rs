@@ -12,6 +12,7 @@
 
 pub mod crosscheck;
 pub mod fit;
+pub mod one_pass;
 pub mod pose;
 pub mod report;
 pub mod run;
@@ -113,7 +114,7 @@ impl ValidateOptions {
 }
 
 /// Why validation could not produce a report.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum ValidateError {
     /// No run was given.
     #[error("no runs to validate")]

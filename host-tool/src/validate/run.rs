@@ -76,6 +76,12 @@ impl FactsScan {
         self.check.finish()
     }
 
+    /// Whether gap thresholds `a` and `b` call the same of the intervals pushed gaps
+    /// ([`IntervalMedian::same_gaps`]).
+    pub fn same_gaps(&self, a: f64, b: f64) -> bool {
+        self.intervals.same_gaps(a, b)
+    }
+
     /// The facts of the samples pushed.
     pub fn facts(&self, gap_factor: f64) -> RunFacts {
         RunFacts {
@@ -91,9 +97,9 @@ impl FactsScan {
 
 /// What [`RunValidation`] measures of one analysed manoeuvre.
 #[derive(Debug)]
-struct Measured {
+pub(super) struct Measured {
     stats: turns::ManoeuvreStats,
-    track: Option<pose::TrackStats>,
+    pub(super) track: Option<pose::TrackStats>,
 }
 
 /// One run being validated, manoeuvre by manoeuvre.
@@ -203,7 +209,7 @@ impl<'a> RunValidation<'a> {
 
     /// The statistics of manoeuvre `seg` (its samples `span`); `None` for a standstill or a
     /// manoeuvre too short to analyse.
-    fn measure(&self, seg: &Segment, span: &[RunSample]) -> Option<Measured> {
+    pub(super) fn measure(&self, seg: &Segment, span: &[RunSample]) -> Option<Measured> {
         if seg.kind == ManoeuvreKind::Standstill || seg.too_short {
             return None;
         }
@@ -230,7 +236,7 @@ impl<'a> RunValidation<'a> {
     }
 
     /// Counts manoeuvre `seg` and adds its row if it was `measured`.
-    fn record(&mut self, seg: &Segment, measured: Option<Measured>) {
+    pub(super) fn record(&mut self, seg: &Segment, measured: Option<Measured>) {
         let index = self.report.segments;
         self.report.segments += 1;
         let Some(Measured { stats, track }) = measured else {

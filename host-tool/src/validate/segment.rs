@@ -259,6 +259,15 @@ impl IntervalMedian {
         }
         f64::INFINITY
     }
+
+    /// Whether thresholds `a` and `b` call the same intervals gaps (`dt > threshold`), so
+    /// statistics measured with one are those of the other, to the bit.
+    pub fn same_gaps(&self, a: f64, b: f64) -> bool {
+        self.counts.keys().all(|&bits| {
+            let dt = f64::from_bits(bits);
+            (dt > a) == (dt > b)
+        })
+    }
 }
 
 /// The hasher of [`IntervalMedian`]'s keys: a few distinct interval bits, one lookup per

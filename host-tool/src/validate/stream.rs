@@ -39,6 +39,17 @@ impl RunScan {
     pub fn digest(&self) -> &RunDigest {
         &self.digest
     }
+
+    /// The run's next sample.
+    pub fn push(&mut self, sample: &RunSample) {
+        self.facts.push(sample);
+        self.digest.push(sample);
+    }
+
+    /// What is known of the samples pushed ([`FactsScan`]).
+    pub fn facts(&self) -> &FactsScan {
+        &self.facts
+    }
 }
 
 impl RunLogSink for RunScan {
@@ -48,8 +59,7 @@ impl RunLogSink for RunScan {
     }
 
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
-        self.facts.push(sample);
-        self.digest.push(sample);
+        self.push(sample);
         Ok(())
     }
 

@@ -1,12 +1,14 @@
-//! The fast path of [`super::read_run_csv_salvaging`] for files in this tool's own layout (the
-//! header [`RunCsvWriter`](super::RunCsvWriter) writes, no quotes, LF line ends, the last line
-//! ended): the file is cut at line ends into one part per core, each part read and parsed on
-//! its own thread in blocks (a block's bytes are parsed while they are in the cache, and no
-//! buffer of the whole file is allocated) straight from the bytes: no per-row allocation, one
-//! pass over the bytes, numbers by `fast_float2` (correctly rounded, as `str::parse`), a
-//! cell it does not take whole by `str::parse`.
+//! The fast path of [`super::read_run_csv_salvaging`] and of `validate` for files in this
+//! tool's own layout (the header [`RunCsvWriter`](super::RunCsvWriter) writes, no quotes, LF
+//! line ends, the last line ended): the file is cut at line ends into jobs, read and parsed on
+//! every core in blocks (a block's bytes are parsed while they are in the cache, and no buffer
+//! of the whole file is allocated) straight from the bytes: no per-row allocation, one pass
+//! over the bytes, numbers by `fast_float2` (correctly rounded, as `str::parse`), a cell it
+//! does not take whole by `str::parse`. The rows go to a visitor in file order, a job at a
+//! time, so memory holds a few jobs whatever the file's length (the caller keeps what it
+//! needs: all the samples, or a run's statistics).
 //! It gives the same samples as the general reader or gives up: on the first cell, row or
-//! layout it does not accept it returns `None`, and the general reader reads the file and
+//! layout it does not accept it returns `false`, and the general reader reads the file and
 //! words the error (or drops the cut row) exactly as before.
 
 use super::{Column, RunSample};
@@ -36,38 +38,30 @@ fn layout(header_line: &[u8]) -> Option<usize> {
 /// A function handed the samples in file order, a stretch at a time, as they are read.
 pub type Visit<'a> = &'a mut (dyn FnMut(&[RunSample]) + Send);
 
-/// The samples of the run CSV at `path` if it is valid, in this tool's layout and at most
-/// `max_bytes` long, read in blocks of `block` bytes; `Ok(None)` otherwise (see the module
-/// docs). `visit` gets them in file order as they are assembled (by the core that parsed them,
-/// while they are in its cache); on `Ok(None)` it may have had some of them.
-pub(super) fn read_file(
-    path: &Path,
-    block: usize,
-    max_bytes: u64,
-    visit: Visit<'_>,
-) -> io::Result<Option<Vec<RunSample>>> {
+/// Hands `visit` the samples of the run CSV at `path`, in file order, read in blocks of
+/// `block` bytes, and returns true if the file is valid and in this tool's layout; false
+/// otherwise (see the module docs), when `visit` may have had some of its samples (not all).
+/// `visit` gets a job's rows on the core that parsed them, while they are in its cache.
+pub(super) fn read_file(path: &Path, block: usize, visit: Visit<'_>) -> io::Result<bool> {
     let mut file = File::open(path)?;
     let metadata = file.metadata()?;
     if !metadata.is_file() {
         // A pipe or a device: read once, by the general reader.
-        return Ok(None);
+        return Ok(false);
     }
     let len = metadata.len();
-    if len > max_bytes {
-        return Ok(None);
-    }
     let mut head = Vec::new();
     (&mut file).take(4096).read_to_end(&mut head)?;
     let Some(header_end) = memchr::memchr(b'\n', &head) else {
-        return Ok(None);
+        return Ok(false);
     };
     let Some(columns) = layout(&head[..header_end]) else {
-        return Ok(None);
+        return Ok(false);
     };
     let data_start = header_end as u64 + 1;
     let Some(data_len) = len.checked_sub(data_start) else {
         // The file shrank under us: the general reader reads what is there.
-        return Ok(None);
+        return Ok(false);
     };
     if data_len > 0 {
         // The last line must be ended (a cut one is the general reader's to drop).
@@ -75,12 +69,9 @@ pub(super) fn read_file(
         file.seek(SeekFrom::Start(len - 1))?;
         file.read_exact(&mut last)?;
         if last[0] != b'\n' {
-            return Ok(None);
+            return Ok(false);
         }
     }
-    // A row of this tool's layout is at least 40 bytes: a close upper bound on the rows, so
-    // the samples are never moved while growing.
-    let capacity = usize::try_from(data_len / 40 + 1).unwrap_or(0);
     let mut reader = PartReader {
         columns,
         block,
@@ -88,18 +79,18 @@ pub(super) fn read_file(
         buf: Vec::with_capacity(2 * block),
     };
     if data_len < PARALLEL_BYTES {
-        let mut samples = Vec::with_capacity(capacity);
+        let mut samples = Vec::new();
         let ok = reader.read(&mut file, data_start, len, false, &mut samples)?;
         if ok {
             visit(&samples);
         }
-        return Ok(ok.then_some(samples));
+        return Ok(ok);
     }
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(8));
     let job = 4 * block as u64;
     let jobs = data_len.div_ceil(job);
     let bounds = |j: u64| data_start + (j * job).min(data_len);
-    let assembly = Assembly::new(capacity, visit);
+    let assembly = Assembly::new(visit);
     std::thread::scope(|s| {
         let workers: Vec<_> = (0..threads as u64)
             .map(|first| {
@@ -133,8 +124,8 @@ pub(super) fn read_file(
     Ok(assembly.finish())
 }
 
-/// The samples of the parallel reader's jobs, appended in file order by the thread that read
-/// each job as soon as its turn comes (so a job's rows are copied while they are in that
+/// The parallel reader's jobs handed to the visitor in file order, by the thread that read
+/// each job as soon as its turn comes (so a job's rows are visited while they are in that
 /// core's cache, and the next job is read meanwhile on the other core).
 struct Assembly<'a> {
     state: Mutex<Assembled<'a>>,
@@ -142,20 +133,21 @@ struct Assembly<'a> {
 }
 
 struct Assembled<'a> {
-    samples: Vec<RunSample>,
     visit: Visit<'a>,
+    /// The time of the last row visited.
+    last_t_s: Option<f64>,
     /// The job whose rows come next.
     next: u64,
-    /// A job was not in this tool's layout (or could not be read): the result is `None`.
+    /// A job was not in this tool's layout (or could not be read): the result is `false`.
     failed: bool,
 }
 
 impl<'a> Assembly<'a> {
-    fn new(capacity: usize, visit: Visit<'a>) -> Self {
+    fn new(visit: Visit<'a>) -> Self {
         Self {
             state: Mutex::new(Assembled {
-                samples: Vec::with_capacity(capacity),
                 visit,
+                last_t_s: None,
                 next: 0,
                 failed: false,
             }),
@@ -174,15 +166,17 @@ impl<'a> Assembly<'a> {
         };
         let seamless = |rows: &[RunSample]| {
             // Time must increase across the jobs' seam too.
-            match (state.samples.last(), rows.first()) {
-                (Some(last), Some(first)) => first.t_s > last.t_s,
+            match (state.last_t_s, rows.first()) {
+                (Some(last_t_s), Some(first)) => first.t_s > last_t_s,
                 _ => true,
             }
         };
         match rows {
             Some(rows) if !state.failed && seamless(rows) => {
-                state.samples.extend_from_slice(rows);
                 (state.visit)(rows);
+                if let Some(last) = rows.last() {
+                    state.last_t_s = Some(last.t_s);
+                }
             }
             _ => state.failed = true,
         }
@@ -199,9 +193,9 @@ impl<'a> Assembly<'a> {
         self.turn.notify_all();
     }
 
-    fn finish(self) -> Option<Vec<RunSample>> {
-        let state = self.state.into_inner().ok()?;
-        (!state.failed).then_some(state.samples)
+    /// Whether every job was read and visited.
+    fn finish(self) -> bool {
+        self.state.into_inner().is_ok_and(|state| !state.failed)
     }
 }
 
