@@ -129,10 +129,13 @@ pub fn heldout_residuals(
     let mut out = Vec::with_capacity(rows.len());
     for g in groups {
         let mut train: Vec<&TurnRow> = rows.iter().filter(|r| scheme.group(r) != g).collect();
-        let baseline = match &fixed {
+        // The rows the baseline is fitted on: what it absorbs of a power-type term is measured
+        // there (`FittedModel::fit`).
+        let (baseline, fitted_on) = match &fixed {
             Some(b) => {
-                train.extend(calibration.manoeuvres(rows));
-                *b
+                let cal = calibration.manoeuvres(rows);
+                train.extend(cal.iter().copied());
+                (*b, cal)
             }
             None => {
                 let cal: Vec<&TurnRow> = train
@@ -140,7 +143,7 @@ pub fn heldout_residuals(
                     .copied()
                     .filter(|r| r.calibration_kind)
                     .collect();
-                Baseline::fit(rover, &cal)?
+                (Baseline::fit(rover, &cal)?, cal)
             }
         };
         let ctx = Context {
@@ -149,8 +152,8 @@ pub fn heldout_residuals(
             heating_tau_s: HEATING_TAU_GRID_S[0],
         };
         // A fold where the model cannot be fitted predicts no extra power.
-        let fitted =
-            FittedModel::fit(effects, &train, &ctx).unwrap_or_else(|_| FittedModel::empty());
+        let fitted = FittedModel::fit(effects, &train, &fitted_on, &ctx)
+            .unwrap_or_else(|_| FittedModel::empty());
         for (i, row) in rows
             .iter()
             .enumerate()

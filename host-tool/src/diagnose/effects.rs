@@ -273,8 +273,10 @@ impl FittedModel {
 
     /// Joint least squares of the baseline residual (effective power) of every side of `train`
     /// on the regressors of `effects` (no intercept). A power-type term's regressor is taken
-    /// minus its projection on the baseline's features (skid, |V|) over the calibration rows of
-    /// `train` (see [`is_power_type`]): that is how the term shows in the residuals of a
+    /// minus its projection on the baseline's features (skid, |V|) over `fitted_on`, the rows
+    /// the baseline was fitted on (see [`is_power_type`]; with calibration runs their
+    /// manoeuvres, not the diagnosed runs' point turns and straights, whose heating or pitch
+    /// the baseline never saw): that is how the term shows in the residuals of a
     /// baseline fitted with the term present, so e.g. a constant offset per side, which at one
     /// v_c the baseline absorbs into G and a on the calibration rows, is still fitted exactly,
     /// and no free correction of the baseline is needed. The growth coefficients are a second
@@ -284,6 +286,7 @@ impl FittedModel {
     pub fn fit(
         effects: &[EffectId],
         train: &[&TurnRow],
+        fitted_on: &[&TurnRow],
         ctx: &Context<'_>,
     ) -> Result<FittedModel, EffectFitError> {
         let fail = |reason: &str| EffectFitError {
@@ -320,9 +323,8 @@ impl FittedModel {
                         return out;
                     }
                     for (p, slot) in out.iter_mut().enumerate().take(param_count(e)) {
-                        let design: Vec<(Vec<f64>, f64)> = train
+                        let design: Vec<(Vec<f64>, f64)> = fitted_on
                             .iter()
-                            .filter(|r| r.calibration_kind)
                             .flat_map(|r| {
                                 observe::observations(r).iter().map(move |sides| {
                                     let [z] = observe::sum_sides(sides, |side| {

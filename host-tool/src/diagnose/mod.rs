@@ -770,7 +770,12 @@ pub fn fit_model(
         baseline: &baseline,
         heating_tau_s: HEATING_TAU_GRID_S[0],
     };
-    let model = FittedModel::fit(effects, &calibration.training_rows(rows), &ctx)?;
+    let model = FittedModel::fit(
+        effects,
+        &calibration.training_rows(rows),
+        &calibration.manoeuvres(rows),
+        &ctx,
+    )?;
     Ok((baseline, model))
 }
 

@@ -573,3 +573,46 @@ fn a_sloped_calibration_leaves_a_and_g_level() {
     );
     assert_eq!(d.effect, "slope", "{}", summary(&d));
 }
+
+/// A power-type term is fitted net of what the baseline absorbed of it, measured on the rows the
+/// baseline was fitted on. With calibration runs those are the calibration runs' manoeuvres,
+/// not the diagnosed runs' point turns and straights: heat that builds up over long test runs
+/// sits on their point turns too, and projecting it off there (as before) made the fitted
+/// heating term negative. Here every row gets k·I²·x (τ = 60 s, the grid's first) added to
+/// each side, short calibration runs and long test runs alike; the fit recovers k.
+#[test]
+fn an_absorbed_term_is_measured_on_the_baselines_own_rows() {
+    let world = WorldConfig::hard_ground();
+    let heat = |rows: &mut Vec<TurnRow>, k: f64| {
+        for row in rows.iter_mut() {
+            let h = row.copper_heat_a4.expect("samples")[0];
+            for (side, s) in row.sides.iter_mut().enumerate() {
+                let extra_w = k * h[side];
+                s.avg_power_w += extra_w;
+                s.effective_power_w += extra_w * row.duration_s / row.expected_duration_s;
+                s.energy_j += extra_w * row.duration_s;
+            }
+        }
+    };
+    let k = 0.05;
+    let cal_runs: Vec<_> = (0..2)
+        .map(|s| simulate_run_every(&world, &Scenario::seed_turns(0.3, 1), 40 + s, 20_000))
+        .collect();
+    let mut cal = rows_of(&cal_runs);
+    heat(&mut cal, k);
+    let test_runs: Vec<_> = (0..3)
+        .map(|s| simulate_run_every(&world, &Scenario::seed_turns(0.3, 6), 50 + s, 20_000))
+        .collect();
+    let mut rows = rows_of(&test_runs);
+    heat(&mut rows, k);
+    let (_, model) = super::fit_model(
+        &HUSKY,
+        &rows,
+        &[EffectId::MotorHeating],
+        super::calibration::Calibration::Rows(&cal),
+    )
+    .expect("fits");
+    assert_eq!(model.heating_tau_s, 60.0, "{model:?}");
+    let fitted = model.effects[0].params[0];
+    assert!((fitted - k).abs() < 0.1 * k, "{model:?}");
+}
