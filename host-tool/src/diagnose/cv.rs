@@ -122,28 +122,32 @@ pub fn heldout_residuals(
     if groups.len() < 2 {
         return Ok(None);
     }
+    // With calibration runs: their baseline and manoeuvres, the same in every fold.
     let fixed = match calibration {
         Calibration::FromRuns => None,
-        Calibration::Rows(_) => Some(calibration.baseline(rover, rows)?),
+        Calibration::Rows(_) => Some((
+            calibration.baseline(rover, rows)?,
+            calibration.manoeuvres(rows),
+        )),
     };
     let mut out = Vec::with_capacity(rows.len());
     for g in groups {
         let mut train: Vec<&TurnRow> = rows.iter().filter(|r| scheme.group(r) != g).collect();
         // The rows the baseline is fitted on: what it absorbs of a power-type term is measured
         // there (`FittedModel::fit`).
-        let (baseline, fitted_on) = match &fixed {
-            Some(b) => {
-                let cal = calibration.manoeuvres(rows);
+        let fold_cal: Vec<&TurnRow>;
+        let (baseline, fitted_on): (Baseline, &[&TurnRow]) = match &fixed {
+            Some((b, cal)) => {
                 train.extend(cal.iter().copied());
                 (*b, cal)
             }
             None => {
-                let cal: Vec<&TurnRow> = train
+                fold_cal = train
                     .iter()
                     .copied()
                     .filter(|r| r.calibration_kind)
                     .collect();
-                (Baseline::fit(rover, &cal)?, cal)
+                (Baseline::fit(rover, &fold_cal)?, &fold_cal)
             }
         };
         let ctx = Context {
@@ -152,7 +156,7 @@ pub fn heldout_residuals(
             heating_tau_s: HEATING_TAU_GRID_S[0],
         };
         // A fold where the model cannot be fitted predicts no extra power.
-        let fitted = FittedModel::fit(effects, &train, &fitted_on, &ctx)
+        let fitted = FittedModel::fit(effects, &train, fitted_on, &ctx)
             .unwrap_or_else(|_| FittedModel::empty());
         for (i, row) in rows
             .iter()

@@ -34,6 +34,15 @@ pub(super) fn rows_of(runs: &[Vec<RunSample>]) -> Vec<TurnRow> {
     super::bench::rows_of(runs).expect("validates")
 }
 
+/// Adds `extra_w` of power drawn all through the manoeuvre to side `side` of `row`: its
+/// average power, its energy and its effective power (over the expected duration).
+fn add_steady_power(row: &mut TurnRow, side: usize, extra_w: f64) {
+    let s = &mut row.sides[side];
+    s.avg_power_w += extra_w;
+    s.effective_power_w += extra_w * row.duration_s / row.expected_duration_s;
+    s.energy_j += extra_w * row.duration_s;
+}
+
 /// The seed's turn set plus a wide turn (2R' and 4R') so the calibration has wide arcs.
 pub(super) fn scenario() -> Scenario {
     let mut s = Scenario::seed_turns(0.3, 1);
@@ -461,12 +470,9 @@ fn motor_heating_is_named_on_long_runs() {
     let tau_s = 400.0;
     for row in &mut rows {
         let t_mid = row.t_start_s + 0.5 * row.duration_s;
-        for side in &mut row.sides {
-            let i = side.avg_power_w / row.bus_v;
-            let extra_w = 1.5 * i * i * (1.0 - (-t_mid / tau_s).exp());
-            side.avg_power_w += extra_w;
-            side.effective_power_w += extra_w * row.duration_s / row.expected_duration_s;
-            side.energy_j += extra_w * row.duration_s;
+        for side in 0..2 {
+            let i = row.sides[side].avg_power_w / row.bus_v;
+            add_steady_power(row, side, 1.5 * i * i * (1.0 - (-t_mid / tau_s).exp()));
         }
     }
     let d = super::diagnose(&HUSKY, &rows).expect("diagnoses");
@@ -586,11 +592,8 @@ fn an_absorbed_term_is_measured_on_the_baselines_own_rows() {
     let heat = |rows: &mut Vec<TurnRow>, k: f64| {
         for row in rows.iter_mut() {
             let h = row.copper_heat_a4.expect("samples")[0];
-            for (side, s) in row.sides.iter_mut().enumerate() {
-                let extra_w = k * h[side];
-                s.avg_power_w += extra_w;
-                s.effective_power_w += extra_w * row.duration_s / row.expected_duration_s;
-                s.energy_j += extra_w * row.duration_s;
+            for (side, h) in h.into_iter().enumerate() {
+                add_steady_power(row, side, k * h);
             }
         }
     };
