@@ -461,13 +461,15 @@ pub struct Trend {
     pub n: usize,
     /// Within-(regime, side) slope of the effective-power residual over run time [W/min].
     pub slope_w_per_min: f64,
-    /// 95 % bootstrap interval over repeats [W/min].
-    pub ci_w_per_min: (f64, f64),
+    /// Two-sided permutation p-value (manoeuvre times shuffled within each run).
+    pub p_value: f64,
     /// Median run length [min].
     pub run_length_min: f64,
     /// The slope's change over the median run length [W].
     pub change_w: f64,
-    /// The interval excludes 0 and |change| > [`cv::PRACTICAL_FLOOR_W`].
+    /// The practical floor |change| must exceed: the gaps' floor over the timed manoeuvres [W].
+    pub floor_w: f64,
+    /// p below 0.05 and |change| > `floor_w`.
     pub significant: bool,
 }
 
@@ -487,6 +489,78 @@ pub const MIN_TREND_SPREAD_S: f64 = 10.0;
 
 /// One observation of the trend fit: ((regime, side), run time [s], residual [W]).
 type TimedObs = ((Regime, Part), f64, f64);
+
+/// The median of the runs' lengths (`run_end`: each run's latest manoeuvre middle) [s].
+fn median_run_length_s(run_end: &BTreeMap<usize, f64>) -> f64 {
+    let mut lengths: Vec<f64> = run_end.values().copied().collect();
+    lengths.sort_by(f64::total_cmp);
+    lengths.get(lengths.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The run-time trend of held-out residuals `res` of `rows`, as its change over the median run
+/// length [W] (the within-(regime, side) slope of [`Trend`]); `None` when run time is not
+/// identifiable or the rows are total-only.
+pub fn heldout_run_time_change_w(rows: &[TurnRow], res: &[cv::RowResidual]) -> Option<f64> {
+    let mut obs: Vec<TimedObs> = Vec::new();
+    let mut run_end: BTreeMap<usize, f64> = BTreeMap::new();
+    for r in res.iter().filter(|r| !r.effective_w.is_total()) {
+        let row = &rows[r.row];
+        let t_mid = row.t_start_s + 0.5 * row.duration_s;
+        let end = run_end.entry(row.run_index).or_insert(0.0);
+        *end = end.max(t_mid);
+        for (side, value) in row.sides.iter().zip(r.effective_w.iter()) {
+            obs.push(((row.regime, Part::from(side.role)), t_mid, *value));
+        }
+    }
+    Some(within_slope(&obs)? * median_run_length_s(&run_end))
+}
+
+/// Significance level of the run-time trend's permutation test.
+const TREND_ALPHA: f64 = 0.01;
+
+/// Permutations of the run-time trend's test.
+const TREND_PERMUTATIONS: usize = 999;
+
+/// Two-sided permutation p-value of the within-(regime, side) slope `observed` of `timed`: each
+/// run's manoeuvre times are shuffled among its manoeuvres (both sides of one manoeuvre keep one
+/// time), and p is the share of shuffles whose |slope| reaches |observed|. Without a trend the
+/// residuals do not depend on when in its run a manoeuvre was driven, whatever a run's own level;
+/// with three runs a bootstrap over runs (10 distinct resamples) called a control's noise a
+/// trend.
+fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
+    // Each run's manoeuvres (row index) and their times.
+    let mut manoeuvres: BTreeMap<usize, Vec<(usize, f64)>> = BTreeMap::new();
+    for t in timed {
+        let list = manoeuvres.entry(t.run_index).or_default();
+        if !list.iter().any(|(row, _)| *row == t.row) {
+            list.push((t.row, t.t_mid_s.unwrap_or(0.0)));
+        }
+    }
+    let mut rng = SplitMix64::new(seed_of("run-time-trend"));
+    let mut time_of: BTreeMap<usize, f64> = BTreeMap::new();
+    let mut obs: Vec<TimedObs> = Vec::with_capacity(timed.len());
+    let mut extreme = 0usize;
+    for _ in 0..TREND_PERMUTATIONS {
+        time_of.clear();
+        for list in manoeuvres.values() {
+            let mut times: Vec<f64> = list.iter().map(|m| m.1).collect();
+            for i in (1..times.len()).rev() {
+                times.swap(i, rng.below(i + 1));
+            }
+            time_of.extend(list.iter().map(|m| m.0).zip(times));
+        }
+        obs.clear();
+        obs.extend(
+            timed
+                .iter()
+                .map(|t| ((t.regime, t.part), time_of[&t.row], t.effective_power_w)),
+        );
+        if within_slope(&obs).is_some_and(|s| s.abs() >= observed.abs()) {
+            extreme += 1;
+        }
+    }
+    (extreme + 1) as f64 / (TREND_PERMUTATIONS + 1) as f64
+}
 
 /// Within-(regime, side) slope of `y` on `t` [W/s]; `None` when the spread of t is too small.
 fn within_slope(obs: &[TimedObs]) -> Option<f64> {
@@ -540,23 +614,27 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
     let thirds = ["first-third", "middle-third", "last-third"]
         .iter()
         .zip(&thirds_values)
-        .filter_map(|(label, v)| stat((*label).to_owned(), v, Floor::Fixed, seed_of(label), &[]))
-        .collect();
-
-    let obs: Vec<(usize, TimedObs)> = timed
-        .iter()
-        .map(|t| {
-            (
-                t.run_index,
-                (
-                    (t.regime, t.part),
-                    t.t_mid_s.unwrap_or(0.0),
-                    t.effective_power_w,
-                ),
+        .filter_map(|(label, v)| {
+            stat(
+                (*label).to_owned(),
+                v,
+                Floor::CentredPower,
+                seed_of(label),
+                &[],
             )
         })
         .collect();
-    let all: Vec<_> = obs.iter().map(|(_, o)| *o).collect();
+
+    let all: Vec<TimedObs> = timed
+        .iter()
+        .map(|t| {
+            (
+                (t.regime, t.part),
+                t.t_mid_s.unwrap_or(0.0),
+                t.effective_power_w,
+            )
+        })
+        .collect();
     let Some(slope) = within_slope(&all) else {
         return RunTimeWhere {
             thirds,
@@ -568,45 +646,22 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
             )),
         };
     };
-    let runs: Vec<usize> = run_end.keys().copied().collect();
-    let mut rng = SplitMix64::new(seed_of("run-time-trend"));
-    let mut slopes: Vec<f64> = (0..cv::BOOTSTRAP_RESAMPLES)
-        .filter_map(|_| {
-            let sample: Vec<_> = if runs.len() >= 2 {
-                (0..runs.len())
-                    .flat_map(|_| {
-                        let r = runs[rng.below(runs.len())];
-                        obs.iter().filter(move |(k, _)| *k == r).map(|(_, o)| *o)
-                    })
-                    .collect()
-            } else {
-                (0..all.len()).map(|_| all[rng.below(all.len())]).collect()
-            };
-            within_slope(&sample)
-        })
-        .collect();
-    slopes.sort_by(f64::total_cmp);
-    let (lo, hi) = if slopes.len() >= 40 {
-        (
-            slopes[(0.025 * slopes.len() as f64) as usize],
-            slopes[((0.975 * slopes.len() as f64) as usize).min(slopes.len() - 1)],
-        )
-    } else {
-        (f64::NEG_INFINITY, f64::INFINITY)
-    };
-    let mut lengths: Vec<f64> = run_end.values().copied().collect();
-    lengths.sort_by(f64::total_cmp);
-    let run_length_s = lengths[lengths.len() / 2];
+    let p_value = permutation_p(&timed, slope);
+    let run_length_s = median_run_length_s(&run_end);
     let change_w = slope * run_length_s;
+    // The floor of the gaps: a share of the model's effective power over the timed manoeuvres.
+    let model_w: Vec<f64> = timed.iter().map(|t| t.model_effective_w).collect();
+    let floor_w = practical_floor_w(&model_w);
     RunTimeWhere {
         thirds,
         trend: Some(Trend {
             n: all.len(),
             slope_w_per_min: slope * 60.0,
-            ci_w_per_min: (lo * 60.0, hi * 60.0),
+            p_value,
             run_length_min: run_length_s / 60.0,
             change_w,
-            significant: (lo > 0.0 || hi < 0.0) && change_w.abs() > cv::PRACTICAL_FLOOR_W,
+            floor_w,
+            significant: p_value < TREND_ALPHA && change_w.abs() > floor_w,
         }),
         note: None,
     }
@@ -652,10 +707,14 @@ impl LooTest {
 pub struct WhereAnalysis {
     /// One line: the significant groups, or that there is no gap beyond the repeat noise.
     pub statement: String,
-    /// Whether any group or the run-time trend is significant.
+    /// Whether any finding of the diagnosed metric is (the headline's `significant` agrees).
     pub significant: bool,
-    /// Every significant group, one line each, largest (relative to its floor) first.
+    /// Every significant group of the diagnosed metric (effective power by regime and side, its
+    /// run-time trend), one line each, largest (relative to its floor) first.
     pub findings: Vec<String>,
+    /// The other metrics' significant groups (average and peak power, energy, growth, run-time
+    /// thirds), same order: reported, not counted in the verdict.
+    pub other_findings: Vec<String>,
     /// Caveats of the data (total-only rows, one run, ...).
     pub notes: Vec<String>,
     /// Groups of each metric (metrics with no observation are left out).
@@ -672,22 +731,33 @@ pub struct WhereAnalysis {
 }
 
 impl WhereAnalysis {
+    /// Whether the effective-power residual's run-time trend is significant: a departure of the
+    /// diagnosed metric that no regime's mean shows (heating grows in every regime), so the
+    /// headline counts it.
+    pub fn departs_over_run_time(&self) -> bool {
+        self.run_time.trend.as_ref().is_some_and(|t| t.significant)
+    }
+
     /// Records a departure that no group shows but cross-validation does: the selection's clear
     /// winner `c` removes at least the practical floor of held-out RMS (e.g. a slope, whose power
     /// changes sign along the path, so its group means are ~0). The diagnosis' `significant`
     /// counts it, so the "where" analysis must too.
-    pub fn add_heldout_departure(&mut self, c: &cv::CandidateScore, scheme: cv::Scheme) {
+    pub fn add_heldout_departure(
+        &mut self,
+        c: &cv::CandidateScore,
+        scheme: cv::Scheme,
+        floor_w: f64,
+    ) {
         let removed = (c.heldout_error_before.powi(2) - c.heldout_error_after.powi(2))
             .max(0.0)
             .sqrt();
         let finding = format!(
             "held out ({}): {} removes {removed:.1} W RMS ({:.2} → {:.2} W), more than the \
-             {} W floor, although no group's mean departs on its own",
+             {floor_w:.1} W floor, although no group's mean departs on its own",
             scheme.id(),
             c.effect,
             c.heldout_error_before,
             c.heldout_error_after,
-            cv::PRACTICAL_FLOOR_W
         );
         self.statement = if self.significant {
             format!("{}; {finding}", self.statement)

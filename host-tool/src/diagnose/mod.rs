@@ -260,12 +260,25 @@ pub fn diagnose_with(
         )?,
         None => None,
     };
+    let selected = match (selected, where_.run_time.trend.as_ref()) {
+        (None, Some(trend)) if trend.significant => select_what_explains_the_trend(
+            rover,
+            rows,
+            primary,
+            calibration,
+            &before,
+            &candidates,
+            trend.floor_w,
+        )?,
+        (selected, _) => selected,
+    };
     let spread = explained_spread(&baseline, rows, &candidates, selected);
-    let significant = significant_gaps.any || spread.is_some();
+    let in_groups = significant_gaps.any || where_.departs_over_run_time();
+    let significant = in_groups || spread.is_some();
     // The headline and the "where" analysis state one verdict: a departure seen only out of
     // sample is recorded there too.
-    if let (Some(c), false) = (spread, significant_gaps.any) {
-        where_.add_heldout_departure(c, primary);
+    if let (Some((c, floor_w)), false) = (spread, in_groups) {
+        where_.add_heldout_departure(c, primary, floor_w);
     }
     let verdict = match selected {
         _ if !significant => Verdict::None,
@@ -421,15 +434,16 @@ impl Admission {
     }
 }
 
-/// The selected effect's score when it removes at least the practical floor of RMS out of
-/// sample. The floor is the one of the gaps and the adequacy test: the larger of the fixed floor
-/// and a share of the model power (a few watts are noise for a rover drawing hundreds).
+/// The selected effect's score and the floor [W] when it removes at least that practical floor
+/// of RMS out of sample. The floor is the one of the gaps and the adequacy test: the larger of
+/// the fixed floor and a share of the model power (a few watts are noise for a rover drawing
+/// hundreds).
 fn explained_spread<'a>(
     baseline: &Baseline,
     rows: &[TurnRow],
     candidates: &'a [CandidateScore],
     selected: Option<EffectId>,
-) -> Option<&'a CandidateScore> {
+) -> Option<(&'a CandidateScore, f64)> {
     let model_w: Vec<f64> = rows
         .iter()
         .flat_map(|r| [0, 1].map(|s| baseline.effective_side_power_w(r, s)))
@@ -438,6 +452,7 @@ fn explained_spread<'a>(
     selected
         .and_then(|e| candidates.iter().find(|c| c.effect == e))
         .filter(|c| removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= floor_w)
+        .map(|c| (c, floor_w))
 }
 
 /// Held-out RMS before and after adding `added`, over all rows, the gap regimes and each regime.
@@ -650,6 +665,42 @@ fn select_where_the_gap_is(
         {
             Some(c.effect)
         }
+        _ => None,
+    })
+}
+
+/// The one candidate that explains a significant run-time trend (heating grows in every
+/// regime, so no regime's mean shows it and its all-row shrink is diluted by the repeat noise):
+/// the trend of the held-out residuals reaches `floor_w` without a term, stays under it with
+/// this candidate's term, and reaches it with every other candidate's; and the term does no
+/// harm out of sample (held-out RMS after ≤ before).
+fn select_what_explains_the_trend(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    calibration: Calibration<'_>,
+    before: &[cv::RowResidual],
+    candidates: &[CandidateScore],
+    floor_w: f64,
+) -> Result<Option<EffectId>, DiagnoseError> {
+    let beyond = |res: &[cv::RowResidual]| {
+        gaps::heldout_run_time_change_w(rows, res).is_none_or(|c| c.abs() >= floor_w)
+    };
+    if !beyond(before) {
+        return Ok(None);
+    }
+    let mut explains = Vec::new();
+    for c in candidates {
+        let Some(after) = cv::heldout_residuals(rover, rows, scheme, &[c.effect], calibration)?
+        else {
+            return Ok(None);
+        };
+        if !beyond(&after) {
+            explains.push(c);
+        }
+    }
+    Ok(match explains.as_slice() {
+        [c] if c.heldout_error_after <= c.heldout_error_before => Some(c.effect),
         _ => None,
     })
 }

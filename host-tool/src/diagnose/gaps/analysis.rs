@@ -5,7 +5,6 @@ use super::judge::Floor;
 use super::{grouped, run_time, strongest, turn_residuals, GroupStat, Metric, MetricWhere};
 use super::{RowVerdicts, RunTimeWhere, TurnResidual, WhereAnalysis};
 use crate::diagnose::baseline::Baseline;
-use crate::diagnose::cv;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::loo::LooTest;
 use std::collections::BTreeMap;
@@ -22,19 +21,24 @@ pub fn analyse(baseline: &Baseline, rows: &[TurnRow], verdicts: &RowVerdicts) ->
         .collect();
     let (phase_by_regime_side, phase_by_side) = grouped("growth", &growth, Floor::Fixed, &[]);
     let run_time = run_time(&turns);
-    let (findings, any_finite) = ranked_findings(
+    let Ranked {
+        findings,
+        other_findings,
+        any_finite,
+    } = ranked_findings(
         rows,
         &metrics,
         phase_by_regime_side.iter().chain(&phase_by_side),
         &run_time,
     );
     let significant = !findings.is_empty();
-    let statement = where_statement(&findings, any_finite);
+    let statement = where_statement(&findings, &other_findings, any_finite);
     let notes = where_notes(rows, &run_time);
     WhereAnalysis {
         statement,
         significant,
         findings,
+        other_findings,
         notes,
         metrics,
         phase_by_regime_side,
@@ -112,17 +116,28 @@ fn metric_wheres(
     metrics
 }
 
-/// The significant findings, strongest (relative to their floor) first, and whether any group
-/// had a finite interval (something could be judged).
+/// The significant findings, strongest (relative to their floor) first.
+struct Ranked {
+    /// Of the diagnosed metric: effective power by regime and side, and its run-time trend.
+    findings: Vec<String>,
+    /// Of the other metrics (average and peak power, energy, growth through the turn) and the
+    /// run-time thirds.
+    other_findings: Vec<String>,
+    /// Whether any group had a finite interval (something could be judged).
+    any_finite: bool,
+}
+
+/// Ranks the significant groups of `metrics`, `phase_groups` and `run_time`.
 fn ranked_findings<'a>(
     rows: &[TurnRow],
     metrics: &[MetricWhere],
     phase_groups: impl Iterator<Item = &'a GroupStat>,
     run_time: &RunTimeWhere,
-) -> (Vec<String>, bool) {
-    let mut scored: Vec<(f64, String)> = Vec::new();
+) -> Ranked {
+    // (strength relative to the floor, text, of the diagnosed metric)
+    let mut scored: Vec<(f64, String, bool)> = Vec::new();
     let mut any_finite = false;
-    let mut note_group = |label: &str, unit: &str, g: &GroupStat| {
+    let mut note_group = |label: &str, unit: &str, g: &GroupStat, diagnosed: bool| {
         any_finite |= g.ci.0.is_finite() && g.ci.1.is_finite();
         if g.significant {
             let text = match strongest(&g.loo, g.floor) {
@@ -132,56 +147,87 @@ fn ranked_findings<'a>(
                     g.group, g.mean, g.ci.0, g.ci.1, g.n
                 ),
             };
-            scored.push((g.mean.abs() / g.floor.max(f64::MIN_POSITIVE), text));
+            scored.push((
+                g.mean.abs() / g.floor.max(f64::MIN_POSITIVE),
+                text,
+                diagnosed,
+            ));
         }
     };
     for m in metrics {
+        let diagnosed = m.metric == Metric::EffectivePower;
         for g in m.by_regime_side.iter().chain(&m.by_side) {
-            note_group(m.metric.id(), m.unit, g);
+            note_group(m.metric.id(), m.unit, g, diagnosed);
         }
     }
     for g in phase_groups {
-        note_group("growth through the turn", "W", g);
+        note_group("growth through the turn", "W", g, false);
     }
+    // The thirds describe where in the runs a trend sits; the trend's permutation test decides
+    // (a bootstrap over three runs has ten distinct resamples: too coarse to count).
     for g in &run_time.thirds {
         note_group(
             "run time (effective power less its regime/side mean)",
             "W",
             g,
+            false,
         );
     }
     if let Some(t) = &run_time.trend {
-        any_finite |= t.ci_w_per_min.0.is_finite();
+        any_finite = true;
         if t.significant {
             scored.push((
-                t.change_w.abs() / cv::PRACTICAL_FLOOR_W,
+                t.change_w.abs() / t.floor_w.max(f64::MIN_POSITIVE),
                 format!(
-                    "run-time trend: {:+.2} W/min [{:.2}, {:.2}], {:+.1} W over a {:.1} min run",
-                    t.slope_w_per_min,
-                    t.ci_w_per_min.0,
-                    t.ci_w_per_min.1,
-                    t.change_w,
-                    t.run_length_min
+                    "run-time trend: {:+.2} W/min, {:+.1} W over a {:.1} min run (permutation \
+                     p = {:.3}, floor {:.1} W)",
+                    t.slope_w_per_min, t.change_w, t.run_length_min, t.p_value, t.floor_w
                 ),
+                true,
             ));
         }
     }
     scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let findings: Vec<String> = scored.into_iter().map(|(_, s)| s).collect();
-    (findings, any_finite)
+    let (findings, other_findings) = scored.into_iter().fold(
+        (Vec::new(), Vec::new()),
+        |(mut mine, mut other), (_, text, diagnosed)| {
+            if diagnosed { &mut mine } else { &mut other }.push(text);
+            (mine, other)
+        },
+    );
+    Ranked {
+        findings,
+        other_findings,
+        any_finite,
+    }
 }
 
-/// The headline of the "where" analysis.
-fn where_statement(findings: &[String], any_finite: bool) -> String {
-    if !findings.is_empty() {
-        let shown: Vec<&str> = findings.iter().take(3).map(String::as_str).collect();
+/// The headline of the "where" analysis: the diagnosed metric's groups (the headline verdict
+/// counts these), then the other metrics' (reported, not counted).
+fn where_statement(findings: &[String], other_findings: &[String], any_finite: bool) -> String {
+    let largest = |f: &[String]| {
+        let shown: Vec<&str> = f.iter().take(3).map(String::as_str).collect();
+        shown.join("; ")
+    };
+    let others = if other_findings.is_empty() {
+        String::new()
+    } else {
         format!(
-            "gap beyond the noise in {} group(s); largest: {}",
-            findings.len(),
-            shown.join("; ")
+            "; other metrics (not counted in the verdict): {} group(s), largest: {}",
+            other_findings.len(),
+            largest(&other_findings[..other_findings.len().min(1)])
         )
-    } else if any_finite {
+    };
+    if !findings.is_empty() {
+        format!(
+            "gap beyond the noise in {} group(s); largest: {}{others}",
+            findings.len(),
+            largest(findings)
+        )
+    } else if any_finite && others.is_empty() {
         "no gap beyond the noise".to_owned()
+    } else if any_finite {
+        format!("no gap beyond the noise in effective power{others}")
     } else {
         "no gap can be judged: no group has repeats (two runs, or the same radius twice) to \
          estimate the noise from"

@@ -57,7 +57,10 @@ pub(super) enum Floor {
     Power,
     /// That power floor over the mean expected duration (energy) [J].
     Energy,
-    /// [`cv::PRACTICAL_FLOOR_W`] (growth, run-time groups) [W].
+    /// The power floor for values centred on their (regime, side) mean (run-time groups): the
+    /// baseline's error is common to a group, so centring removes it and it does not widen.
+    CentredPower,
+    /// [`cv::PRACTICAL_FLOOR_W`] (growth: no model power to take a share of) [W].
     Fixed,
 }
 
@@ -94,7 +97,7 @@ pub(super) fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> 
     let model_w: Vec<f64> = obs.iter().map(|o| o.model_w).collect();
     let floor_kind = floor;
     let floor = match floor {
-        Floor::Power => practical_floor_w(&model_w),
+        Floor::Power | Floor::CentredPower => practical_floor_w(&model_w),
         Floor::Energy => {
             practical_floor_w(&model_w) * obs.iter().map(|o| o.duration_s).sum::<f64>()
                 / obs.len() as f64
@@ -113,7 +116,7 @@ pub(super) fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> 
             * match floor_kind {
                 Floor::Power => obs.iter().map(|o| o.model_se_w).sum::<f64>() / n,
                 Floor::Energy => obs.iter().map(|o| o.model_se_w * o.duration_s).sum::<f64>() / n,
-                Floor::Fixed => 0.0,
+                Floor::CentredPower | Floor::Fixed => 0.0,
             };
         let widen = |half: f64| half.hypot(model_hw);
         let (lo, hi) = (mean - widen(mean - lo), mean + widen(hi - mean));
