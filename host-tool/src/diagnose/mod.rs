@@ -249,6 +249,11 @@ pub fn diagnose_with(
         None if admission.offset_measured && measured_offset_helps(&candidates) => {
             Some(EffectId::CurrentOffset)
         }
+        None if slip_measured_beyond_terrain(rows, &baseline)
+            && measured_slip_helps(&candidates) =>
+        {
+            Some(EffectId::AngularSlip)
+        }
         None if !significant_gaps.regimes.is_empty() => select_where_the_gap_is(
             rover,
             rows,
@@ -541,6 +546,56 @@ fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
     candidates.iter().any(|c| {
         c.effect == EffectId::CurrentOffset
             && c.shrink_pct > 0.0
+            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
+    })
+}
+
+/// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it
+/// from the point turn, that count as seen in the yaw (the calibration's constant-slip spread).
+const MIN_SLIP_EXCESS: f64 = 0.02;
+
+/// Whether the yaw shows turns slower than the terrain's constant slip (`baseline.turn_slip`)
+/// where the seed's angular slip acts, rising from the point turn (Fig 6.8: 0.27 at R = 0 to
+/// 0.38 at R′ on sand): in some regime with 0 < R ≤ R′ the mean excess slip of the turns
+/// timed by yaw has its 95 % t interval above 0, is at least [`MIN_SLIP_EXCESS`], and exceeds
+/// the point turns' by that much. A slip track constant over the radii does not rise.
+fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline) -> bool {
+    let excess = |regime: Regime| -> Vec<f64> {
+        rows.iter()
+            .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
+            .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
+            .collect()
+    };
+    let point = excess(Regime::Point);
+    let point_mean = if point.is_empty() {
+        0.0
+    } else {
+        point.iter().sum::<f64>() / point.len() as f64
+    };
+    [
+        Regime::BelowHalfTrack,
+        Regime::DraggedInner,
+        Regime::AtRPrime,
+    ]
+    .into_iter()
+    .filter_map(|regime| cv::t_interval(&excess(regime)))
+    .any(|(mean, lo, _)| {
+        lo > 0.0 && mean >= MIN_SLIP_EXCESS && mean - point_mean >= MIN_SLIP_EXCESS
+    })
+}
+
+/// With the angular slip seen in the yaw, `angular-slip` needs no clear margin over the other
+/// turn-gain terms (they share its power signature: `slip-track` scales every turn's power):
+/// it is named when it closes [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats
+/// it clearly (penalised error within [`cv::CLEAR_MARGIN`] of the best). The yaw decides the
+/// near tie, as the standstill current does for `current-offset`.
+fn measured_slip_helps(candidates: &[CandidateScore]) -> bool {
+    let Some(best) = candidates.first() else {
+        return false;
+    };
+    candidates.iter().any(|c| {
+        c.effect == EffectId::AngularSlip
+            && c.shrink_pct >= cv::MIN_SHRINK_PCT
             && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
     })
 }

@@ -368,3 +368,31 @@ fn no_drawn_world_collapses_the_bus() {
         );
     }
 }
+
+/// Tuning dataset 73 of bench seed 1 (a Husky with motor losses and the angular-slip effect):
+/// `angular-slip` closes 51 % and `slip-track`, which scales every turn's power, 46 %, a
+/// penalised ratio of 1.18, under the clear margin. The yaw decides: the turns below R′ run
+/// slower than the calibration's constant slip, rising from the point turn, which a slip track
+/// does not. Before, `ambiguous`.
+#[test]
+fn measured_slip_decides_angular_slip_against_slip_track() {
+    let spec = generate(Part::Tuning, 100, 1).swap_remove(73);
+    assert_eq!(spec.class, DatasetClass::Effect(EffectId::AngularSlip));
+    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let score = |e: EffectId| {
+        d.candidates
+            .iter()
+            .find(|c| c.effect == e)
+            .expect("scored")
+            .penalised_mse
+    };
+    let ratio = score(EffectId::SlipTrack) / score(EffectId::AngularSlip);
+    assert!(
+        ratio > 1.0 && ratio < crate::diagnose::cv::CLEAR_MARGIN,
+        "{ratio}"
+    );
+    assert_eq!(
+        d.effect,
+        crate::diagnose::Verdict::Effect(EffectId::AngularSlip)
+    );
+}
