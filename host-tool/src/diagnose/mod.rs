@@ -277,6 +277,10 @@ pub fn diagnose_with(
         )?,
         (selected, _) => selected,
     };
+    let selected = match selected {
+        Some(e) if !physically_signed(rover, rows, e, calibration)? => None,
+        other => other,
+    };
     let spread = explained_spread(&baseline, rows, &candidates, selected);
     let in_groups = significant_gaps.any || where_.departs_over_run_time();
     let significant = in_groups || spread.is_some();
@@ -548,6 +552,50 @@ fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
             && c.shrink_pct > 0.0
             && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
     })
+}
+
+/// Whether `effect`, fitted on all rows, has the sign its physics allows. A drag, a resistance,
+/// a slower turn or a warmer winding can only add power: the term's own power summed over the
+/// diagnosed manoeuvres must be positive. A slope's sign is in its regressor (the pitch), so its coefficient
+/// (Φ m g) must be. A sensor offset and a slip track may go either way. A term fitted against
+/// its physics is a shape that happens to match a deficit, not the effect.
+fn physically_signed(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effect: EffectId,
+    calibration: Calibration<'_>,
+) -> Result<bool, DiagnoseError> {
+    let adds_power = match effect {
+        EffectId::CurrentOffset | EffectId::SlipTrack => return Ok(true),
+        EffectId::Slope => false,
+        EffectId::InnerDrag
+        | EffectId::SinkageBulldozing
+        | EffectId::AngularSlip
+        | EffectId::BrakedInner
+        | EffectId::MotorHeating => true,
+    };
+    let (baseline, model) = fit_model(rover, rows, &[effect], calibration)?;
+    let Some(term) = model.effects.first() else {
+        return Ok(false);
+    };
+    if !adds_power {
+        return Ok(term.params[0] > 0.0);
+    }
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: model.heating_tau_s,
+    };
+    // The term's own power, before the baseline's absorption: its coefficients are those of the
+    // joint model (baseline + term), whatever the baseline took of it on the calibration
+    // manoeuvres (which can leave a true drag as a deficit in some regimes).
+    let total_w: f64 = rows
+        .iter()
+        .filter(|r| !r.calibration_kind)
+        .flat_map(|r| (0..r.sides.len()).map(move |s| (r, s)))
+        .map(|(r, s)| term.term_w(r, s, &ctx))
+        .sum();
+    Ok(total_w > 0.0)
 }
 
 /// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it

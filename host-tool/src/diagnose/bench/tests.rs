@@ -396,3 +396,17 @@ fn measured_slip_decides_angular_slip_against_slip_track() {
         crate::diagnose::Verdict::Effect(EffectId::AngularSlip)
     );
 }
+
+/// Tuning dataset 40 of bench seed 3, a Husky control: the outer side at R′ draws 5.6 W less
+/// than the model (a significant gap), and the `braked-inner` term, fitted with a negative
+/// coefficient, closes 61 % of it. A held inner side dragged by the outer one can only add
+/// power, so a term fitted against its physics is a shape that matches a deficit, not the
+/// effect: nothing is named. Before, `braked-inner`.
+#[test]
+fn a_term_fitted_against_its_physics_is_not_named() {
+    let spec = generate(Part::Tuning, 100, 3).swap_remove(40);
+    assert_eq!(spec.class, DatasetClass::Control);
+    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    assert!(d.gaps.iter().any(|g| g.significant && g.mean_w < 0.0));
+    assert!(d.effect.effect().is_none(), "{:?}", d.effect);
+}
