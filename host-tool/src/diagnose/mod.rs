@@ -866,8 +866,9 @@ fn stepwise(
 
 /// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
 /// baseline corrections) has an RMS per side of at least [`cv::PRACTICAL_FLOOR_W`] in some
-/// regime and at least half of that floor on the straights and in every other regime present
-/// but at most one (a slope term vanishes on point turns, where v_y = 0). Then
+/// regime and at least half of that floor on the straights (not for `slip-track`: a straight
+/// has no yaw to scale) and in every other regime present but at most one (a slope term
+/// vanishes on point turns, where v_y = 0). Then
 /// the departure is not confined to a regime and the diagnosis' regime is `all`. (The gaps
 /// alone cannot say so: a term acting on every row is partly absorbed into a and G on the
 /// calibration rows, so its gaps change sign between regimes.)
@@ -903,9 +904,11 @@ fn acts_in_every_regime(
     let largest = rms.iter().map(|(_, r)| *r).fold(0.0, f64::max);
     let acts = |r: f64| r >= 0.5 * cv::PRACTICAL_FLOOR_W;
     let missing = rms.iter().filter(|(_, r)| !acts(*r)).count();
-    let on_straights = rms
-        .iter()
-        .any(|(regime, r)| *regime == Regime::Straight && acts(*r));
+    // A slip track scales every turn alike and a straight has no yaw to scale.
+    let on_straights = effect == EffectId::SlipTrack
+        || rms
+            .iter()
+            .any(|(regime, r)| *regime == Regime::Straight && acts(*r));
     Ok(largest >= cv::PRACTICAL_FLOOR_W && on_straights && missing <= 1 && rms.len() >= 3)
 }
 

@@ -582,8 +582,8 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
     )?;
     writeln!(
         f,
-        "effects the calibration runs do not absorb (Eq 21 + the terrain's constant slip fitted on \
-         them leaves the floor in some regime): {}/{}; named right among them {}/{}",
+        "effects the calibration runs do not absorb (Eq 21 or the terrain's constant slip fitted \
+         on them leaves the floor in some regime): {}/{}; named right among them {}/{}",
         s.visible_datasets, s.effect_datasets, s.visible_named_right, s.visible_datasets
     )?;
     writeln!(
@@ -689,8 +689,8 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
          one. class: regime = hits among those named right; shrink = median held-out shrink of \
          the true effect, all rows; peak W = median of the true effect's largest mean extra power \
          per regime; visible = datasets whose effect the calibration runs do not absorb: Eq 21 \
-         and a constant angular slip fitted to the effect's power on the calibration manoeuvres \
-         leave a regime mean above the practical floor; current-offset always, as it reads at \
-         standstill)"
+         (power-type effects) or a positive constant angular slip (effects that slow the turns) \
+         fitted to the effect's power on the calibration manoeuvres leaves a regime mean above \
+         the practical floor; current-offset always, as it reads at standstill)"
     )
 }

@@ -178,8 +178,9 @@ fn scaling_an_effect_scales_its_parameters() {
     assert_eq!(w.effects.angular_slip.at_r_prime, 0.95);
 }
 
-/// The truth of a Husky dataset of `effect` with the default structure, one pass per run.
-fn husky_truth(effect: EffectId) -> Truth {
+/// A Husky dataset of `effect` with the default structure, one pass per run (a slip track
+/// wider than the controller's).
+fn husky_spec(effect: EffectId) -> DatasetSpec {
     let mut s = generate(Part::Tuning, 100, 11)
         .into_iter()
         .find(|s| s.effect() == Some(effect) && s.rover == RoverKind::HuskyA200)
@@ -187,7 +188,34 @@ fn husky_truth(effect: EffectId) -> Truth {
     s.repeats = 1;
     s.structure = DEFAULT_STRUCTURE;
     (s.threshold_radius_m, s.angular_slip, s.motor_losses) = (None, 0.0, None);
-    simulate(&s).expect("simulates").truth
+    s.narrower_slip_track = false;
+    s
+}
+
+/// The truth of [`husky_spec`].
+fn husky_truth(effect: EffectId) -> Truth {
+    simulate(&husky_spec(effect)).expect("simulates").truth
+}
+
+/// A terrain slip track narrower than the controller's (Table D.1's CSA terrain) turns every
+/// turn faster than commanded, which no slip does: the calibration takes none of it (the
+/// diagnosis' constant slip must be positive), so it stays visible, and `slip-track` is named
+/// over every turn (`all`, as the truth says).
+#[test]
+fn a_narrower_slip_track_stays_visible_and_is_named() {
+    let mut s = husky_spec(EffectId::SlipTrack);
+    s.narrower_slip_track = true;
+    let (truth, d) = super::run::explain(&s, false).expect("simulates");
+    assert!(truth.visible_after_calibration, "{truth:?}");
+    assert!(
+        truth.unabsorbed_peak_w > 0.5 * truth.peak_extra_power_w,
+        "{truth:?}"
+    );
+    assert_eq!(
+        d.effect,
+        crate::diagnose::Verdict::Effect(EffectId::SlipTrack)
+    );
+    assert_eq!(d.regime.label(), "all");
 }
 
 /// Truth regimes on Husky datasets: braked-inner and angular-slip at R', current-offset and

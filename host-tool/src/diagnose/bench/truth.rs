@@ -124,27 +124,33 @@ struct Unabsorbed {
 }
 
 /// The regressors by which a baseline calibrated on these runs absorbs an effect's extra
-/// effective power of `m` (both sides): the skid term |ω_cmd|, the rolling term Σ|V| and, for
-/// the terms that lengthen the turn, the turn's power (a constant angular slip of the
-/// terrain); `None` for pauses.
-fn absorbing_features(effect: EffectId, m: &ManoeuvreTruth) -> Option<Vec<f64>> {
+/// effective power of `m` (both sides); `None` for pauses. A power-type effect: the skid term
+/// |ω_cmd| and the rolling term Σ|V| (a and G are fitted on the calibration manoeuvres' average
+/// power). A time-type effect leaves the average power as it is, so a and G take none of it;
+/// when it makes the calibration turns slower (`slows_turns`) the terrain's constant angular
+/// slip takes it in proportion to the turn's power, else nothing does (the diagnosis takes no
+/// negative constant slip: turning faster than commanded is not a slip).
+fn absorbing_features(effect: EffectId, m: &ManoeuvreTruth, slows_turns: bool) -> Option<Vec<f64>> {
     m.regime?;
     if m.expected_duration_s <= 0.0 {
         return None;
     }
-    let mut x = vec![
-        m.commanded_yaw_rate_rad_s.abs(),
-        m.cmd_mps.left.abs() + m.cmd_mps.right.abs(),
-    ];
-    if !is_power_type(effect) {
-        let turn = m.commanded_yaw_rate_rad_s != 0.0;
-        x.push(if turn {
-            m.avg_power_w.left + m.avg_power_w.right
-        } else {
-            0.0
-        });
+    if is_power_type(effect) {
+        return Some(vec![
+            m.commanded_yaw_rate_rad_s.abs(),
+            m.cmd_mps.left.abs() + m.cmd_mps.right.abs(),
+        ]);
     }
-    Some(x)
+    let turn_power_w = if m.commanded_yaw_rate_rad_s != 0.0 {
+        m.avg_power_w.left + m.avg_power_w.right
+    } else {
+        0.0
+    };
+    Some(if slows_turns {
+        vec![turn_power_w]
+    } else {
+        Vec::new()
+    })
 }
 
 /// The effect's extra effective power of `m` [W, both sides, signed].
@@ -158,15 +164,26 @@ fn unabsorbed(
     manoeuvres: &[ManoeuvreTruth],
     calibration: &[ManoeuvreTruth],
 ) -> Vec<Unabsorbed> {
+    let slows_turns = calibration
+        .iter()
+        .filter(|m| m.regime.is_some() && m.commanded_yaw_rate_rad_s != 0.0)
+        .map(|m| extra_effective_w(effect, m))
+        .sum::<f64>()
+        > 0.0;
     let design: Vec<(Vec<f64>, f64)> = calibration
         .iter()
-        .filter_map(|m| Some((absorbing_features(effect, m)?, extra_effective_w(effect, m))))
+        .filter_map(|m| {
+            Some((
+                absorbing_features(effect, m, slows_turns)?,
+                extra_effective_w(effect, m),
+            ))
+        })
         .collect();
     // Too few calibration manoeuvres to fit: nothing is absorbed.
     let beta = least_squares(&design).map(|(b, _)| b);
     let mut sums = [(0.0f64, 0.0f64, 0usize); Regime::ALL.len()];
     for m in manoeuvres {
-        let (Some(regime), Some(x)) = (m.regime, absorbing_features(effect, m)) else {
+        let (Some(regime), Some(x)) = (m.regime, absorbing_features(effect, m, slows_turns)) else {
             continue;
         };
         let Some(k) = Regime::ALL.iter().position(|r| *r == regime) else {
