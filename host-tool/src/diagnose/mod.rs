@@ -278,7 +278,7 @@ pub fn diagnose_with(
         (selected, _) => selected,
     };
     let selected = match selected {
-        Some(e) if !physically_signed(rover, rows, e, calibration)? => None,
+        Some(e) if !physically_signed(rover, rows, &[e], calibration)? => None,
         other => other,
     };
     let spread = explained_spread(&baseline, rows, &candidates, selected);
@@ -554,48 +554,48 @@ fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
     })
 }
 
-/// Whether `effect`, fitted on all rows, has the sign its physics allows. A drag, a resistance,
-/// a slower turn or a warmer winding can only add power: the term's own power summed over the
-/// diagnosed manoeuvres must be positive. A slope's sign is in its regressor (the pitch), so its coefficient
-/// (Φ m g) must be. A sensor offset and a slip track may go either way. A term fitted against
-/// its physics is a shape that happens to match a deficit, not the effect.
+/// Whether every term of the model `effects`, fitted jointly on all rows, has the sign its
+/// physics allows. A drag, a resistance, a slower turn or a warmer winding can only add power:
+/// the term's own power summed over the diagnosed manoeuvres must be positive. A slope's sign
+/// is in its regressor (the pitch), so its coefficient (Φ m g) must be. A sensor offset and a
+/// slip track may go either way. A term fitted against its physics is a shape that happens to
+/// match a deficit, not the effect.
 fn physically_signed(
     rover: &Rover,
     rows: &[TurnRow],
-    effect: EffectId,
+    effects: &[EffectId],
     calibration: Calibration<'_>,
 ) -> Result<bool, DiagnoseError> {
-    let adds_power = match effect {
-        EffectId::CurrentOffset | EffectId::SlipTrack => return Ok(true),
-        EffectId::Slope => false,
-        EffectId::InnerDrag
-        | EffectId::SinkageBulldozing
-        | EffectId::AngularSlip
-        | EffectId::BrakedInner
-        | EffectId::MotorHeating => true,
-    };
-    let (baseline, model) = fit_model(rover, rows, &[effect], calibration)?;
-    let Some(term) = model.effects.first() else {
-        return Ok(false);
-    };
-    if !adds_power {
-        return Ok(term.params[0] > 0.0);
-    }
+    let (baseline, model) = fit_model(rover, rows, effects, calibration)?;
     let ctx = Context {
         rover,
         baseline: &baseline,
         heating_tau_s: model.heating_tau_s,
     };
-    // The term's own power, before the baseline's absorption: its coefficients are those of the
-    // joint model (baseline + term), whatever the baseline took of it on the calibration
-    // manoeuvres (which can leave a true drag as a deficit in some regimes).
-    let total_w: f64 = rows
-        .iter()
-        .filter(|r| !r.calibration_kind)
-        .flat_map(|r| (0..r.sides.len()).map(move |s| (r, s)))
-        .map(|(r, s)| term.term_w(r, s, &ctx))
-        .sum();
-    Ok(total_w > 0.0)
+    Ok(model.effects.iter().all(|term| {
+        let adds_power = match term.effect {
+            EffectId::CurrentOffset | EffectId::SlipTrack => return true,
+            EffectId::Slope => false,
+            EffectId::InnerDrag
+            | EffectId::SinkageBulldozing
+            | EffectId::AngularSlip
+            | EffectId::BrakedInner
+            | EffectId::MotorHeating => true,
+        };
+        if !adds_power {
+            return term.params[0] > 0.0;
+        }
+        // The term's own power, before the baseline's absorption: its coefficients are those of
+        // the joint model (baseline + terms), whatever the baseline took of it on the
+        // calibration manoeuvres (which can leave a true drag as a deficit in some regimes).
+        let total_w: f64 = rows
+            .iter()
+            .filter(|r| !r.calibration_kind)
+            .flat_map(|r| (0..r.sides.len()).map(move |s| (r, s)))
+            .map(|(r, s)| term.term_w(r, s, &ctx))
+            .sum();
+        total_w > 0.0
+    }))
 }
 
 /// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it
@@ -808,8 +808,9 @@ fn select_what_explains_the_trend(
     })
 }
 
-/// Forward stepwise selection after the named effect (`first_score`): adds, one at a time, the effect whose joint model
-/// has the lowest score while that score beats the current one by [`cv::CLEAR_MARGIN`] and the
+/// Forward stepwise selection after the named effect (`first_score`): adds, one at a time, the
+/// effect whose joint model has every term physically signed ([`physically_signed`]) and the
+/// lowest score while that score beats the current one by [`cv::CLEAR_MARGIN`] and the
 /// held-out RMS it removes is at least [`cv::PRACTICAL_FLOOR_W`].
 fn stepwise(
     rover: &Rover,
@@ -831,6 +832,10 @@ fn stepwise(
         {
             let mut model = chosen.clone();
             model.push(e);
+            // A joint model that cannot be fitted on all rows is no step either.
+            if !physically_signed(rover, rows, &model, calibration).unwrap_or(false) {
+                continue;
+            }
             if let Some(c) = cv::score_model(rover, rows, scheme, calibration, before, &model)? {
                 if best.is_none_or(|b| c.penalised_mse < b.penalised_mse) {
                     best = Some(c);
