@@ -742,12 +742,11 @@ fn select_where_the_gap_is(
     let Some(ms_before) = cv::mean_square(before, in_gap) else {
         return Ok(None);
     };
+    let Some(each) = heldout_with_each(rover, rows, scheme, calibration, candidates)? else {
+        return Ok(None);
+    };
     let mut scored: Vec<(f64, f64, &CandidateScore)> = Vec::new();
-    for c in candidates {
-        let Some(after) = cv::heldout_residuals(rover, rows, scheme, &[c.effect], calibration)?
-        else {
-            return Ok(None);
-        };
+    for (c, after) in each {
         let gap_rows: Vec<cv::RowResidual> = after.into_iter().filter(|r| in_gap(r.row)).collect();
         let Some(ms_after) = cv::mean_square(&gap_rows, |_| true) else {
             return Ok(None);
@@ -772,6 +771,25 @@ fn select_where_the_gap_is(
     })
 }
 
+/// Each candidate with its held-out residuals under `scheme`; `None` when some cannot be held
+/// out.
+fn heldout_with_each<'a>(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    calibration: Calibration<'_>,
+    candidates: &'a [CandidateScore],
+) -> Result<Option<Vec<(&'a CandidateScore, cv::HeldOut)>>, DiagnoseError> {
+    let mut each = Vec::with_capacity(candidates.len());
+    for c in candidates {
+        match cv::heldout_residuals(rover, rows, scheme, &[c.effect], calibration)? {
+            Some(after) => each.push((c, after)),
+            None => return Ok(None),
+        }
+    }
+    Ok(Some(each))
+}
+
 /// The one candidate that explains a significant run-time trend (heating grows in every
 /// regime, so no regime's mean shows it and its all-row shrink is diluted by the repeat noise):
 /// the trend of the held-out residuals reaches `floor_w` without a term, stays under it with
@@ -792,16 +810,14 @@ fn select_what_explains_the_trend(
     if !beyond(before) {
         return Ok(None);
     }
-    let mut explains = Vec::new();
-    for c in candidates {
-        let Some(after) = cv::heldout_residuals(rover, rows, scheme, &[c.effect], calibration)?
-        else {
-            return Ok(None);
-        };
-        if !beyond(&after) {
-            explains.push(c);
-        }
-    }
+    let Some(each) = heldout_with_each(rover, rows, scheme, calibration, candidates)? else {
+        return Ok(None);
+    };
+    let explains: Vec<&CandidateScore> = each
+        .into_iter()
+        .filter(|(_, after)| !beyond(after))
+        .map(|(c, _)| c)
+        .collect();
     Ok(match explains.as_slice() {
         [c] if c.heldout_error_after <= c.heldout_error_before => Some(c.effect),
         _ => None,

@@ -451,6 +451,30 @@ fn json_has_the_issue_keys_and_per_regime_shrink() {
     assert!(dragged.shrink_pct > 70.0, "{dragged:?}");
 }
 
+/// Three long runs of `world` (15 repeats of the turn set, ~11 min each, sampled at 50 Hz),
+/// seeded from `seed`.
+fn long_runs(world: &WorldConfig, seed: u64) -> Vec<Vec<RunSample>> {
+    let mut long = scenario();
+    long.repeats = 15;
+    (0..3)
+        .map(|k| simulate_run_every(world, &long, seed + k, 20_000))
+        .collect()
+}
+
+/// The rows of `runs` with a first-order winding heating added to each side's measured power,
+/// ΔP = k I² (1 − e^(−t/τ)), I from the measured power, τ = 400 s (not on the grid).
+fn with_winding_heat(runs: &[Vec<RunSample>], k: f64) -> Vec<TurnRow> {
+    let mut rows = rows_of(runs);
+    for row in &mut rows {
+        let t_mid = row.t_start_s + 0.5 * row.duration_s;
+        for side in 0..2 {
+            let i = row.sides[side].avg_power_w / row.bus_v;
+            add_steady_power(row, side, k * i * i * (1.0 - (-t_mid / 400.0).exp()));
+        }
+    }
+    rows
+}
+
 /// The world's `motor-heating` is physically tiny at the seed's speeds (≈ 2 A per side: copper
 /// loss ≈ 0.6 W, a few kelvin, < 0.05 W of extra power even after 20 min at 2× its thermal
 /// resistance), so the diagnosis rightly says `none` on it (NOTES.md). When the data does hold
@@ -460,22 +484,8 @@ fn json_has_the_issue_keys_and_per_regime_shrink() {
 /// that the last manoeuvres draw ~4 W more at a point turn, τ = 400 s (not on the grid).
 #[test]
 fn motor_heating_is_named_on_long_runs() {
-    let world = WorldConfig::hard_ground();
-    let mut long = scenario();
-    long.repeats = 15;
-    let runs: Vec<Vec<RunSample>> = (0..3)
-        .map(|k| simulate_run_every(&world, &long, 20 + k, 20_000))
-        .collect();
-    let mut rows = rows_of(&runs);
-    let tau_s = 400.0;
-    for row in &mut rows {
-        let t_mid = row.t_start_s + 0.5 * row.duration_s;
-        for side in 0..2 {
-            let i = row.sides[side].avg_power_w / row.bus_v;
-            add_steady_power(row, side, 1.5 * i * i * (1.0 - (-t_mid / tau_s).exp()));
-        }
-    }
-    let d = super::diagnose(&HUSKY, &rows).expect("diagnoses");
+    let runs = long_runs(&WorldConfig::hard_ground(), 20);
+    let d = super::diagnose(&HUSKY, &with_winding_heat(&runs, 1.5)).expect("diagnoses");
     assert_eq!(d.effect, "motor-heating", "{}", summary(&d));
     // Its regime is where I² is largest (at-r-prime's outer side): the term is ∝ I², under
     // half the practical floor on the low-current straights, so the `all` rule does not fire.
@@ -498,20 +508,8 @@ fn motor_heating_is_named_on_long_runs() {
 fn a_run_time_trend_is_a_departure_the_headline_counts() {
     let mut world = WorldConfig::hard_ground();
     world.noise.manoeuvre_power_std = 0.04;
-    let mut long = scenario();
-    long.repeats = 15;
-    let runs: Vec<Vec<RunSample>> = (0..3)
-        .map(|k| simulate_run_every(&world, &long, 40 + k, 20_000))
-        .collect();
-    let mut rows = rows_of(&runs);
-    for row in &mut rows {
-        let t_mid = row.t_start_s + 0.5 * row.duration_s;
-        for side in 0..2 {
-            let i = row.sides[side].avg_power_w / row.bus_v;
-            add_steady_power(row, side, 0.75 * i * i * (1.0 - (-t_mid / 400.0).exp()));
-        }
-    }
-    let d = super::diagnose(&HUSKY, &rows).expect("diagnoses");
+    let runs = long_runs(&world, 40);
+    let d = super::diagnose(&HUSKY, &with_winding_heat(&runs, 0.75)).expect("diagnoses");
     assert!(d.gaps.iter().all(|g| !g.significant), "{:?}", d.gaps);
     assert!(
         d.candidates[0].shrink_pct < super::cv::MIN_SHRINK_PCT,
