@@ -523,10 +523,11 @@ const TREND_PERMUTATIONS: usize = 999;
 
 /// Two-sided permutation p-value of the within-(regime, side) slope `observed` of `timed`: each
 /// run's manoeuvre times are shuffled among its manoeuvres (both sides of one manoeuvre keep one
-/// time), and p is the share of shuffles whose |slope| reaches |observed|. Without a trend the
-/// residuals do not depend on when in its run a manoeuvre was driven, whatever a run's own level;
-/// with three runs a bootstrap over runs (10 distinct resamples) called a control's noise a
-/// trend.
+/// time), and p is the share of shuffles whose |slope| reaches |observed| (without
+/// [`within_slope`]'s spread gate: a shuffle it would drop must not count for the trend).
+/// Without a trend the residuals do not depend on when in its run a manoeuvre was driven,
+/// whatever a run's own level; with three runs a bootstrap over runs (10 distinct resamples)
+/// called a control's noise a trend.
 fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
     // Each run's manoeuvres (row index) and their times.
     let mut manoeuvres: BTreeMap<usize, Vec<(usize, f64)>> = BTreeMap::new();
@@ -555,7 +556,8 @@ fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
                 .iter()
                 .map(|t| ((t.regime, t.part), time_of[&t.row], t.effective_power_w)),
         );
-        if within_slope(&obs).is_some_and(|s| s.abs() >= observed.abs()) {
+        // A shuffle that leaves no time spread within any group counts against the trend.
+        if slope_and_spread(&obs).is_none_or(|(s, _)| s.abs() >= observed.abs()) {
             extreme += 1;
         }
     }
@@ -564,6 +566,13 @@ fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
 
 /// Within-(regime, side) slope of `y` on `t` [W/s]; `None` when the spread of t is too small.
 fn within_slope(obs: &[TimedObs]) -> Option<f64> {
+    let (slope, spread) = slope_and_spread(obs)?;
+    (spread >= MIN_TREND_SPREAD_S).then_some(slope)
+}
+
+/// Within-(regime, side) slope of `y` on `t` [W/s] and the RMS within-group spread of t [s];
+/// `None` when t does not vary within any group.
+fn slope_and_spread(obs: &[TimedObs]) -> Option<(f64, f64)> {
     let mut sums: BTreeMap<(Regime, Part), (f64, f64, f64)> = BTreeMap::new();
     for (k, t, y) in obs {
         let e = sums.entry(*k).or_default();
@@ -579,7 +588,7 @@ fn within_slope(obs: &[TimedObs]) -> Option<f64> {
         sty += dt * dy;
     }
     let spread = (stt / obs.len().max(1) as f64).sqrt();
-    (spread >= MIN_TREND_SPREAD_S).then(|| sty / stt)
+    (stt > 0.0).then(|| (sty / stt, spread))
 }
 
 fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
