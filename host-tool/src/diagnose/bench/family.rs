@@ -130,6 +130,11 @@ impl RoverKind {
             // can give (V₀²/4R_int ≈ 3.6 kW): the bus sat at its collapse floor (V₀/2).
             w.motor.winding_resistance_ohm /= self.force_scale();
             w.battery.internal_resistance_ohm /= self.force_scale();
+            // A winding sized for the load sheds its larger loss through a larger surface: the
+            // same temperature rise at the same share of its rating. With the Husky's thermal
+            // resistance, Argo heating worlds with motor losses sat at the insulation limit,
+            // where the extra power is copper loss ∝ I² (no longer a heating shape).
+            w.effects.motor_heating.thermal_resistance_k_per_w /= self.force_scale();
         }
         w
     }
