@@ -231,9 +231,9 @@ pub fn conclusion(d: &Diagnosis) -> String {
         )
     } else {
         format!(
-            "diagnosis: none: no significant gap (no regime's residual is beyond its noise and \
-             above the practical floor of {PRACTICAL_FLOOR_W} W or 5 % of the model power); the \
-             hard-ground model explains the runs"
+            "diagnosis: none: no significant gap (no regime's residual, nor its trend over run \
+             time, is beyond its noise and above the practical floor of {PRACTICAL_FLOOR_W} W or \
+             5 % of the model power); the hard-ground model explains the runs"
         )
     }
 }
