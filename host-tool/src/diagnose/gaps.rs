@@ -469,7 +469,7 @@ pub struct Trend {
     pub change_w: f64,
     /// The practical floor |change| must exceed: the gaps' floor over the timed manoeuvres [W].
     pub floor_w: f64,
-    /// p below 0.05 and |change| > `floor_w`.
+    /// p below [`TREND_ALPHA`] and |change| > `floor_w`.
     pub significant: bool,
 }
 

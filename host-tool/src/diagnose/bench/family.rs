@@ -410,11 +410,12 @@ impl DatasetSpec {
         }
         if let Some(effect) = self.effect() {
             w = w.with_effect(effect, true);
-            scale_effect(&mut w, effect, self.strength * self.effect_size(effect));
             if effect == EffectId::SlipTrack && self.narrower_slip_track {
-                let ratio = 1.0 - (1.0 - NARROWEST_TRACK_RATIO) * self.strength / STRENGTH_SPAN;
+                // The narrow terrain at strength 1, so the strongest draw reaches Table D.1's.
+                let ratio = 1.0 - (1.0 - NARROWEST_TRACK_RATIO) / STRENGTH_SPAN;
                 w.effects.slip_track.slip_track_m = Some(f64::from(w.rover.slip_track_m) * ratio);
             }
+            scale_effect(&mut w, effect, self.strength * self.effect_size(effect));
             let e = &mut w.effects;
             e.current_offset.right_a = e.current_offset.left_a * self.offset_right_over_left;
             e.slope.wavelength_m = self.slope_wavelength_m;

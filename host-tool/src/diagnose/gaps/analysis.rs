@@ -205,24 +205,18 @@ fn ranked_findings<'a>(
 /// The headline of the "where" analysis: the diagnosed metric's groups (the headline verdict
 /// counts these), then the other metrics' (reported, not counted).
 fn where_statement(findings: &[String], other_findings: &[String], any_finite: bool) -> String {
-    let largest = |f: &[String]| {
-        let shown: Vec<&str> = f.iter().take(3).map(String::as_str).collect();
-        shown.join("; ")
-    };
-    let others = if other_findings.is_empty() {
-        String::new()
-    } else {
+    let others = other_findings.first().map_or_else(String::new, |first| {
         format!(
-            "; other metrics (not counted in the verdict): {} group(s), largest: {}",
-            other_findings.len(),
-            largest(&other_findings[..other_findings.len().min(1)])
+            "; other metrics (not counted in the verdict): {} group(s), largest: {first}",
+            other_findings.len()
         )
-    };
+    });
     if !findings.is_empty() {
+        let shown: Vec<&str> = findings.iter().take(3).map(String::as_str).collect();
         format!(
             "gap beyond the noise in {} group(s); largest: {}{others}",
             findings.len(),
-            largest(findings)
+            shown.join("; ")
         )
     } else if any_finite && others.is_empty() {
         "no gap beyond the noise".to_owned()
