@@ -279,6 +279,7 @@ pub fn diagnose_with(
     };
     let selected = match selected {
         Some(e) if !physically_signed(rover, rows, &[e], calibration)? => None,
+        Some(e) if !reaches_the_gaps(rover, rows, &baseline, &gaps, e) => None,
         other => other,
     };
     let spread = explained_spread(&baseline, rows, &candidates, selected);
@@ -596,6 +597,53 @@ fn physically_signed(
             .sum();
         total_w > 0.0
     }))
+}
+
+/// Largest significant gap an effect may leave where it does not act, as a fraction of the
+/// largest it reaches.
+const UNREACHED_GAP_FRACTION: f64 = 0.5;
+
+/// Whether `effect` acts where the significant gaps are: no significant gap in a group
+/// (regime, side) where its term is 0 on every manoeuvre is at least
+/// [`UNREACHED_GAP_FRACTION`] of the largest significant gap where it acts. A term confined to
+/// some regimes (an inner drag past B/2, a braked inner side at R′) that matches the largest
+/// gap while an equal gap sits where it cannot act is a shape that fits one part of a wider
+/// misfit (e.g. copper loss at every slow, high-force inner side), not the effect.
+fn reaches_the_gaps(
+    rover: &Rover,
+    rows: &[TurnRow],
+    baseline: &Baseline,
+    gaps: &[Gap],
+    effect: EffectId,
+) -> bool {
+    let ctx = Context {
+        rover,
+        baseline,
+        heating_tau_s: HEATING_TAU_GRID_S[0],
+    };
+    let acts = |gap: &Gap| {
+        rows.iter().filter(|r| r.regime == gap.regime).any(|r| {
+            (0..r.sides.len())
+                .filter(|&s| gap.side == Part::Total || gap.side == r.sides[s].role)
+                .any(|s| {
+                    effects::regressors(effect, r, s, &ctx)
+                        .is_some_and(|x| x.iter().any(|v| *v != 0.0))
+                })
+        })
+    };
+    let significant: Vec<&Gap> = gaps.iter().filter(|g| g.significant).collect();
+    let Some(largest) = significant
+        .iter()
+        .filter(|g| acts(g))
+        .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
+    else {
+        return true;
+    };
+    !significant.iter().any(|g| {
+        g.mean_w * largest.mean_w > 0.0
+            && g.mean_w.abs() >= UNREACHED_GAP_FRACTION * largest.mean_w.abs()
+            && !acts(g)
+    })
 }
 
 /// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it
