@@ -149,17 +149,14 @@ pub fn skid_feature_mps(row: &TurnRow, side: usize) -> f64 {
     }
 }
 
-/// The slope feature of a side: sin θ · v_y, shared between the sides in proportion to their
-/// |V| (Eq 1.16's Φ m g v_y sin θ, supplied by both sides as they drive) [m/s]; 0 without
-/// pitch or without speed.
+/// The slope feature of a side: sin θ · V_side / 2. Each track carries half the weight, whose
+/// component along the track, (m g / 2) sin θ, it pushes at its own speed (signed: a side
+/// running backwards in a turn descends where the other climbs); the sides sum to Eq 1.16's
+/// Φ m g v_y sin θ [m/s]; 0 without pitch.
 pub fn grade_feature_mps(row: &TurnRow, side: usize) -> f64 {
-    let (vl, vr) = (row.sides[0].cmd_mps.abs(), row.sides[1].cmd_mps.abs());
     match row.pitch_deg {
-        Some(pitch) if vl + vr > 0.0 => {
-            let v_y = 0.5 * (row.sides[0].cmd_mps + row.sides[1].cmd_mps);
-            pitch.to_radians().sin() * v_y * row.sides[side].cmd_mps.abs() / (vl + vr)
-        }
-        _ => 0.0,
+        Some(pitch) => 0.5 * pitch.to_radians().sin() * row.sides[side].cmd_mps,
+        None => 0.0,
     }
 }
 

@@ -338,12 +338,23 @@ fn each_effect_alone_changes_what_it_should_and_nothing_else() {
             }
             EffectId::Slope => {
                 assert!(same_durations(&with, &base));
+                let mut pitched_point_turns = 0;
                 for (a, b) in &pairs {
                     if a.commanded_radius_m == Some(0.0) {
-                        // No forward motion in a point turn: v_y = 0.
+                        // No forward motion in a point turn: v_y = 0, so the total is
+                        // unchanged, but each track pushes its half of the weight along
+                        // itself: on a pitch the forward side climbs what the other descends.
                         assert!(!power_changed(a, b));
+                        let left = a.avg_power_w.left - b.avg_power_w.left;
+                        let right = a.avg_power_w.right - b.avg_power_w.right;
+                        assert!((left + right).abs() < 1e-6, "{left} {right}");
+                        if a.mean_pitch_deg.abs() > 0.1 {
+                            assert!(left.abs() > 0.1, "{left} at {}°", a.mean_pitch_deg);
+                            pitched_point_turns += 1;
+                        }
                     }
                 }
+                assert!(pitched_point_turns > 0);
                 let straight = &pairs[6];
                 assert!(power_changed(straight.0, straight.1));
                 assert!(straight.0.mean_pitch_deg.abs() > 0.0);

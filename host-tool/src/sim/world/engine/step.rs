@@ -262,7 +262,9 @@ fn effect_torque_power(
     (p, tau_total)
 }
 
-/// Slope: the climbing power, spread over the sides by |V_side|; returns the pitch [°].
+/// Slope: the climbing power; each track pushes its half of the weight's along-track
+/// component at its own (signed) speed, so the sides sum to Eq 1.16's Φ m g v_y sin θ.
+/// Returns the pitch [°].
 fn slope_power(
     plant: &Plant,
     state: &State,
@@ -276,19 +278,11 @@ fn slope_power(
     let world = &plant.world;
     let s = world.effects.slope;
     let pitch_deg = s.pitch_deg_at(state.distance_m);
-    let v = motion.v;
-    let sum = v.inner.abs() + v.outer.abs();
-    if sum > 0.0 {
-        let total = s.phi
-            * f64::from(world.rover.mass_kg)
-            * GRAVITY_M_S2
-            * motion.v_y
-            * pitch_deg.to_radians().sin();
-        for (pk, vk) in p.iter_mut().zip([v.inner, v.outer]) {
-            let dp = total * vk.abs() / sum;
-            *pk += dp;
-            effect_w[EffectId::Slope as usize] += dp;
-        }
+    let half_weight_n = s.phi * f64::from(world.rover.mass_kg) * GRAVITY_M_S2 / 2.0;
+    for (pk, vk) in p.iter_mut().zip([motion.v.inner, motion.v.outer]) {
+        let dp = half_weight_n * pitch_deg.to_radians().sin() * vk;
+        *pk += dp;
+        effect_w[EffectId::Slope as usize] += dp;
     }
     pitch_deg
 }
