@@ -637,7 +637,8 @@ fn reaches_the_gaps(
         .filter(|g| acts(g))
         .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
     else {
-        return true;
+        // Every significant gap where the term cannot act: it explains none of them.
+        return significant.is_empty();
     };
     !significant.iter().any(|g| {
         g.mean_w * largest.mean_w > 0.0

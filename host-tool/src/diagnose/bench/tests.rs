@@ -464,3 +464,18 @@ fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
     assert_eq!(d.candidates[0].effect, EffectId::InnerDrag);
     assert!(d.effect.effect().is_none(), "{:?}", d.effect);
 }
+
+/// Held-out dataset 29 of bench seed 2, an Argo with a threshold split and a constant slip and
+/// no effect: the only significant gaps are on the straights (−6.4 W a side), where
+/// `sinkage-bulldozing` does not act. It explained the turns' spread out of sample and was
+/// named, at `straight`. A term that acts on none of the significant gaps is not named.
+#[test]
+fn a_term_that_acts_on_none_of_the_gaps_is_not_named() {
+    let spec = generate(Part::HeldOut, 100, 2).swap_remove(29);
+    assert_eq!(spec.class, DatasetClass::StructureOnly);
+    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let significant: Vec<_> = d.gaps.iter().filter(|g| g.significant).collect();
+    assert!(!significant.is_empty());
+    assert!(significant.iter().all(|g| g.regime == Regime::Straight));
+    assert!(d.effect.effect().is_none(), "{:?}", d.effect);
+}
