@@ -97,6 +97,13 @@ pub fn model_params(effects: &[EffectId]) -> usize {
         .sum()
 }
 
+/// Whether `effect` acts in some regimes only, so its gap may sit in a few of them. A warmer
+/// winding and a sensor offset act on every manoeuvre: a gap confined to a few regimes is not
+/// theirs, and they are judged on all rows.
+pub const fn confined_to_regimes(effect: EffectId) -> bool {
+    !matches!(effect, EffectId::MotorHeating | EffectId::CurrentOffset)
+}
+
 /// Whether `effect` makes power rise through a turn (the seed's growing sand piles: the inner
 /// wheels' excavated pile, Fig 5.7b, and the sinkage of both sides, Fig 5.11 and 5.19), and so
 /// also predicts the growth target (second minus first half of the turn's average power).

@@ -796,6 +796,9 @@ fn select_where_the_gap_is(
     };
     let mut scored: Vec<(f64, f64, &CandidateScore)> = Vec::new();
     for (c, after) in each {
+        if !effects::confined_to_regimes(c.effect) {
+            continue;
+        }
         let gap_rows: Vec<cv::RowResidual> = after.into_iter().filter(|r| in_gap(r.row)).collect();
         let Some(ms_after) = cv::mean_square(&gap_rows, |_| true) else {
             return Ok(None);
