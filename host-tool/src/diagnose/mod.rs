@@ -22,6 +22,7 @@ pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
 pub mod path_table;
 pub mod report;
+mod select;
 pub mod summary;
 pub mod verdict;
 pub mod winding_heat;
@@ -39,6 +40,7 @@ use features::TurnRow;
 pub use gaps::{Gap, Part, WhereAnalysis};
 use model_core::kinematics::Regime;
 use model_core::Rover;
+use select::Selection;
 use serde::Serialize;
 pub use verdict::{Scope, Verdict};
 
@@ -244,42 +246,37 @@ pub fn diagnose_with(
     // practically relevant RMS, √(MSE_before − MSE_after) ≥ the practical floor: an effect whose
     // power changes sign along the path (a slope) has mean gaps near 0 per regime but explains
     // the residuals' spread out of sample, which cross-validation itself tests.
-    let selected = match select(&candidates) {
+    let selection = Selection {
+        rover,
+        rows,
+        scheme: primary,
+        calibration,
+        before: &before,
+    };
+    let selected = match select::select(&candidates) {
         Some(e) => Some(e),
-        None if admission.offset_measured && measured_offset_helps(&candidates) => {
+        None if admission.offset_measured && select::measured_offset_helps(&candidates) => {
             Some(EffectId::CurrentOffset)
         }
-        None if slip_measured_beyond_terrain(rows, &baseline)
-            && measured_slip_helps(&candidates) =>
+        None if select::slip_measured_beyond_terrain(rows, &baseline)
+            && select::measured_slip_helps(&candidates) =>
         {
             Some(EffectId::AngularSlip)
         }
-        None if !significant_gaps.regimes.is_empty() => select_where_the_gap_is(
-            rover,
-            rows,
-            primary,
-            calibration,
-            &before,
-            &candidates,
-            &significant_gaps.regimes,
-        )?,
+        None if !significant_gaps.regimes.is_empty() => {
+            selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
+        }
         None => None,
     };
     let selected = match (selected, where_.run_time.trend.as_ref()) {
-        (None, Some(trend)) if trend.significant => select_what_explains_the_trend(
-            rover,
-            rows,
-            primary,
-            calibration,
-            &before,
-            &candidates,
-            trend.floor_w,
-        )?,
+        (None, Some(trend)) if trend.significant => {
+            selection.what_explains_the_trend(&candidates, trend.floor_w)?
+        }
         (selected, _) => selected,
     };
     let selected = match selected {
-        Some(e) if !physically_signed(rover, rows, &[e], calibration)? => None,
-        Some(e) if !reaches_the_gaps(rover, rows, &baseline, &gaps, e) => None,
+        Some(e) if !select::physically_signed(rover, rows, &[e], calibration)? => None,
+        Some(e) if !select::reaches_the_gaps(rover, rows, &baseline, &gaps, e) => None,
         other => other,
     };
     let spread = explained_spread(&baseline, rows, &candidates, selected);
@@ -302,7 +299,7 @@ pub fn diagnose_with(
         .effect()
         .and_then(|e| candidates.iter().find(|c| c.effect == e))
     {
-        Some(score) => stepwise(rover, rows, primary, calibration, &before, score, &allowed)?,
+        Some(score) => selection.stepwise(score, &allowed)?,
         None => Vec::new(),
     };
     let model_effects: Vec<EffectId> = verdict
@@ -538,165 +535,6 @@ fn offset_measured_at_standstill(rows: &[TurnRow]) -> bool {
     })
 }
 
-/// With the offset measured at standstill, `current-offset` needs no clear margin over the
-/// other candidates: it is named when no other candidate beats it clearly out of sample
-/// (penalised error within [`cv::CLEAR_MARGIN`] of the best) and it closes part of the held-out
-/// error. At one v_c the turns cannot show it apart (G·|V| absorbs a constant per side except
-/// where a side stands still, at R′), but the standstill samples show it directly: a near tie
-/// in the turns is decided by that direct observation.
-fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
-    let Some(best) = candidates.first() else {
-        return false;
-    };
-    candidates.iter().any(|c| {
-        c.effect == EffectId::CurrentOffset
-            && c.shrink_pct > 0.0
-            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
-    })
-}
-
-/// Whether every term of the model `effects`, fitted jointly on all rows, has the sign its
-/// physics allows. A drag, a resistance, a slower turn or a warmer winding can only add power:
-/// the term's own power summed over the diagnosed manoeuvres must be positive. A slope's sign
-/// is in its regressor (the pitch), so its coefficient (Φ m g) must be. A sensor offset and a
-/// slip track may go either way. A term fitted against its physics is a shape that happens to
-/// match a deficit, not the effect.
-fn physically_signed(
-    rover: &Rover,
-    rows: &[TurnRow],
-    effects: &[EffectId],
-    calibration: Calibration<'_>,
-) -> Result<bool, DiagnoseError> {
-    let (baseline, model) = fit_model(rover, rows, effects, calibration)?;
-    let ctx = Context {
-        rover,
-        baseline: &baseline,
-        heating_tau_s: model.heating_tau_s,
-    };
-    Ok(model.effects.iter().all(|term| {
-        let adds_power = match term.effect {
-            EffectId::CurrentOffset | EffectId::SlipTrack => return true,
-            EffectId::Slope => false,
-            EffectId::InnerDrag
-            | EffectId::SinkageBulldozing
-            | EffectId::AngularSlip
-            | EffectId::BrakedInner
-            | EffectId::MotorHeating => true,
-        };
-        if !adds_power {
-            return term.params[0] > 0.0;
-        }
-        // The term's own power, before the baseline's absorption: its coefficients are those of
-        // the joint model (baseline + terms), whatever the baseline took of it on the
-        // calibration manoeuvres (which can leave a true drag as a deficit in some regimes).
-        let total_w: f64 = rows
-            .iter()
-            .filter(|r| !r.calibration_kind)
-            .flat_map(|r| (0..r.sides.len()).map(move |s| (r, s)))
-            .map(|(r, s)| term.term_w(r, s, &ctx))
-            .sum();
-        total_w > 0.0
-    }))
-}
-
-/// Largest significant gap an effect may leave where it does not act, as a fraction of the
-/// largest it reaches.
-const UNREACHED_GAP_FRACTION: f64 = 0.5;
-
-/// Whether `effect` acts where the significant gaps are: no significant gap in a group
-/// (regime, side) where its term is 0 on every manoeuvre is at least
-/// [`UNREACHED_GAP_FRACTION`] of the largest significant gap where it acts. A term confined to
-/// some regimes (an inner drag past B/2, a braked inner side at R′) that matches the largest
-/// gap while an equal gap sits where it cannot act is a shape that fits one part of a wider
-/// misfit (e.g. copper loss at every slow, high-force inner side), not the effect.
-fn reaches_the_gaps(
-    rover: &Rover,
-    rows: &[TurnRow],
-    baseline: &Baseline,
-    gaps: &[Gap],
-    effect: EffectId,
-) -> bool {
-    let ctx = Context {
-        rover,
-        baseline,
-        heating_tau_s: HEATING_TAU_GRID_S[0],
-    };
-    let acts = |gap: &Gap| {
-        rows.iter().filter(|r| r.regime == gap.regime).any(|r| {
-            (0..r.sides.len())
-                .filter(|&s| gap.side == Part::Total || gap.side == r.sides[s].role)
-                .any(|s| {
-                    effects::regressors(effect, r, s, &ctx)
-                        .is_some_and(|x| x.iter().any(|v| *v != 0.0))
-                })
-        })
-    };
-    let significant: Vec<&Gap> = gaps.iter().filter(|g| g.significant).collect();
-    let Some(largest) = significant
-        .iter()
-        .filter(|g| acts(g))
-        .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
-    else {
-        // Every significant gap where the term cannot act: it explains none of them.
-        return significant.is_empty();
-    };
-    !significant.iter().any(|g| {
-        g.mean_w * largest.mean_w > 0.0
-            && g.mean_w.abs() >= UNREACHED_GAP_FRACTION * largest.mean_w.abs()
-            && !acts(g)
-    })
-}
-
-/// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it
-/// from the point turn, that count as seen in the yaw (the calibration's constant-slip spread).
-const MIN_SLIP_EXCESS: f64 = 0.02;
-
-/// Whether the yaw shows turns slower than the terrain's constant slip (`baseline.turn_slip`)
-/// where the seed's angular slip acts, rising from the point turn (Fig 6.8: 0.27 at R = 0 to
-/// 0.38 at R′ on sand): in some regime with 0 < R ≤ R′ the mean excess slip of the turns
-/// timed by yaw has its 95 % t interval above 0, is at least [`MIN_SLIP_EXCESS`], and exceeds
-/// the point turns' by that much. A slip track constant over the radii does not rise.
-fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline) -> bool {
-    let excess = |regime: Regime| -> Vec<f64> {
-        rows.iter()
-            .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
-            .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
-            .collect()
-    };
-    let point = excess(Regime::Point);
-    let point_mean = if point.is_empty() {
-        0.0
-    } else {
-        point.iter().sum::<f64>() / point.len() as f64
-    };
-    [
-        Regime::BelowHalfTrack,
-        Regime::DraggedInner,
-        Regime::AtRPrime,
-    ]
-    .into_iter()
-    .filter_map(|regime| cv::t_interval(&excess(regime)))
-    .any(|(mean, lo, _)| {
-        lo > 0.0 && mean >= MIN_SLIP_EXCESS && mean - point_mean >= MIN_SLIP_EXCESS
-    })
-}
-
-/// With the angular slip seen in the yaw, `angular-slip` needs no clear margin over the other
-/// turn-gain terms (they share its power signature: `slip-track` scales every turn's power):
-/// it is named when it closes [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats
-/// it clearly (penalised error within [`cv::CLEAR_MARGIN`] of the best). The yaw decides the
-/// near tie, as the standstill current does for `current-offset`.
-fn measured_slip_helps(candidates: &[CandidateScore]) -> bool {
-    let Some(best) = candidates.first() else {
-        return false;
-    };
-    candidates.iter().any(|c| {
-        c.effect == EffectId::AngularSlip
-            && c.shrink_pct >= cv::MIN_SHRINK_PCT
-            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
-    })
-}
-
 /// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its
 /// calibration manoeuvres (or cannot be tested); when it misfits, `baseline-misfit` unless the
 /// diagnosed model (`model_effects`: the selected effect and its stepwise secondaries), fitted
@@ -738,210 +576,11 @@ fn against_adequate_baseline(
     Ok((verdict, Some(with)))
 }
 
-/// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
-/// power if it beats the runner-up by [`cv::CLEAR_MARGIN`]; else the best on effective power
-/// and growth pooled if that beats its runner-up by the margin (the growth through the turn
-/// separates terms of similar average shape, e.g. sinkage from angular slip); else the best on
-/// effective and average power pooled by the same margin (terms that lengthen the turn against
-/// terms that draw more power). Either way it must
-/// close [`cv::MIN_SHRINK_PCT`] of the held-out gap.
-fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
-    let clear = |sorted: &[&CandidateScore], key: fn(&CandidateScore) -> f64| match sorted {
-        [best, runner_up, ..]
-            if best.shrink_pct >= cv::MIN_SHRINK_PCT
-                && key(runner_up) >= cv::CLEAR_MARGIN * key(best) =>
-        {
-            Some(best.effect)
-        }
-        _ => None,
-    };
-    let mut by_power: Vec<&CandidateScore> = candidates.iter().collect();
-    by_power.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
-    let mut by_growth = by_power.clone();
-    by_growth.sort_by(|a, b| {
-        a.penalised_mse_with_growth
-            .total_cmp(&b.penalised_mse_with_growth)
-    });
-    let mut by_avg = by_power.clone();
-    by_avg.sort_by(|a, b| {
-        a.penalised_mse_with_avg_power
-            .total_cmp(&b.penalised_mse_with_avg_power)
-    });
-    clear(&by_power, |c| c.penalised_mse)
-        .or_else(|| clear(&by_growth, |c| c.penalised_mse_with_growth))
-        .or_else(|| clear(&by_avg, |c| c.penalised_mse_with_avg_power))
-}
-
-/// The clear winner on the rows where the gap is (the regimes of `gap_regimes`), for effects
-/// confined to a few regimes: over all rows their improvement is diluted by the baseline's
-/// mismatch elsewhere, which no catalogue term should explain. The best candidate by FPE over
-/// those rows' held-out residuals is named when it closes [`cv::MIN_SHRINK_PCT`] of their
-/// held-out RMS, the runner-up's FPE there is at least [`cv::CLEAR_MARGIN`] times its own, and
-/// over all rows it does no harm out of sample (held-out RMS after ≤ before).
-fn select_where_the_gap_is(
-    rover: &Rover,
-    rows: &[TurnRow],
-    scheme: Scheme,
-    calibration: Calibration<'_>,
-    before: &[cv::RowResidual],
-    candidates: &[CandidateScore],
-    gap_regimes: &[Regime],
-) -> Result<Option<EffectId>, DiagnoseError> {
-    let in_gap = |i: usize| gap_regimes.contains(&rows[i].regime);
-    let Some(ms_before) = cv::mean_square(before, in_gap) else {
-        return Ok(None);
-    };
-    let Some(each) = heldout_with_each(rover, rows, scheme, calibration, candidates)? else {
-        return Ok(None);
-    };
-    let mut scored: Vec<(f64, f64, &CandidateScore)> = Vec::new();
-    for (c, after) in each {
-        if !effects::confined_to_regimes(c.effect) {
-            continue;
-        }
-        let gap_rows: Vec<cv::RowResidual> = after.into_iter().filter(|r| in_gap(r.row)).collect();
-        let Some(ms_after) = cv::mean_square(&gap_rows, |_| true) else {
-            return Ok(None);
-        };
-        let fpe = cv::penalised(
-            ms_after,
-            cv::observations(&gap_rows),
-            effects::model_params(&[c.effect]),
-        );
-        scored.push((fpe, shrink_pct(ms_before.sqrt(), ms_after.sqrt()), c));
-    }
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    Ok(match scored.as_slice() {
-        [(best, shrink, c), (runner_up, ..), ..]
-            if *shrink >= cv::MIN_SHRINK_PCT
-                && *runner_up >= cv::CLEAR_MARGIN * best
-                && c.heldout_error_after <= c.heldout_error_before =>
-        {
-            Some(c.effect)
-        }
-        _ => None,
-    })
-}
-
-/// Each candidate with its held-out residuals under `scheme`; `None` when some cannot be held
-/// out.
-fn heldout_with_each<'a>(
-    rover: &Rover,
-    rows: &[TurnRow],
-    scheme: Scheme,
-    calibration: Calibration<'_>,
-    candidates: &'a [CandidateScore],
-) -> Result<Option<Vec<(&'a CandidateScore, cv::HeldOut)>>, DiagnoseError> {
-    let mut each = Vec::with_capacity(candidates.len());
-    for c in candidates {
-        match cv::heldout_residuals(rover, rows, scheme, &[c.effect], calibration)? {
-            Some(after) => each.push((c, after)),
-            None => return Ok(None),
-        }
-    }
-    Ok(Some(each))
-}
-
-/// The one candidate that explains a significant run-time trend (heating grows in every
-/// regime, so no regime's mean shows it and its all-row shrink is diluted by the repeat noise):
-/// the trend of the held-out residuals reaches `floor_w` without a term, stays under it with
-/// this candidate's term, and reaches it with every other candidate's; and the term does no
-/// harm out of sample (held-out RMS after ≤ before).
-fn select_what_explains_the_trend(
-    rover: &Rover,
-    rows: &[TurnRow],
-    scheme: Scheme,
-    calibration: Calibration<'_>,
-    before: &[cv::RowResidual],
-    candidates: &[CandidateScore],
-    floor_w: f64,
-) -> Result<Option<EffectId>, DiagnoseError> {
-    let beyond = |res: &[cv::RowResidual]| {
-        gaps::heldout_run_time_change_w(rows, res).is_none_or(|c| c.abs() >= floor_w)
-    };
-    if !beyond(before) {
-        return Ok(None);
-    }
-    let Some(each) = heldout_with_each(rover, rows, scheme, calibration, candidates)? else {
-        return Ok(None);
-    };
-    let explains: Vec<&CandidateScore> = each
-        .into_iter()
-        .filter(|(_, after)| !beyond(after))
-        .map(|(c, _)| c)
-        .collect();
-    Ok(match explains.as_slice() {
-        [c] if c.heldout_error_after <= c.heldout_error_before => Some(c.effect),
-        _ => None,
-    })
-}
-
-/// Forward stepwise selection after the named effect (`first_score`): adds, one at a time, the
-/// effect whose joint model has every term physically signed ([`physically_signed`]) and the
-/// lowest score while that score beats the current one by [`cv::CLEAR_MARGIN`] and the
-/// held-out RMS it removes is at least [`cv::PRACTICAL_FLOOR_W`].
-fn stepwise(
-    rover: &Rover,
-    rows: &[TurnRow],
-    scheme: Scheme,
-    calibration: Calibration<'_>,
-    before: &[cv::RowResidual],
-    first_score: &CandidateScore,
-    allowed: &dyn Fn(EffectId) -> bool,
-) -> Result<Vec<StepwiseStep>, DiagnoseError> {
-    let mut chosen = vec![first_score.effect];
-    let mut current = first_score.penalised_mse;
-    let mut steps = Vec::new();
-    loop {
-        let mut best: Option<CandidateScore> = None;
-        for e in EffectId::ALL
-            .into_iter()
-            .filter(|e| !chosen.contains(e) && allowed(*e))
-        {
-            let mut model = chosen.clone();
-            model.push(e);
-            // A joint model that cannot be fitted on all rows is no step either.
-            if !physically_signed(rover, rows, &model, calibration).unwrap_or(false) {
-                continue;
-            }
-            if let Some(c) = cv::score_model(rover, rows, scheme, calibration, before, &model)? {
-                if best.is_none_or(|b| c.penalised_mse < b.penalised_mse) {
-                    best = Some(c);
-                }
-            }
-        }
-        // The step must beat the current model clearly and explain a practically relevant
-        // power: the RMS it removes, √(MSE_before − MSE_after), at least the practical floor.
-        let rms_now = steps
-            .last()
-            .map_or(first_score.heldout_error_after, |s: &StepwiseStep| {
-                s.heldout_error_after
-            });
-        match best {
-            Some(b)
-                if current >= cv::CLEAR_MARGIN * b.penalised_mse
-                    && removed_rms_w(rms_now, b.heldout_error_after) >= cv::PRACTICAL_FLOOR_W =>
-            {
-                chosen.push(b.effect);
-                steps.push(StepwiseStep {
-                    effect: b.effect,
-                    heldout_error_after: b.heldout_error_after,
-                    shrink_pct: b.shrink_pct,
-                    penalised_mse: b.penalised_mse,
-                    penalised_mse_before: current,
-                });
-                current = b.penalised_mse;
-            }
-            _ => return Ok(steps),
-        }
-    }
-}
-
 /// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
 /// baseline corrections) has an RMS per side of at least [`cv::PRACTICAL_FLOOR_W`] in some
 /// regime and at least half of that floor on the straights (not for `slip-track`: a straight
-/// has no yaw to scale) and in every other regime present but at most one (a slope term
-/// vanishes on point turns, where v_y = 0). Then
+/// has no yaw to scale) and in every other regime present but at most one (a slope term is
+/// small on point turns, where v_y = 0 and only the sides' opposite climbs remain). Then
 /// the departure is not confined to a regime and the diagnosis' regime is `all`. (The gaps
 /// alone cannot say so: a term acting on every row is partly absorbed into a and G on the
 /// calibration rows, so its gaps change sign between regimes.)

@@ -405,9 +405,12 @@ fn no_drawn_world_collapses_the_bus() {
 /// does not. Before, `ambiguous`.
 #[test]
 fn measured_slip_decides_angular_slip_against_slip_track() {
-    let spec = generate(Part::Tuning, 100, 1).swap_remove(73);
-    assert_eq!(spec.class, DatasetClass::Effect(EffectId::AngularSlip));
-    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let d = diagnosed(
+        Part::Tuning,
+        1,
+        73,
+        DatasetClass::Effect(EffectId::AngularSlip),
+    );
     let score = |e: EffectId| {
         d.candidates
             .iter()
@@ -433,9 +436,7 @@ fn measured_slip_decides_angular_slip_against_slip_track() {
 /// effect: nothing is named. Before, `braked-inner`.
 #[test]
 fn a_term_fitted_against_its_physics_is_not_named() {
-    let spec = generate(Part::Tuning, 100, 3).swap_remove(40);
-    assert_eq!(spec.class, DatasetClass::Control);
-    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let d = diagnosed(Part::Tuning, 3, 40, DatasetClass::Control);
     assert!(d.gaps.iter().any(|g| g.significant && g.mean_w < 0.0));
     assert!(d.effect.effect().is_none(), "{:?}", d.effect);
 }
@@ -446,9 +447,7 @@ fn a_term_fitted_against_its_physics_is_not_named() {
 /// it is a shape fitting part of a wider misfit: nothing is named. Before, `inner-drag`.
 #[test]
 fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
-    let spec = generate(Part::Tuning, 100, 1).swap_remove(69);
-    assert_eq!(spec.class, DatasetClass::StructureOnly);
-    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let d = diagnosed(Part::Tuning, 1, 69, DatasetClass::StructureOnly);
     let inner_gap = |regime: Regime| {
         d.gaps
             .iter()
@@ -471,9 +470,7 @@ fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
 /// named, at `straight`. A term that acts on none of the significant gaps is not named.
 #[test]
 fn a_term_that_acts_on_none_of_the_gaps_is_not_named() {
-    let spec = generate(Part::HeldOut, 100, 2).swap_remove(29);
-    assert_eq!(spec.class, DatasetClass::StructureOnly);
-    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let d = diagnosed(Part::HeldOut, 2, 29, DatasetClass::StructureOnly);
     let significant: Vec<_> = d.gaps.iter().filter(|g| g.significant).collect();
     assert!(!significant.is_empty());
     assert!(significant.iter().all(|g| g.regime == Regime::Straight));
@@ -487,9 +484,7 @@ fn a_term_that_acts_on_none_of_the_gaps_is_not_named() {
 /// its: nothing is named. Before, `motor-heating @ dragged-inner`.
 #[test]
 fn an_effect_of_every_manoeuvre_is_not_named_on_a_gap_in_one_regime() {
-    let spec = generate(Part::Tuning, 100, 3).swap_remove(90);
-    assert_eq!(spec.class, DatasetClass::Control);
-    let (_, d) = super::run::explain(&spec, false).expect("simulates");
+    let d = diagnosed(Part::Tuning, 3, 90, DatasetClass::Control);
     let regimes: BTreeSet<_> = d
         .gaps
         .iter()
@@ -502,4 +497,17 @@ fn an_effect_of_every_manoeuvre_is_not_named_on_a_gap_in_one_regime() {
     );
     assert_eq!(d.candidates[0].effect, EffectId::MotorHeating);
     assert!(d.effect.effect().is_none(), "{:?}", d.effect);
+}
+
+/// The diagnosis of dataset `index` of bench seed `seed`'s `part` (100 datasets), checked to be
+/// of class `class`.
+fn diagnosed(
+    part: Part,
+    seed: u64,
+    index: usize,
+    class: DatasetClass,
+) -> crate::diagnose::Diagnosis {
+    let spec = generate(part, 100, seed).swap_remove(index);
+    assert_eq!(spec.class, class);
+    super::run::explain(&spec, false).expect("simulates").1
 }
