@@ -290,6 +290,15 @@ pub fn diagnose_with(
     let verdict = match selected {
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
+        None if adequacy.adequate == Some(false) => {
+            match explains_the_calibration_misfit(rover, rows, calibration, &adequacy, &candidates)?
+            {
+                Some(e) if select::reaches_the_gaps(rover, rows, &baseline, &gaps, e) => {
+                    Verdict::Effect(e)
+                }
+                _ => Verdict::Ambiguous,
+            }
+        }
         None => Verdict::Ambiguous,
     };
     // The stepwise selection starts from the selected effect's own score (the selection may
@@ -556,6 +565,30 @@ fn against_adequate_baseline(
     if verdict.effect().is_none() {
         return Ok((Verdict::BaselineMisfit, None));
     }
+    let with = calibration_adequacy_with(rover, rows, calibration, model_effects)?;
+    let verdict = if explains_misfit(adequacy, &with) {
+        verdict
+    } else {
+        Verdict::BaselineMisfit
+    };
+    Ok((verdict, Some(with)))
+}
+
+/// Whether the model behind `with` makes the calibration manoeuvres fit or removes most of
+/// `base`'s lack of fit.
+fn explains_misfit(base: &Adequacy, with: &Adequacy) -> bool {
+    with.adequate != Some(false)
+        || adequacy::explained_fraction(base, with) >= adequacy::EXPLAINED_BY_EFFECT
+}
+
+/// The calibration manoeuvres' lack-of-fit test of the baseline with `model_effects` fitted
+/// jointly on all rows.
+fn calibration_adequacy_with(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    model_effects: &[EffectId],
+) -> Result<Adequacy, DiagnoseError> {
     let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
     let ctx = Context {
         rover,
@@ -563,17 +596,44 @@ fn against_adequate_baseline(
         heating_tau_s: model.heating_tau_s,
     };
     let params = 2 + effects::model_params(model_effects);
-    let with = adequacy::test(&calibration.manoeuvres(rows), params, |r, s| {
-        baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx)
-    });
-    let verdict = if with.adequate == Some(false)
-        && adequacy::explained_fraction(adequacy, &with) < adequacy::EXPLAINED_BY_EFFECT
-    {
-        Verdict::BaselineMisfit
-    } else {
-        verdict
-    };
-    Ok((verdict, Some(with)))
+    Ok(adequacy::test(
+        &calibration.manoeuvres(rows),
+        params,
+        |r, s| baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx),
+    ))
+}
+
+/// With the baseline misfitting its calibration and no clear winner out of sample: the one
+/// candidate that, fitted with the baseline, makes the calibration manoeuvres fit (or removes
+/// most of their lack of fit), is physically signed and does no harm out of sample. The
+/// calibration manoeuvres are then the evidence: the effect acts on them too (sinkage in the
+/// point turns, a sensor offset everywhere), and the misfit was its.
+fn explains_the_calibration_misfit(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    adequacy: &Adequacy,
+    candidates: &[CandidateScore],
+) -> Result<Option<EffectId>, DiagnoseError> {
+    let mut explaining = Vec::new();
+    for c in candidates {
+        if c.heldout_error_after > c.heldout_error_before {
+            continue;
+        }
+        // A term that cannot be fitted (no pitch for a slope) explains nothing.
+        let Ok(with) = calibration_adequacy_with(rover, rows, calibration, &[c.effect]) else {
+            continue;
+        };
+        if explains_misfit(adequacy, &with)
+            && select::physically_signed(rover, rows, &[c.effect], calibration).unwrap_or(false)
+        {
+            explaining.push(c.effect);
+        }
+    }
+    Ok(match explaining.as_slice() {
+        [e] => Some(*e),
+        _ => None,
+    })
 }
 
 /// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
