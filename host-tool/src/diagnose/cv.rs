@@ -247,6 +247,20 @@ pub struct CandidateScore {
     /// effective power alone cannot when their shapes agree, e.g. angular slip and a braked inner
     /// side at R') [W²].
     pub penalised_mse_with_avg_power: f64,
+    /// FPE-penalised MSE of each row's total effective-power residual (the sides summed: Eq
+    /// 21's own observation, blind to how the power splits between the sides) [W²].
+    pub penalised_mse_total: f64,
+    /// 100·(1 − after/before) on the RMS of the total residuals [%].
+    pub shrink_total_pct: f64,
+}
+
+/// Mean square of each row's total effective-power residual (the sides summed) [W²].
+pub fn total_mean_square(res: &[RowResidual]) -> f64 {
+    let sum: f64 = res
+        .iter()
+        .map(|r| r.effective_w.iter().sum::<f64>().powi(2))
+        .sum();
+    sum / res.len().max(1) as f64
 }
 
 /// The third selection score of held-out residuals: FPE of the pooled mean square of the
@@ -305,6 +319,22 @@ pub fn score_model(
         ),
         penalised_mse_with_growth: score_with_growth(&after, model_params(effects)),
         penalised_mse_with_avg_power: score_with_avg_power(&after, model_params(effects)),
+        penalised_mse_total: penalised(
+            total_mean_square(&after),
+            after.len(),
+            model_params(effects),
+        ),
+        shrink_total_pct: {
+            let (b, a) = (
+                total_mean_square(before).sqrt(),
+                total_mean_square(&after).sqrt(),
+            );
+            if b > 0.0 {
+                100.0 * (1.0 - a / b)
+            } else {
+                0.0
+            }
+        },
     }))
 }
 

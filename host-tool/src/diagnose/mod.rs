@@ -263,6 +263,9 @@ pub fn diagnose_with(
         {
             Some(EffectId::AngularSlip)
         }
+        None if select::clear_in_total(&candidates).is_some() => {
+            select::clear_in_total(&candidates)
+        }
         None if !significant_gaps.regimes.is_empty() => {
             selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
         }

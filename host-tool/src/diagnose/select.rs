@@ -204,6 +204,29 @@ pub(super) fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
         .or_else(|| clear(&by_avg, |c| c.penalised_mse_with_avg_power))
 }
 
+/// The clear winner on each manoeuvre's total effective power (the sides summed: Eq 21's own
+/// observation, which does not depend on how the power splits between the sides): it closes
+/// [`cv::MIN_SHRINK_PCT`] of the held-out total and the runner-up's penalised error there is
+/// at least [`cv::CLEAR_MARGIN`] times its own. Asked when the per-side targets leave a tie,
+/// as when the chosen split misfits the test turns (a split error moves power from one side to
+/// the other and hides the term's share of each). Only for terms that draw power: the two
+/// that lengthen the turn (`angular-slip`, `slip-track`) share a signature the total does not
+/// separate either.
+pub(super) fn clear_in_total(candidates: &[CandidateScore]) -> Option<EffectId> {
+    let mut by_total: Vec<&CandidateScore> = candidates.iter().collect();
+    by_total.sort_by(|a, b| a.penalised_mse_total.total_cmp(&b.penalised_mse_total));
+    match by_total.as_slice() {
+        [best, runner_up, ..]
+            if effects::is_power_type(best.effect)
+                && best.shrink_total_pct >= cv::MIN_SHRINK_PCT
+                && runner_up.penalised_mse_total >= cv::CLEAR_MARGIN * best.penalised_mse_total =>
+        {
+            Some(best.effect)
+        }
+        _ => None,
+    }
+}
+
 /// What every held-out selection rule reads: the rover and rows, how the baseline is
 /// calibrated, the cross-validation scheme and the held-out residuals without a term.
 #[derive(Clone, Copy)]

@@ -541,3 +541,26 @@ fn the_one_term_that_explains_the_calibration_misfit_is_named() {
             || with.adequate != Some(false)
     );
 }
+
+/// Tuning dataset 18 of bench seed 3, a Husky on a slope with a threshold split and motor
+/// losses: `slope` is the only term that helps, but per side it closes just under 30 % (the
+/// split's own misfit stays in each side's residual); on each manoeuvre's total power, Eq 21's
+/// own observation, it clears the bar and the margin. Before, `ambiguous`.
+#[test]
+fn the_total_power_decides_when_the_sides_leave_a_tie() {
+    let d = diagnosed(Part::Tuning, 3, 18, DatasetClass::Effect(EffectId::Slope));
+    let slope = d
+        .candidates
+        .iter()
+        .find(|c| c.effect == EffectId::Slope)
+        .expect("scored");
+    assert!(
+        slope.shrink_pct < crate::diagnose::cv::MIN_SHRINK_PCT,
+        "{slope:?}"
+    );
+    assert!(
+        slope.shrink_total_pct >= crate::diagnose::cv::MIN_SHRINK_PCT,
+        "{slope:?}"
+    );
+    assert_eq!(d.effect, crate::diagnose::Verdict::Effect(EffectId::Slope));
+}
