@@ -413,6 +413,7 @@ fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
         "after [W]".to_owned(),
         "shrink".to_owned(),
         "penalised [W²]".to_owned(),
+        "shrink of totals".to_owned(),
         other_head,
         String::new(),
     ]];
@@ -427,6 +428,7 @@ fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
             format!("{:.2}", c.heldout_error_after),
             format!("{:.0} %", c.shrink_pct),
             format!("{:.3}", c.penalised_mse),
+            format!("{:.0} %", c.shrink_total_pct),
             other_shrink,
             if Some(c.effect) == named {
                 "<- named"
