@@ -263,13 +263,13 @@ pub fn diagnose_with(
         {
             Some(EffectId::AngularSlip)
         }
-        None if select::clear_in_total(&candidates).is_some() => {
-            select::clear_in_total(&candidates)
-        }
-        None if !significant_gaps.regimes.is_empty() => {
-            selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
-        }
-        None => None,
+        None => match select::clear_in_total(&candidates) {
+            Some(e) => Some(e),
+            None if !significant_gaps.regimes.is_empty() => {
+                selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
+            }
+            None => None,
+        },
     };
     let selected = match (selected, where_.run_time.trend.as_ref()) {
         (None, Some(trend)) if trend.significant => {

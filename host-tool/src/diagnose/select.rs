@@ -1,6 +1,7 @@
 //! Which catalogue term to name: the clear winner of the held-out selection and the rules that
-//! decide near ties (the standstill current, the yaw), the regimes of the gap, the run-time
-//! trend, the physics' signs and the gaps' places, and the forward stepwise secondaries.
+//! decide near ties (the standstill current, the yaw, the manoeuvres' total power), the
+//! regimes of the gap, the run-time trend, the physics' signs and the gaps' places, and the
+//! forward stepwise secondaries.
 
 use super::effects::{self, Context, HEATING_TAU_GRID_S};
 use super::{
