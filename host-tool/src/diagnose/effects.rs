@@ -268,6 +268,16 @@ pub fn least_squares(rows: &[(Vec<f64>, f64)]) -> Option<(Vec<f64>, f64)> {
 }
 
 impl FittedModel {
+    /// The context this model's terms are evaluated in: `rover`, the `baseline` it was fitted
+    /// with, and its own heating τ.
+    pub fn context<'a>(&self, rover: &'a Rover, baseline: &'a Baseline) -> Context<'a> {
+        Context {
+            rover,
+            baseline,
+            heating_tau_s: self.heating_tau_s,
+        }
+    }
+
     /// No term (the baseline alone).
     pub fn empty() -> FittedModel {
         FittedModel {

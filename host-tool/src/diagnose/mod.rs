@@ -593,11 +593,7 @@ fn calibration_adequacy_with(
     model_effects: &[EffectId],
 ) -> Result<Adequacy, DiagnoseError> {
     let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
-    let ctx = Context {
-        rover,
-        baseline: &baseline,
-        heating_tau_s: model.heating_tau_s,
-    };
+    let ctx = model.context(rover, &baseline);
     let params = 2 + effects::model_params(model_effects);
     Ok(adequacy::test(
         &calibration.manoeuvres(rows),
@@ -654,11 +650,7 @@ fn acts_in_every_regime(
     calibration: Calibration<'_>,
 ) -> Result<bool, DiagnoseError> {
     let (baseline, model) = fit_model(rover, rows, &[effect], calibration)?;
-    let ctx = Context {
-        rover,
-        baseline: &baseline,
-        heating_tau_s: model.heating_tau_s,
-    };
+    let ctx = model.context(rover, &baseline);
     let Some(term) = model.effects.first() else {
         return Ok(false);
     };
@@ -719,11 +711,7 @@ pub fn extra_power_w(
     model: &FittedModel,
     row: &TurnRow,
 ) -> [f64; 2] {
-    let ctx = Context {
-        rover,
-        baseline,
-        heating_tau_s: model.heating_tau_s,
-    };
+    let ctx = model.context(rover, baseline);
     [0, 1].map(|side| model.extra_w(row, side, &ctx))
 }
 

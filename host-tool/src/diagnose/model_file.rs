@@ -23,7 +23,7 @@
 
 use super::baseline::Baseline;
 use super::calibration::Calibration;
-use super::effects::{Context, FittedEffect, FittedModel};
+use super::effects::{FittedEffect, FittedModel};
 use super::features::{Observed, SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
 use super::{fit_model, DiagnoseError, Diagnosis};
 use crate::plan::{self, EffectTerm, EnergyModel, HardGroundBase, ModelError};
@@ -245,11 +245,7 @@ pub fn effect_term(
     at: &Conditions,
     widest: f64,
 ) -> EffectTerm {
-    let ctx = Context {
-        rover,
-        baseline,
-        heating_tau_s: model.heating_tau_s,
-    };
+    let ctx = model.context(rover, baseline);
     let r_over_r_prime = grid(rover, widest);
     let extra_power_w = r_over_r_prime
         .iter()

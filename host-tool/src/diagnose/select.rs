@@ -42,11 +42,7 @@ pub(super) fn physically_signed(
     calibration: Calibration<'_>,
 ) -> Result<bool, DiagnoseError> {
     let (baseline, model) = fit_model(rover, rows, effects, calibration)?;
-    let ctx = Context {
-        rover,
-        baseline: &baseline,
-        heating_tau_s: model.heating_tau_s,
-    };
+    let ctx = model.context(rover, &baseline);
     Ok(model.effects.iter().all(|term| {
         let adds_power = match term.effect {
             EffectId::CurrentOffset | EffectId::SlipTrack => return true,
