@@ -254,6 +254,16 @@ pub struct CandidateScore {
     pub shrink_total_pct: f64,
 }
 
+/// 100·(1 − after/before) of two RMS errors: the share of the held-out error a model closes
+/// [%]; 0 when there is no error before.
+pub fn shrink_pct(before: f64, after: f64) -> f64 {
+    if before > 0.0 {
+        100.0 * (1.0 - after / before)
+    } else {
+        0.0
+    }
+}
+
 /// Mean square of each row's total effective-power residual (the sides summed) [W²].
 pub fn total_mean_square(res: &[RowResidual]) -> f64 {
     let sum: f64 = res
@@ -307,11 +317,7 @@ pub fn score_model(
         effect,
         heldout_error_before: rms_before,
         heldout_error_after: rms_after,
-        shrink_pct: if rms_before > 0.0 {
-            100.0 * (1.0 - rms_after / rms_before)
-        } else {
-            0.0
-        },
+        shrink_pct: shrink_pct(rms_before, rms_after),
         penalised_mse: penalised(
             rms_after * rms_after,
             observations(&after),
@@ -324,17 +330,10 @@ pub fn score_model(
             after.len(),
             model_params(effects),
         ),
-        shrink_total_pct: {
-            let (b, a) = (
-                total_mean_square(before).sqrt(),
-                total_mean_square(&after).sqrt(),
-            );
-            if b > 0.0 {
-                100.0 * (1.0 - a / b)
-            } else {
-                0.0
-            }
-        },
+        shrink_total_pct: shrink_pct(
+            total_mean_square(before).sqrt(),
+            total_mean_square(&after).sqrt(),
+        ),
     }))
 }
 

@@ -191,14 +191,6 @@ fn removed_rms_w(before: f64, after: f64) -> f64 {
     (before * before - after * after).max(0.0).sqrt()
 }
 
-fn shrink_pct(before: f64, after: f64) -> f64 {
-    if before > 0.0 {
-        100.0 * (1.0 - after / before)
-    } else {
-        0.0
-    }
-}
-
 /// Diagnoses `rows` (see [`features::rows`]), calibrated on their own calibration manoeuvres.
 pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseError> {
     diagnose_with(rover, rows, Calibration::FromRuns)
@@ -294,8 +286,13 @@ pub fn diagnose_with(
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
         None if adequacy.adequate == Some(false) => {
-            match explains_the_calibration_misfit(rover, rows, calibration, &adequacy, &candidates)?
-            {
+            match select::explains_the_calibration_misfit(
+                rover,
+                rows,
+                calibration,
+                &adequacy,
+                &candidates,
+            ) {
                 Some(e) if select::reaches_the_gaps(rover, rows, &baseline, &gaps, e) => {
                     Verdict::Effect(e)
                 }
@@ -496,7 +493,7 @@ fn heldout_errors(
                     effect: added,
                     error_before: b,
                     error_after: a,
-                    shrink_pct: shrink_pct(b, a),
+                    shrink_pct: cv::shrink_pct(b, a),
                 });
             }
         };
@@ -568,7 +565,8 @@ fn against_adequate_baseline(
     if verdict.effect().is_none() {
         return Ok((Verdict::BaselineMisfit, None));
     }
-    let with = calibration_adequacy_with(rover, rows, calibration, model_effects)?;
+    let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
+    let with = calibration_adequacy(rover, rows, calibration, &baseline, &model);
     let verdict = if explains_misfit(adequacy, &with) {
         verdict
     } else {
@@ -584,54 +582,20 @@ fn explains_misfit(base: &Adequacy, with: &Adequacy) -> bool {
         || adequacy::explained_fraction(base, with) >= adequacy::EXPLAINED_BY_EFFECT
 }
 
-/// The calibration manoeuvres' lack-of-fit test of the baseline with `model_effects` fitted
+/// The calibration manoeuvres' lack-of-fit test of `baseline` with `model`'s terms, fitted
 /// jointly on all rows.
-fn calibration_adequacy_with(
+fn calibration_adequacy(
     rover: &Rover,
     rows: &[TurnRow],
     calibration: Calibration<'_>,
-    model_effects: &[EffectId],
-) -> Result<Adequacy, DiagnoseError> {
-    let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
-    let ctx = model.context(rover, &baseline);
-    let params = 2 + effects::model_params(model_effects);
-    Ok(adequacy::test(
-        &calibration.manoeuvres(rows),
-        params,
-        |r, s| baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx),
-    ))
-}
-
-/// With the baseline misfitting its calibration and no clear winner out of sample: the one
-/// candidate that, fitted with the baseline, makes the calibration manoeuvres fit (or removes
-/// most of their lack of fit), is physically signed and does no harm out of sample. The
-/// calibration manoeuvres are then the evidence: the effect acts on them too (sinkage in the
-/// point turns, a sensor offset everywhere), and the misfit was its.
-fn explains_the_calibration_misfit(
-    rover: &Rover,
-    rows: &[TurnRow],
-    calibration: Calibration<'_>,
-    adequacy: &Adequacy,
-    candidates: &[CandidateScore],
-) -> Result<Option<EffectId>, DiagnoseError> {
-    let mut explaining = Vec::new();
-    for c in candidates {
-        if c.heldout_error_after > c.heldout_error_before {
-            continue;
-        }
-        // A term that cannot be fitted (no pitch for a slope) explains nothing.
-        let Ok(with) = calibration_adequacy_with(rover, rows, calibration, &[c.effect]) else {
-            continue;
-        };
-        if explains_misfit(adequacy, &with)
-            && select::physically_signed(rover, rows, &[c.effect], calibration).unwrap_or(false)
-        {
-            explaining.push(c.effect);
-        }
-    }
-    Ok(match explaining.as_slice() {
-        [e] => Some(*e),
-        _ => None,
+    baseline: &Baseline,
+    model: &FittedModel,
+) -> Adequacy {
+    let ctx = model.context(rover, baseline);
+    let effects: Vec<EffectId> = model.effects.iter().map(|t| t.effect).collect();
+    let params = 2 + effects::model_params(&effects);
+    adequacy::test(&calibration.manoeuvres(rows), params, |r, s| {
+        baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx)
     })
 }
 

@@ -556,7 +556,7 @@ fn score(
         params: fit(&x, &y, weights),
         heldout_error_before: before_rms,
         heldout_error_after: after,
-        shrink_pct: super::shrink_pct(before_rms, after),
+        shrink_pct: super::cv::shrink_pct(before_rms, after),
         penalised_mse: penalised,
         heldout_pct,
     }))

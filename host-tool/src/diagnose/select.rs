@@ -5,7 +5,8 @@
 
 use super::effects::{self, Context, HEATING_TAU_GRID_S};
 use super::{
-    cv, fit_model, gaps, removed_rms_w, shrink_pct, DiagnoseError, Gap, Part, StepwiseStep,
+    calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
+    DiagnoseError, FittedModel, Gap, Part, StepwiseStep,
 };
 use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
 use crate::effect_id::EffectId;
@@ -42,8 +43,18 @@ pub(super) fn physically_signed(
     calibration: Calibration<'_>,
 ) -> Result<bool, DiagnoseError> {
     let (baseline, model) = fit_model(rover, rows, effects, calibration)?;
-    let ctx = model.context(rover, &baseline);
-    Ok(model.effects.iter().all(|term| {
+    Ok(terms_physically_signed(rover, rows, &baseline, &model))
+}
+
+/// [`physically_signed`] of a model already fitted with `baseline`.
+fn terms_physically_signed(
+    rover: &Rover,
+    rows: &[TurnRow],
+    baseline: &Baseline,
+    model: &FittedModel,
+) -> bool {
+    let ctx = model.context(rover, baseline);
+    model.effects.iter().all(|term| {
         let adds_power = match term.effect {
             EffectId::CurrentOffset | EffectId::SlipTrack => return true,
             EffectId::Slope => false,
@@ -66,7 +77,7 @@ pub(super) fn physically_signed(
             .map(|(r, s)| term.term_w(r, s, &ctx))
             .sum();
         total_w > 0.0
-    }))
+    })
 }
 
 /// Largest significant gap an effect may leave where it does not act, as a fraction of the
@@ -175,30 +186,32 @@ pub(super) fn measured_slip_helps(candidates: &[CandidateScore]) -> bool {
 /// terms that draw more power). Either way it must
 /// close [`cv::MIN_SHRINK_PCT`] of the held-out gap.
 pub(super) fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
-    let clear = |sorted: &[&CandidateScore], key: fn(&CandidateScore) -> f64| match sorted {
+    let shrink = |c: &CandidateScore| c.shrink_pct;
+    clear_winner(candidates, |c| c.penalised_mse, shrink)
+        .or_else(|| clear_winner(candidates, |c| c.penalised_mse_with_growth, shrink))
+        .or_else(|| clear_winner(candidates, |c| c.penalised_mse_with_avg_power, shrink))
+        .map(|c| c.effect)
+}
+
+/// The best of `candidates` by `score` (a penalised error) when it closes
+/// [`cv::MIN_SHRINK_PCT`] by `shrink` and the runner-up's `score` is at least
+/// [`cv::CLEAR_MARGIN`] times its own.
+fn clear_winner(
+    candidates: &[CandidateScore],
+    score: fn(&CandidateScore) -> f64,
+    shrink: fn(&CandidateScore) -> f64,
+) -> Option<&CandidateScore> {
+    let mut sorted: Vec<&CandidateScore> = candidates.iter().collect();
+    sorted.sort_by(|a, b| score(a).total_cmp(&score(b)));
+    match sorted.as_slice() {
         [best, runner_up, ..]
-            if best.shrink_pct >= cv::MIN_SHRINK_PCT
-                && key(runner_up) >= cv::CLEAR_MARGIN * key(best) =>
+            if shrink(best) >= cv::MIN_SHRINK_PCT
+                && score(runner_up) >= cv::CLEAR_MARGIN * score(best) =>
         {
-            Some(best.effect)
+            Some(best)
         }
         _ => None,
-    };
-    let mut by_power: Vec<&CandidateScore> = candidates.iter().collect();
-    by_power.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
-    let mut by_growth = by_power.clone();
-    by_growth.sort_by(|a, b| {
-        a.penalised_mse_with_growth
-            .total_cmp(&b.penalised_mse_with_growth)
-    });
-    let mut by_avg = by_power.clone();
-    by_avg.sort_by(|a, b| {
-        a.penalised_mse_with_avg_power
-            .total_cmp(&b.penalised_mse_with_avg_power)
-    });
-    clear(&by_power, |c| c.penalised_mse)
-        .or_else(|| clear(&by_growth, |c| c.penalised_mse_with_growth))
-        .or_else(|| clear(&by_avg, |c| c.penalised_mse_with_avg_power))
+    }
 }
 
 /// The clear winner on each manoeuvre's total effective power (the sides summed: Eq 21's own
@@ -210,16 +223,43 @@ pub(super) fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
 /// that lengthen the turn (`angular-slip`, `slip-track`) share a signature the total does not
 /// separate either.
 pub(super) fn clear_in_total(candidates: &[CandidateScore]) -> Option<EffectId> {
-    let mut by_total: Vec<&CandidateScore> = candidates.iter().collect();
-    by_total.sort_by(|a, b| a.penalised_mse_total.total_cmp(&b.penalised_mse_total));
-    match by_total.as_slice() {
-        [best, runner_up, ..]
-            if effects::is_power_type(best.effect)
-                && best.shrink_total_pct >= cv::MIN_SHRINK_PCT
-                && runner_up.penalised_mse_total >= cv::CLEAR_MARGIN * best.penalised_mse_total =>
-        {
-            Some(best.effect)
-        }
+    clear_winner(
+        candidates,
+        |c| c.penalised_mse_total,
+        |c| c.shrink_total_pct,
+    )
+    .map(|c| c.effect)
+    .filter(|e| effects::is_power_type(*e))
+}
+
+/// With the baseline misfitting its calibration (`adequacy`) and no clear winner out of
+/// sample: the one candidate that, fitted with the baseline, makes the calibration manoeuvres
+/// fit (or removes most of their lack of fit), is physically signed and does no harm out of
+/// sample. The calibration manoeuvres are then the evidence: the effect acts on them too
+/// (sinkage in the point turns, a sensor offset everywhere), and the misfit was its.
+pub(super) fn explains_the_calibration_misfit(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    adequacy: &Adequacy,
+    candidates: &[CandidateScore],
+) -> Option<EffectId> {
+    let explaining: Vec<EffectId> = candidates
+        .iter()
+        .filter(|c| c.heldout_error_after <= c.heldout_error_before)
+        .filter(|c| {
+            // A term that cannot be fitted (no pitch for a slope) explains nothing.
+            let Ok((baseline, model)) = fit_model(rover, rows, &[c.effect], calibration) else {
+                return false;
+            };
+            let with = calibration_adequacy(rover, rows, calibration, &baseline, &model);
+            explains_misfit(adequacy, &with)
+                && terms_physically_signed(rover, rows, &baseline, &model)
+        })
+        .map(|c| c.effect)
+        .collect();
+    match explaining.as_slice() {
+        [e] => Some(*e),
         _ => None,
     }
 }
@@ -270,7 +310,7 @@ impl Selection<'_> {
                 cv::observations(&gap_rows),
                 effects::model_params(&[c.effect]),
             );
-            scored.push((fpe, shrink_pct(ms_before.sqrt(), ms_after.sqrt()), c));
+            scored.push((fpe, cv::shrink_pct(ms_before.sqrt(), ms_after.sqrt()), c));
         }
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         Ok(match scored.as_slice() {
