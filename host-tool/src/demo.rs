@@ -291,7 +291,7 @@ pub fn run(
         &rover,
         &diagnosis,
         &rows,
-        Calibration::FromRuns,
+        Calibration::FROM_RUNS,
     )?);
     let json = dir.join("diagnosis.json");
     diagnosis_report::write_json(&json, &diagnosis)?;

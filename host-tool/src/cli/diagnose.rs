@@ -121,8 +121,8 @@ impl DiagnoseArgs {
             Some(diagnosis_rows(&rover, offset, &self.calibration, "calibration")?.0)
         };
         let calibration = match &cal_rows {
-            Some(rows) => Calibration::Rows(rows),
-            None => Calibration::FromRuns,
+            Some(rows) => Calibration::rows(rows),
+            None => Calibration::FROM_RUNS,
         };
         let mut diagnosis =
             diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;

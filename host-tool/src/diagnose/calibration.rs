@@ -8,6 +8,7 @@
 //! effect must not claim power on the manoeuvres the model is trusted on), and scores it on the
 //! held-out diagnosed rows only.
 
+use super::baseline::family::{self, Members};
 use super::baseline::{Baseline, BaselineError};
 use super::features::TurnRow;
 use model_core::Rover;
@@ -42,24 +43,53 @@ pub struct CalibrationNote {
     pub manoeuvres: usize,
 }
 
-/// The calibration of a diagnosis: in the runs, or the calibration manoeuvres of separate runs.
+/// Where the calibration manoeuvres are: in the diagnosed runs, or in separate runs.
 #[derive(Debug, Clone, Copy)]
-pub enum Calibration<'a> {
+pub enum Source<'a> {
     /// The calibration-kind rows of the diagnosed rows (refitted per fold).
     FromRuns,
     /// Rows of calibration runs (only their calibration-kind rows are used).
     Rows(&'a [TurnRow]),
 }
 
+/// The calibration of a diagnosis: where its manoeuvres are and which baseline family members
+/// are fitted to them.
+#[derive(Debug, Clone, Copy)]
+pub struct Calibration<'a> {
+    /// Where the calibration manoeuvres are.
+    pub source: Source<'a>,
+    /// The family members the baseline is chosen from.
+    pub members: Members,
+}
+
 impl<'a> Calibration<'a> {
+    /// The diagnosed runs' own calibration manoeuvres, the default family.
+    pub const FROM_RUNS: Calibration<'static> = Calibration {
+        source: Source::FromRuns,
+        members: Members::Escalating,
+    };
+
+    /// The calibration manoeuvres of calibration runs' `rows`, the default family.
+    pub const fn rows(rows: &'a [TurnRow]) -> Self {
+        Calibration {
+            source: Source::Rows(rows),
+            members: Members::Escalating,
+        }
+    }
+
+    /// The same calibration with the baseline chosen from `members`.
+    pub const fn with_members(self, members: Members) -> Self {
+        Calibration { members, ..self }
+    }
+
     /// The calibration manoeuvres of this calibration for diagnosed `rows`.
     pub fn manoeuvres<'r>(&self, rows: &'r [TurnRow]) -> Vec<&'r TurnRow>
     where
         'a: 'r,
     {
-        let of: &'r [TurnRow] = match self {
-            Calibration::FromRuns => rows,
-            Calibration::Rows(cal) => cal,
+        let of: &'r [TurnRow] = match self.source {
+            Source::FromRuns => rows,
+            Source::Rows(cal) => cal,
         };
         of.iter().filter(|r| r.calibration_kind).collect()
     }
@@ -67,9 +97,9 @@ impl<'a> Calibration<'a> {
     /// The note for reports.
     pub fn note(&self, rows: &[TurnRow]) -> CalibrationNote {
         CalibrationNote {
-            source: match self {
-                Calibration::FromRuns => CalibrationSource::Runs,
-                Calibration::Rows(_) => CalibrationSource::CalibrationFiles,
+            source: match self.source {
+                Source::FromRuns => CalibrationSource::Runs,
+                Source::Rows(_) => CalibrationSource::CalibrationFiles,
             },
             manoeuvres: self.manoeuvres(rows).len(),
         }
@@ -77,7 +107,17 @@ impl<'a> Calibration<'a> {
 
     /// The baseline on all calibration manoeuvres.
     pub fn baseline(&self, rover: &Rover, rows: &[TurnRow]) -> Result<Baseline, BaselineError> {
-        Baseline::fit(rover, &self.manoeuvres(rows))
+        self.baseline_on(rover, &self.manoeuvres(rows))
+    }
+
+    /// The baseline fitted on `manoeuvres` (e.g. a cross-validation fold's) from this
+    /// calibration's family members.
+    pub fn baseline_on(
+        &self,
+        rover: &Rover,
+        manoeuvres: &[&TurnRow],
+    ) -> Result<Baseline, BaselineError> {
+        family::choose(rover, manoeuvres, self.members)
     }
 
     /// The rows an effect is fitted on when it is fitted on everything (the model file): the
@@ -87,7 +127,7 @@ impl<'a> Calibration<'a> {
         'a: 'r,
     {
         let mut train: Vec<&TurnRow> = rows.iter().collect();
-        if let Calibration::Rows(_) = self {
+        if let Source::Rows(_) = self.source {
             train.extend(self.manoeuvres(rows));
         }
         train
@@ -130,7 +170,7 @@ mod tests {
         let offset = WorldConfig::hard_ground().with_effect(EffectId::CurrentOffset, true);
         let runs = rows(&offset, 60..63);
         let from_runs = diagnose(&HUSKY, &runs).expect("diagnoses");
-        let with_cal = diagnose_with(&HUSKY, &runs, Calibration::Rows(&cal)).expect("diagnoses");
+        let with_cal = diagnose_with(&HUSKY, &runs, Calibration::rows(&cal)).expect("diagnoses");
 
         let cal_kind: Vec<&TurnRow> = cal.iter().filter(|r| r.calibration_kind).collect();
         assert_eq!(
@@ -157,7 +197,7 @@ mod tests {
             &runs,
             Scheme::LeaveOneRunOut,
             &[],
-            Calibration::Rows(&cal),
+            Calibration::rows(&cal),
         )
         .expect("fits")
         .expect("3 runs");
@@ -177,7 +217,7 @@ mod tests {
             .filter(|r| !r.calibration_kind)
             .cloned()
             .collect();
-        let err = diagnose_with(&HUSKY, &runs, Calibration::Rows(&turns_only))
+        let err = diagnose_with(&HUSKY, &runs, Calibration::rows(&turns_only))
             .expect_err("nothing to fit");
         assert!(
             err.to_string().contains("0 calibration manoeuvres"),

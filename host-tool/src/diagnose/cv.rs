@@ -25,7 +25,7 @@
 //!   with a significant gap only; otherwise `ambiguous`.
 
 use super::baseline::{Baseline, BaselineError};
-use super::calibration::Calibration;
+use super::calibration::{Calibration, Source};
 use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
 use super::observe::Residuals;
@@ -123,9 +123,9 @@ pub fn heldout_residuals(
         return Ok(None);
     }
     // With calibration runs: their baseline and manoeuvres, the same in every fold.
-    let fixed = match calibration {
-        Calibration::FromRuns => None,
-        Calibration::Rows(_) => Some((
+    let fixed = match calibration.source {
+        Source::FromRuns => None,
+        Source::Rows(_) => Some((
             calibration.baseline(rover, rows)?,
             calibration.manoeuvres(rows),
         )),
@@ -147,7 +147,7 @@ pub fn heldout_residuals(
                     .copied()
                     .filter(|r| r.calibration_kind)
                     .collect();
-                (Baseline::fit(rover, &fold_cal)?, &fold_cal)
+                (calibration.baseline_on(rover, &fold_cal)?, &fold_cal)
             }
         };
         let ctx = Context {

@@ -27,7 +27,7 @@
 //! 5-row table it is the stricter figure, and the report should show both.
 
 use super::baseline::skid_feature_mps;
-use super::calibration::Calibration;
+use super::calibration::{Calibration, Source};
 use super::features::TurnRow;
 use super::gaps::Part;
 use super::observe;
@@ -168,8 +168,8 @@ pub fn tests(
     let summary = rows.iter().any(TurnRow::is_total_only);
     let mut reference = Normal::default();
     let mut in_reference = vec![false; rows.len()];
-    let reference_rows: Vec<&TurnRow> = match calibration {
-        Calibration::FromRuns if summary => rows.iter().collect(),
+    let reference_rows: Vec<&TurnRow> = match calibration.source {
+        Source::FromRuns if summary => rows.iter().collect(),
         _ => calibration.manoeuvres(rows),
     };
     for row in &reference_rows {

@@ -11,6 +11,7 @@ pub mod adequacy;
 pub mod baseline;
 pub mod bench;
 pub mod calibration;
+pub mod copper_from_runs;
 pub mod cv;
 pub mod effects;
 pub mod features;
@@ -104,6 +105,9 @@ pub struct Diagnosis {
     /// Further effects added by forward stepwise selection after the named one, in order, each
     /// with the held-out error of the model up to it.
     pub secondary: Vec<StepwiseStep>,
+    /// Why the baseline has copper loss the calibration did not choose, when the diagnosed runs
+    /// showed it ([`copper_from_runs`]).
+    pub copper_from_runs: Option<copper_from_runs::CopperEvidence>,
 }
 
 /// One step of the forward stepwise selection after the named effect.
@@ -181,6 +185,7 @@ impl Diagnosis {
             "gaps": self.gaps,
             "where": self.where_,
             "calibration": self.calibration,
+            "copper_from_runs": self.copper_from_runs,
             "notes": self.notes,
         })
     }
@@ -193,7 +198,7 @@ fn removed_rms_w(before: f64, after: f64) -> f64 {
 
 /// Diagnoses `rows` (see [`features::rows`]), calibrated on their own calibration manoeuvres.
 pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseError> {
-    diagnose_with(rover, rows, Calibration::FromRuns)
+    diagnose_with(rover, rows, Calibration::FROM_RUNS)
 }
 
 /// Diagnoses `rows` with the baseline fitted as `calibration` says (e.g. on the calibration
@@ -206,6 +211,18 @@ pub fn diagnose_with(
     if rows.is_empty() {
         return Err(DiagnoseError::NoRows);
     }
+    let first = diagnose_against(rover, rows, calibration)?;
+    copper_from_runs::reconsider(rover, rows, calibration, first, |c| {
+        diagnose_against(rover, rows, c)
+    })
+}
+
+/// [`diagnose_with`] against the baseline `calibration` chooses, as it is.
+pub(crate) fn diagnose_against(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+) -> Result<Diagnosis, DiagnoseError> {
     let baseline = calibration.baseline(rover, rows)?;
     // Judged as fitted: with the calibration's slope nuisance (`calibration_grade_n`).
     let adequacy = adequacy::test(&calibration.manoeuvres(rows), 2, |r, s| {
@@ -348,6 +365,7 @@ pub fn diagnose_with(
         other_scheme,
         gap_regimes: significant_gaps.regimes,
         secondary: secondary_steps,
+        copper_from_runs: None,
         calibration: calibration.note(rows),
         notes,
     })

@@ -378,7 +378,7 @@ mod tests {
         let rows = rows_of_world(&world);
         let d = diagnose(&HUSKY, &rows).expect("diagnoses");
         assert_eq!(d.effect, "angular-slip");
-        let model = energy_model(&HUSKY, &d, &rows, Calibration::FromRuns).expect("model");
+        let model = energy_model(&HUSKY, &d, &rows, Calibration::FROM_RUNS).expect("model");
         let text = model.to_toml().expect("toml");
         assert_eq!(parse_model(&text).expect("parses"), model);
         assert_eq!(model.effects.len(), 1);
@@ -412,7 +412,7 @@ mod tests {
         if d.effect == crate::diagnose::Verdict::BaselineMisfit {
             d.effect = crate::diagnose::Verdict::Effect(d.candidates[0].effect);
         }
-        let model = energy_model(&HUSKY, &d, &rows, Calibration::FromRuns).expect("model");
+        let model = energy_model(&HUSKY, &d, &rows, Calibration::FROM_RUNS).expect("model");
         let mut hard = model.clone();
         hard.effects.clear();
         let source = crate::plan::ModelSource::Preset(crate::plan::Preset::HuskyHardGround);
@@ -430,7 +430,7 @@ mod tests {
         let rows = rows_of_world(&WorldConfig::hard_ground());
         let d = diagnose(&HUSKY, &rows).expect("diagnoses");
         assert_eq!(d.effect, "none");
-        let model = energy_model(&HUSKY, &d, &rows, Calibration::FromRuns).expect("model");
+        let model = energy_model(&HUSKY, &d, &rows, Calibration::FROM_RUNS).expect("model");
         assert!(model.effects.is_empty());
         assert_eq!(model.v_c_mps, 0.3);
         assert_eq!(model.base.slip_track_m, 1.1);

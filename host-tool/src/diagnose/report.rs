@@ -344,11 +344,16 @@ fn baseline_line(d: &Diagnosis) -> String {
             format!("{:.0} % of generated power returned", 100.0 * fraction)
         }
     };
-    // Copper loss enters only when the copper-free members misfit the calibration: say so.
+    // Copper loss enters only when the copper-free members misfit the calibration, or when the
+    // diagnosed runs show it (`copper_from_runs`): say which.
+    let why_copper = if d.copper_from_runs.is_some() {
+        "the diagnosed runs show it; see below"
+    } else {
+        "the copper-free members misfit the calibration"
+    };
     let split = if b.structure.copper_loss {
         format!(
-            "{split}, plus copper loss c·F² with c = {:.3e} W/N² (the copper-free members \
-             misfit the calibration)",
+            "{split}, plus copper loss c·F² with c = {:.3e} W/N² ({why_copper})",
             b.copper_w_per_n2
         )
     } else {
@@ -477,6 +482,9 @@ pub fn table(d: &Diagnosis) -> String {
     }
     let _ = writeln!(out, "{}", calibration_line(d));
     let _ = writeln!(out, "{}", baseline_line(d));
+    if let Some(c) = &d.copper_from_runs {
+        let _ = writeln!(out, "  {}", c.describe());
+    }
     let _ = writeln!(out, "{METRIC}");
     let _ = writeln!(
         out,
@@ -521,6 +529,9 @@ pub fn markdown(
     }
     let _ = writeln!(out, "- {}", calibration_line(d));
     let _ = writeln!(out, "- {}", baseline_line(d));
+    if let Some(c) = &d.copper_from_runs {
+        let _ = writeln!(out, "- {}", c.describe());
+    }
     let _ = writeln!(out, "- {METRIC}\n");
     let _ = writeln!(out, "## Where: gaps per regime and side\n");
     let _ = writeln!(
@@ -723,7 +734,7 @@ mod tests {
         let (d, rows) = diagnosis_of(&WorldConfig::hard_ground());
         assert!(table(&d).starts_with("diagnosis: none: no significant gap"));
         let dir = std::env::temp_dir().join(format!("diagnose-report-{}", std::process::id()));
-        let files = write_out_dir(&dir, &Rover::HUSKY_A200, &d, &rows, Calibration::FromRuns)
+        let files = write_out_dir(&dir, &Rover::HUSKY_A200, &d, &rows, Calibration::FROM_RUNS)
             .expect("writes");
         for name in [
             "residuals-vs-radius.png",

@@ -578,7 +578,7 @@ mod tests {
         let (mut flagged, mut unadjusted) = (0, 0);
         for seed in 0..400 {
             let rows = clean_table(100 + seed, 10.0);
-            let verdicts = RowVerdicts::of(&rows, Calibration::FromRuns);
+            let verdicts = RowVerdicts::of(&rows, Calibration::FROM_RUNS);
             assert_eq!(verdicts.effective.len(), 9);
             assert!(verdicts.effective.iter().all(|t| t.df == 6));
             flagged += usize::from(verdicts.effective.iter().any(|t| t.beyond_noise));

@@ -158,7 +158,7 @@ fn diagnose_world(world: &WorldConfig) -> super::Diagnosis {
             .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 50 + k))
             .collect();
         let cal_rows = rows_of(&cal);
-        return super::diagnose_with(&HUSKY, &rows, super::Calibration::Rows(&cal_rows))
+        return super::diagnose_with(&HUSKY, &rows, super::Calibration::rows(&cal_rows))
             .expect("diagnoses");
     }
     super::diagnose(&HUSKY, &rows).expect("diagnoses")
@@ -358,7 +358,7 @@ fn fitted_model_evaluates_synthetic_turns() {
         &HUSKY,
         &rows,
         &[EffectId::InnerDrag],
-        super::calibration::Calibration::FromRuns,
+        super::calibration::Calibration::FROM_RUNS,
     )
     .expect("fits");
     let at = super::model_file::Conditions {
@@ -575,7 +575,7 @@ fn sand_world_primary_and_secondary_effects() {
         &HUSKY,
         &rows,
         &model,
-        super::calibration::Calibration::FromRuns,
+        super::calibration::Calibration::FROM_RUNS,
     )
     .expect("fits");
     let at = super::model_file::Conditions {
@@ -645,7 +645,7 @@ fn an_absorbed_term_is_measured_on_the_baselines_own_rows() {
         &HUSKY,
         &rows,
         &[EffectId::MotorHeating],
-        super::calibration::Calibration::Rows(&cal),
+        super::calibration::Calibration::rows(&cal),
     )
     .expect("fits");
     assert_eq!(model.heating_tau_s, 60.0, "{model:?}");

@@ -20,13 +20,27 @@ use crate::diagnose::adequacy;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::observe;
 use model_core::Rover;
+use serde::Serialize;
 use std::cell::RefCell;
+
+/// Which members the family chooses from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Members {
+    /// The copper-free members, and the copper-loss ones by escalation when they all misfit
+    /// the calibration ([`choose_uncached`]).
+    #[default]
+    Escalating,
+    /// The copper-loss members only: what the diagnosed runs may show past what the
+    /// calibration manoeuvres can (`diagnose`'s copper-loss check on the test runs).
+    CopperLoss,
+}
 
 /// Fractions of generated power a regenerating driver returns (η² for η ≈ 0.55–0.95).
 const RETURNED_GRID: [f64; 4] = [0.3, 0.5, 0.7, 0.85];
 
 /// The family in parsimony order (fewest parameters first; ties: listed order).
-fn members() -> Vec<Vec<Structure>> {
+fn copper_free() -> Vec<Vec<Structure>> {
     let regen = [Structure::PLAIN];
     let clamp = [Structure {
         split: Split::Returning { fraction: 0.0 },
@@ -50,10 +64,10 @@ fn members() -> Vec<Vec<Structure>> {
     out
 }
 
-/// The family's members with copper loss added: tried only when every member of [`members`]
-/// misfits its calibration (see [`choose_uncached`]).
+/// The family's members with copper loss added: tried only when every member of [`copper_free`]
+/// misfits its calibration (see [`choose_uncached`]), or when [`Members::CopperLoss`] asks.
 fn copper_members() -> Vec<Vec<Structure>> {
-    members()
+    copper_free()
         .into_iter()
         .map(|m| {
             m.into_iter()
@@ -113,8 +127,12 @@ fn cv_errors(
 
 /// Chooses the member (see the module docs) and refits it on all `calibration` rows. With fewer
 /// than 2 calibration runs there is nothing to cross-validate: the plain member.
-pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
-    let key = key_of(rover, calibration);
+pub fn choose(
+    rover: &Rover,
+    calibration: &[&TurnRow],
+    members: Members,
+) -> Result<Baseline, BaselineError> {
+    let key = key_of(rover, calibration, members);
     let memo = CHOSEN.with(|c| c.borrow().iter().find(|(k, _)| *k == key).map(|(_, v)| *v));
     if let Some((structure, cv_rmse_w, turn_slip)) = memo {
         let mut b = Baseline::fit_member(rover, calibration, structure)?;
@@ -122,7 +140,7 @@ pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, Basel
         b.turn_slip = turn_slip;
         return Ok(b);
     }
-    let b = choose_uncached(rover, calibration)?;
+    let b = choose_uncached(rover, calibration, members)?;
     CHOSEN.with(|c| {
         let mut c = c.borrow_mut();
         if c.len() >= MEMO_CAPACITY {
@@ -136,7 +154,7 @@ pub fn choose(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, Basel
 /// Identity of a calibration set: rover and each row's run, manoeuvre and measured powers.
 type Key = Vec<[u64; 4]>;
 
-fn key_of(rover: &Rover, calibration: &[&TurnRow]) -> Key {
+fn key_of(rover: &Rover, calibration: &[&TurnRow], members: Members) -> Key {
     // The measured slip track decides the turn slip too (`explained_by_slip_track`).
     let measured = calibration
         .iter()
@@ -146,7 +164,7 @@ fn key_of(rover: &Rover, calibration: &[&TurnRow]) -> Key {
         u64::from(rover.slip_track_m.to_bits()),
         u64::from(rover.track_width_m.to_bits()),
         measured,
-        0,
+        members as u64,
     ]];
     key.extend(calibration.iter().map(|r| {
         [
@@ -172,7 +190,11 @@ thread_local! {
     static CHOSEN: RefCell<Vec<(Key, Choice)>> = const { RefCell::new(Vec::new()) };
 }
 
-fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
+fn choose_uncached(
+    rover: &Rover,
+    calibration: &[&TurnRow],
+    members: Members,
+) -> Result<Baseline, BaselineError> {
     // Pitched manoeuvres take part: each fit carries the calibration's slope as a nuisance
     // (`Baseline::calibration_grade_n`), so a calibration on undulating ground still chooses.
     let mut runs: Vec<usize> = calibration.iter().map(|r| r.run_index).collect();
@@ -189,7 +211,11 @@ fn choose_uncached(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, 
     let turn_slip = constant_turn_slip(&level)
         .filter(|&s| !explained_by_slip_track(rover, &level, s))
         .unwrap_or(0.0);
-    let Some(plain) = pick(rover, calibration, &runs, members(), turn_slip)? else {
+    if members == Members::CopperLoss {
+        return pick(rover, calibration, &runs, copper_members(), turn_slip)?
+            .map_or_else(|| Baseline::fit_plain(rover, calibration), Ok);
+    }
+    let Some(plain) = pick(rover, calibration, &runs, copper_free(), turn_slip)? else {
         return Baseline::fit_plain(rover, calibration);
     };
     if misfits(&plain, calibration) {

@@ -316,7 +316,7 @@ fn diagnose_rows(
     cal_rows: &[TurnRow],
     rows: &[TurnRow],
 ) -> Result<Diagnosis, DiagnoseError> {
-    crate::diagnose::diagnose_with(rover, rows, Calibration::Rows(cal_rows))
+    crate::diagnose::diagnose_with(rover, rows, Calibration::rows(cal_rows))
 }
 
 /// Simulates and diagnoses one dataset as the bench does, for reading the diagnosis whole
@@ -415,7 +415,7 @@ pub fn time_one_hour_log(spec: &DatasetSpec) -> Result<LongLogTiming, DatasetErr
     let rows = rows_for(&rover, &samples, "run", None)?;
     let validate_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    crate::diagnose::diagnose_with(&rover, &rows, Calibration::Rows(&cal_rows))?;
+    crate::diagnose::diagnose_with(&rover, &rows, Calibration::rows(&cal_rows))?;
     Ok(LongLogTiming {
         run_s: run.duration_s(),
         samples: samples[0].len(),

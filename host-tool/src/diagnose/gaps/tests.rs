@@ -61,7 +61,7 @@ fn analyse_world(world: &WorldConfig, scenario: &Scenario, runs: u64) -> WhereAn
     let rows = rows_of(&runs);
     let cal: Vec<&TurnRow> = rows.iter().filter(|r| r.calibration_kind).collect();
     let b = Baseline::fit(&HUSKY, &cal).expect("fits");
-    analyse(&b, &rows, &RowVerdicts::of(&rows, Calibration::FromRuns))
+    analyse(&b, &rows, &RowVerdicts::of(&rows, Calibration::FROM_RUNS))
 }
 
 /// The effective-power groups of `d.where_` equal `d.gaps` (one rule, one computation).

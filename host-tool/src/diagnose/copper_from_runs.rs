@@ -1,0 +1,128 @@
+//! Copper loss the calibration manoeuvres cannot show, decided by the diagnosed runs.
+//!
+//! Copper loss (∝ torque², thesis Eq 1.17–1.19) shows most where a side carries a large force at
+//! a low speed: the inner side between B/2 and R′, which no calibration manoeuvre (straights,
+//! point turns, R ≥ 2R′) drives. There a and G absorb it on the calibration manoeuvres, the
+//! no-regeneration clamp mimics it at 2R′–3R′, and the baseline family takes copper loss only by
+//! escalation ([`family`](super::baseline::family)): on the diagnosed turns it then reads as an
+//! inner-side gap that `inner-drag`, `braked-inner` or `motor-heating` compete for, and the
+//! verdict is `ambiguous` or `baseline-misfit`.
+//!
+//! The diagnosed runs can decide it out of sample: the copper-loss member, fitted on the same
+//! calibration manoeuvres only, must predict the held-out diagnosed rows better than the chosen
+//! member ([`COPPER_ERROR_RATIO`]) **and** better than the chosen member plus any single
+//! catalogue effect. Then copper loss is a structure of the rover, not a shape that happens to
+//! fit one effect's gap, and the diagnosis is redone against it. Asked only when the first
+//! diagnosis names no effect; its answer is kept only when it is `none`, `ambiguous` or an
+//! effect that is the held-out selection's clear kind of winner (closes at least
+//! [`cv::MIN_SHRINK_PCT`] of the held-out error), never a `baseline-misfit`.
+
+use super::baseline::family::Members;
+use super::calibration::Calibration;
+use super::cv;
+use super::features::TurnRow;
+use super::Diagnosis;
+use crate::effect_id::EffectId;
+use model_core::Rover;
+use serde::Serialize;
+
+/// The copper-loss member's held-out RMS must be below this share of the chosen member's.
+pub const COPPER_ERROR_RATIO: f64 = 0.95;
+
+/// Why the diagnosis was redone with copper loss in the baseline: held-out RMS over all
+/// diagnosed rows under the diagnosis' scheme [W].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CopperEvidence {
+    /// The member the calibration chose (copper-free).
+    pub chosen_member_error_w: f64,
+    /// The copper-loss member, fitted on the same calibration manoeuvres.
+    pub copper_member_error_w: f64,
+    /// The best single effect on top of the chosen member.
+    pub best_effect: EffectId,
+    /// Its held-out RMS [W].
+    pub best_effect_error_w: f64,
+}
+
+impl CopperEvidence {
+    /// One line for the report.
+    pub fn describe(&self) -> String {
+        format!(
+            "copper loss taken from the diagnosed runs: the copper-loss member, fitted on the \
+             same calibration manoeuvres, predicts the held-out rows with {:.2} W RMS against \
+             {:.2} W for the copper-free member the calibration chose and {:.2} W for it plus \
+             the best single effect ({}); the calibration manoeuvres cannot show it (they never \
+             drive a side slowly against a large force, as the inner side between B/2 and R′ is)",
+            self.copper_member_error_w,
+            self.chosen_member_error_w,
+            self.best_effect_error_w,
+            self.best_effect.id(),
+        )
+    }
+}
+
+/// `first`, or the diagnosis against the copper-loss member when the diagnosed runs show copper
+/// loss (see the module docs). `diagnose_against` diagnoses with a given calibration.
+pub(super) fn reconsider(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    first: Diagnosis,
+    diagnose_against: impl Fn(Calibration<'_>) -> Result<Diagnosis, super::DiagnoseError>,
+) -> Result<Diagnosis, super::DiagnoseError> {
+    if first.effect.effect().is_some()
+        || first.baseline.structure.copper_loss
+        || calibration.members == Members::CopperLoss
+    {
+        return Ok(first);
+    }
+    let Some(evidence) = evidence(rover, rows, calibration, &first) else {
+        return Ok(first);
+    };
+    // A fit that fails with copper loss (e.g. c < 0) leaves the first diagnosis standing.
+    let Ok(mut second) = diagnose_against(calibration.with_members(Members::CopperLoss)) else {
+        return Ok(first);
+    };
+    let keep = match second.effect.effect() {
+        Some(e) => second
+            .candidates
+            .iter()
+            .any(|c| c.effect == e && c.shrink_pct >= cv::MIN_SHRINK_PCT),
+        None => second.effect != super::Verdict::BaselineMisfit,
+    };
+    if !keep {
+        return Ok(first);
+    }
+    second.copper_from_runs = Some(evidence);
+    Ok(second)
+}
+
+/// The held-out comparison of the module docs, when the copper-loss member wins it.
+fn evidence(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+    first: &Diagnosis,
+) -> Option<CopperEvidence> {
+    let best = first
+        .candidates
+        .iter()
+        .min_by(|a, b| a.heldout_error_after.total_cmp(&b.heldout_error_after))?;
+    let copper = calibration.with_members(Members::CopperLoss);
+    if !copper.baseline(rover, rows).ok()?.structure.copper_loss {
+        return None;
+    }
+    let rms = |calibration: Calibration<'_>| {
+        let res = cv::heldout_residuals(rover, rows, first.scheme, &[], calibration).ok()??;
+        cv::mean_square(&res, |_| true).map(f64::sqrt)
+    };
+    let chosen = rms(calibration)?;
+    let with_copper = rms(copper)?;
+    (with_copper < COPPER_ERROR_RATIO * chosen && with_copper < best.heldout_error_after).then_some(
+        CopperEvidence {
+            chosen_member_error_w: chosen,
+            copper_member_error_w: with_copper,
+            best_effect: best.effect,
+            best_effect_error_w: best.heldout_error_after,
+        },
+    )
+}
