@@ -272,6 +272,11 @@ pub(crate) fn diagnose_against(
         {
             Some(EffectId::AngularSlip)
         }
+        None if select::turns_measured_faster(rows, &baseline)
+            && select::measured_fast_turns_help(&candidates) =>
+        {
+            Some(EffectId::SlipTrack)
+        }
         None => match select::clear_in_total(&candidates) {
             Some(e) => Some(e),
             None if !significant_gaps.regimes.is_empty() => {

@@ -162,6 +162,47 @@ pub(super) fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline
     })
 }
 
+/// Whether the yaw shows every turn faster than commanded: in each turn regime with turns
+/// timed by yaw (at least two regimes) the measured angular slip beyond the terrain's constant
+/// slip (`baseline.turn_slip`) has its 95 % t interval below 0 and a mean of at most
+/// −[`MIN_SLIP_EXCESS`]. No slip does that: the yaw rate ω = (V_o − V_i)/B_s exceeds the
+/// command only when the terrain's slip track is narrower than the controller's (Eq 2.2,
+/// Table D.1's soft terrain), which is `slip-track`; `angular-slip` only slows the turns.
+pub(super) fn turns_measured_faster(rows: &[TurnRow], baseline: &Baseline) -> bool {
+    let mut faster = 0;
+    for regime in Regime::ALL {
+        let excess: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
+            .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
+            .collect();
+        let Some((mean, _, hi)) = cv::t_interval(&excess) else {
+            continue;
+        };
+        if !(hi < 0.0 && mean <= -MIN_SLIP_EXCESS) {
+            return false;
+        }
+        faster += 1;
+    }
+    faster >= 2
+}
+
+/// With every turn measured faster than commanded ([`turns_measured_faster`]), `slip-track`
+/// needs no clear margin over the other turn-time term, whose power signature it shares: it
+/// is named when it closes [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats it
+/// clearly (penalised error within [`cv::CLEAR_MARGIN`] of the best). The yaw decides the near
+/// tie, as it does for `angular-slip` ([`measured_slip_helps`]).
+pub(super) fn measured_fast_turns_help(candidates: &[CandidateScore]) -> bool {
+    let Some(best) = candidates.first() else {
+        return false;
+    };
+    candidates.iter().any(|c| {
+        c.effect == EffectId::SlipTrack
+            && c.shrink_pct >= cv::MIN_SHRINK_PCT
+            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
+    })
+}
+
 /// With the angular slip seen in the yaw, `angular-slip` needs no clear margin over the other
 /// turn-gain terms (they share its power signature: `slip-track` scales every turn's power):
 /// it is named when it closes [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats

@@ -510,6 +510,30 @@ fn copper_loss_the_runs_show_is_taken_into_the_baseline() {
     );
 }
 
+/// Tuning dataset 44 of bench seed 12, a Husky on a terrain whose slip track is narrower than
+/// the controller's (threshold split, motor losses): every turn is faster than commanded. On
+/// power alone `slip-track` (70 %) and `angular-slip` (68 %) tie, as they share the signature
+/// of a turn's time; the yaw decides it, since no angular slip makes a turn faster. Before,
+/// `ambiguous`.
+#[test]
+fn turns_measured_faster_than_commanded_decide_for_slip_track() {
+    let d = diagnosed(
+        Part::Tuning,
+        12,
+        44,
+        DatasetClass::Effect(EffectId::SlipTrack),
+    );
+    let [best, runner_up] = [&d.candidates[0], &d.candidates[1]];
+    let mut top = [best.effect, runner_up.effect];
+    top.sort_by_key(|e| e.id());
+    assert_eq!(top, [EffectId::AngularSlip, EffectId::SlipTrack]);
+    assert!(runner_up.penalised_mse < crate::diagnose::cv::CLEAR_MARGIN * best.penalised_mse);
+    assert_eq!(
+        d.effect,
+        crate::diagnose::Verdict::Effect(EffectId::SlipTrack)
+    );
+}
+
 /// Held-out dataset 29 of bench seed 2, an Argo with a threshold split and a constant slip and
 /// no effect: the only significant gaps are on the straights (−6.4 W a side), where
 /// `sinkage-bulldozing` does not act. It explained the turns' spread out of sample and was
