@@ -272,6 +272,9 @@ pub(crate) fn diagnose_against(
         {
             Some(EffectId::AngularSlip)
         }
+        None if select::pitch_measured(rows) && select::measured_pitch_helps(&candidates) => {
+            Some(EffectId::Slope)
+        }
         None if select::turns_measured_faster(rows, &baseline)
             && select::measured_fast_turns_help(&candidates) =>
         {

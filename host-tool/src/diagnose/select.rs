@@ -5,7 +5,7 @@
 
 use super::effects::{self, Context, HEATING_TAU_GRID_S};
 use super::{
-    calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
+    adequacy, calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
     DiagnoseError, FittedModel, Gap, Part, StepwiseStep,
 };
 use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
@@ -201,6 +201,29 @@ pub(super) fn measured_fast_turns_help(candidates: &[CandidateScore]) -> bool {
             && c.shrink_pct >= cv::MIN_SHRINK_PCT
             && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
     })
+}
+
+/// Fewest diagnosed manoeuvres off level ground ([`adequacy::is_level`]) for the runs to count as
+/// driven on a slope.
+const MIN_PITCHED_MANOEUVRES: usize = 2;
+
+/// Whether the runs were measurably driven on a slope: at least [`MIN_PITCHED_MANOEUVRES`] of
+/// the manoeuvres have a mean pitch beyond [`adequacy::LEVEL_PITCH_DEG`].
+pub(super) fn pitch_measured(rows: &[TurnRow]) -> bool {
+    rows.iter().filter(|r| !adequacy::is_level(r)).count() >= MIN_PITCHED_MANOEUVRES
+}
+
+/// With the pitch measured ([`pitch_measured`]), `slope` needs neither a clear margin nor
+/// [`cv::MIN_SHRINK_PCT`]: the grade's power, Φ m g v sin θ per track (Eq 1.16), is physics on
+/// a measured regressor, so the question is only whether it is the best explanation. It is
+/// named when it is the best candidate and closes part of the held-out error (the practical
+/// floor of removed RMS is still asked, [`explained_spread`](super::explained_spread)). Motor
+/// losses and the no-regeneration clamp make the grade's electrical power asymmetric (a climb
+/// costs 1/η, a descent returns η or nothing), so the linear term closes only part of it.
+pub(super) fn measured_pitch_helps(candidates: &[CandidateScore]) -> bool {
+    candidates
+        .first()
+        .is_some_and(|best| best.effect == EffectId::Slope && best.shrink_pct > 0.0)
 }
 
 /// With the angular slip seen in the yaw, `angular-slip` needs no clear margin over the other

@@ -534,6 +534,23 @@ fn turns_measured_faster_than_commanded_decide_for_slip_track() {
     );
 }
 
+/// Tuning dataset 48 of bench seed 11, an Argo on undulating ground whose motors have losses:
+/// efficiency makes a climb cost more than a descent returns, so the linear grade term closes
+/// only 22 % and no candidate clears the 30 % bar. The pitch is measured, and the grade's power
+/// is physics on it: `slope`, the best candidate, is named. Before, `ambiguous`.
+#[test]
+fn a_measured_pitch_names_slope_when_it_is_the_best_candidate() {
+    let d = diagnosed(Part::Tuning, 11, 48, DatasetClass::Effect(EffectId::Slope));
+    let best = &d.candidates[0];
+    assert_eq!(best.effect, EffectId::Slope);
+    assert!(
+        (0.0..crate::diagnose::cv::MIN_SHRINK_PCT).contains(&best.shrink_pct),
+        "{}",
+        best.shrink_pct
+    );
+    assert_eq!(d.effect, crate::diagnose::Verdict::Effect(EffectId::Slope));
+}
+
 /// Held-out dataset 29 of bench seed 2, an Argo with a threshold split and a constant slip and
 /// no effect: the only significant gaps are on the straights (−6.4 W a side), where
 /// `sinkage-bulldozing` does not act. It explained the turns' spread out of sample and was
