@@ -14,8 +14,10 @@
 //! catalogue effect. Then copper loss is a structure of the rover, not a shape that happens to
 //! fit one effect's gap, and the diagnosis is redone against it. Asked only when the first
 //! diagnosis names no effect; its answer is kept only when it is `none`, `ambiguous` or an
-//! effect that is the held-out selection's clear kind of winner (closes at least
-//! [`cv::MIN_SHRINK_PCT`] of the held-out error), never a `baseline-misfit`.
+//! effect that closes at least [`cv::MIN_SHRINK_PCT`] of the held-out error and is not the
+//! single effect copper loss beat (the two share a signature at the slow inner side, and what
+//! that effect closes against the copper member is the member's own error there); never a
+//! `baseline-misfit`.
 
 use super::baseline::family::Members;
 use super::calibration::Calibration;
@@ -83,6 +85,9 @@ pub(super) fn reconsider(
         return Ok(first);
     };
     let keep = match second.effect.effect() {
+        // The effect copper loss beat as the explanation of the runs shares its signature: what
+        // it closes against the copper member is the member's own error, not the effect.
+        Some(e) if e == evidence.best_effect => false,
         Some(e) => second
             .candidates
             .iter()
