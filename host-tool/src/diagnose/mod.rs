@@ -706,6 +706,17 @@ pub fn extra_power_w(
 }
 
 impl Diagnosis {
+    /// `calibration` (the diagnosis' input) with the baseline family members this diagnosis'
+    /// baseline came from: the copper-loss members when the diagnosed runs decided copper loss
+    /// ([`copper_from_runs`]). What its figures and model file must be fitted with.
+    pub fn fitted_with<'a>(&self, calibration: Calibration<'a>) -> Calibration<'a> {
+        if self.copper_from_runs.is_some() {
+            calibration.with_members(baseline::family::Members::CopperLoss)
+        } else {
+            calibration
+        }
+    }
+
     /// The effects of the diagnosed model: the named one, then its stepwise secondaries; empty
     /// for `none` and `ambiguous`.
     pub fn model_effects(&self) -> Vec<EffectId> {

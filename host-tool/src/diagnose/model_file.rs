@@ -273,6 +273,7 @@ pub fn energy_model(
 ) -> Result<EnergyModel, ModelFileError> {
     let at = Conditions::of(rows)?;
     let effects = diagnosis.model_effects();
+    let calibration = diagnosis.fitted_with(calibration);
     let (baseline, model) = fit_model(rover, rows, &effects, calibration)?;
     // No table beyond the widest diagnosed turn (R/R′ = 0 if there is none).
     let widest = rows

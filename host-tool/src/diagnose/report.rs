@@ -611,6 +611,7 @@ pub fn write_out_dir(
     rows: &[TurnRow],
     calibration: Calibration<'_>,
 ) -> Result<Vec<PathBuf>, ReportError> {
+    let calibration = d.fitted_with(calibration);
     std::fs::create_dir_all(dir).map_err(|source| ReportError::Dir {
         path: dir.to_owned(),
         source,

@@ -489,13 +489,31 @@ fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
 /// `inner-drag` closed a third of: `baseline-misfit`. The copper-loss member, fitted on the
 /// same calibration manoeuvres, predicts the diagnosed runs far better than the clamp with any
 /// single effect; against it the gap is at R′ on the outer side, and `braked-inner` is named.
+/// The report's figures and model file refit the baseline the diagnosis used
+/// (`Diagnosis::fitted_with`), not the copper-free one the calibration chose.
 #[test]
 fn copper_loss_the_runs_show_is_taken_into_the_baseline() {
-    let d = diagnosed(
-        Part::Tuning,
-        1,
-        25,
-        DatasetClass::Effect(EffectId::BrakedInner),
+    let spec = generate(Part::Tuning, 100, 1).swap_remove(25);
+    assert_eq!(spec.class, DatasetClass::Effect(EffectId::BrakedInner));
+    let rover = spec.rover.rover();
+    let (cal_rows, rows) = super::simulate(&spec)
+        .expect("simulates")
+        .rows(&rover, None)
+        .expect("rows");
+    let calibration = crate::diagnose::calibration::Calibration::rows(&cal_rows);
+    let d = crate::diagnose::diagnose_with(&rover, &rows, calibration).expect("diagnoses");
+    let refitted = d
+        .fitted_with(calibration)
+        .baseline(&rover, &rows)
+        .expect("fits");
+    assert_eq!(refitted.structure, d.baseline.structure);
+    assert_eq!(refitted.copper_w_per_n2, d.baseline.copper_w_per_n2);
+    assert!(
+        !calibration
+            .baseline(&rover, &rows)
+            .expect("fits")
+            .structure
+            .copper_loss
     );
     let evidence = d.copper_from_runs.expect("copper loss from the runs");
     assert!(d.baseline.structure.copper_loss);
