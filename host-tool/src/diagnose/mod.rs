@@ -268,7 +268,7 @@ pub(crate) fn diagnose_against(
             Some(EffectId::CurrentOffset)
         }
         None if select::slip_measured_beyond_terrain(rows, &baseline)
-            && select::measured_slip_helps(&candidates) =>
+            && select::wins_the_near_tie(&candidates, EffectId::AngularSlip) =>
         {
             Some(EffectId::AngularSlip)
         }
@@ -276,7 +276,7 @@ pub(crate) fn diagnose_against(
             Some(EffectId::Slope)
         }
         None if select::turns_measured_faster(rows, &baseline)
-            && select::measured_fast_turns_help(&candidates) =>
+            && select::wins_the_near_tie(&candidates, EffectId::SlipTrack) =>
         {
             Some(EffectId::SlipTrack)
         }

@@ -187,22 +187,6 @@ pub(super) fn turns_measured_faster(rows: &[TurnRow], baseline: &Baseline) -> bo
     faster >= 2
 }
 
-/// With every turn measured faster than commanded ([`turns_measured_faster`]), `slip-track`
-/// needs no clear margin over the other turn-time term, whose power signature it shares: it
-/// is named when it closes [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats it
-/// clearly (penalised error within [`cv::CLEAR_MARGIN`] of the best). The yaw decides the near
-/// tie, as it does for `angular-slip` ([`measured_slip_helps`]).
-pub(super) fn measured_fast_turns_help(candidates: &[CandidateScore]) -> bool {
-    let Some(best) = candidates.first() else {
-        return false;
-    };
-    candidates.iter().any(|c| {
-        c.effect == EffectId::SlipTrack
-            && c.shrink_pct >= cv::MIN_SHRINK_PCT
-            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
-    })
-}
-
 /// Fewest diagnosed manoeuvres off level ground ([`adequacy::is_level`]) for the runs to count as
 /// driven on a slope.
 const MIN_PITCHED_MANOEUVRES: usize = 2;
@@ -226,17 +210,20 @@ pub(super) fn measured_pitch_helps(candidates: &[CandidateScore]) -> bool {
         .is_some_and(|best| best.effect == EffectId::Slope && best.shrink_pct > 0.0)
 }
 
-/// With the angular slip seen in the yaw, `angular-slip` needs no clear margin over the other
-/// turn-gain terms (they share its power signature: `slip-track` scales every turn's power):
-/// it is named when it closes [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats
-/// it clearly (penalised error within [`cv::CLEAR_MARGIN`] of the best). The yaw decides the
-/// near tie, as the standstill current does for `current-offset`.
-pub(super) fn measured_slip_helps(candidates: &[CandidateScore]) -> bool {
+/// Whether `effect` wins a near tie that a direct measurement decides: it closes
+/// [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats it clearly (penalised
+/// error within [`cv::CLEAR_MARGIN`] of the best). For the two terms that lengthen the turn and
+/// share its power signature (`slip-track` scales every turn's power): the yaw decides, turns
+/// slower than the terrain's slip rising to R′ for `angular-slip`
+/// ([`slip_measured_beyond_terrain`]), every turn faster than commanded for `slip-track`
+/// ([`turns_measured_faster`]), as the standstill current does for `current-offset`
+/// ([`measured_offset_helps`]).
+pub(super) fn wins_the_near_tie(candidates: &[CandidateScore], effect: EffectId) -> bool {
     let Some(best) = candidates.first() else {
         return false;
     };
     candidates.iter().any(|c| {
-        c.effect == EffectId::AngularSlip
+        c.effect == effect
             && c.shrink_pct >= cv::MIN_SHRINK_PCT
             && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
     })

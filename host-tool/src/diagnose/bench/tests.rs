@@ -450,13 +450,7 @@ fn a_term_fitted_against_its_physics_is_not_named() {
 /// chosen member with any single effect, and the diagnosis against it names nothing either.
 #[test]
 fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
-    let spec = generate(Part::Tuning, 100, 1).swap_remove(69);
-    assert_eq!(spec.class, DatasetClass::StructureOnly);
-    let rover = spec.rover.rover();
-    let (cal_rows, rows) = super::simulate(&spec)
-        .expect("simulates")
-        .rows(&rover, None)
-        .expect("rows");
+    let (rover, cal_rows, rows) = dataset_rows(Part::Tuning, 1, 69, DatasetClass::StructureOnly);
     let calibration = crate::diagnose::calibration::Calibration::rows(&cal_rows);
     let d = crate::diagnose::diagnose_against(&rover, &rows, calibration).expect("diagnoses");
     let inner_gap = |regime: Regime| {
@@ -493,13 +487,8 @@ fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
 /// (`Diagnosis::fitted_with`), not the copper-free one the calibration chose.
 #[test]
 fn copper_loss_the_runs_show_is_taken_into_the_baseline() {
-    let spec = generate(Part::Tuning, 100, 1).swap_remove(25);
-    assert_eq!(spec.class, DatasetClass::Effect(EffectId::BrakedInner));
-    let rover = spec.rover.rover();
-    let (cal_rows, rows) = super::simulate(&spec)
-        .expect("simulates")
-        .rows(&rover, None)
-        .expect("rows");
+    let class = DatasetClass::Effect(EffectId::BrakedInner);
+    let (rover, cal_rows, rows) = dataset_rows(Part::Tuning, 1, 25, class);
     let calibration = crate::diagnose::calibration::Calibration::rows(&cal_rows);
     let d = crate::diagnose::diagnose_with(&rover, &rows, calibration).expect("diagnoses");
     let refitted = d
@@ -618,6 +607,28 @@ fn an_effect_of_every_manoeuvre_is_not_named_on_a_gap_in_one_regime() {
 
 /// The diagnosis of dataset `index` of bench seed `seed`'s `part` (100 datasets), checked to be
 /// of class `class`.
+/// The rover, calibration rows and diagnosed rows of one bench dataset, for diagnosing it
+/// other than the bench does.
+fn dataset_rows(
+    part: Part,
+    seed: u64,
+    index: usize,
+    class: DatasetClass,
+) -> (
+    model_core::Rover,
+    Vec<crate::diagnose::features::TurnRow>,
+    Vec<crate::diagnose::features::TurnRow>,
+) {
+    let spec = generate(part, 100, seed).swap_remove(index);
+    assert_eq!(spec.class, class);
+    let rover = spec.rover.rover();
+    let (cal_rows, rows) = super::simulate(&spec)
+        .expect("simulates")
+        .rows(&rover, None)
+        .expect("rows");
+    (rover, cal_rows, rows)
+}
+
 fn diagnosed(
     part: Part,
     seed: u64,
