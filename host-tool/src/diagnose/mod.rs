@@ -5,7 +5,8 @@
 //! Pipeline: [`features::rows`] (per-turn inner/outer rows from `validate`) →
 //! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → gaps per regime and side
 //! with bootstrap significance ([`cv::bootstrap_mean`]) → every [`effects`] term scored by
-//! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection.
+//! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection ([`select`]) → the
+//! same against copper loss when the diagnosed runs show it ([`copper_from_runs`]).
 
 pub mod adequacy;
 pub mod baseline;
@@ -202,7 +203,9 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
 }
 
 /// Diagnoses `rows` with the baseline fitted as `calibration` says (e.g. on the calibration
-/// manoeuvres of separate calibration runs, which are then not scored).
+/// manoeuvres of separate calibration runs, which are then not scored), and again against the
+/// copper-loss members when the diagnosed runs show copper loss the calibration cannot
+/// ([`copper_from_runs`]).
 pub fn diagnose_with(
     rover: &Rover,
     rows: &[TurnRow],
