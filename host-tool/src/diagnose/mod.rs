@@ -5,7 +5,7 @@
 //! Pipeline: [`features::rows`] (per-turn inner/outer rows from `validate`) →
 //! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → gaps per regime and side
 //! with bootstrap significance ([`cv::bootstrap_mean`]) → every [`effects`] term scored by
-//! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection ([`select`]) → the
+//! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection (`select.rs`) → the
 //! same against copper loss when the diagnosed runs show it ([`copper_from_runs`]).
 
 pub mod adequacy;
