@@ -89,9 +89,9 @@ fn regime_means(
     Series::new(name, points, SeriesStyle::Points, colour).with_intervals(intervals)
 }
 
-/// The gaps of one side (the baseline's mean effective-power residual per regime, with its 95 %
-/// interval).
-fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole) -> Series {
+/// The gaps of one side (the mean effective-power residual per regime of the `baseline` so
+/// named, with its 95 % interval).
+fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole, baseline: &str) -> Series {
     let part = part_of(role);
     let groups = gaps
         .iter()
@@ -100,15 +100,16 @@ fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole) -> Series {
     // Between the before (−DODGE) and after (+DODGE) points.
     regime_means(
         rows,
-        "regime mean gap, 95 % CI (hard-ground)",
+        &format!("regime mean gap, 95 % CI ({baseline})"),
         groups,
         2,
         0.0,
     )
 }
 
-/// Held-out effective-power residual of every turn against R/R′, before (the baseline) and
-/// after adding `effect`, inner and outer side in two panels; before and after are drawn
+/// Held-out effective-power residual of every turn against R/R′, before (the baseline, named
+/// `baseline` in the legend) and after adding `effect`, inner and outer side in two panels;
+/// before and after are drawn
 /// [`DODGE`] left and right of the turn's R/R′, and the `gaps` (per regime and side, the
 /// diagnosis' bootstrap 95 % intervals) as bars at their regime's mean R/R′. Straights
 /// (R/R′ = ∞) are not drawn.
@@ -117,6 +118,7 @@ pub fn residuals_vs_radius(
     rows: &[TurnRow],
     before: &HeldOut,
     after: &HeldOut,
+    baseline: &str,
     effect: &str,
     gaps: &[Gap],
 ) -> Figure {
@@ -136,7 +138,7 @@ pub fn residuals_vs_radius(
                     .collect::<Vec<_>>()
             };
             chart.series.push(Series::new(
-                "hard-ground model",
+                baseline,
                 points(before, -DODGE),
                 SeriesStyle::Points,
                 1,
@@ -147,7 +149,7 @@ pub fn residuals_vs_radius(
                 SeriesStyle::Points,
                 0,
             ));
-            chart.series.push(gap_series(rows, gaps, role));
+            chart.series.push(gap_series(rows, gaps, role, baseline));
             chart.series.push(zero_line(rows, ""));
             chart.markers = regime_markers(rover);
             chart.place_legend();

@@ -639,6 +639,12 @@ pub fn write_out_dir(
             .map(|e| e.id())
             .collect::<Vec<_>>()
             .join(" + ");
+        // The figure names the baseline the residuals are against.
+        let baseline = if d.baseline.structure.copper_loss {
+            "hard-ground model + copper loss"
+        } else {
+            "hard-ground model"
+        };
         let before = cv::heldout_residuals(rover, rows, d.scheme, &[], calibration)?
             .ok_or(ReportError::NothingToHoldOut)?;
         let after = cv::heldout_residuals(rover, rows, d.scheme, &effects, calibration)?
@@ -650,7 +656,7 @@ pub fn write_out_dir(
                  bars: each regime's mean gap with its 95 % interval",
                 d.scheme.id()
             ),
-            &figures::residuals_vs_radius(rover, rows, &before, &after, &label, &d.gaps),
+            &figures::residuals_vs_radius(rover, rows, &before, &after, baseline, &label, &d.gaps),
         )?;
     }
     draw(
