@@ -116,12 +116,10 @@ fn evidence(
     if !copper.baseline(rover, rows).ok()?.structure.copper_loss {
         return None;
     }
-    let rms = |calibration: Calibration<'_>| {
-        let res = cv::heldout_residuals(rover, rows, first.scheme, &[], calibration).ok()??;
-        cv::mean_square(&res, |_| true).map(f64::sqrt)
-    };
-    let chosen = rms(calibration)?;
-    let with_copper = rms(copper)?;
+    // The chosen member's held-out RMS is every candidate's "before" in the first diagnosis.
+    let chosen = best.heldout_error_before;
+    let res = cv::heldout_residuals(rover, rows, first.scheme, &[], copper).ok()??;
+    let with_copper = cv::mean_square(&res, |_| true)?.sqrt();
     (with_copper < COPPER_ERROR_RATIO * chosen && with_copper < best.heldout_error_after).then_some(
         CopperEvidence {
             chosen_member_error_w: chosen,

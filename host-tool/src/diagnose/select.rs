@@ -138,12 +138,7 @@ const MIN_SLIP_EXCESS: f64 = 0.02;
 /// timed by yaw has its 95 % t interval above 0, is at least [`MIN_SLIP_EXCESS`], and exceeds
 /// the point turns' by that much. A slip track constant over the radii does not rise.
 pub(super) fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline) -> bool {
-    let excess = |regime: Regime| -> Vec<f64> {
-        rows.iter()
-            .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
-            .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
-            .collect()
-    };
+    let excess = |regime: Regime| excess_slips(rows, baseline, regime);
     let point = excess(Regime::Point);
     let point_mean = if point.is_empty() {
         0.0
@@ -162,6 +157,15 @@ pub(super) fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline
     })
 }
 
+/// The measured angular slip beyond the terrain's constant slip (`baseline.turn_slip`) of each
+/// turn of `regime` timed by yaw.
+fn excess_slips(rows: &[TurnRow], baseline: &Baseline, regime: Regime) -> Vec<f64> {
+    rows.iter()
+        .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
+        .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
+        .collect()
+}
+
 /// Whether the yaw shows every turn faster than commanded: in each turn regime with turns
 /// timed by yaw (at least two regimes) the measured angular slip beyond the terrain's constant
 /// slip (`baseline.turn_slip`) has its 95 % t interval below 0 and a mean of at most
@@ -171,12 +175,7 @@ pub(super) fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline
 pub(super) fn turns_measured_faster(rows: &[TurnRow], baseline: &Baseline) -> bool {
     let mut faster = 0;
     for regime in Regime::ALL {
-        let excess: Vec<f64> = rows
-            .iter()
-            .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
-            .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
-            .collect();
-        let Some((mean, _, hi)) = cv::t_interval(&excess) else {
+        let Some((mean, _, hi)) = cv::t_interval(&excess_slips(rows, baseline, regime)) else {
             continue;
         };
         if !(hi < 0.0 && mean <= -MIN_SLIP_EXCESS) {
