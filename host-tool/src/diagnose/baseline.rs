@@ -260,7 +260,11 @@ fn solve(
             fit.add_row(&x[..k], observe::measured_avg_w(row, sides) - draw)?;
         }
     }
-    let solved = fit.solve()?;
+    // The seed's 95 % intervals, with the quantiles the diagnosis keeps (it fits thousands of
+    // baselines per dataset; each inversion is iterative).
+    let solved = fit.solve_with_t(model_core::fit::SEED_CONFIDENCE, |dof| {
+        Ok(super::cv::t_quantile_975(dof))
+    })?;
     let mut estimates = [(0.0, 0.0); 4];
     for (k, &j) in columns.iter().enumerate() {
         let e = solved.estimates[k];

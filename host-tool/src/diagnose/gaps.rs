@@ -529,39 +529,60 @@ const TREND_PERMUTATIONS: usize = 999;
 /// whatever a run's own level; with three runs a bootstrap over runs (10 distinct resamples)
 /// called a control's noise a trend.
 fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
-    // Each run's manoeuvres (row index) and their times.
+    // Each run's manoeuvres (as slots, one per row) and their times.
     let mut manoeuvres: BTreeMap<usize, Vec<(usize, f64)>> = BTreeMap::new();
+    let mut slot_of_row: BTreeMap<usize, usize> = BTreeMap::new();
     for t in timed {
+        let next = slot_of_row.len();
+        let slot = *slot_of_row.entry(t.row).or_insert(next);
         let list = manoeuvres.entry(t.run_index).or_default();
-        if !list.iter().any(|(row, _)| *row == t.row) {
-            list.push((t.row, t.t_mid_s.unwrap_or(0.0)));
+        if !list.iter().any(|(s, _)| *s == slot) {
+            list.push((slot, t.t_mid_s.unwrap_or(0.0)));
         }
     }
+    // Dense indices, so that a shuffle costs no map look-ups (999 of them per diagnosis).
+    let slots: Vec<usize> = timed.iter().map(|t| slot_of_row[&t.row]).collect();
+    let (groups, group_count) = group_ids(timed.iter().map(|t| (t.regime, t.part)));
+    let y: Vec<f64> = timed.iter().map(|t| t.effective_power_w).collect();
     let mut rng = SplitMix64::new(seed_of("run-time-trend"));
-    let mut time_of: BTreeMap<usize, f64> = BTreeMap::new();
-    let mut obs: Vec<TimedObs> = Vec::with_capacity(timed.len());
+    let mut time_of = vec![0.0; slot_of_row.len()];
+    let mut t: Vec<f64> = vec![0.0; timed.len()];
+    let mut times: Vec<f64> = Vec::new();
     let mut extreme = 0usize;
     for _ in 0..TREND_PERMUTATIONS {
-        time_of.clear();
         for list in manoeuvres.values() {
-            let mut times: Vec<f64> = list.iter().map(|m| m.1).collect();
+            times.clear();
+            times.extend(list.iter().map(|m| m.1));
             for i in (1..times.len()).rev() {
                 times.swap(i, rng.below(i + 1));
             }
-            time_of.extend(list.iter().map(|m| m.0).zip(times));
+            for (m, time) in list.iter().zip(&times) {
+                time_of[m.0] = *time;
+            }
         }
-        obs.clear();
-        obs.extend(
-            timed
-                .iter()
-                .map(|t| ((t.regime, t.part), time_of[&t.row], t.effective_power_w)),
-        );
+        for (ti, &slot) in t.iter_mut().zip(&slots) {
+            *ti = time_of[slot];
+        }
         // A shuffle that leaves no time spread within any group counts against the trend.
-        if slope_and_spread(&obs).is_none_or(|(s, _)| s.abs() >= observed.abs()) {
+        if grouped_slope_and_spread(&groups, group_count, &t, &y)
+            .is_none_or(|(s, _)| s.abs() >= observed.abs())
+        {
             extreme += 1;
         }
     }
     (extreme + 1) as f64 / (TREND_PERMUTATIONS + 1) as f64
+}
+
+/// Each key's group index (in order of first appearance) and the number of groups.
+fn group_ids<K: Ord>(keys: impl Iterator<Item = K>) -> (Vec<usize>, usize) {
+    let mut index: BTreeMap<K, usize> = BTreeMap::new();
+    let ids = keys
+        .map(|k| {
+            let next = index.len();
+            *index.entry(k).or_insert(next)
+        })
+        .collect();
+    (ids, index.len())
 }
 
 /// Within-(regime, side) slope of `y` on `t` [W/s]; `None` when the spread of t is too small.
@@ -573,21 +594,34 @@ fn within_slope(obs: &[TimedObs]) -> Option<f64> {
 /// Within-(regime, side) slope of `y` on `t` [W/s] and the RMS within-group spread of t [s];
 /// `None` when t does not vary within any group.
 fn slope_and_spread(obs: &[TimedObs]) -> Option<(f64, f64)> {
-    let mut sums: BTreeMap<(Regime, Part), (f64, f64, f64)> = BTreeMap::new();
-    for (k, t, y) in obs {
-        let e = sums.entry(*k).or_default();
-        e.0 += t;
-        e.1 += y;
+    let (groups, count) = group_ids(obs.iter().map(|o| o.0));
+    let t: Vec<f64> = obs.iter().map(|o| o.1).collect();
+    let y: Vec<f64> = obs.iter().map(|o| o.2).collect();
+    grouped_slope_and_spread(&groups, count, &t, &y)
+}
+
+/// [`slope_and_spread`] of observations `(groups[i], t[i], y[i])` with `group_count` groups.
+fn grouped_slope_and_spread(
+    groups: &[usize],
+    group_count: usize,
+    t: &[f64],
+    y: &[f64],
+) -> Option<(f64, f64)> {
+    let mut sums = vec![(0.0, 0.0, 0.0); group_count];
+    for ((&g, &ti), &yi) in groups.iter().zip(t).zip(y) {
+        let e = &mut sums[g];
+        e.0 += ti;
+        e.1 += yi;
         e.2 += 1.0;
     }
     let (mut stt, mut sty) = (0.0, 0.0);
-    for (k, t, y) in obs {
-        let (st, sy, n) = sums[k];
-        let (dt, dy) = (t - st / n, y - sy / n);
+    for ((&g, &ti), &yi) in groups.iter().zip(t).zip(y) {
+        let (st, sy, n) = sums[g];
+        let (dt, dy) = (ti - st / n, yi - sy / n);
         stt += dt * dt;
         sty += dt * dy;
     }
-    let spread = (stt / obs.len().max(1) as f64).sqrt();
+    let spread = (stt / groups.len().max(1) as f64).sqrt();
     (stt > 0.0).then(|| (sty / stt, spread))
 }
 

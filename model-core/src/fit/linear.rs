@@ -217,6 +217,19 @@ impl<const N: usize> LinearFit<N> {
         if !(confidence > 0.0 && confidence < 1.0) {
             return Err(FitError::InvalidParameter);
         }
+        self.solve_with_t(confidence, |dof| {
+            student_t_quantile(0.5 + confidence / 2.0, dof)
+        })
+    }
+
+    /// [`solve_with_confidence`](Self::solve_with_confidence) with the Student-t quantile of
+    /// `confidence` given for the residual degrees of freedom (0.5 + confidence / 2): a caller
+    /// that fits many times can keep the (iterative) quantiles it needs.
+    pub fn solve_with_t(
+        &self,
+        confidence: f64,
+        t_quantile: impl FnOnce(usize) -> Result<f64, FitError>,
+    ) -> Result<LinearFitResult<N>, FitError> {
         let k = self.k;
         if self.n <= k {
             return Err(FitError::TooFewSamples);
@@ -225,7 +238,7 @@ impl<const N: usize> LinearFit<N> {
         let b = self.back_substitute()?;
         let dof = self.n - k;
         let residual_standard_error = libm::sqrt(self.ssr / dof as f64);
-        let t = student_t_quantile(0.5 + confidence / 2.0, dof)?;
+        let t = t_quantile(dof)?;
         let mut estimates = [Estimate::default(); N];
         for (i, est) in estimates.iter_mut().enumerate().take(k) {
             // Cov(b) = s² (RᵀR)⁻¹ = s² R⁻¹ R⁻ᵀ: the variance of b_i is s² times the squared norm of

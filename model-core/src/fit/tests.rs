@@ -614,3 +614,31 @@ fn prediction_interval_is_t_s_sqrt_one_plus_leverage() {
     let got = r.prediction_interval_half_width([x0, 1.0]);
     assert!(close(got, want, 1e-9 * want), "{got} vs {want}");
 }
+
+#[test]
+fn a_given_t_quantile_gives_the_same_intervals_and_its_error_stops_the_fit() {
+    let mut fit = LinearFit::<2>::new();
+    for (x, y) in [(0.0, 1.1), (1.0, 2.9), (2.0, 5.2), (3.0, 6.8), (4.0, 9.1)] {
+        fit.add([1.0, x], y).expect("finite");
+    }
+    let solved = fit.solve().expect("well posed");
+    let mut asked = None;
+    let given = fit
+        .solve_with_t(SEED_CONFIDENCE, |dof| {
+            asked = Some(dof);
+            student_t_quantile(0.975, dof)
+        })
+        .expect("well posed");
+    assert_eq!(asked, Some(3), "the residual degrees of freedom, n − k");
+    assert_eq!(given, solved);
+    // A wider quantile widens the intervals around the same estimates.
+    let wide = fit
+        .solve_with_t(SEED_CONFIDENCE, |_| Ok(10.0))
+        .expect("well posed");
+    assert_eq!(wide.estimates[1].value, solved.estimates[1].value);
+    assert!(wide.estimates[1].upper > solved.estimates[1].upper);
+    assert_eq!(
+        fit.solve_with_t(SEED_CONFIDENCE, |_| Err(FitError::InvalidParameter)),
+        Err(FitError::InvalidParameter)
+    );
+}
