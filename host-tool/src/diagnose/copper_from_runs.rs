@@ -10,13 +10,15 @@
 //!
 //! The diagnosed runs can decide it out of sample: the copper-loss member, fitted on the same
 //! calibration manoeuvres only, must predict the held-out diagnosed rows better than the chosen
-//! member ([`COPPER_ERROR_RATIO`]) **and** better than the chosen member plus any single
-//! catalogue effect. Then copper loss is a structure of the rover, not a shape that happens to
-//! fit one effect's gap, and the diagnosis is redone against it. Asked only when the first
-//! diagnosis names no effect; its answer is kept only when it is `none`, `ambiguous` or an
-//! effect that closes at least [`cv::MIN_SHRINK_PCT`] of the held-out error and is not the
-//! single effect copper loss beat (the two share a signature at the slow inner side, and what
-//! that effect closes against the copper member is the member's own error there); never a
+//! member ([`COPPER_ERROR_RATIO`]) **and** either better than the chosen member plus any single
+//! catalogue effect (copper loss *instead of* the effect), or, together with the best single
+//! effect, better than the chosen member with that effect (copper loss *beside* it: a strong
+//! effect hidden under the copper misfit). Then copper loss is a structure of the rover, not a
+//! shape that happens to fit one effect's gap, and the diagnosis is redone against it. Asked
+//! only when the first diagnosis names no effect; its answer is kept only when it is `none`,
+//! `ambiguous` or an effect that closes at least [`cv::MIN_SHRINK_PCT`] of the held-out error
+//! and is not an effect copper loss beat (the two share a signature at the slow inner side, and
+//! what that effect closes against the copper member is the member's own error there); never a
 //! `baseline-misfit`.
 
 use super::baseline::family::Members;
@@ -43,21 +45,39 @@ pub struct CopperEvidence {
     pub best_effect: EffectId,
     /// Its held-out RMS [W].
     pub best_effect_error_w: f64,
+    /// The copper-loss member plus the best effect, when copper loss won beside the effect
+    /// rather than instead of it [W]; `None` when the copper member alone won.
+    pub copper_with_effect_error_w: Option<f64>,
 }
 
 impl CopperEvidence {
     /// One line for the report.
     pub fn describe(&self) -> String {
+        let why = match self.copper_with_effect_error_w {
+            None => format!(
+                "predicts the held-out rows with {:.2} W RMS against {:.2} W for the copper-free \
+                 member the calibration chose and {:.2} W for it plus the best single effect ({})",
+                self.copper_member_error_w,
+                self.chosen_member_error_w,
+                self.best_effect_error_w,
+                self.best_effect.id(),
+            ),
+            Some(both) => format!(
+                "predicts the held-out rows with {:.2} W RMS against {:.2} W for the copper-free \
+                 member the calibration chose, and with the best single effect ({}) {:.2} W \
+                 against {:.2} W",
+                self.copper_member_error_w,
+                self.chosen_member_error_w,
+                self.best_effect.id(),
+                both,
+                self.best_effect_error_w,
+            ),
+        };
         format!(
             "copper loss taken from the diagnosed runs: the copper-loss member, fitted on the \
-             same calibration manoeuvres, predicts the held-out rows with {:.2} W RMS against \
-             {:.2} W for the copper-free member the calibration chose and {:.2} W for it plus \
-             the best single effect ({}); the calibration manoeuvres cannot show it (they never \
-             drive a side slowly against a large force, as the inner side between B/2 and R′ is)",
-            self.copper_member_error_w,
-            self.chosen_member_error_w,
-            self.best_effect_error_w,
-            self.best_effect.id(),
+             same calibration manoeuvres, {why}; the calibration manoeuvres cannot show it (they \
+             never drive a side slowly against a large force, as the inner side between B/2 and \
+             R′ is)"
         )
     }
 }
@@ -87,7 +107,9 @@ pub(super) fn reconsider(
     let keep = match second.effect.effect() {
         // The effect copper loss beat as the explanation of the runs shares its signature: what
         // it closes against the copper member is the member's own error, not the effect.
-        Some(e) if e == evidence.best_effect => false,
+        Some(e) if e == evidence.best_effect && evidence.copper_with_effect_error_w.is_none() => {
+            false
+        }
         Some(e) => second
             .candidates
             .iter()
@@ -120,12 +142,27 @@ fn evidence(
     let chosen = best.heldout_error_before;
     let res = cv::heldout_residuals(rover, rows, first.scheme, &[], copper).ok()??;
     let with_copper = cv::mean_square(&res, |_| true)?.sqrt();
-    (with_copper < COPPER_ERROR_RATIO * chosen && with_copper < best.heldout_error_after).then_some(
-        CopperEvidence {
+    if with_copper < COPPER_ERROR_RATIO * chosen && with_copper < best.heldout_error_after {
+        return Some(CopperEvidence {
             chosen_member_error_w: chosen,
             copper_member_error_w: with_copper,
             best_effect: best.effect,
             best_effect_error_w: best.heldout_error_after,
-        },
-    )
+            copper_with_effect_error_w: None,
+        });
+    }
+    // Or copper loss beside the best effect: the copper member and the effect together beat
+    // the chosen member and the effect (the effect then stays in the running).
+    if with_copper >= COPPER_ERROR_RATIO * chosen {
+        return None;
+    }
+    let res = cv::heldout_residuals(rover, rows, first.scheme, &[best.effect], copper).ok()??;
+    let both = cv::mean_square(&res, |_| true)?.sqrt();
+    (both < COPPER_ERROR_RATIO * best.heldout_error_after).then_some(CopperEvidence {
+        chosen_member_error_w: chosen,
+        copper_member_error_w: with_copper,
+        best_effect: best.effect,
+        best_effect_error_w: best.heldout_error_after,
+        copper_with_effect_error_w: Some(both),
+    })
 }
