@@ -10,10 +10,10 @@
 //!
 //! The diagnosed runs can decide it out of sample: the copper-loss member, fitted on the same
 //! calibration manoeuvres only, must predict the held-out diagnosed rows better than the chosen
-//! member ([`COPPER_ERROR_RATIO`]) **and** either better than the chosen member plus any single
-//! catalogue effect (copper loss *instead of* the effect), or, together with the best single
-//! effect, better than the chosen member with that effect (copper loss *beside* it: a strong
-//! effect hidden under the copper misfit). Then copper loss is a structure of the rover, not a
+//! member ([`COPPER_ERROR_RATIO`]) and better than the chosen member plus any single catalogue
+//! effect (copper loss *instead of* the effect), or, together with the best single effect,
+//! better than the chosen member with that effect (by the same ratio: copper loss *beside* it, a
+//! strong effect hidden under the copper misfit). Then copper loss is a structure of the rover, not a
 //! shape that happens to fit one effect's gap, and the diagnosis is redone against it. Asked
 //! only when the first diagnosis names no effect; its answer is kept only when it is `none`,
 //! `ambiguous` or an effect that closes at least [`cv::MIN_SHRINK_PCT`] of the held-out error
@@ -152,10 +152,8 @@ fn evidence(
         });
     }
     // Or copper loss beside the best effect: the copper member and the effect together beat
-    // the chosen member and the effect (the effect then stays in the running).
-    if with_copper >= COPPER_ERROR_RATIO * chosen {
-        return None;
-    }
+    // the chosen member and the effect (the effect then stays in the running), whatever the
+    // copper member does alone (a strong effect's gap can hide what copper loss improves).
     let res = cv::heldout_residuals(rover, rows, first.scheme, &[best.effect], copper).ok()??;
     let both = cv::mean_square(&res, |_| true)?.sqrt();
     (both < COPPER_ERROR_RATIO * best.heldout_error_after).then_some(CopperEvidence {
