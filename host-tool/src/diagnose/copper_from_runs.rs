@@ -8,17 +8,22 @@
 //! inner-side gap that `inner-drag`, `braked-inner` or `motor-heating` compete for, and the
 //! verdict is `ambiguous` or `baseline-misfit`.
 //!
-//! The diagnosed runs can decide it out of sample: the copper-loss member, fitted on the same
-//! calibration manoeuvres only, must predict the held-out diagnosed rows better than the chosen
-//! member ([`COPPER_ERROR_RATIO`]) and better than the chosen member plus any single catalogue
-//! effect (copper loss *instead of* the effect), or, together with the best single effect,
-//! better than the chosen member with that effect (by the same ratio: copper loss *beside* it, a
-//! strong effect hidden under the copper misfit). Then copper loss is a structure of the rover, not a
-//! shape that happens to fit one effect's gap, and the diagnosis is redone against it. Asked
-//! only when the first diagnosis names no effect; its answer is kept only when it is `none`,
-//! `ambiguous` or an effect that closes at least [`cv::MIN_SHRINK_PCT`] of the held-out error
-//! and is not an effect copper loss beat (the two share a signature at the slow inner side, and
-//! what that effect closes against the copper member is the member's own error there); never a
+//! The diagnosed runs can decide it out of sample, by one of two comparisons on the held-out
+//! diagnosed rows, with the copper-loss member fitted on the same calibration manoeuvres only:
+//!
+//! - **instead of an effect**: the copper member alone predicts them better than the chosen
+//!   member ([`COPPER_ERROR_RATIO`]) and better than the chosen member plus any single
+//!   catalogue effect;
+//! - **beside an effect**: the copper member with the best single effect predicts them better
+//!   (by the same ratio) than the chosen member with it, whatever the copper member does alone
+//!   (a strong effect's gap hides what copper loss improves elsewhere).
+//!
+//! Then copper loss is a structure of the rover, not a shape that happens to fit one effect's
+//! gap, and the diagnosis is redone against it. Asked only when the first diagnosis names no
+//! effect; its answer is kept only when it is `none`, `ambiguous` or an effect that closes at
+//! least [`cv::MIN_SHRINK_PCT`] of the held-out error and is not the effect copper loss won
+//! instead of (the two share a signature at the slow inner side, and what that effect closes
+//! against the copper member is the member's own error there); never a
 //! `baseline-misfit`.
 
 use super::baseline::family::Members;
