@@ -214,9 +214,6 @@ impl<const N: usize> LinearFit<N> {
 
     /// [`solve`](Self::solve) at another two-sided confidence level in (0, 1).
     pub fn solve_with_confidence(&self, confidence: f64) -> Result<LinearFitResult<N>, FitError> {
-        if !(confidence > 0.0 && confidence < 1.0) {
-            return Err(FitError::InvalidParameter);
-        }
         self.solve_with_t(confidence, |dof| {
             student_t_quantile(0.5 + confidence / 2.0, dof)
         })
@@ -230,6 +227,9 @@ impl<const N: usize> LinearFit<N> {
         confidence: f64,
         t_quantile: impl FnOnce(usize) -> Result<f64, FitError>,
     ) -> Result<LinearFitResult<N>, FitError> {
+        if !(confidence > 0.0 && confidence < 1.0) {
+            return Err(FitError::InvalidParameter);
+        }
         let k = self.k;
         if self.n <= k {
             return Err(FitError::TooFewSamples);

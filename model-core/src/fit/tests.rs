@@ -641,4 +641,8 @@ fn a_given_t_quantile_gives_the_same_intervals_and_its_error_stops_the_fit() {
         fit.solve_with_t(SEED_CONFIDENCE, |_| Err(FitError::InvalidParameter)),
         Err(FitError::InvalidParameter)
     );
+    assert_eq!(
+        fit.solve_with_t(1.5, |_| Ok(2.0)),
+        Err(FitError::InvalidParameter)
+    );
 }
