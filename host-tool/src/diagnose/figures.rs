@@ -109,10 +109,9 @@ fn gap_series(rows: &[TurnRow], gaps: &[Gap], role: SideRole, baseline: &str) ->
 
 /// Held-out effective-power residual of every turn against R/R′, before (the baseline, named
 /// `baseline` in the legend) and after adding `effect`, inner and outer side in two panels;
-/// before and after are drawn
-/// [`DODGE`] left and right of the turn's R/R′, and the `gaps` (per regime and side, the
-/// diagnosis' bootstrap 95 % intervals) as bars at their regime's mean R/R′. Straights
-/// (R/R′ = ∞) are not drawn.
+/// before and after are drawn [`DODGE`] left and right of the turn's R/R′, and the `gaps` (per
+/// regime and side, the diagnosis' bootstrap 95 % intervals) as bars at their regime's mean
+/// R/R′. Straights (R/R′ = ∞) are not drawn.
 pub fn residuals_vs_radius(
     rover: &Rover,
     rows: &[TurnRow],

@@ -535,8 +535,9 @@ fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
     for t in timed {
         let next = slot_of_row.len();
         let slot = *slot_of_row.entry(t.row).or_insert(next);
-        let list = manoeuvres.entry(t.run_index).or_default();
-        if !list.iter().any(|(s, _)| *s == slot) {
+        // A row's first side gives its manoeuvre a slot in its run (the other side shares it).
+        if slot == next {
+            let list = manoeuvres.entry(t.run_index).or_default();
             list.push((slot, t.t_mid_s.unwrap_or(0.0)));
         }
     }
