@@ -67,7 +67,12 @@ pub const HEATING_TAU_GRID_S: [f64; 6] = [60.0, 150.0, 300.0, 600.0, 1200.0, 240
 pub const fn param_count(effect: EffectId) -> usize {
     match effect {
         EffectId::AngularSlip | EffectId::SinkageBulldozing => 2,
-        _ => 1,
+        EffectId::InnerDrag
+        | EffectId::SlipTrack
+        | EffectId::BrakedInner
+        | EffectId::CurrentOffset
+        | EffectId::MotorHeating
+        | EffectId::Slope => 1,
     }
 }
 
@@ -78,7 +83,15 @@ pub const fn param_count(effect: EffectId) -> usize {
 /// residuals as its regressor minus that regressor's projection on the baseline's features over
 /// the calibration rows (Frisch–Waugh–Lovell), which [`FittedModel::fit`] uses.
 pub const fn is_power_type(effect: EffectId) -> bool {
-    !matches!(effect, EffectId::AngularSlip | EffectId::SlipTrack)
+    match effect {
+        EffectId::AngularSlip | EffectId::SlipTrack => false,
+        EffectId::InnerDrag
+        | EffectId::SinkageBulldozing
+        | EffectId::BrakedInner
+        | EffectId::CurrentOffset
+        | EffectId::MotorHeating
+        | EffectId::Slope => true,
+    }
 }
 
 /// Parameters a candidate fits on its own: its term's, the growth coefficient where
@@ -101,14 +114,30 @@ pub fn model_params(effects: &[EffectId]) -> usize {
 /// winding and a sensor offset act on every manoeuvre: a gap confined to a few regimes is not
 /// theirs, and they are judged on all rows.
 pub const fn confined_to_regimes(effect: EffectId) -> bool {
-    !matches!(effect, EffectId::MotorHeating | EffectId::CurrentOffset)
+    match effect {
+        EffectId::MotorHeating | EffectId::CurrentOffset => false,
+        EffectId::InnerDrag
+        | EffectId::SinkageBulldozing
+        | EffectId::AngularSlip
+        | EffectId::SlipTrack
+        | EffectId::BrakedInner
+        | EffectId::Slope => true,
+    }
 }
 
 /// Whether `effect` makes power rise through a turn (the seed's growing sand piles: the inner
 /// wheels' excavated pile, Fig 5.7b, and the sinkage of both sides, Fig 5.11 and 5.19), and so
 /// also predicts the growth target (second minus first half of the turn's average power).
 pub const fn has_growth(effect: EffectId) -> bool {
-    matches!(effect, EffectId::InnerDrag | EffectId::SinkageBulldozing)
+    match effect {
+        EffectId::InnerDrag | EffectId::SinkageBulldozing => true,
+        EffectId::AngularSlip
+        | EffectId::SlipTrack
+        | EffectId::BrakedInner
+        | EffectId::CurrentOffset
+        | EffectId::MotorHeating
+        | EffectId::Slope => false,
+    }
 }
 
 /// The growth regressor of `effect` for side `side` of `row`: the shape of its power rise

@@ -474,7 +474,12 @@ impl Admission {
         match e {
             EffectId::MotorHeating => self.heating_identifiable,
             EffectId::CurrentOffset => self.offset_seen,
-            _ => true,
+            EffectId::InnerDrag
+            | EffectId::SinkageBulldozing
+            | EffectId::AngularSlip
+            | EffectId::SlipTrack
+            | EffectId::BrakedInner
+            | EffectId::Slope => true,
         }
     }
 }

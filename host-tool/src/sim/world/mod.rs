@@ -368,7 +368,7 @@ impl Default for Noise {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Effects {
     /// Which are on, in [`EffectId::ALL`] order.
-    pub enabled: [bool; 8],
+    pub enabled: [bool; EffectId::COUNT],
     /// `[inner-drag]`.
     pub inner_drag: effects::InnerDrag,
     /// `[sinkage-bulldozing]`.
