@@ -287,9 +287,24 @@ pub const MAX_COLUMNS: usize = EffectId::COUNT * MAX_PARAMS;
 /// are (numerically) dependent or there are fewer rows than columns.
 pub fn least_squares(rows: &[(Vec<f64>, f64)]) -> Option<(Vec<f64>, f64)> {
     let k = rows.first()?.0.len();
+    if rows.iter().any(|(x, _)| x.len() != k) {
+        return None;
+    }
+    least_squares_of(k, rows.iter().map(|(x, y)| (x.as_slice(), *y)))
+}
+
+/// [`least_squares`] of the first `k` columns of `rows`, streamed into the fit (no design
+/// matrix is built); `None` also without rows.
+fn least_squares_of<X: AsRef<[f64]>>(
+    k: usize,
+    rows: impl IntoIterator<Item = (X, f64)>,
+) -> Option<(Vec<f64>, f64)> {
     let mut fit = LinearFit::<MAX_COLUMNS>::with_columns(k).ok()?;
     for (x, y) in rows {
-        fit.add_row(x, *y).ok()?;
+        fit.add_row(x.as_ref().get(..k)?, y).ok()?;
+    }
+    if fit.is_empty() {
+        return None;
     }
     // A column whose pivot is a tiny fraction of its norm is a combination of the others.
     let b = fit.coefficients_with(RankTest::RelativePivot(1e-7)).ok()?;
@@ -353,6 +368,22 @@ impl FittedModel {
                 row.sides[side].cmd_mps.abs(),
             ]
         };
+        // What does not depend on τ, once: each training observation's sides, baseline features
+        // and residual (the heating term alone is tried on several τ).
+        let observed: Vec<(&TurnRow, &[usize], [f64; 2], f64)> = train
+            .iter()
+            .flat_map(|&row| {
+                let res = ctx.baseline.observed_residuals_w(row);
+                observe::observations(row)
+                    .iter()
+                    .enumerate()
+                    .map(move |(i, &sides)| {
+                        let f = observe::sum_sides(sides, |side| features(row, side));
+                        (row, sides, f, res[i])
+                    })
+            })
+            .collect();
+        let columns: usize = effects.iter().map(|&e| param_count(e)).sum();
         let mut best: Option<(f64, FittedModel)> = None;
         for &tau in taus {
             let ctx = Context {
@@ -369,48 +400,38 @@ impl FittedModel {
                         return out;
                     }
                     for (p, slot) in out.iter_mut().enumerate().take(param_count(e)) {
-                        let design: Vec<(Vec<f64>, f64)> = fitted_on
-                            .iter()
-                            .flat_map(|r| {
-                                observe::observations(r).iter().map(move |sides| {
-                                    let [z] = observe::sum_sides(sides, |side| {
-                                        [regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS])
-                                            [p]]
-                                    });
-                                    (
-                                        observe::sum_sides(sides, |side| features(r, side))
-                                            .to_vec(),
-                                        z,
-                                    )
-                                })
+                        let design = fitted_on.iter().flat_map(|r| {
+                            observe::observations(r).iter().map(move |sides| {
+                                let [z] = observe::sum_sides(sides, |side| {
+                                    [regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS])[p]]
+                                });
+                                let f = observe::sum_sides(sides, |side| features(r, side));
+                                (f, z)
                             })
-                            .collect();
-                        if let Some((b, _)) = least_squares(&design) {
+                        });
+                        if let Some((b, _)) = least_squares_of(2, design) {
                             *slot = [b[0], b[1]];
                         }
                     }
                     out
                 })
                 .collect();
-            let mut design = Vec::new();
             // One observation per side, or one per total-only row on the summed regressors.
-            for row in train {
-                let res = ctx.baseline.observed_residuals_w(row);
-                for (sides, &y) in observe::observations(row).iter().zip(res.iter()) {
-                    let f = observe::sum_sides(sides, |side| features(row, side));
-                    let mut x = Vec::new();
-                    for (&e, proj) in effects.iter().zip(&projections) {
-                        let r = observe::sum_sides(sides, |side| {
-                            regressors(e, row, side, &ctx).unwrap_or([0.0; MAX_PARAMS])
-                        });
-                        for p in 0..param_count(e) {
-                            x.push(r[p] - proj[p][0] * f[0] - proj[p][1] * f[1]);
-                        }
+            let design = observed.iter().map(|&(row, sides, f, y)| {
+                let mut x = [0.0; MAX_COLUMNS];
+                let mut at = 0;
+                for (&e, proj) in effects.iter().zip(&projections) {
+                    let r = observe::sum_sides(sides, |side| {
+                        regressors(e, row, side, &ctx).unwrap_or([0.0; MAX_PARAMS])
+                    });
+                    for p in 0..param_count(e) {
+                        x[at] = r[p] - proj[p][0] * f[0] - proj[p][1] * f[1];
+                        at += 1;
                     }
-                    design.push((x, y));
                 }
-            }
-            let Some((b, ssr)) = least_squares(&design) else {
+                (x, y)
+            });
+            let Some((b, ssr)) = least_squares_of(columns, design) else {
                 continue;
             };
             if best.as_ref().is_some_and(|(s, _)| *s <= ssr) {
