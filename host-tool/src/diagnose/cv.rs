@@ -337,20 +337,19 @@ pub fn score_model(
     }))
 }
 
-/// Scores every catalogue effect alone under `scheme`; `Ok(None)` when the scheme has < 2
-/// groups.
+/// Scores each of `effects` alone under `scheme` against `before` (the held-out residuals of
+/// the baseline alone under the same scheme); `Ok(None)` when one cannot be held out.
 pub fn score_all(
     rover: &Rover,
     rows: &[TurnRow],
     scheme: Scheme,
     calibration: Calibration<'_>,
+    before: &[RowResidual],
+    effects: impl IntoIterator<Item = EffectId>,
 ) -> Result<Option<Vec<CandidateScore>>, BaselineError> {
-    let Some(before) = heldout_residuals(rover, rows, scheme, &[], calibration)? else {
-        return Ok(None);
-    };
     let mut out = Vec::new();
-    for effect in EffectId::ALL {
-        match score_model(rover, rows, scheme, calibration, &before, &[effect])? {
+    for effect in effects {
+        match score_model(rover, rows, scheme, calibration, before, &[effect])? {
             Some(c) => out.push(c),
             None => return Ok(None),
         }

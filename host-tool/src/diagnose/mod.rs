@@ -244,14 +244,15 @@ pub(crate) fn diagnose_against(
         .ok_or(DiagnoseError::NothingToHoldOut)?;
     let (admission, notes) = Admission::of(rows, &where_);
     let allowed = |e: EffectId| admission.allows(e);
-    let mut candidates =
-        cv::score_all(rover, rows, primary, calibration)?.ok_or(DiagnoseError::NothingToHoldOut)?;
-    candidates.retain(|c| allowed(c.effect));
+    let admitted = || EffectId::ALL.into_iter().filter(|&e| allowed(e));
+    let mut candidates = cv::score_all(rover, rows, primary, calibration, &before, admitted())?
+        .ok_or(DiagnoseError::NothingToHoldOut)?;
     candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
-    let other_scheme = cv::score_all(rover, rows, secondary, calibration)?.map(|mut c| {
-        c.retain(|c| allowed(c.effect));
-        (secondary, c)
-    });
+    let other_scheme = match cv::heldout_residuals(rover, rows, secondary, &[], calibration)? {
+        Some(before) => cv::score_all(rover, rows, secondary, calibration, &before, admitted())?
+            .map(|c| (secondary, c)),
+        None => None,
+    };
 
     // A departure is significant when a mean gap is (beyond the repeat noise and the floor), or
     // when a catalogue term is the clear winner of the held-out selection and removes a
