@@ -359,6 +359,15 @@ fn non_finite_and_mismatched_input_is_refused() {
     big.add([1.0], 1e200).expect("finite");
     big.add([1.0], -1e200).expect("finite");
     assert_eq!(big.solve(), Err(FitError::NonFinite));
+    // Regressors whose squares overflow: no panic, no coefficient, an error.
+    let mut wide = LinearFit::<1>::new();
+    wide.add([1e160], 2e160).expect("finite");
+    wide.add([3e160], 6e160).expect("finite");
+    assert_eq!(wide.coefficients(), Err(FitError::NonFinite));
+    assert_eq!(
+        wide.coefficients_with(RankTest::RelativePivot(1e-7)),
+        Err(FitError::NonFinite)
+    );
 }
 
 #[test]
