@@ -545,6 +545,7 @@ fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
     let slots: Vec<usize> = timed.iter().map(|t| slot_of_row[&t.row]).collect();
     let (groups, group_count) = group_ids(timed.iter().map(|t| (t.regime, t.part)));
     let y: Vec<f64> = timed.iter().map(|t| t.effective_power_w).collect();
+    let mut within = WithinGroups::new(groups, group_count, &y);
     let mut rng = SplitMix64::new(seed_of("run-time-trend"));
     let mut time_of = vec![0.0; slot_of_row.len()];
     let mut t: Vec<f64> = vec![0.0; timed.len()];
@@ -565,7 +566,8 @@ fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
             *ti = time_of[slot];
         }
         // A shuffle that leaves no time spread within any group counts against the trend.
-        if grouped_slope_and_spread(&groups, group_count, &t, &y)
+        if within
+            .slope_and_spread(&t)
             .is_none_or(|(s, _)| s.abs() >= observed.abs())
         {
             extreme += 1;
@@ -598,32 +600,61 @@ fn slope_and_spread(obs: &[TimedObs]) -> Option<(f64, f64)> {
     let (groups, count) = group_ids(obs.iter().map(|o| o.0));
     let t: Vec<f64> = obs.iter().map(|o| o.1).collect();
     let y: Vec<f64> = obs.iter().map(|o| o.2).collect();
-    grouped_slope_and_spread(&groups, count, &t, &y)
+    WithinGroups::new(groups, count, &y).slope_and_spread(&t)
 }
 
-/// [`slope_and_spread`] of observations `(groups[i], t[i], y[i])` with `group_count` groups.
-fn grouped_slope_and_spread(
-    groups: &[usize],
-    group_count: usize,
-    t: &[f64],
-    y: &[f64],
-) -> Option<(f64, f64)> {
-    let mut sums = vec![(0.0, 0.0, 0.0); group_count];
-    for ((&g, &ti), &yi) in groups.iter().zip(t).zip(y) {
-        let e = &mut sums[g];
-        e.0 += ti;
-        e.1 += yi;
-        e.2 += 1.0;
+/// The within-group regression of fixed values y on times that the permutation test shuffles:
+/// each observation's group and y less its group's mean are computed once, and each set of
+/// times costs two passes without allocation.
+struct WithinGroups {
+    groups: Vec<usize>,
+    size: Vec<f64>,
+    centred_y: Vec<f64>,
+    /// Per group: the sum, then the mean, of the times (scratch of [`Self::slope_and_spread`]).
+    mean_t: Vec<f64>,
+}
+
+impl WithinGroups {
+    /// Observations `(groups[i], y[i])` in `group_count` groups.
+    fn new(groups: Vec<usize>, group_count: usize, y: &[f64]) -> Self {
+        let mut sum_y = vec![0.0; group_count];
+        let mut size = vec![0.0; group_count];
+        for (&g, &yi) in groups.iter().zip(y) {
+            sum_y[g] += yi;
+            size[g] += 1.0;
+        }
+        let centred_y = groups
+            .iter()
+            .zip(y)
+            .map(|(&g, &yi)| yi - sum_y[g] / size[g])
+            .collect();
+        Self {
+            groups,
+            size,
+            centred_y,
+            mean_t: vec![0.0; group_count],
+        }
     }
-    let (mut stt, mut sty) = (0.0, 0.0);
-    for ((&g, &ti), &yi) in groups.iter().zip(t).zip(y) {
-        let (st, sy, n) = sums[g];
-        let (dt, dy) = (ti - st / n, yi - sy / n);
-        stt += dt * dt;
-        sty += dt * dy;
+
+    /// The within-group slope of y on `t` [W/s] and the within-group spread of `t` (its RMS
+    /// about the group means) [s]; `None` when no group's times vary.
+    fn slope_and_spread(&mut self, t: &[f64]) -> Option<(f64, f64)> {
+        self.mean_t.fill(0.0);
+        for (&g, &ti) in self.groups.iter().zip(t) {
+            self.mean_t[g] += ti;
+        }
+        for (m, n) in self.mean_t.iter_mut().zip(&self.size) {
+            *m /= n;
+        }
+        let (mut stt, mut sty) = (0.0, 0.0);
+        for ((&g, &ti), &dy) in self.groups.iter().zip(t).zip(&self.centred_y) {
+            let dt = ti - self.mean_t[g];
+            stt += dt * dt;
+            sty += dt * dy;
+        }
+        let spread = (stt / self.groups.len().max(1) as f64).sqrt();
+        (stt > 0.0).then(|| (sty / stt, spread))
     }
-    let spread = (stt / groups.len().max(1) as f64).sqrt();
-    (stt > 0.0).then(|| (sty / stt, spread))
 }
 
 fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
