@@ -537,6 +537,12 @@ const TREND_STOP_EXCEEDANCES: usize = 10;
 /// significant costs a few dozen shuffles, and every p up to h/(N + 1) = 0.01 is the full
 /// test's.
 fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
+    permutation_p_until(timed, observed, TREND_STOP_EXCEEDANCES)
+}
+
+/// [`permutation_p`] stopped at `stop_at` shuffles reaching the observed slope (never, with
+/// `usize::MAX`: the full test).
+fn permutation_p_until(timed: &[&TurnResidual], observed: f64, stop_at: usize) -> f64 {
     // Each run's manoeuvres (as slots, one per row) and their times.
     let mut manoeuvres: BTreeMap<usize, Vec<(usize, f64)>> = BTreeMap::new();
     let mut slot_of_row: BTreeMap<usize, usize> = BTreeMap::new();
@@ -579,7 +585,7 @@ fn permutation_p(timed: &[&TurnResidual], observed: f64) -> f64 {
             .is_none_or(|(s, _)| s.abs() >= observed.abs())
         {
             extreme += 1;
-            if extreme == TREND_STOP_EXCEEDANCES {
+            if extreme == stop_at {
                 return extreme as f64 / done as f64;
             }
         }

@@ -334,3 +334,46 @@ fn the_run_time_trend_test_holds_its_level_with_three_runs() {
     let found = significant(60.0);
     assert!(found >= 180, "{found} of 200 trends found");
 }
+
+/// The sequential trend test (stopped at ten shuffles reaching the observed slope) decides as
+/// the full 999-shuffle test on datasets without and with trends, and its p is the full test's
+/// wherever that is at most α.
+#[test]
+fn the_stopped_trend_test_decides_as_the_full_one() {
+    let (mut stopped_early, mut exact) = (0, 0);
+    for trend_w in [0.0, 20.0, 40.0, 60.0] {
+        for seed in 0..50u64 {
+            let turns = timed_residuals(seed, trend_w);
+            let timed: Vec<&TurnResidual> = turns.iter().collect();
+            let obs: Vec<TimedObs> = turns
+                .iter()
+                .map(|t| {
+                    (
+                        (t.regime, t.part),
+                        t.t_mid_s.unwrap_or(0.0),
+                        t.effective_power_w,
+                    )
+                })
+                .collect();
+            let slope = within_slope(&obs).expect("identifiable");
+            let full = permutation_p_until(&timed, slope, usize::MAX);
+            let stopped = permutation_p(&timed, slope);
+            assert_eq!(
+                full < TREND_ALPHA,
+                stopped < TREND_ALPHA,
+                "seed {seed}, trend {trend_w} W: full p {full}, stopped p {stopped}"
+            );
+            if full <= TREND_ALPHA {
+                assert_eq!(full, stopped, "seed {seed}, trend {trend_w} W");
+                exact += 1;
+            } else {
+                stopped_early += 1;
+            }
+        }
+    }
+    // Both kinds occur, so both branches were checked.
+    assert!(
+        stopped_early > 20 && exact > 20,
+        "{stopped_early} stopped, {exact} exact"
+    );
+}
