@@ -490,6 +490,15 @@ pub const MIN_TREND_SPREAD_S: f64 = 10.0;
 /// One observation of the trend fit: ((regime, side), run time [s], residual [W]).
 type TimedObs = ((Regime, Part), f64, f64);
 
+/// The trend fit's observation of a timed residual (run time 0 when untimed).
+fn timed_obs(t: &TurnResidual) -> TimedObs {
+    (
+        (t.regime, t.part),
+        t.t_mid_s.unwrap_or(0.0),
+        t.effective_power_w,
+    )
+}
+
 /// The median of the runs' lengths (`run_end`: each run's latest manoeuvre middle) [s].
 fn median_run_length_s(run_end: &BTreeMap<usize, f64>) -> f64 {
     let mut lengths: Vec<f64> = run_end.values().copied().collect();
@@ -717,16 +726,7 @@ fn run_time(turns: &[TurnResidual]) -> RunTimeWhere {
         })
         .collect();
 
-    let all: Vec<TimedObs> = timed
-        .iter()
-        .map(|t| {
-            (
-                (t.regime, t.part),
-                t.t_mid_s.unwrap_or(0.0),
-                t.effective_power_w,
-            )
-        })
-        .collect();
+    let all: Vec<TimedObs> = timed.iter().map(|t| timed_obs(t)).collect();
     let Some(slope) = within_slope(&all) else {
         return RunTimeWhere {
             thirds,

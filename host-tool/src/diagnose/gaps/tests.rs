@@ -345,16 +345,7 @@ fn the_stopped_trend_test_decides_as_the_full_one() {
         for seed in 0..50u64 {
             let turns = timed_residuals(seed, trend_w);
             let timed: Vec<&TurnResidual> = turns.iter().collect();
-            let obs: Vec<TimedObs> = turns
-                .iter()
-                .map(|t| {
-                    (
-                        (t.regime, t.part),
-                        t.t_mid_s.unwrap_or(0.0),
-                        t.effective_power_w,
-                    )
-                })
-                .collect();
+            let obs: Vec<TimedObs> = turns.iter().map(timed_obs).collect();
             let slope = within_slope(&obs).expect("identifiable");
             let full = permutation_p_until(&timed, slope, usize::MAX);
             let stopped = permutation_p(&timed, slope);
