@@ -6,6 +6,7 @@
 use super::family::{DatasetClass, DatasetSpec, CALIBRATION_RUNS};
 use super::truth::{truth_of, Truth};
 use crate::diagnose::calibration::Calibration;
+use crate::diagnose::cv::shrink_pct;
 use crate::diagnose::features::{self, TurnRow};
 use crate::diagnose::{DiagnoseError, Diagnosis};
 use crate::effect_id::EffectId;
@@ -179,6 +180,14 @@ pub struct DatasetResult {
     /// Held-out shrink of the true effect in the true regime [%], when the diagnosis' held-out
     /// figures are about the true effect.
     pub true_regime_shrink_pct: Option<f64>,
+    /// The held-out shrink a perfect model of the true effect would give, all rows [%]:
+    /// [`shrink_pct`] of the diagnosis' baseline-only held-out error against that of the
+    /// dataset's twin (the same world, runs and seeds without the effect, whose
+    /// diagnosis chooses its own baseline). It is the shrink of removing exactly the effect; a
+    /// catalogue term exceeds it only by also fitting structure the baseline misses (an I² term
+    /// takes copper-like misfit) or by chance (the twin's noise differs where the effect
+    /// changes a manoeuvre's length). `None` without an effect.
+    pub ceiling_shrink_pct: Option<f64>,
     /// The error, if any.
     pub error: Option<String>,
     /// Simulation, sampling and validation time [s].
@@ -281,6 +290,7 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
         best_candidate: None,
         true_effect_shrink_pct: None,
         true_regime_shrink_pct: None,
+        ceiling_shrink_pct: None,
         error: None,
         simulate_s: 0.0,
         diagnose_s: 0.0,
@@ -303,11 +313,33 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
     let t1 = Instant::now();
     let diagnosis = diagnose_rows(&rover, &cal_rows, &rows);
     result.diagnose_s = t1.elapsed().as_secs_f64();
+    if let Ok(d) = &diagnosis {
+        result.ceiling_shrink_pct = ceiling_shrink_pct(spec, &rover, offset, d);
+    }
     match diagnosis {
         Ok(d) => score(&mut result, &d),
         Err(e) => result.error = Some(DatasetError::from(e).to_string()),
     }
     result
+}
+
+/// [`DatasetResult::ceiling_shrink_pct`] of `spec`, whose diagnosis is `d`; `None` without an
+/// effect or when the twin cannot be simulated or diagnosed.
+fn ceiling_shrink_pct(
+    spec: &DatasetSpec,
+    rover: &Rover,
+    tracker_offset_m: Option<f64>,
+    d: &Diagnosis,
+) -> Option<f64> {
+    spec.effect()?;
+    let twin = DatasetSpec {
+        class: DatasetClass::StructureOnly,
+        ..spec.clone()
+    };
+    let (cal_rows, rows) = simulate(&twin).ok()?.rows(rover, tracker_offset_m).ok()?;
+    let twin_d = diagnose_rows(rover, &cal_rows, &rows).ok()?;
+    let baseline_error_w = |d: &Diagnosis| d.candidates.first().map(|c| c.heldout_error_before);
+    Some(shrink_pct(baseline_error_w(d)?, baseline_error_w(&twin_d)?))
 }
 
 /// The diagnosis the bench makes of a dataset's rows: calibrated on its calibration runs.

@@ -91,6 +91,9 @@ pub struct ClassFigures {
     pub median_shrink_pct: Option<f64>,
     /// Median shrink in the true regime [%].
     pub median_regime_shrink_pct: Option<f64>,
+    /// Median of the shrink a perfect model of the effect would give
+    /// ([`DatasetResult::ceiling_shrink_pct`]) [%].
+    pub median_ceiling_pct: Option<f64>,
     /// Median of the truth's peak extra power [W].
     pub median_peak_extra_w: Option<f64>,
     /// Datasets whose effect the calibration runs do not absorb
@@ -166,6 +169,11 @@ pub struct BenchSummary {
     pub median_shrink_named_pct: Option<f64>,
     /// Median shrink in the true regime [%].
     pub median_regime_shrink_pct: Option<f64>,
+    /// Median over the effect datasets of the shrink a perfect model of the effect would give
+    /// ([`DatasetResult::ceiling_shrink_pct`]) [%]: where the shrink goal can be met at all.
+    pub median_ceiling_pct: Option<f64>,
+    /// Effect datasets whose ceiling reaches the shrink goal.
+    pub ceiling_reaches_goal: usize,
     /// Datasets that failed to simulate, validate or diagnose.
     pub errors: usize,
     /// Whether the issue's four bars are met (accuracy, controls, structure-only, shrink).
@@ -263,6 +271,7 @@ fn class_figures(label: &str, of: &[&DatasetResult]) -> ClassFigures {
         median_regime_shrink_pct: median(
             of.iter().filter_map(|r| r.true_regime_shrink_pct).collect(),
         ),
+        median_ceiling_pct: median(of.iter().filter_map(|r| r.ceiling_shrink_pct).collect()),
         median_peak_extra_w: has_effect
             .then(|| {
                 median(
@@ -387,6 +396,15 @@ fn summary(results: &[&DatasetResult]) -> BenchSummary {
                 .filter_map(|r| r.true_regime_shrink_pct)
                 .collect(),
         ),
+        median_ceiling_pct: median(
+            effects
+                .iter()
+                .filter_map(|r| r.ceiling_shrink_pct)
+                .collect(),
+        ),
+        ceiling_reaches_goal: count(&effects, &|r| {
+            r.ceiling_shrink_pct.is_some_and(|c| c >= GOAL_SHRINK_PCT)
+        }),
         errors: count(results, &|r| r.error.is_some()),
         goals_met: accuracy_pct >= GOAL_ACCURACY_PCT
             && control_false_effects == 0
@@ -612,6 +630,14 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
         s.regime_hits_named,
         s.effect_named_right
     )?;
+    writeln!(
+        f,
+        "a perfect model of the true effect would give {} (median; each dataset's twin, the same \
+         world without the effect, sets its ceiling); the ceiling reaches the goal on {}/{}",
+        opt(s.median_ceiling_pct, " %"),
+        s.ceiling_reaches_goal,
+        s.effect_datasets
+    )?;
     if s.errors > 0 {
         writeln!(f, "errors: {}", s.errors)?;
     }
@@ -651,7 +677,7 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
     }
     writeln!(
         f,
-        "{:<20}{:>4}{:>7}{:>7}{:>7}{:>6}{:>7}{:>8}{:>9}{:>10}{:>9}",
+        "{:<20}{:>4}{:>7}{:>7}{:>7}{:>6}{:>7}{:>8}{:>9}{:>9}{:>10}{:>9}",
         "true class",
         "n",
         "right",
@@ -661,13 +687,14 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
         "wrong",
         "regime",
         "shrink",
+        "ceiling",
         "peak W",
         "visible"
     )?;
     for c in &p.per_class {
         writeln!(
             f,
-            "{:<20}{:>4}{:>7}{:>7}{:>7}{:>6}{:>7}{:>8}{:>9}{:>10}{:>9}",
+            "{:<20}{:>4}{:>7}{:>7}{:>7}{:>6}{:>7}{:>8}{:>9}{:>9}{:>10}{:>9}",
             row_label(&c.label),
             c.n,
             c.right,
@@ -677,6 +704,7 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
             c.wrong,
             c.regime_hits,
             opt(c.median_shrink_pct, " %"),
+            opt(c.median_ceiling_pct, " %"),
             c.median_peak_extra_w
                 .map_or_else(|| "–".into(), |w| format!("{w:.2}")),
             c.visible,
@@ -687,7 +715,7 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
         "(structure: right = true effect / none on controls / none or baseline-misfit on \
          structure-only; effects: named right/effect datasets; false eff: effects named without \
          one. class: regime = hits among those named right; shrink = median held-out shrink of \
-         the true effect, all rows; peak W = median of the true effect's largest mean extra power \
+         the true effect, all rows; ceiling = median shrink a perfect model of it would give; peak W = median of the true effect's largest mean extra power \
          per regime; visible = datasets whose effect the calibration runs do not absorb: Eq 21 \
          (power-type effects) or a positive constant angular slip (effects that slow the turns) \
          fitted to the effect's power on the calibration manoeuvres leaves a regime mean above \

@@ -721,3 +721,28 @@ fn the_total_power_decides_when_the_sides_leave_a_tie() {
     );
     assert_eq!(d.effect, crate::diagnose::Verdict::Effect(EffectId::Slope));
 }
+
+/// The ceiling of the shrink comes from the dataset's twin without the effect: a strong
+/// angular slip (bench seed 1, tuning 23: 97 % shrink) leaves a twin whose baseline error is a
+/// small share of the dataset's, a twin that kept the effect would give 0 %, and datasets
+/// without an effect have no ceiling.
+#[test]
+fn the_shrink_ceiling_is_the_twin_without_the_effect() {
+    let specs = generate(Part::Tuning, 100, 1);
+    let strong = run_dataset(&specs[23]);
+    assert_eq!(specs[23].class, DatasetClass::Effect(EffectId::AngularSlip));
+    let ceiling = strong
+        .ceiling_shrink_pct
+        .expect("an effect dataset has a ceiling");
+    assert!(ceiling >= 70.0, "{ceiling}");
+    assert!(
+        strong
+            .true_effect_shrink_pct
+            .is_some_and(|s| s <= ceiling + 5.0),
+        "{strong:?}"
+    );
+    for index in [20, 29] {
+        assert_eq!(specs[index].effect(), None);
+        assert_eq!(run_dataset(&specs[index]).ceiling_shrink_pct, None);
+    }
+}
