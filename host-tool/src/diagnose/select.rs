@@ -33,9 +33,11 @@ pub(super) fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
 /// Whether every term of the model `effects`, fitted jointly on all rows, has the sign its
 /// physics allows. A drag, a resistance, a slower turn or a warmer winding can only add power:
 /// the term's own power summed over the diagnosed manoeuvres must be positive. A slope's sign
-/// is in its regressor (the pitch), so its coefficient (Φ m g) must be. A sensor offset and a
-/// slip track may go either way. A term fitted against its physics is a shape that happens to
-/// match a deficit, not the effect.
+/// is in its regressor (the pitch), so its coefficient (Φ m g) must be. A sensor offset may go
+/// either way, and so may a slip track, except that a narrower one (a negative term: every turn
+/// quicker than commanded, so less energy) must not contradict turns the yaw timed as slow as
+/// the terrain slip says ([`turns_no_quicker_by_yaw`]). A term fitted against its physics is a shape
+/// that happens to match a deficit, not the effect.
 pub(super) fn physically_signed(
     rover: &Rover,
     rows: &[TurnRow],
@@ -56,7 +58,10 @@ fn terms_physically_signed(
     let ctx = model.context(rover, baseline);
     model.effects.iter().all(|term| {
         let adds_power = match term.effect {
-            EffectId::CurrentOffset | EffectId::SlipTrack => return true,
+            EffectId::CurrentOffset => return true,
+            EffectId::SlipTrack => {
+                return term.params[0] >= 0.0 || !turns_no_quicker_by_yaw(rows, baseline)
+            }
             EffectId::Slope => false,
             EffectId::InnerDrag
             | EffectId::SinkageBulldozing
@@ -184,6 +189,17 @@ pub(super) fn turns_measured_faster(rows: &[TurnRow], baseline: &Baseline) -> bo
         faster += 1;
     }
     faster >= 2
+}
+
+/// Whether the turns timed by yaw took, on average, at least as long as the baseline's terrain
+/// slip says: then no narrower slip track (a negative `slip-track` term, every turn quicker
+/// than commanded) is what the power shows. `false` without yaw-timed turns.
+fn turns_no_quicker_by_yaw(rows: &[TurnRow], baseline: &Baseline) -> bool {
+    let all: Vec<f64> = Regime::ALL
+        .iter()
+        .flat_map(|&regime| excess_slips(rows, baseline, regime))
+        .collect();
+    !all.is_empty() && all.iter().sum::<f64>() >= 0.0
 }
 
 /// Fewest diagnosed manoeuvres off level ground ([`adequacy::is_level`]) for the runs to count as

@@ -746,3 +746,15 @@ fn the_shrink_ceiling_is_the_twin_without_the_effect() {
         assert_eq!(run_dataset(&specs[index]).ceiling_shrink_pct, None);
     }
 }
+
+/// A power deficit is not a narrower slip track unless the yaw says the turns were quicker:
+/// bench seed 5, tuning 59 (a structure-only Husky with a regenerating split) has its turns
+/// below B/2 drawing 2–5 W less than the baseline while taking as long as the terrain slip
+/// says, and was named `slip-track` (a negative term) on that deficit.
+#[test]
+fn a_deficit_with_turns_on_time_is_no_narrower_slip_track() {
+    let spec = &generate(Part::Tuning, 100, 5)[59];
+    assert_eq!(spec.class, DatasetClass::StructureOnly);
+    let result = run_dataset(spec);
+    assert!(!result.named_an_effect(), "{}", result.diagnosed);
+}
