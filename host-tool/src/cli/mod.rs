@@ -137,7 +137,8 @@ pub enum Command {
     /// from a world family (power split, constant angular slip, motor losses, standstill draw,
     /// Husky or Argo, turn direction, speed, rate, noise): each carries one catalogue effect,
     /// none (control) or only a non-default structure; prints per part (tuning, held-out) the
-    /// confusion matrix, accuracy per structure, the regime hit rate and the median shrink.
+    /// confusion matrix, accuracy per structure, the regime hit rate and the median shrink beside
+    /// its ceiling (each effect dataset simulated again without its effect).
     #[command(after_help = CONVENTIONS)]
     DiagnoseBench(diagnose_bench::DiagnoseBenchArgs),
     /// Energy of the optimal CLC path (arc – line – arc) against the PLP path (point turn –

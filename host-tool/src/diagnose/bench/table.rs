@@ -715,8 +715,9 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
         "(structure: right = true effect / none on controls / none or baseline-misfit on \
          structure-only; effects: named right/effect datasets; false eff: effects named without \
          one. class: regime = hits among those named right; shrink = median held-out shrink of \
-         the true effect, all rows; ceiling = median shrink a perfect model of it would give; peak W = median of the true effect's largest mean extra power \
-         per regime; visible = datasets whose effect the calibration runs do not absorb: Eq 21 \
+         the true effect, all rows; ceiling = median shrink a perfect model of it would give \
+         (the dataset's twin without the effect); peak W = median of the true effect's largest \
+         mean extra power per regime; visible = datasets whose effect the calibration runs do not absorb: Eq 21 \
          (power-type effects) or a positive constant angular slip (effects that slow the turns) \
          fitted to the effect's power on the calibration manoeuvres leaves a regime mean above \
          the practical floor; current-offset always, as it reads at standstill)"
