@@ -242,7 +242,7 @@ pub(crate) fn diagnose_against(
     let (primary, secondary) = schemes(rows);
     let before = cv::heldout_residuals(rover, rows, primary, &[], calibration)?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
-    let (admission, notes) = Admission::of(rows, &where_);
+    let (admission, mut notes) = Admission::of(rows, &where_);
     let allowed = |e: EffectId| admission.allows(e);
     let admitted = || EffectId::ALL.into_iter().filter(|&e| allowed(e));
     let mut candidates = cv::score_all(rover, rows, primary, calibration, &before, admitted())?
@@ -351,6 +351,9 @@ pub(crate) fn diagnose_against(
         secondary_steps.clear();
     }
     let named = effect.effect();
+    if named == Some(EffectId::SinkageBulldozing) {
+        notes.extend(sinkage_deficit_note(rover, rows, calibration)?);
+    }
     let added = named.unwrap_or(candidates[0].effect);
     let heldout = heldout_errors(
         rover,
@@ -381,6 +384,25 @@ pub(crate) fn diagnose_against(
         calibration: calibration.note(rows),
         notes,
     })
+}
+
+/// When the named `sinkage-bulldozing` term takes power from the turns (the sign rule of
+/// [`select::physically_signed`] lets it), the report says so: sinkage then shows as turns
+/// drawing less than the straights' resistance implies, not as an extra draw.
+fn sinkage_deficit_note(
+    rover: &Rover,
+    rows: &[TurnRow],
+    calibration: Calibration<'_>,
+) -> Result<Option<String>, DiagnoseError> {
+    let own = select::own_power_per_side_w(rover, rows, EffectId::SinkageBulldozing, calibration)?;
+    Ok(own.filter(|w| *w < 0.0).map(|w| {
+        format!(
+            "sinkage-bulldozing is a deficit here ({w:+.1} W per diagnosed side): G·|V| takes \
+             the sand's resistance on every manoeuvre, straights included, and beyond it the \
+             turns draw less, as when a turn's side compaction keeps the wheels' sinkage below \
+             a straight's (the seed's 2D slip-sinkage model, Eq 5.27)"
+        )
+    }))
 }
 
 /// What the significant mean gaps say: whether there is one, their regimes (in gap order,

@@ -3,7 +3,7 @@
 //! regimes of the gap, the run-time trend, the physics' signs and the gaps' places, and the
 //! forward stepwise secondaries.
 
-use super::effects::{self, Context, HEATING_TAU_GRID_S};
+use super::effects::{self, Context, FittedEffect, HEATING_TAU_GRID_S};
 use super::{
     adequacy, calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
     DiagnoseError, FittedModel, Gap, Part, StepwiseStep,
@@ -31,13 +31,18 @@ pub(super) fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
 }
 
 /// Whether every term of the model `effects`, fitted jointly on all rows, has the sign its
-/// physics allows. A drag, a resistance, a slower turn or a warmer winding can only add power:
-/// the term's own power summed over the diagnosed manoeuvres must be positive. A slope's sign
-/// is in its regressor (the pitch), so its coefficient (Φ m g) must be. A sensor offset may go
-/// either way, and so may a slip track, except that a narrower one (a negative term: every turn
-/// quicker than commanded, so less energy) must not contradict turns the yaw timed as slow as
-/// the terrain slip says ([`turns_no_quicker_by_yaw`]). A term fitted against its physics is a shape
-/// that happens to match a deficit, not the effect.
+/// physics allows. A drag, a braked side, a slower turn or a warmer winding can only add power:
+/// the term's own power summed over the diagnosed manoeuvres ([`term_own_power_w`]) must be
+/// positive. A slope's sign is in its regressor (the pitch), so its coefficient (Φ m g) must
+/// be. A sensor offset may go either way, and so may a slip track, except that a narrower one
+/// (a negative term: every turn quicker than commanded, so less energy) must not contradict
+/// turns the yaw timed as slow as the terrain slip says ([`turns_no_quicker_by_yaw`]).
+/// `sinkage-bulldozing` may go either way too: sand sinks the wheels on the straights as well,
+/// and that resistance goes into G with the calibration straights on the same terrain, so the
+/// turn-only term is what turns draw beyond G·|V| and the skid: more where counter-rotating
+/// wheels excavate, less where the side compaction of a turn keeps the sinkage below a
+/// straight's (the seed's 2D slip-sinkage model, Eq 5.27). A term fitted against its physics
+/// is a shape that happens to match a deficit, not the effect.
 pub(super) fn physically_signed(
     rover: &Rover,
     rows: &[TurnRow],
@@ -58,13 +63,12 @@ fn terms_physically_signed(
     let ctx = model.context(rover, baseline);
     model.effects.iter().all(|term| {
         let adds_power = match term.effect {
-            EffectId::CurrentOffset => return true,
+            EffectId::CurrentOffset | EffectId::SinkageBulldozing => return true,
             EffectId::SlipTrack => {
                 return term.params[0] >= 0.0 || !turns_no_quicker_by_yaw(rows, baseline)
             }
             EffectId::Slope => false,
             EffectId::InnerDrag
-            | EffectId::SinkageBulldozing
             | EffectId::AngularSlip
             | EffectId::BrakedInner
             | EffectId::MotorHeating => true,
@@ -72,17 +76,42 @@ fn terms_physically_signed(
         if !adds_power {
             return term.params[0] > 0.0;
         }
-        // The term's own power, before the baseline's absorption: its coefficients are those of
-        // the joint model (baseline + terms), whatever the baseline took of it on the
-        // calibration manoeuvres (which can leave a true drag as a deficit in some regimes).
-        let total_w: f64 = rows
-            .iter()
-            .filter(|r| !r.calibration_kind)
-            .flat_map(|r| (0..r.sides.len()).map(move |s| (r, s)))
-            .map(|(r, s)| term.term_w(r, s, &ctx))
-            .sum();
-        total_w > 0.0
+        term_own_power_w(rows, term, &ctx) > 0.0
     })
+}
+
+/// A term's own power summed over the sides of the diagnosed manoeuvres, before the baseline's
+/// absorption [W]: its coefficients are those of the joint model (baseline + terms), whatever
+/// the baseline took of it on the calibration manoeuvres (which can leave a true drag as a
+/// deficit in some regimes).
+fn term_own_power_w(rows: &[TurnRow], term: &FittedEffect, ctx: &Context<'_>) -> f64 {
+    rows.iter()
+        .filter(|r| !r.calibration_kind)
+        .flat_map(|r| (0..r.sides.len()).map(move |s| (r, s)))
+        .map(|(r, s)| term.term_w(r, s, ctx))
+        .sum()
+}
+
+/// The mean own power per diagnosed side of `effect` fitted alone with the baseline on all
+/// rows ([`term_own_power_w`]) [W]; `None` without a diagnosed side.
+pub(super) fn own_power_per_side_w(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effect: EffectId,
+    calibration: Calibration<'_>,
+) -> Result<Option<f64>, DiagnoseError> {
+    let (baseline, model) = fit_model(rover, rows, &[effect], calibration)?;
+    let sides: usize = rows
+        .iter()
+        .filter(|r| !r.calibration_kind)
+        .map(|r| r.sides.len())
+        .sum();
+    let ctx = model.context(rover, &baseline);
+    Ok(model
+        .effects
+        .first()
+        .filter(|_| sides > 0)
+        .map(|term| term_own_power_w(rows, term, &ctx) / sides as f64))
 }
 
 /// Largest significant gap an effect may leave where it does not act, as a fraction of the

@@ -758,3 +758,30 @@ fn a_deficit_with_turns_on_time_is_no_narrower_slip_track() {
     let result = run_dataset(spec);
     assert!(!result.named_an_effect(), "{}", result.diagnosed);
 }
+
+/// Sand sinks the wheels on the straights too, and the calibration puts that resistance into
+/// G: on the Argo the simulator's sinkage is largest on the straights (bench seed 5, tuning 82:
+/// +123 W straight, +70 W point turn), so beyond G·|V| the turn-only term is a deficit. It is
+/// named with that sign, and the report says so (this dataset was `baseline-misfit` while the
+/// sign check asked the term to add power).
+#[test]
+fn argo_sinkage_beyond_the_straights_resistance_is_named_as_a_deficit() {
+    let spec = &generate(Part::Tuning, 100, 5)[82];
+    assert_eq!(
+        spec.class,
+        DatasetClass::Effect(EffectId::SinkageBulldozing)
+    );
+    assert_eq!(spec.rover, RoverKind::ArgoJ5);
+    let (_, d) = run::explain(spec, false).expect("diagnoses");
+    assert_eq!(
+        d.effect,
+        crate::diagnose::Verdict::Effect(EffectId::SinkageBulldozing)
+    );
+    assert!(
+        d.notes
+            .iter()
+            .any(|n| n.starts_with("sinkage-bulldozing is a deficit")),
+        "{:?}",
+        d.notes
+    );
+}
