@@ -352,7 +352,7 @@ pub(crate) fn diagnose_against(
     }
     let named = effect.effect();
     if named == Some(EffectId::SinkageBulldozing) {
-        notes.extend(sinkage_deficit_note(rover, rows, calibration)?);
+        notes.extend(sinkage_deficit_note(rover, rows, calibration));
     }
     let added = named.unwrap_or(candidates[0].effect);
     let heldout = heldout_errors(
@@ -388,21 +388,24 @@ pub(crate) fn diagnose_against(
 
 /// When the named `sinkage-bulldozing` term takes power from the turns (the sign rule of
 /// [`select::physically_signed`] lets it), the report says so: sinkage then shows as turns
-/// drawing less than the straights' resistance implies, not as an extra draw.
+/// drawing less than the straights' resistance implies, not as an extra draw. No note when the
+/// term cannot be refitted alone (the verdict stands; only its wording is at stake).
 fn sinkage_deficit_note(
     rover: &Rover,
     rows: &[TurnRow],
     calibration: Calibration<'_>,
-) -> Result<Option<String>, DiagnoseError> {
-    let own = select::own_power_per_side_w(rover, rows, EffectId::SinkageBulldozing, calibration)?;
-    Ok(own.filter(|w| *w < 0.0).map(|w| {
+) -> Option<String> {
+    let own = select::own_power_per_side_w(rover, rows, EffectId::SinkageBulldozing, calibration)
+        .ok()
+        .flatten();
+    own.filter(|w| *w < 0.0).map(|w| {
         format!(
             "sinkage-bulldozing is a deficit here ({w:+.1} W per diagnosed side): G·|V| takes \
              the sand's resistance on every manoeuvre, straights included, and beyond it the \
              turns draw less, as when a turn's side compaction keeps the wheels' sinkage below \
              a straight's (the seed's 2D slip-sinkage model, Eq 5.27)"
         )
-    }))
+    })
 }
 
 /// What the significant mean gaps say: whether there is one, their regimes (in gap order,
