@@ -785,3 +785,24 @@ fn argo_sinkage_beyond_the_straights_resistance_is_named_as_a_deficit() {
         d.notes
     );
 }
+
+/// Tuning dataset 19 of bench seed 22, an Argo with the clamp split and no effect: the outer
+/// side at R′ draws 40 W more than the model (n = 3), and `braked-inner` (the outer side at R′
+/// only) closed 85 % of it and was named. But the outer side at 0.8R′ draws 28 W more too:
+/// the gap is a hump across the radii, not the step a held inner side makes at R′, and the
+/// regime pools 0.8R′ with R′/3 and 2R′/3, so only the neighbouring radius shows it. Before,
+/// `braked-inner`.
+#[test]
+fn a_braked_inner_side_is_a_step_at_r_prime_not_a_hump() {
+    let d = diagnosed(Part::Tuning, 22, 19, DatasetClass::StructureOnly);
+    assert!(d.effect.effect().is_none(), "{:?}", d.effect);
+    let at_r_prime_outer = d
+        .gaps
+        .iter()
+        .find(|g| {
+            g.regime == model_core::kinematics::Regime::AtRPrime
+                && g.side == crate::diagnose::Part::Outer
+        })
+        .expect("gap at R′ outer");
+    assert!(at_r_prime_outer.significant && at_r_prime_outer.mean_w > 20.0);
+}
