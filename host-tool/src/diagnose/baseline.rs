@@ -167,13 +167,25 @@ fn is_graded(calibration: &[&TurnRow]) -> bool {
 }
 
 /// F², the copper-loss regressor of a side of `b`: the square of its traction force P/V, ∝
-/// torque² ∝ motor current² (Eq 1.18–1.19: I²R depends on the torque, not on the speed) [N²]; 0
-/// for a side commanded (nearly) still: at R ≈ R′ the inner tread sits at its ICR and slides
-/// lengthwise hardly at all, so it carries no longitudinal force (ICR kinematics, Eq 2.2).
+/// torque² ∝ motor current² (Eq 1.18–1.19: I²R depends on the torque, not on the speed) [N²].
+/// A side commanded (nearly) still in a turn (the inner side at R′) holds the skid couple's
+/// tread force at stall: its tread still slides lengthwise, by ω(B_s − B)/2, so the motor
+/// carries the force with no power, the seed's braked wheel (Section 6.2); a still wheel
+/// meets no rolling resistance. A side the clamp puts to 0 has no copper loss either: its
+/// power is negative only "if the applied torque is 0 and the wheel rotates due to the torque
+/// applied by the other side motor" (Section 1.1.3).
 fn copper_regressor(b: &Baseline, row: &TurnRow, side: usize) -> f64 {
     let v = row.sides[side].cmd_mps.abs();
     if v > MIN_FORCE_SPEED_MPS {
-        (b.shaft_power_w(plain_regressors(row, side)) / v).powi(2)
+        let shaft_w = b.shaft_power_w(plain_regressors(row, side));
+        let clamped = matches!(b.structure.split, Split::Returning { fraction } if fraction == 0.0);
+        if clamped && shaft_w < 0.0 {
+            0.0
+        } else {
+            (shaft_w / v).powi(2)
+        }
+    } else if held_at_stall(row, side) {
+        b.skid_force_n.powi(2)
     } else {
         0.0
     }
@@ -181,6 +193,14 @@ fn copper_regressor(b: &Baseline, row: &TurnRow, side: usize) -> f64 {
 
 /// Below this side speed the traction force P/V is not defined by the power [m/s].
 const MIN_FORCE_SPEED_MPS: f64 = 0.02;
+
+/// Whether a side of `row` is held at stall: commanded (nearly) still in a turn (the inner
+/// side at R′). Its motor holds a force without turning, so it draws copper loss only.
+pub fn held_at_stall(row: &TurnRow, side: usize) -> bool {
+    !row.is_straight()
+        && row.yaw_rate_cmd_rad_s != 0.0
+        && row.sides[side].cmd_mps.abs() <= MIN_FORCE_SPEED_MPS
+}
 
 /// Largest standstill current per side taken as the drivers' quiescent draw [A]: the thesis'
 /// Fig. 3.3 shows ≈ 0 A at rest on the INA226 board and 0.59 A on the built-in sensing, the

@@ -27,10 +27,11 @@
 //! `baseline-misfit`.
 
 use super::baseline::family::Members;
+use super::baseline::held_at_stall;
 use super::calibration::Calibration;
 use super::cv;
 use super::features::TurnRow;
-use super::Diagnosis;
+use super::{Diagnosis, Part};
 use crate::effect_id::EffectId;
 use model_core::Rover;
 use serde::Serialize;
@@ -53,6 +54,9 @@ pub struct CopperEvidence {
     /// The copper-loss member plus the best effect, when copper loss won beside the effect
     /// rather than instead of it [W]; `None` when the copper member alone won.
     pub copper_with_effect_error_w: Option<f64>,
+    /// When the sides held at stall decided it: their held-out RMS with the chosen member and
+    /// with the copper member [W].
+    pub at_stall_error_w: Option<[f64; 2]>,
 }
 
 impl CopperEvidence {
@@ -77,6 +81,20 @@ impl CopperEvidence {
                 both,
                 self.best_effect_error_w,
             ),
+        };
+        let why = match self.at_stall_error_w {
+            Some([chosen, copper]) => format!(
+                "predicts the sides held at stall (commanded still in a turn, holding the \
+                 tread's force: the inner side at R′) with {copper:.2} W RMS against {chosen:.2} W \
+                 for the copper-free member the calibration chose, which gives them no power; \
+                 over all held-out rows, with the best single effect ({}), {}",
+                self.best_effect.id(),
+                self.copper_with_effect_error_w.map_or_else(
+                    || "n/a".to_owned(),
+                    |both| format!("{both:.2} W against {:.2} W", self.best_effect_error_w)
+                ),
+            ),
+            None => why,
         };
         format!(
             "copper loss taken from the diagnosed runs: the copper-loss member, fitted on the \
@@ -145,8 +163,8 @@ fn evidence(
     }
     // The chosen member's held-out RMS is every candidate's "before" in the first diagnosis.
     let chosen = best.heldout_error_before;
-    let res = cv::heldout_residuals(rover, rows, first.scheme, &[], copper).ok()??;
-    let with_copper = cv::mean_square(&res, |_| true)?.sqrt();
+    let copper_alone = cv::heldout_residuals(rover, rows, first.scheme, &[], copper).ok()??;
+    let with_copper = cv::mean_square(&copper_alone, |_| true)?.sqrt();
     if with_copper < COPPER_ERROR_RATIO * chosen && with_copper < best.heldout_error_after {
         return Some(CopperEvidence {
             chosen_member_error_w: chosen,
@@ -154,6 +172,7 @@ fn evidence(
             best_effect: best.effect,
             best_effect_error_w: best.heldout_error_after,
             copper_with_effect_error_w: None,
+            at_stall_error_w: None,
         });
     }
     // Or copper loss beside the best effect: the copper member and the effect together beat
@@ -161,11 +180,57 @@ fn evidence(
     // copper member does alone (a strong effect's gap can hide what copper loss improves).
     let res = cv::heldout_residuals(rover, rows, first.scheme, &[best.effect], copper).ok()??;
     let both = cv::mean_square(&res, |_| true)?.sqrt();
-    (both < COPPER_ERROR_RATIO * best.heldout_error_after).then_some(CopperEvidence {
+    let beside = CopperEvidence {
         chosen_member_error_w: chosen,
         copper_member_error_w: with_copper,
         best_effect: best.effect,
         best_effect_error_w: best.heldout_error_after,
         copper_with_effect_error_w: Some(both),
-    })
+        at_stall_error_w: None,
+    };
+    if both < COPPER_ERROR_RATIO * best.heldout_error_after {
+        return Some(beside);
+    }
+    // Or the sides held at stall: a copper-free member gives a side commanded still in a turn
+    // no power, but it holds its tread's force and draws that torque's copper loss. A
+    // significant excess there that the copper member predicts out of sample is the rover's
+    // copper loss; no effect draws power at a side that does not move.
+    let excess_at_stall = first.gaps.iter().any(|g| {
+        g.significant
+            && g.mean_w > 0.0
+            && g.side != Part::Total
+            && rows.iter().filter(|r| r.regime == g.regime).all(|r| {
+                (0..r.sides.len())
+                    .filter(|&s| g.side == r.sides[s].role)
+                    .all(|s| held_at_stall(r, s))
+            })
+    });
+    if !excess_at_stall {
+        return None;
+    }
+    let chosen_res = cv::heldout_residuals(rover, rows, first.scheme, &[], calibration).ok()??;
+    let at_stall = [&chosen_res, &copper_alone].map(|res| stalled_rms_w(rows, res));
+    match at_stall {
+        [Some(chosen), Some(copper)] if copper < COPPER_ERROR_RATIO * chosen => {
+            Some(CopperEvidence {
+                at_stall_error_w: Some([chosen, copper]),
+                ..beside
+            })
+        }
+        _ => None,
+    }
+}
+
+/// RMS of the held-out residuals of the sides held at stall [W]; `None` without one.
+fn stalled_rms_w(rows: &[TurnRow], res: &[cv::RowResidual]) -> Option<f64> {
+    let (sum, n) = res
+        .iter()
+        .filter(|r| !r.effective_w.is_total())
+        .flat_map(|r| {
+            (0..2)
+                .filter(|&s| held_at_stall(&rows[r.row], s))
+                .map(move |s| r.effective_w[s])
+        })
+        .fold((0.0, 0usize), |(sum, n), v| (sum + v * v, n + 1));
+    (n > 0).then(|| (sum / n as f64).sqrt())
 }

@@ -9,7 +9,7 @@ use super::{
     adequacy, calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
     DiagnoseError, FittedModel, Gap, Part, StepwiseStep,
 };
-use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
+use super::{baseline, Baseline, Calibration, CandidateScore, Scheme, TurnRow};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 use model_core::Rover;
@@ -152,7 +152,18 @@ pub(super) fn reaches_the_gaps(
     if !stands_out_from_the_neighbouring_radii(rows, baseline, &ctx, effect) {
         return false;
     }
-    let significant: Vec<&Gap> = gaps.iter().filter(|g| g.significant).collect();
+    // Any extra force on a side held at stall shows there as copper loss alone, which no
+    // term's power models: with copper loss in the baseline, its gap is not one the term
+    // could be asked to reach, nor one it is credited with.
+    let held = |gap: &Gap| {
+        baseline.structure.copper_loss
+            && rows.iter().filter(|r| r.regime == gap.regime).all(|r| {
+                (0..r.sides.len())
+                    .filter(|&s| gap.side == Part::Total || gap.side == r.sides[s].role)
+                    .all(|s| baseline::held_at_stall(r, s))
+            })
+    };
+    let significant: Vec<&Gap> = gaps.iter().filter(|g| g.significant && !held(g)).collect();
     let Some(largest) = significant
         .iter()
         .filter(|g| acts(g))

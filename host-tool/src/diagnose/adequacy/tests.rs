@@ -245,3 +245,54 @@ fn the_copper_member_recovers_its_coefficient() {
         "{b:?} {plain:?}"
     );
 }
+
+/// A side held at stall (the inner side at R′, commanded still) carries the skid couple's
+/// tread force a without turning: the copper member predicts its copper loss c·a², the world's
+/// C·A², not 0. A side the clamp puts to 0 has no torque (Section 1.1.3: "if the applied torque
+/// is 0"), so no copper loss either.
+#[test]
+fn a_side_held_at_stall_draws_copper_loss_and_a_clamped_side_none() {
+    const C: f64 = 1e-3;
+    let copper = |vi: f64, vo: f64| {
+        let p = couple(vi, vo);
+        [
+            p[0] + C * (p[0] / vi).powi(2),
+            p[1] + C * (p[1] / vo).powi(2),
+        ]
+    };
+    let rows = calibration(2, &copper);
+    let refs: Vec<&TurnRow> = rows.iter().collect();
+    let with_copper = |split| Structure {
+        split,
+        copper_loss: true,
+    };
+    let b = Baseline::fit_member(&HUSKY, &refs, with_copper(Split::Regenerating)).expect("fits");
+    let mut rng = SplitMix64::new(3);
+    let turn_at = |k: f64, rng: &mut SplitMix64| {
+        let mut r = row(0, k, rng, &|_, _| [0.0, 0.0]);
+        r.yaw_rate_cmd_rad_s = V_C / r.radius_cmd_m;
+        r.regime = if k == 1.0 {
+            Regime::AtRPrime
+        } else {
+            Regime::AboveRPrime
+        };
+        r
+    };
+    let at_r_prime = turn_at(1.0, &mut rng);
+    assert_eq!(at_r_prime.sides[0].cmd_mps, 0.0);
+    let held_w = b.side_power_w(&at_r_prime, 0);
+    let expected_w = C * A_N * A_N;
+    assert!(
+        (held_w - expected_w).abs() < 0.2 * expected_w,
+        "{held_w} vs {expected_w}"
+    );
+    let clamped = Baseline::fit_member(
+        &HUSKY,
+        &refs,
+        with_copper(Split::Returning { fraction: 0.0 }),
+    )
+    .expect("fits");
+    let generating = turn_at(2.0, &mut rng);
+    assert_eq!(clamped.side_power_w(&generating, 0), 0.0);
+    assert!(b.side_power_w(&generating, 0) < 0.0);
+}

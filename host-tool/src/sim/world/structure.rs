@@ -335,6 +335,37 @@ mod tests {
         assert!(high[0] - low[0] > high[2] - low[2]);
     }
 
+    /// At R′ the inner side is commanded to stand still, but its tread still carries the skid
+    /// couple's force (it slides lengthwise by ω(B_s − B)/2): the motor holds it at stall and
+    /// draws that torque's copper loss, R_m (F r / K_T g η)², and no other power. In every
+    /// split: the clamp puts only negative power to 0.
+    #[test]
+    fn a_side_held_at_stall_draws_the_copper_loss_of_its_tread_force() {
+        for split in [PowerSplit::Regenerating, PowerSplit::Clamped] {
+            let mut world = with_split(split);
+            world.structure.drive_power = DrivePower::Mechanical;
+            world.motor.efficiency = 1.0;
+            let r_prime = f64::from(world.rover.r_prime_m());
+            let held_w = |rm: f64| {
+                let mut w = world;
+                w.motor.winding_resistance_ohm = rm;
+                inner_w(&turns(w, &[r_prime]))[0]
+            };
+            let icr = world.icr.model(&world.rover);
+            let force_n = icr.skid_moment_nm() / icr.slip_track_m;
+            let torque_per_amp = world.motor.torque_constant_nm_per_a * world.motor.gear_ratio;
+            let current_a = force_n * f64::from(world.rover.wheel_radius_m) / torque_per_amp;
+            let expected_w = 0.4 * current_a * current_a;
+            assert!(expected_w > 1.0, "{expected_w}");
+            let got = held_w(0.4);
+            assert!(
+                (got - expected_w).abs() < 0.02 * expected_w,
+                "{got} vs {expected_w}"
+            );
+            assert!(held_w(0.0).abs() < 1e-9);
+        }
+    }
+
     #[test]
     fn structure_toml_reads_and_checks_its_keys() {
         let w = crate::sim::world::parse_world(

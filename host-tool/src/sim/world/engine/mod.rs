@@ -107,6 +107,28 @@ impl Plant {
     /// The baseline ICR power per side (paper Eq 21 split by the tread-force couple, per
     /// `[structure] split`) [W]. Sums to `icr.power_w` exactly except for the `clamped` split.
     fn icr_side_power_w(&self, v: Io) -> Io {
+        let force = self.icr_side_force_n(v);
+        let side = Io {
+            inner: force.inner * v.inner,
+            outer: force.outer * v.outer,
+        };
+        match self.world.structure.split {
+            // Section 1.1.3: "any negative power calculated should be put to 0".
+            PowerSplit::Clamped => Io {
+                inner: side.inner.max(0.0),
+                outer: side.outer.max(0.0),
+            },
+            PowerSplit::Threshold | PowerSplit::Regenerating => side,
+        }
+    }
+
+    /// The force each side's tread carries in the baseline ICR model, before any clamp (its
+    /// power over its speed) [N]. The skid couple's tread force acts on a side commanded to
+    /// stand still too (at R′ the inner tread still slides lengthwise, by ω(B_s − B)/2 on hard
+    /// ground): its motor holds it at stall, the seed's braked wheel (Section 6.2), drawing
+    /// the copper loss of that torque (Eq 1.18 with ω = 0). A still wheel does not roll, so
+    /// it meets no rolling resistance.
+    fn icr_side_force_n(&self, v: Io) -> Io {
         let g = self.icr.rolling_resistance_n;
         let sum = v.inner.abs() + v.outer.abs();
         if sum == 0.0 {
@@ -126,18 +148,13 @@ impl Plant {
             }
         };
         let k = self.tread_force_n * fade;
-        let residual_w = (1.0 - fade) * skid_w;
-        let side = Io {
-            inner: -k * v.inner + residual_w * v.inner.abs() / sum + g * v.inner.abs(),
-            outer: k * v.outer + residual_w * v.outer.abs() / sum + g * v.outer.abs(),
-        };
-        match split {
-            // Section 1.1.3: "any negative power calculated should be put to 0".
-            PowerSplit::Clamped => Io {
-                inner: side.inner.max(0.0),
-                outer: side.outer.max(0.0),
-            },
-            PowerSplit::Threshold | PowerSplit::Regenerating => side,
+        // The unfaded part of the skid power, shared in proportion to |V|: a force of
+        // residual / (|V_i| + |V_o|) along each side's motion.
+        let residual_n = (1.0 - fade) * skid_w / sum;
+        let along = |speed: f64| (residual_n + g) * sign_or_zero(speed);
+        Io {
+            inner: -k + along(v.inner),
+            outer: k + along(v.outer),
         }
     }
 
@@ -531,5 +548,14 @@ fn manoeuvre_truth(
         mean_pitch_deg: tally.pitch_deg_s / duration_s,
         resistance_scale,
         effect_energy_j: effect_energies(plant, seg, kin, tally, duration_s),
+    }
+}
+
+/// The sign of `x`, 0 at 0 (a still wheel meets no force along its motion).
+fn sign_or_zero(x: f64) -> f64 {
+    if x == 0.0 {
+        0.0
+    } else {
+        x.signum()
     }
 }

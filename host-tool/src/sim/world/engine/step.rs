@@ -89,10 +89,18 @@ impl Baseline {
                 icr,
             ),
             DrivePower::Mechanical => {
-                let tau = |p: f64, w: f64| if w == 0.0 { 0.0 } else { p / w };
+                // A side commanded still holds its tread's force at stall (torque, no power).
+                let force = plant.icr_side_force_n(v);
+                let tau = |p: f64, w: f64, f: f64| {
+                    if w == 0.0 {
+                        f * r * motion.resistance_scale
+                    } else {
+                        p / w
+                    }
+                };
                 let t = Io {
-                    inner: tau(icr.inner, rate.inner),
-                    outer: tau(icr.outer, rate.outer),
+                    inner: tau(icr.inner, rate.inner, force.inner),
+                    outer: tau(icr.outer, rate.outer, force.outer),
                 };
                 let p = Io {
                     inner: plant.motor_power_w(t.inner, rate.inner),
