@@ -16,7 +16,11 @@
 //!   catalogue effect;
 //! - **beside an effect**: the copper member with the best single effect predicts them better
 //!   (by the same ratio) than the chosen member with it, whatever the copper member does alone
-//!   (a strong effect's gap hides what copper loss improves elsewhere).
+//!   (a strong effect's gap hides what copper loss improves elsewhere);
+//! - **at stall**: the first diagnosis has a significant excess at the sides held at stall
+//!   (commanded still in a turn: the inner side at R′, holding its tread's force), to which a
+//!   copper-free member gives no power, and the copper member predicts those sides better
+//!   (by the same ratio). They are few rows, so over all rows copper loss can lose.
 //!
 //! Then copper loss is a structure of the rover, not a shape that happens to fit one effect's
 //! gap, and the diagnosis is redone against it. Asked only when the first diagnosis names no
@@ -194,7 +198,7 @@ fn evidence(
     // Or the sides held at stall: a copper-free member gives a side commanded still in a turn
     // no power, but it holds its tread's force and draws that torque's copper loss. A
     // significant excess there that the copper member predicts out of sample is the rover's
-    // copper loss; no effect draws power at a side that does not move.
+    // copper loss; no catalogue term puts power on a side that does not move.
     let excess_at_stall = first.gaps.iter().any(|g| {
         g.significant
             && g.mean_w > 0.0
