@@ -25,9 +25,7 @@
 //! Then copper loss is a structure of the rover, not a shape that happens to fit one effect's
 //! gap, and the diagnosis is redone against it. Asked only when the first diagnosis names no
 //! effect; its answer is kept only when it is `none`, `ambiguous` or an effect that closes at
-//! least [`cv::MIN_SHRINK_PCT`] of the held-out error and is not the effect copper loss won
-//! instead of (the two share a signature at the slow inner side, and what that effect closes
-//! against the copper member is the member's own error there); never a
+//! least [`cv::MIN_SHRINK_PCT`] of the held-out error against the copper member; never a
 //! `baseline-misfit`.
 
 use super::baseline::family::Members;
@@ -132,11 +130,9 @@ pub(super) fn reconsider(
         return Ok(first);
     };
     let keep = match second.effect.effect() {
-        // The effect copper loss beat as the explanation of the runs shares its signature: what
-        // it closes against the copper member is the member's own error, not the effect.
-        Some(e) if e == evidence.best_effect && evidence.copper_with_effect_error_w.is_none() => {
-            false
-        }
+        // Named against the copper member, an effect must close the bar there too. (Until
+        // session 14 the effect copper loss beat was never kept; once a side held at stall drew
+        // its copper loss in the world and the baseline, that rule only cost right names.)
         Some(e) => second
             .candidates
             .iter()

@@ -854,3 +854,28 @@ fn the_sides_held_at_stall_show_the_copper_loss() {
     assert!(d.baseline.structure.copper_loss);
     assert_eq!(d.effect, crate::diagnose::Verdict::Effect(EffectId::Slope));
 }
+
+/// Tuning dataset 91 of bench seed 5, a Husky with motor losses, a constant slip and an inner
+/// drag. The copper member alone predicts the runs better than the chosen copper-free member
+/// with `inner-drag`, and against the copper member `inner-drag` still closes the bar: both
+/// are the rover's, and it is named. Before (the effect copper loss beat was never kept),
+/// `ambiguous`.
+#[test]
+fn an_effect_that_closes_the_bar_against_copper_loss_is_named() {
+    let d = diagnosed(
+        Part::Tuning,
+        5,
+        91,
+        DatasetClass::Effect(EffectId::InnerDrag),
+    );
+    let evidence = d
+        .copper_from_runs
+        .as_ref()
+        .expect("copper loss from the runs");
+    assert_eq!(evidence.best_effect, EffectId::InnerDrag);
+    assert_eq!(evidence.copper_with_effect_error_w, None);
+    assert_eq!(
+        d.effect,
+        crate::diagnose::Verdict::Effect(EffectId::InnerDrag)
+    );
+}
