@@ -105,9 +105,10 @@ impl Plant {
     }
 
     /// The baseline ICR power per side (paper Eq 21 split by the tread-force couple, per
-    /// `[structure] split`) [W]. Sums to `icr.power_w` exactly except for the `clamped` split.
-    fn icr_side_power_w(&self, v: Io) -> Io {
-        let force = self.icr_side_force_n(v);
+    /// `[structure] split`) [W], from the sides' speeds `v` and their forces `force`
+    /// ([`Plant::icr_side_force_n`]). Sums to `icr.power_w` exactly except for the `clamped`
+    /// split.
+    fn icr_side_power_w(&self, v: Io, force: Io) -> Io {
         let side = Io {
             inner: force.inner * v.inner,
             outer: force.outer * v.outer,

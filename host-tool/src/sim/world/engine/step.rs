@@ -68,9 +68,10 @@ impl Baseline {
     fn of(plant: &Plant, motion: &Motion) -> Self {
         let v = motion.v;
         let r = plant.wheel_radius_m;
+        let force = plant.icr_side_force_n(v);
         // Every term of Eq 21 is ∝ μ or G: the terrain factor scales the whole baseline.
         let icr = {
-            let b = plant.icr_side_power_w(v);
+            let b = plant.icr_side_power_w(v, force);
             Io {
                 inner: b.inner * motion.resistance_scale,
                 outer: b.outer * motion.resistance_scale,
@@ -90,7 +91,6 @@ impl Baseline {
             ),
             DrivePower::Mechanical => {
                 // A side commanded still holds its tread's force at stall (torque, no power).
-                let force = plant.icr_side_force_n(v);
                 let tau = |p: f64, w: f64, f: f64| {
                     if w == 0.0 {
                         f * r * motion.resistance_scale
