@@ -33,7 +33,7 @@ use super::baseline::held_at_stall;
 use super::calibration::Calibration;
 use super::cv;
 use super::features::TurnRow;
-use super::{Diagnosis, Part};
+use super::Diagnosis;
 use crate::effect_id::EffectId;
 use model_core::Rover;
 use serde::Serialize;
@@ -195,16 +195,10 @@ fn evidence(
     // no power, but it holds its tread's force and draws that torque's copper loss. A
     // significant excess there that the copper member predicts out of sample is the rover's
     // copper loss; no catalogue term puts power on a side that does not move.
-    let excess_at_stall = first.gaps.iter().any(|g| {
-        g.significant
-            && g.mean_w > 0.0
-            && g.side != Part::Total
-            && rows.iter().filter(|r| r.regime == g.regime).all(|r| {
-                (0..r.sides.len())
-                    .filter(|&s| g.side == r.sides[s].role)
-                    .all(|s| held_at_stall(r, s))
-            })
-    });
+    let excess_at_stall = first
+        .gaps
+        .iter()
+        .any(|g| g.significant && g.mean_w > 0.0 && g.at_sides_held_at_stall(rows));
     if !excess_at_stall {
         return None;
     }

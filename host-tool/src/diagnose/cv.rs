@@ -76,11 +76,18 @@ impl Scheme {
     fn group(self, row: &TurnRow) -> i64 {
         match self {
             Scheme::LeaveOneRunOut => row.run_index as i64,
-            Scheme::LeaveOneRadiusOut if row.r_over_r_prime.is_finite() => {
-                (row.r_over_r_prime * 100.0).round() as i64
-            }
-            Scheme::LeaveOneRadiusOut => i64::MAX,
+            Scheme::LeaveOneRadiusOut => radius_group(row),
         }
+    }
+}
+
+/// The commanded radius of `row` as a group key: R/R′ to 0.01, straights all in one. The
+/// manoeuvres leave-one-radius-out holds out together.
+pub fn radius_group(row: &TurnRow) -> i64 {
+    if row.r_over_r_prime.is_finite() {
+        (row.r_over_r_prime * 100.0).round() as i64
+    } else {
+        i64::MAX
     }
 }
 

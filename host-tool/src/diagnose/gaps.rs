@@ -112,6 +112,19 @@ pub struct Gap {
     pub loo: Vec<LooTest>,
 }
 
+impl Gap {
+    /// Whether the gap is at sides held at stall (commanded still in a turn: the inner side at
+    /// R′, holding its tread's force), in every row of its regime; never for a total.
+    pub fn at_sides_held_at_stall(&self, rows: &[TurnRow]) -> bool {
+        self.side != Part::Total
+            && rows.iter().filter(|r| r.regime == self.regime).all(|r| {
+                (0..r.sides.len())
+                    .filter(|&s| self.side == r.sides[s].role)
+                    .all(|s| super::baseline::held_at_stall(r, s))
+            })
+    }
+}
+
 /// The observations of `row` with their part, effective-power residual, model power and the
 /// model power's standard error [W].
 fn effective_parts(baseline: &Baseline, row: &TurnRow) -> Vec<(Part, f64, f64, f64)> {

@@ -9,7 +9,7 @@ use super::{
     adequacy, calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
     DiagnoseError, FittedModel, Gap, Part, StepwiseStep,
 };
-use super::{baseline, Baseline, Calibration, CandidateScore, Scheme, TurnRow};
+use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 use model_core::Rover;
@@ -155,14 +155,7 @@ pub(super) fn reaches_the_gaps(
     // Any extra force on a side held at stall shows there as copper loss alone, which no
     // term's power models: with copper loss in the baseline, its gap is not one the term
     // could be asked to reach, nor one it is credited with.
-    let held = |gap: &Gap| {
-        baseline.structure.copper_loss
-            && rows.iter().filter(|r| r.regime == gap.regime).all(|r| {
-                (0..r.sides.len())
-                    .filter(|&s| gap.side == Part::Total || gap.side == r.sides[s].role)
-                    .all(|s| baseline::held_at_stall(r, s))
-            })
-    };
+    let held = |gap: &Gap| baseline.structure.copper_loss && gap.at_sides_held_at_stall(rows);
     let significant: Vec<&Gap> = gaps.iter().filter(|g| g.significant && !held(g)).collect();
     let Some(largest) = significant
         .iter()
@@ -197,20 +190,21 @@ fn stands_out_from_the_neighbouring_radii(
         effects::regressors(effect, r, s, ctx).is_some_and(|x| x.iter().any(|v| *v != 0.0))
     };
     let turns = || rows.iter().filter(|r| !r.is_straight());
-    let mut acting: Vec<f64> = turns()
+    // The commanded radii (leave-one-radius-out's groups) where the term acts.
+    let mut acting: Vec<i64> = turns()
         .filter(|r| (0..r.sides.len()).any(|s| acts_on(r, s)))
-        .map(|r| r.r_over_r_prime)
+        .map(cv::radius_group)
         .collect();
-    acting.sort_by(f64::total_cmp);
-    acting.dedup_by(|a, b| same_radius(*a, *b));
+    acting.sort_unstable();
+    acting.dedup();
     let [radius] = acting[..] else {
         return true;
     };
-    if turns().any(|r| same_radius(r.r_over_r_prime, radius) && !(0..2).any(|s| acts_on(r, s))) {
+    let at = |k: i64| turns().filter(move |r| cv::radius_group(r) == k);
+    if at(radius).any(|r| !(0..r.sides.len()).any(|s| acts_on(r, s))) {
         return true;
     }
-    let roles: Vec<SideRole> = turns()
-        .filter(|r| same_radius(r.r_over_r_prime, radius))
+    let roles: Vec<SideRole> = at(radius)
         .flat_map(|r| {
             (0..r.sides.len())
                 .filter(|&s| acts_on(r, s))
@@ -218,9 +212,8 @@ fn stands_out_from_the_neighbouring_radii(
         })
         .collect();
     // Mean residual of the sides where the term acts, over the turns at radius `k`.
-    let mean_at = |k: f64| {
-        let res: Vec<f64> = turns()
-            .filter(|r| same_radius(r.r_over_r_prime, k))
+    let mean_at = |k: i64| {
+        let res: Vec<f64> = at(k)
             .flat_map(|r| {
                 let res = baseline.residual_w(r);
                 (0..r.sides.len())
@@ -234,24 +227,14 @@ fn stands_out_from_the_neighbouring_radii(
     let Some(own) = mean_at(radius) else {
         return true;
     };
-    let below = turns()
-        .map(|r| r.r_over_r_prime)
-        .filter(|&k| k < radius && !same_radius(k, radius))
-        .max_by(f64::total_cmp);
-    let above = turns()
-        .map(|r| r.r_over_r_prime)
-        .filter(|&k| k > radius && !same_radius(k, radius))
-        .min_by(f64::total_cmp);
+    let radii = || turns().map(cv::radius_group);
+    let below = radii().filter(|&k| k < radius).max();
+    let above = radii().filter(|&k| k > radius).min();
     ![below, above]
         .into_iter()
         .flatten()
         .filter_map(mean_at)
         .any(|m| m * own > 0.0 && m.abs() >= UNREACHED_GAP_FRACTION * own.abs())
-}
-
-/// Whether two commanded radii (R/R′) are the same manoeuvre's.
-fn same_radius(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0)
 }
 
 /// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it

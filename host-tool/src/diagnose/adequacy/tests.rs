@@ -185,19 +185,23 @@ fn without_repeats_adequacy_is_not_tested() {
     assert_eq!(a.total.df_pure_error, 0);
 }
 
+/// The copper loss of the synthetic copper worlds, c in c·F² [W/N²].
+const COPPER_W_PER_N2: f64 = 1e-3;
+
+/// The tread-couple world plus each side's copper loss c·F², F = P/V its traction force.
+fn with_copper_loss(vi: f64, vo: f64) -> [f64; 2] {
+    let p = couple(vi, vo);
+    [
+        p[0] + COPPER_W_PER_N2 * (p[0] / vi).powi(2),
+        p[1] + COPPER_W_PER_N2 * (p[1] / vo).powi(2),
+    ]
+}
+
 /// Copper loss escalates the family: a world whose copper loss the copper-free members misfit
 /// gets a copper member that fits; an excess at the point turn alone (sinkage-like, an effect)
 /// is not bent into one.
 #[test]
 fn the_family_escalates_to_copper_loss_only_when_it_fits() {
-    const C: f64 = 1e-3;
-    let copper = |vi: f64, vo: f64| {
-        let p = couple(vi, vo);
-        [
-            p[0] + C * (p[0] / vi).powi(2),
-            p[1] + C * (p[1] / vo).powi(2),
-        ]
-    };
     let point_turn_excess = |vi: f64, vo: f64| {
         let p = couple(vi, vo);
         if vi < 0.0 && (vi + vo).abs() < 1e-12 {
@@ -207,7 +211,7 @@ fn the_family_escalates_to_copper_loss_only_when_it_fits() {
         }
     };
     for (power, escalates) in [
-        (&copper as &dyn Fn(f64, f64) -> [f64; 2], true),
+        (&with_copper_loss as &dyn Fn(f64, f64) -> [f64; 2], true),
         (&point_turn_excess, false),
     ] {
         let rows = calibration(2, power);
@@ -223,22 +227,17 @@ fn the_family_escalates_to_copper_loss_only_when_it_fits() {
 /// coefficient of a world whose sides add c·F², F = P/V the traction force.
 #[test]
 fn the_copper_member_recovers_its_coefficient() {
-    const C: f64 = 1e-3;
-    let copper = |vi: f64, vo: f64| {
-        let p = couple(vi, vo);
-        [
-            p[0] + C * (p[0] / vi).powi(2),
-            p[1] + C * (p[1] / vo).powi(2),
-        ]
-    };
-    let rows = calibration(2, &copper);
+    let rows = calibration(2, &with_copper_loss);
     let refs: Vec<&TurnRow> = rows.iter().collect();
     let structure = Structure {
         copper_loss: true,
         ..Structure::PLAIN
     };
     let b = Baseline::fit_member(&HUSKY, &refs, structure).expect("fits");
-    assert!((b.copper_w_per_n2 - C).abs() < 0.2 * C, "{b:?}");
+    assert!(
+        (b.copper_w_per_n2 - COPPER_W_PER_N2).abs() < 0.2 * COPPER_W_PER_N2,
+        "{b:?}"
+    );
     let plain = Baseline::fit_plain(&HUSKY, &refs).expect("fits");
     assert!(
         b.residual_std_w < 0.5 * plain.residual_std_w,
@@ -252,21 +251,13 @@ fn the_copper_member_recovers_its_coefficient() {
 /// is 0"), so no copper loss either.
 #[test]
 fn a_side_held_at_stall_draws_copper_loss_and_a_clamped_side_none() {
-    const C: f64 = 1e-3;
-    let copper = |vi: f64, vo: f64| {
-        let p = couple(vi, vo);
-        [
-            p[0] + C * (p[0] / vi).powi(2),
-            p[1] + C * (p[1] / vo).powi(2),
-        ]
-    };
-    let rows = calibration(2, &copper);
+    let rows = calibration(2, &with_copper_loss);
     let refs: Vec<&TurnRow> = rows.iter().collect();
-    let with_copper = |split| Structure {
+    let copper_member = |split| Structure {
         split,
         copper_loss: true,
     };
-    let b = Baseline::fit_member(&HUSKY, &refs, with_copper(Split::Regenerating)).expect("fits");
+    let b = Baseline::fit_member(&HUSKY, &refs, copper_member(Split::Regenerating)).expect("fits");
     let mut rng = SplitMix64::new(3);
     let turn_at = |k: f64, rng: &mut SplitMix64| {
         let mut r = row(0, k, rng, &|_, _| [0.0, 0.0]);
@@ -281,7 +272,7 @@ fn a_side_held_at_stall_draws_copper_loss_and_a_clamped_side_none() {
     let at_r_prime = turn_at(1.0, &mut rng);
     assert_eq!(at_r_prime.sides[0].cmd_mps, 0.0);
     let held_w = b.side_power_w(&at_r_prime, 0);
-    let expected_w = C * A_N * A_N;
+    let expected_w = COPPER_W_PER_N2 * A_N * A_N;
     assert!(
         (held_w - expected_w).abs() < 0.2 * expected_w,
         "{held_w} vs {expected_w}"
@@ -289,7 +280,7 @@ fn a_side_held_at_stall_draws_copper_loss_and_a_clamped_side_none() {
     let clamped = Baseline::fit_member(
         &HUSKY,
         &refs,
-        with_copper(Split::Returning { fraction: 0.0 }),
+        copper_member(Split::Returning { fraction: 0.0 }),
     )
     .expect("fits");
     let generating = turn_at(2.0, &mut rng);
