@@ -471,25 +471,58 @@ fn invalid_params_rejected() {
     }
 }
 
+/// Any steps, however absurd: a step either succeeds within the sinkage bounds or is refused
+/// and leaves the model as it was.
+fn check_sinkage_within_bounds(steps: &[(f64, f64, f64, f64)]) -> Result<(), TestCaseError> {
+    let mut m = husky();
+    for &(v_act, beta, v_cmd, dt) in steps {
+        let before = m;
+        match m.step(v_act, beta, v_cmd, dt) {
+            Ok(s) => {
+                prop_assert!(s.sinkage_m >= 0.01 && s.sinkage_m <= 0.13, "{:?}", s);
+                prop_assert_eq!(s.sinkage_m, m.sinkage_m());
+            }
+            Err(_) => prop_assert_eq!(m, before),
+        }
+        prop_assert!(m.sinkage_m() >= 0.01 && m.sinkage_m() <= 0.13);
+        prop_assert!(m.front_angle_rad().is_finite() && m.ground_width_m().is_finite());
+    }
+    Ok(())
+}
+
+/// Plausible inputs repeated `n` times always step, within the bounds.
+fn check_plausible_steps(
+    v_act: f64,
+    beta: f64,
+    v_cmd: f64,
+    dt: f64,
+    n: usize,
+) -> Result<(), TestCaseError> {
+    let mut m = husky();
+    for _ in 0..n {
+        let s = m.step(v_act, beta, v_cmd, dt);
+        prop_assert!(s.is_ok());
+        prop_assert!(m.sinkage_m() >= 0.01 && m.sinkage_m() <= 0.13);
+    }
+    Ok(())
+}
+
+/// Cases the property tests below once found (kept as fixed tests, not as seed files).
+#[test]
+fn sinkage_regressions() {
+    check_sinkage_within_bounds(&[(4.705012694774521e108, 0.0, 0.0, 1.157889292520559e-11)])
+        .expect("a huge actual speed over a tiny step");
+    check_plausible_steps(0.0, 0.0, 0.8056004784294887, 3.76796238865884, 1)
+        .expect("standing still under a command for 3.8 s");
+}
+
 proptest! {
     #[test]
     fn sinkage_always_within_bounds(
         steps in proptest::collection::vec(
             (any::<f64>(), any::<f64>(), any::<f64>(), any::<f64>()), 1..40)
     ) {
-        let mut m = husky();
-        for (v_act, beta, v_cmd, dt) in steps {
-            let before = m;
-            match m.step(v_act, beta, v_cmd, dt) {
-                Ok(s) => {
-                    prop_assert!(s.sinkage_m >= 0.01 && s.sinkage_m <= 0.13, "{:?}", s);
-                    prop_assert_eq!(s.sinkage_m, m.sinkage_m());
-                }
-                Err(_) => prop_assert_eq!(m, before),
-            }
-            prop_assert!(m.sinkage_m() >= 0.01 && m.sinkage_m() <= 0.13);
-            prop_assert!(m.front_angle_rad().is_finite() && m.ground_width_m().is_finite());
-        }
+        check_sinkage_within_bounds(&steps)?;
     }
 
     #[test]
@@ -497,12 +530,7 @@ proptest! {
         v_act in -2.0f64..2.0, beta in -7.0f64..7.0, v_cmd in -2.0f64..2.0,
         dt in 1e-4f64..5.0, n in 1usize..200,
     ) {
-        let mut m = husky();
-        for _ in 0..n {
-            let s = m.step(v_act, beta, v_cmd, dt);
-            prop_assert!(s.is_ok());
-            prop_assert!(m.sinkage_m() >= 0.01 && m.sinkage_m() <= 0.13);
-        }
+        check_plausible_steps(v_act, beta, v_cmd, dt, n)?;
     }
 }
 
