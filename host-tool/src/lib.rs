@@ -21,4 +21,5 @@ pub mod rover;
 pub mod runs;
 pub mod serial;
 pub mod sim;
+pub mod stderr;
 pub mod validate;

@@ -2,6 +2,7 @@
 
 use super::output::{self, check_new_file, create_parent};
 use anyhow::{bail, Result};
+use host_tool::eprintln_best_effort;
 use host_tool::log::convert::{convert_salvaging, same_file};
 use host_tool::log::load::lost_data;
 use host_tool::runs::{damage_warnings, truncation_warning};
@@ -29,7 +30,7 @@ impl ConvertArgs {
         create_parent(&self.output)?;
         let done = convert_salvaging(&self.input, &self.output, super::salvage())?;
         if let Some(t) = &done.truncated {
-            eprintln!("{}", truncation_warning(&self.input, t));
+            eprintln_best_effort!("{}", truncation_warning(&self.input, t));
         }
         super::report_damage(
             &damage_warnings(&self.input, &done.losses, &done.dropped_rows),

@@ -6,6 +6,7 @@ use anyhow::{bail, Result};
 use firmware::sampler::SamplerConfig;
 use host_tool::demo::{self, DemoOptions, DemoOutcome};
 use host_tool::diagnose::report;
+use host_tool::eprintln_best_effort;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use host_tool::progress;
 use host_tool::sim::world::{load_scenario, load_world};
@@ -87,7 +88,7 @@ impl DemoArgs {
             .speed
             .unwrap_or(if live.is_some() { 1.0 } else { 25.0 });
         if let Some(server) = &live {
-            eprintln!("waiting for a viewer to subscribe (Ctrl-C to give up)");
+            eprintln_best_effort!("waiting for a viewer to subscribe (Ctrl-C to give up)");
             server.wait_for_subscriber(None, &AtomicBool::new(false));
             options.live = Some(server.clone());
         }

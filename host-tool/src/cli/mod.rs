@@ -17,6 +17,7 @@ pub mod serve;
 pub mod validate;
 
 use clap::{Parser, Subcommand};
+use host_tool::eprintln_best_effort;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -39,7 +40,7 @@ pub fn salvage() -> bool {
 /// exit code 4 (unless `--salvage`).
 pub fn report_damage(warnings: &[String], lost_data: bool) {
     for w in warnings {
-        eprintln!("{w}");
+        eprintln_best_effort!("{w}");
     }
     if lost_data {
         DATA_LOST.store(true, Ordering::Relaxed);
@@ -159,7 +160,7 @@ pub struct Departure(pub String);
 pub fn exit_code(result: anyhow::Result<()>) -> ExitCode {
     let Err(error) = result else {
         if DATA_LOST.load(Ordering::Relaxed) && !salvage() {
-            eprintln!(
+            eprintln_best_effort!(
                 "error: data was lost to damage (see the warnings above); the outputs hold the \
                  rest. --salvage accepts that (exit 0)."
             );
@@ -176,9 +177,9 @@ pub fn exit_code(result: anyhow::Result<()>) -> ExitCode {
         return ExitCode::SUCCESS;
     }
     if let Some(departure) = error.downcast_ref::<Departure>() {
-        eprintln!("departure: {departure}");
+        eprintln_best_effort!("departure: {departure}");
         return ExitCode::from(3);
     }
-    eprintln!("Error: {error:#}");
+    eprintln_best_effort!("Error: {error:#}");
     ExitCode::FAILURE
 }

@@ -2,6 +2,7 @@
 
 use super::output::{self, check_new_file, create_parent};
 use anyhow::{bail, Context, Result};
+use host_tool::eprintln_best_effort;
 use host_tool::live::{LiveServer, LiveTee};
 use host_tool::log::commands::read_commands_csv;
 use host_tool::record::{self, RecordOptions, RecordStatus};
@@ -115,7 +116,7 @@ impl RecordArgs {
             };
             let _ = stderr.flush();
         };
-        eprintln!(
+        eprintln_best_effort!(
             "recording {} -> {} (Ctrl-C to stop)",
             options.port,
             self.out.display()
@@ -124,7 +125,7 @@ impl RecordArgs {
             record::record_on(&options, board, &mut open, &mut sink, &stop, &mut on_status);
         super::serve::finish(live_server);
         if live {
-            eprintln!();
+            eprintln_best_effort!();
         }
         let summary = result?;
         output::print(format_args!("{}: {summary}", self.out.display()))?;

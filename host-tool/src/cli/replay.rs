@@ -2,6 +2,7 @@
 
 use super::output::{self, check_new_file, create_parent};
 use anyhow::{bail, Context, Result};
+use host_tool::eprintln_best_effort;
 use host_tool::live::serve_run;
 use host_tool::log::convert::same_file;
 use host_tool::log::load::{load_salvaging, Loaded};
@@ -53,7 +54,7 @@ pub struct ReplayArgs {
 /// Tells the user what reading `log` found: a cut end, damaged stretches, dropped rows.
 fn warn_about<R>(log: &Path, found: &Loaded<R>) {
     if let Some(t) = &found.truncated {
-        eprintln!("{}", truncation_warning(log, t));
+        eprintln_best_effort!("{}", truncation_warning(log, t));
     }
     super::report_damage(
         &damage_warnings(log, &found.losses, &found.dropped_rows),
@@ -117,7 +118,7 @@ impl ReplayArgs {
             let replay = ReplayPty::spawn_streaming(move |emit| source.emit(emit), pacing, None)?;
             output::print(format_args!("{}\n", replay.path()))?;
             let stats = replay.join().context("replaying into the pty")?;
-            eprintln!("replayed {} frames, {} bytes", stats.frames, stats.bytes);
+            eprintln_best_effort!("replayed {} frames, {} bytes", stats.frames, stats.bytes);
             Ok(())
         }
     }
@@ -134,13 +135,13 @@ impl ReplayArgs {
         let server = self.serve.start()?.context("--serve")?;
         // The address on stdout (a script or test connects to it), the rest on stderr.
         output::print(format_args!("ws://{}\n", server.local_addr()))?;
-        eprintln!("waiting for a viewer to subscribe (Ctrl-C to stop)");
+        eprintln_best_effort!("waiting for a viewer to subscribe (Ctrl-C to stop)");
         if !server.wait_for_subscriber(None, &stop) {
             super::serve::finish(Some(server));
             return Ok(());
         }
         let stats = serve_run(&server, run, rover, self.speed, &stop);
-        eprintln!(
+        eprintln_best_effort!(
             "served {} records ({:.1} s of the run){}",
             stats.records,
             stats.run_s,

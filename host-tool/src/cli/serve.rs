@@ -2,6 +2,7 @@
 //! (`host_tool::live`).
 
 use anyhow::Result;
+use host_tool::eprintln_best_effort;
 use host_tool::live::{resolve_addr, LiveOptions, LiveServer, LiveSummary, DEFAULT_ADDR};
 use std::time::Duration;
 
@@ -28,7 +29,7 @@ impl ServeArgs {
             return Ok(None);
         };
         let server = LiveServer::bind(resolve_addr(addr)?, LiveOptions::default())?;
-        eprintln!(
+        eprintln_best_effort!(
             "live view: ws://{} (Foxglove: Open connection → Foxglove WebSocket; layout \
              foxglove/rover-power.json)",
             server.local_addr()
@@ -41,6 +42,6 @@ impl ServeArgs {
 pub fn finish(server: Option<LiveServer>) {
     if let Some(server) = server {
         let summary: LiveSummary = server.finish(Duration::from_secs(1));
-        eprintln!("{summary}");
+        eprintln_best_effort!("{summary}");
     }
 }

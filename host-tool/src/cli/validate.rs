@@ -3,6 +3,7 @@
 use super::output::{self, write_file, JsonOut};
 use super::Departure;
 use anyhow::Result;
+use host_tool::eprintln_best_effort;
 use host_tool::log::mcap::Truncation;
 use host_tool::rover::load_rover_file;
 use host_tool::runs::{truncation_warning, Runs, StreamedRuns};
@@ -98,7 +99,7 @@ pub fn stream_and_validate(
 /// code).
 fn warn_about_reads(truncated: &[(PathBuf, Truncation)], damage: &[String], lost_data: bool) {
     for (path, t) in truncated {
-        eprintln!("{}", truncation_warning(path, t));
+        eprintln_best_effort!("{}", truncation_warning(path, t));
     }
     super::report_damage(damage, lost_data);
 }

@@ -29,9 +29,10 @@ pub enum AtomicWriteError<E> {
         #[source]
         source: io::Error,
     },
-    /// The content callback failed; nothing was written at the target path.
-    #[error(transparent)]
-    Content(E),
+    /// The content callback failed; nothing was written at the target path. Its source, not
+    /// transparent: the CLI finds an `io::Error` such as a closed stdout in the chain.
+    #[error("{0}")]
+    Content(#[source] E),
 }
 
 /// Writes a whole file or nothing: `write` fills a temporary file in the target's directory,
