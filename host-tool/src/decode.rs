@@ -22,6 +22,10 @@ use model_core::wire::{
 use model_core::Sides;
 use std::fmt;
 
+mod capture;
+
+pub use capture::{read_capture, CaptureEnd, CaptureError, CaptureSummary, CHUNK, MAX_BUFFERED};
+
 /// One decoded event of the stream.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
@@ -403,7 +407,7 @@ impl StreamDecoder {
 /// (`decode --json` prints it as JSON).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Summary {
-    pub bytes: usize,
+    pub bytes: u64,
     pub hello: Option<Hello>,
     pub stats: StreamStats,
     /// First and last sample time [µs].
@@ -417,29 +421,11 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Decodes a whole capture.
+    /// Decodes a whole capture held in memory ([`read_capture`] reads one in bounded chunks).
     pub fn of(bytes: &[u8]) -> Summary {
-        let mut dec = StreamDecoder::new();
-        let mut span_us: Option<(u64, u64)> = None;
-        let mut last_status = None;
-        dec.feed(bytes, |event| match event {
-            Event::Frame(BoardFrame::Sample(s)) => {
-                span_us = Some((span_us.map_or(s.t_us, |(first, _)| first), s.t_us));
-            }
-            Event::Frame(BoardFrame::Status(s)) => last_status = Some(s),
-            _ => {}
-        });
-        let host = dec.measurements().snapshot().energy_lsb_us;
-        Summary {
-            bytes: bytes.len(),
-            hello: dec.hello().copied(),
-            stats: dec.stats(),
-            span_us,
-            scale: dec.scale(),
-            host_energy_lsb_us: [host.left, host.right],
-            board_vs_host: dec.board_vs_host_energy(),
-            last_status,
-        }
+        let mut capture = CaptureSummary::new();
+        capture.feed(bytes);
+        capture.summary()
     }
 }
 

@@ -8,6 +8,8 @@ use host_tool::diagnose::bench::{
 };
 use host_tool::diagnose::report;
 use host_tool::log::run_csv::CURRENT_A_MAX;
+use host_tool::out_dir::{write_dir_whole, OutDirError};
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// `diagnose-bench [--datasets N] [--seed S] [--part P] [--threads T] [--json FILE|-]`.
@@ -28,7 +30,7 @@ pub struct DiagnoseBenchArgs {
     threads: u64,
     #[command(flatten)]
     json: JsonOut,
-    /// Overwrite an existing --json file.
+    /// Overwrite an existing --json file, or replace a non-empty --dump directory.
     #[arg(long)]
     force: bool,
     /// Keep the simulated tracker's position fixes (5 Hz prism): the diagnosis then places
@@ -37,7 +39,8 @@ pub struct DiagnoseBenchArgs {
     poses: bool,
     /// Instead of running the bench, write each dataset (or only `--only`'s) to
     /// DIR/<part>-<index>/ as run CSVs, rover.toml and dataset.json (spec, truth and the
-    /// `diagnose` command the bench runs), to read a miss with the ordinary commands.
+    /// `diagnose` command the bench runs), to read a miss with the ordinary commands. DIR is
+    /// written whole or not at all; a non-empty one needs --force.
     #[arg(long, value_name = "DIR")]
     dump: Option<PathBuf>,
     /// With --dump: only the dataset of this index (the `index` of the --json report).
@@ -75,7 +78,7 @@ impl DiagnoseBenchArgs {
             poses: self.poses,
         };
         if let Some(dir) = &self.dump {
-            return dump(&options, dir, self.only);
+            return output::print(dump(&options, dir, self.only, self.force)?);
         }
         if let Some(index) = self.explain {
             return explain_one(&options, index);
@@ -113,8 +116,10 @@ fn explain_one(options: &BenchOptions, index: usize) -> Result<()> {
     output::print(text)
 }
 
-/// `--dump DIR [--only INDEX]`: each chosen dataset into its own directory under `dir`.
-fn dump(options: &BenchOptions, dir: &Path, only: Option<usize>) -> Result<()> {
+/// `--dump DIR [--only INDEX]`: each chosen dataset into its own directory under `dir`,
+/// written whole or not at all; a non-empty `dir` is replaced only with `force`. Returns what to
+/// print: per dataset its directory and the `diagnose` command to run there.
+fn dump(options: &BenchOptions, dir: &Path, only: Option<usize>, force: bool) -> Result<String> {
     let specs: Vec<_> = generate_all(options)
         .into_iter()
         .filter(|s| only.is_none_or(|i| s.index == i))
@@ -124,24 +129,79 @@ fn dump(options: &BenchOptions, dir: &Path, only: Option<usize>) -> Result<()> {
         "no dataset has index {}",
         only.unwrap_or(0)
     );
-    for spec in &specs {
-        let sub = dir.join(format!("{}-{}", spec.part.id(), spec.index));
-        std::fs::create_dir_all(&sub).with_context(|| format!("creating {}", sub.display()))?;
-        let dumped = dump_dataset(spec, &sub, options.poses)
-            .with_context(|| format!("dataset {}", sub.display()))?;
-        println!(
-            "{}: {} ({})",
-            sub.display(),
-            spec.class.label(),
-            spec.structure_label
-        );
-        println!("  cd {} && {}", sub.display(), dumped.diagnose);
-        if let Some(peak) = dumped.over_range_a {
-            println!(
-                "  note: its currents reach {peak:.1} A, beyond the INA226 board's ±{CURRENT_A_MAX} A: \
-                 `diagnose` refuses these files (the bench hands its samples to the diagnosis directly)"
+    write_dir_whole(dir, force, |staging| {
+        let mut text = String::new();
+        for spec in &specs {
+            let name = format!("{}-{}", spec.part.id(), spec.index);
+            let staged = staging.join(&name);
+            std::fs::create_dir(&staged)
+                .with_context(|| format!("creating {}", staged.display()))?;
+            let dumped = dump_dataset(spec, &staged, options.poses)
+                .with_context(|| format!("dataset {name}"))?;
+            let sub = dir.join(&name);
+            let _ = writeln!(
+                text,
+                "{}: {} ({})",
+                sub.display(),
+                spec.class.label(),
+                spec.structure_label
             );
+            let _ = writeln!(text, "  cd {} && {}", sub.display(), dumped.diagnose);
+            if let Some(peak) = dumped.over_range_a {
+                let _ = writeln!(
+                    text,
+                    "  note: its currents reach {peak:.1} A, beyond the INA226 board's ±{CURRENT_A_MAX} A: \
+                     `diagnose` refuses these files (the bench hands its samples to the diagnosis directly)"
+                );
+            }
         }
+        Ok::<_, anyhow::Error>(text)
+    })
+    .map_err(|e| match e {
+        OutDirError::Content(e) => e,
+        // The other variants hold no `e`; their message says it all (path, --force, cause).
+        other => anyhow::anyhow!("{other}"),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::fs;
+
+    #[test]
+    fn dump_replaces_a_non_empty_directory_only_with_force() {
+        // Issue 34, item 9b: --dump wrote into a non-empty directory without --force.
+        let dir = std::env::temp_dir().join(format!("bench-dump-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).expect("dir");
+        fs::write(dir.join("notes.txt"), "mine").expect("file");
+        let options = BenchOptions {
+            datasets: 1,
+            seed: 1,
+            threads: 1,
+            part: PartChoice::Tuning,
+            poses: false,
+        };
+        let refused = dump(&options, &dir, None, false).expect_err("not empty, no --force");
+        assert!(refused.to_string().contains("--force"), "{refused:#}");
+        let names: Vec<_> = fs::read_dir(&dir)
+            .expect("still there")
+            .map(|e| e.expect("entry").file_name())
+            .collect();
+        assert_eq!(names, ["notes.txt"], "nothing written");
+        let text = dump(&options, &dir, None, true).expect("replaced with --force");
+        assert!(
+            text.contains("host-tool diagnose --rover rover.toml"),
+            "{text}"
+        );
+        assert!(!dir.join("notes.txt").exists(), "replaced whole");
+        let datasets: Vec<_> = fs::read_dir(&dir)
+            .expect("dumped")
+            .map(|e| e.expect("entry").path())
+            .collect();
+        assert_eq!(datasets.len(), 1);
+        assert!(datasets[0].join("dataset.json").is_file());
+        let _ = fs::remove_dir_all(&dir);
     }
-    Ok(())
 }

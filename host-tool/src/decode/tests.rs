@@ -334,3 +334,142 @@ fn json_enum_values_are_kebab_case_and_old_names_still_read() {
     let old: Regime = serde_json::from_str("\"AboveRPrime\"").expect("old name");
     assert_eq!(old, Regime::AboveRPrime);
 }
+
+/// An input that never ends, or ends after `len` bytes: `fill` bytes made on demand, counting
+/// what was read and the largest read asked for.
+struct Lazy {
+    fill: u8,
+    len: Option<u64>,
+    read: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    largest_ask: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl Lazy {
+    fn new(fill: u8, len: Option<u64>) -> Self {
+        Self {
+            fill,
+            len,
+            read: Default::default(),
+            largest_ask: Default::default(),
+        }
+    }
+}
+
+impl std::io::Read for Lazy {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.largest_ask.fetch_max(buf.len(), Relaxed);
+        let read = self.read.load(Relaxed);
+        let left = self.len.map_or(u64::MAX, |len| len - read);
+        let n = buf.len().min(usize::try_from(left).unwrap_or(usize::MAX));
+        buf[..n].fill(self.fill);
+        self.read.fetch_add(n as u64, Relaxed);
+        Ok(n)
+    }
+}
+
+#[test]
+fn a_capture_far_larger_than_any_buffer_is_decoded_in_bounded_memory() {
+    // Issue 34, item 4: `decode` held its whole input (12.3 GB of /dev/zero in 20 s).
+    use std::sync::atomic::Ordering::Relaxed;
+    const LEN: u64 = 200 << 20;
+    let input = Lazy::new(0x01, Some(LEN)); // garbage, no delimiter: one endless frame
+    let (read, largest_ask) = (input.read.clone(), input.largest_ask.clone());
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut most_held = 0u64;
+    let (summary, end) = read_capture(input, &stop, std::time::Duration::ZERO, &mut |so_far| {
+        // Read but not decoded yet: what the decoder holds beyond its counters.
+        most_held = most_held.max(read.load(Relaxed) - so_far.bytes);
+    })
+    .expect("decoded");
+    assert_eq!(end, CaptureEnd::Eof);
+    assert_eq!(summary.bytes, LEN);
+    assert!(most_held <= MAX_BUFFERED as u64, "{most_held} bytes held");
+    assert!(largest_ask.load(Relaxed) <= CHUNK);
+    // No delimiter in 200 MB: one overflowing frame at most, never a buffer growing with it.
+    assert_eq!((summary.stats.frames, summary.stats.bad_frames), (0, 0));
+}
+
+#[test]
+fn an_endless_capture_reports_as_it_goes_and_stops_on_request() {
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut reports = Vec::new();
+    let (summary, end) = read_capture(
+        Lazy::new(0, None),
+        &stop,
+        std::time::Duration::from_millis(10),
+        &mut |so_far| {
+            reports.push(so_far.bytes);
+            if reports.len() == 3 {
+                stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        },
+    )
+    .expect("decoded");
+    assert_eq!(end, CaptureEnd::Stopped);
+    assert_eq!(reports.len(), 3);
+    assert!(reports.windows(2).all(|w| w[0] <= w[1]), "{reports:?}");
+    assert!(summary.bytes >= reports[2] && reports[2] > 0);
+    assert!(summary
+        .running_line()
+        .starts_with(&format!("{} bytes", summary.bytes)));
+}
+
+#[test]
+fn a_stop_is_seen_while_the_input_waits_for_its_writer() {
+    /// A FIFO whose writer says nothing for a minute.
+    struct Silent;
+    impl std::io::Read for Silent {
+        fn read(&mut self, _: &mut [u8]) -> std::io::Result<usize> {
+            std::thread::sleep(std::time::Duration::from_secs(60));
+            Ok(0)
+        }
+    }
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let started = std::time::Instant::now();
+    let (summary, end) = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        });
+        read_capture(
+            Silent,
+            &stop,
+            std::time::Duration::from_secs(1),
+            &mut |_| {},
+        )
+    })
+    .expect("stopped");
+    assert_eq!((end, summary.bytes), (CaptureEnd::Stopped, 0));
+    assert!(started.elapsed() < std::time::Duration::from_secs(5));
+}
+
+#[test]
+fn a_capture_read_in_chunks_sums_up_like_one_held_whole() {
+    let hello = BoardFrame::Hello(crate::replay::synthetic_hello(5_000));
+    let mut frames = vec![hello];
+    frames.extend((0..10_000).map(sample));
+    let bytes = bytes_of(frames).concat();
+    assert!(bytes.len() > 2 * CHUNK, "spans chunks");
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let (summary, end) = read_capture(
+        std::io::Cursor::new(bytes.clone()),
+        &stop,
+        std::time::Duration::from_secs(60),
+        &mut |_| {},
+    )
+    .expect("decoded");
+    assert_eq!(end, CaptureEnd::Eof);
+    assert_eq!(summary, Summary::of(&bytes));
+    assert_eq!(summary.stats.samples, 10_000);
+    // A run log is still refused, from its first bytes.
+    let mut mcap = b"\x89MCAP0\r\n".to_vec();
+    mcap.extend([0u8; 100]);
+    let refused = read_capture(
+        std::io::Cursor::new(mcap),
+        &stop,
+        std::time::Duration::ZERO,
+        &mut |_| {},
+    );
+    assert!(matches!(refused, Err(CaptureError::Foreign(hint)) if hint.contains("MCAP")));
+}

@@ -38,6 +38,7 @@
 //! [`LogEvent::WallClock`]: crate::log::run_log::LogEvent::WallClock
 
 mod clock;
+mod rate;
 mod recorder;
 mod report;
 pub mod stop_signal;
@@ -244,7 +245,8 @@ pub enum RecordError {
 
 /// Records from `options.port` into `sink` until stopped: `stop` raised (Ctrl-C), the duration
 /// or sample count reached, or the device gone for longer than the reconnect timeout.
-/// `on_status` gets the live status every [`RecordOptions::status_every`] and once at the end.
+/// `on_status` gets the live status every [`RecordOptions::status_every`] and once at the end
+/// ([`RecordStatus::stopped`] set).
 ///
 /// The port is opened with `open` (normally [`serial_opener`]). Failing to open it at the start
 /// is an error; later, a vanished device is waited for. The sink is finished before returning,
@@ -278,7 +280,10 @@ pub fn record_on(
     let stop_reason = outcome?;
     finished?;
     let summary = rec.summary(stop_reason);
-    on_status(&rec.status(Instant::now()));
+    let mut last = rec.status(Instant::now());
+    last.stopped = Some(stop_reason);
+    last.reconnect_left = None; // nothing is waited for any more
+    on_status(&last);
     Ok(summary)
 }
 

@@ -1,6 +1,7 @@
 //! The recorder's state machine ([`Recorder`]): reads the port, decodes, turns frames into the
 //! run log's samples and events, forwards commands, waits out unplugs and reports its status.
 
+use super::rate::BoardRate;
 use super::{
     BoardPort, CommandTimeline, PortOpener, RecordError, RecordOptions, RecordStatus,
     RecordSummary, RunClock, StopReason,
@@ -53,9 +54,10 @@ pub(super) struct Recorder<'a, 'o> {
     commands_acked: u64,
     commands_rejected: u64,
     status_at: Instant,
-    status_samples: u64,
-    /// When the device vanished, while it is away.
-    gone_at: Option<Instant>,
+    /// The board's sample rate since the last status.
+    rate: BoardRate,
+    /// While the device is away: until when it is waited for.
+    reconnect_until: Option<Instant>,
 }
 
 impl<'a, 'o> Recorder<'a, 'o> {
@@ -99,8 +101,8 @@ impl<'a, 'o> Recorder<'a, 'o> {
             commands_acked: 0,
             commands_rejected: 0,
             status_at: now,
-            status_samples: 0,
-            gone_at: None,
+            rate: BoardRate::new(),
+            reconnect_until: None,
         }
     }
 
@@ -199,7 +201,6 @@ impl<'a, 'o> Recorder<'a, 'o> {
         self.connected = false;
         self.event(LogEvent::DeviceVanished { port: port.clone() })?;
         self.flush()?;
-        self.gone_at = Some(Instant::now());
         let gone_at = Instant::now();
         // A pseudo-terminal whose writer ended (a replay, the simulator) never comes back; its
         // number may go to an unrelated program next.
@@ -208,6 +209,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
         } else {
             self.options.reconnect_timeout
         };
+        self.reconnect_until = Some(gone_at + timeout);
         loop {
             let now = Instant::now();
             if let Some(reason) = self.stop_due(stop, now) {
@@ -221,7 +223,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
                 on_status(&status);
             }
             if let Ok(new_port) = (self.open)(&port) {
-                self.gone_at = None;
+                self.reconnect_until = None;
                 self.reader = PortReader::new(new_port);
                 self.decoder.new_connection();
                 self.connected = true;
@@ -302,6 +304,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
                     at.elapsed().as_micros().min(u128::from(u64::MAX)) as u64
                 });
                 self.clock.restart(gap_us);
+                self.rate.restart();
                 // The rebooted board has no wheel rates and will not ack what the old one got.
                 self.last_sent_mps = None;
                 self.awaiting.clear();
@@ -349,6 +352,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
 
     fn on_sample(&mut self, sample: &Sample, frame: &BoardFrame) -> Result<(), RecordError> {
         let t_s = RunClock::seconds(self.clock.at(sample.t_us));
+        self.rate.sample(sample.seq, sample.t_us);
         self.samples += 1;
         if self.samples == 1 {
             // Where run time meets wall time: when the first sample's bytes were read.
@@ -484,26 +488,17 @@ impl<'a, 'o> Recorder<'a, 'o> {
     }
 
     pub(super) fn status(&mut self, now: Instant) -> RecordStatus {
-        let interval_s = now.duration_since(self.status_at).as_secs_f64();
-        let rate_hz = if interval_s > 0.0 {
-            (self.samples - self.status_samples) as f64 / interval_s
-        } else {
-            0.0
-        };
         self.status_at = now;
-        self.status_samples = self.samples;
         let power = self.decoder.measurements().snapshot().power_lsb;
         RecordStatus {
             elapsed: now.duration_since(self.start),
             run_s: self.run_s(),
             connected: self.connected,
-            reconnect_left: self.gone_at.map(|at| {
-                self.options
-                    .reconnect_timeout
-                    .saturating_sub(now.duration_since(at))
-            }),
+            reconnect_left: self
+                .reconnect_until
+                .map(|until| until.saturating_duration_since(now)),
             samples: self.samples,
-            rate_hz,
+            rate_hz: self.rate.take_hz(),
             stream: self.decoder.stats(),
             board_queue_drops: self.board_status.map_or(0, |s| s.queue_drops),
             power_w: power.map(|p| p.map(|p| self.scale.power_w(p))),
@@ -513,6 +508,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
             chip_failed_samples: self.chip_failed_samples,
             commands_sent: self.commands_sent,
             commands_acked: self.commands_acked,
+            stopped: None,
         }
     }
 

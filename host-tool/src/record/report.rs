@@ -42,7 +42,9 @@ pub struct RecordStatus {
     pub reconnect_left: Option<Duration>,
     /// Samples received.
     pub samples: u64,
-    /// Samples per second of wall time since the previous status.
+    /// The board's sample rate since the previous status [Hz]: samples per second of board
+    /// time, from the samples' `seq` and `t_us` (lost ones included), whatever the pace they
+    /// arrive at (a replay at `--speed 10` delivers them ten times faster); 0 when none arrived.
     pub rate_hz: f64,
     /// The decoder's counters (lost samples, bad frames, CRC errors, resets).
     pub stream: StreamStats,
@@ -62,6 +64,8 @@ pub struct RecordStatus {
     pub commands_sent: u64,
     /// Commands acknowledged by the board.
     pub commands_acked: u64,
+    /// Why the recording stopped: the final status (`None` while it runs).
+    pub stopped: Option<StopReason>,
 }
 
 impl fmt::Display for RecordStatus {
@@ -105,7 +109,10 @@ impl fmt::Display for RecordStatus {
                 write!(f, "  {side} chip {address:#04x}: {fault:?}")?;
             }
         }
-        if !self.connected {
+        if self.stopped.is_some() {
+            // Why is the summary's first line; no wait or key is on offer any more.
+            f.write_str("  [stopped]")?;
+        } else if !self.connected {
             match self.reconnect_left {
                 Some(left) => write!(
                     f,

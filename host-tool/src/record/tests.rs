@@ -502,7 +502,7 @@ fn while_waiting_for_a_vanished_device_the_status_says_how_long_and_how_to_stop(
     assert_eq!(result.expect("recorded").stop, StopReason::DeviceGone);
     let waiting: Vec<String> = statuses
         .iter()
-        .filter(|s| !s.connected)
+        .filter(|s| !s.connected && s.stopped.is_none())
         .map(ToString::to_string)
         .collect();
     assert!(!waiting.is_empty());
@@ -513,6 +513,50 @@ fn while_waiting_for_a_vanished_device_the_status_says_how_long_and_how_to_stop(
         .iter()
         .filter_map(|s| s.reconnect_left)
         .all(|left| left <= Duration::from_millis(400)));
+}
+
+#[test]
+fn after_the_recording_stopped_its_last_status_promises_no_wait() {
+    // Issue 34, item 9c: a recording of a replay's pty ended on "waiting 60 s more".
+    let (bytes, _) = board_stream(0, 50, &[]);
+    let (port, _) = script(vec![bytes]);
+    let options = RecordOptions {
+        port: "/dev/pts/77".into(), // a pty is not waited for; the default timeout is 60 s
+        ..RecordOptions::new("")
+    };
+    let (result, _, statuses) = record_ports(&options, vec![port]);
+    assert_eq!(result.expect("recorded").stop, StopReason::DeviceGone);
+    let last = statuses.last().expect("final status");
+    let line = last.to_string();
+    assert!(
+        !line.contains("waiting") && !line.contains("more") && !line.contains("Ctrl-C"),
+        "{line}"
+    );
+    assert!(line.contains("[stopped]"), "{line}");
+    assert_eq!(
+        (last.stopped, last.reconnect_left),
+        (Some(StopReason::DeviceGone), None)
+    );
+    assert!(statuses[..statuses.len() - 1]
+        .iter()
+        .all(|s| s.stopped.is_none()));
+}
+
+#[test]
+fn the_status_shows_the_boards_rate_not_the_pace_the_samples_arrive_at() {
+    // Issue 34, item 9c: a replay at --speed 10 showed 2000 Hz for the board's 200 Hz. Here
+    // the 200 samples (one every 5 ms of board time) arrive in one read, far faster still.
+    let (bytes, _) = board_stream(0, 200, &[]);
+    let (port, _) = script(vec![bytes]);
+    let options = RecordOptions {
+        status_every: Duration::from_secs(3600), // one status, at the end, over every sample
+        ..fast_options()
+    };
+    let (result, _, statuses) = record_ports(&options, vec![port]);
+    assert_eq!(result.expect("recorded").samples, 200);
+    let last = statuses.last().expect("final status");
+    assert!((last.rate_hz - 200.0).abs() < 1e-9, "{} Hz", last.rate_hz);
+    assert!(last.to_string().contains(" 200.0 Hz"), "{last}");
 }
 
 #[test]
