@@ -1,5 +1,11 @@
 //! The USB side of the board: whole frames into a bounded transmit queue, host bytes into
 //! commands. Transmits only while the host holds DTR (a port nobody reads would only fill up).
+//!
+//! Every connection starts with a lone frame delimiter: a packet already armed in the IN endpoint
+//! when the host closed the port survives the close and arrives first on the next connection,
+//! usually cut mid-frame; the delimiter ends that cut frame, so it cannot swallow the hello.
+//! A suspended bus is not a closed port: the host keeps DTR set through suspend and resume and
+//! sends no new line state, so suspend is neither an edge nor a reason to reset the USB class.
 
 use heapless::Deque;
 use model_core::wire::{self, BoardFrame, FrameDecoder, HostFrame, Rejection, MAX_FRAME};
@@ -9,14 +15,27 @@ pub const TX_CAPACITY: usize = 4096;
 /// Host commands waiting for the sampler.
 pub const COMMAND_CAPACITY: usize = 8;
 
-/// A change of the host's DTR ([`Link::update_dtr`]).
+/// A change of the host's DTR ([`Link::update_usb`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DtrEdge {
-    /// A host opened the port: a hello is due.
+    /// A host opened the port: a frame delimiter is queued, a hello is due.
     Rising,
-    /// The host closed the port: the queue was dropped; the caller drops its USB class's own
-    /// write buffer too, so the next connection starts near its hello.
+    /// The host closed the port (or the bus was reset): the queue was dropped; the caller drops
+    /// its USB class's own write buffer too, so the next connection starts near its hello.
     Falling,
+}
+
+/// The USB device's state as the link reads it (usb-device's `UsbDeviceState`, which only the
+/// target build has; `main.rs` maps it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UsbState {
+    /// Just reset or addressed: no port, whatever the class last heard of DTR.
+    Unconfigured,
+    /// Enumerated: the class's DTR is the host's.
+    Configured,
+    /// The bus is suspended (host asleep, or unplugged while powered otherwise); on resume
+    /// usb-device returns to the state before, on a bus reset to `Unconfigured`.
+    Suspended,
 }
 
 /// Bytes out, commands in.
@@ -36,10 +55,15 @@ impl Link {
         Self::default()
     }
 
-    /// Tracks the host's DTR. On the rising edge the board owes the host a hello; on the falling
-    /// edge whatever was queued is discarded (nobody is reading).
+    /// Tracks the host's DTR. On the rising edge the connection starts with a lone frame
+    /// delimiter and the board owes the host a hello; on the falling edge whatever was queued is
+    /// discarded (nobody is reading).
     pub fn set_connected(&mut self, connected: bool) {
         if connected && !self.connected {
+            self.tx.clear();
+            // Ends a stale frame the host may still receive from the previous connection; an
+            // empty frame decodes to nothing. Cannot fail: the queue was just emptied.
+            let _ = self.tx.push_back(0);
             self.hello_due = true;
         }
         if !connected {
@@ -48,9 +72,20 @@ impl Link {
         self.connected = connected;
     }
 
-    /// Tracks DTR as the USB interrupt sees it (device configured and DTR set) and returns the
-    /// edge, if this call saw one.
-    pub fn update_dtr(&mut self, dtr: bool) -> Option<DtrEdge> {
+    /// Tracks the port as the USB interrupt sees it, the device's state and the class's DTR,
+    /// and returns the edge, if this call saw one. While suspended nothing changes: a falling
+    /// edge would reset the class, clearing the DTR the host still holds, and the stream would
+    /// not come back on resume.
+    pub fn update_usb(&mut self, usb: UsbState, dtr: bool) -> Option<DtrEdge> {
+        match usb {
+            UsbState::Suspended => None,
+            UsbState::Configured => self.update_dtr(dtr),
+            UsbState::Unconfigured => self.update_dtr(false),
+        }
+    }
+
+    /// Tracks DTR and returns the edge, if this call saw one.
+    fn update_dtr(&mut self, dtr: bool) -> Option<DtrEdge> {
         let edge = match (self.connected, dtr) {
             (false, true) => Some(DtrEdge::Rising),
             (true, false) => Some(DtrEdge::Falling),
@@ -199,16 +234,130 @@ mod tests {
     #[test]
     fn dtr_edges_are_reported_once_and_gate_the_queue() {
         let mut link = Link::new();
-        assert_eq!(link.update_dtr(false), None);
-        assert_eq!(link.update_dtr(true), Some(DtrEdge::Rising));
+        assert_eq!(link.update_usb(UsbState::Configured, false), None);
+        assert_eq!(
+            link.update_usb(UsbState::Configured, true),
+            Some(DtrEdge::Rising)
+        );
         assert!(link.take_hello_due());
-        assert_eq!(link.update_dtr(true), None);
+        assert_eq!(link.update_usb(UsbState::Configured, true), None);
         assert!(!link.take_hello_due(), "one hello per connection");
         assert!(link.send(&ack(1)));
-        assert_eq!(link.update_dtr(false), Some(DtrEdge::Falling));
+        assert_eq!(
+            link.update_usb(UsbState::Configured, false),
+            Some(DtrEdge::Falling)
+        );
         assert_eq!(link.queued(), 0);
         assert!(!link.send(&ack(2)));
-        assert_eq!(link.update_dtr(true), Some(DtrEdge::Rising));
+        assert_eq!(
+            link.update_usb(UsbState::Configured, true),
+            Some(DtrEdge::Rising)
+        );
+        assert!(link.take_hello_due());
+    }
+
+    fn encoded(frame: &BoardFrame) -> Vec<u8> {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = wire::encode(frame, &mut buf).expect("fits");
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn every_connection_starts_with_a_lone_delimiter_before_its_hello() {
+        let hello = BoardFrame::Hello(
+            crate::sampler::Sampler::new(crate::sampler::SamplerConfig::BOARD).hello(),
+        );
+        let mut link = Link::new();
+        for connection in 0..3u16 {
+            assert_eq!(
+                link.update_usb(UsbState::Configured, true),
+                Some(DtrEdge::Rising)
+            );
+            assert_eq!(link.pending(), [0], "the delimiter goes out first");
+            assert!(link.take_hello_due());
+            assert!(link.send(&hello));
+            assert!(link.send(&ack(connection)));
+            let expected = [vec![0], encoded(&hello), encoded(&ack(connection))].concat();
+            assert_eq!(drain(&mut link), expected);
+            // Left queued when the host closes the port: dropped, the next one starts afresh.
+            assert!(link.send(&ack(99)));
+            assert_eq!(
+                link.update_usb(UsbState::Configured, false),
+                Some(DtrEdge::Falling)
+            );
+            assert_eq!(link.queued(), 0);
+        }
+    }
+
+    /// usbd-serial's DTR: set by the host's SET_CONTROL_LINE_STATE, cleared by a class reset
+    /// (usb-device's on a bus reset, `main.rs`'s on a falling edge).
+    struct Port {
+        dtr: bool,
+    }
+
+    /// One run of the USB interrupt as `main.rs` does it: the edge, and the class reset on a
+    /// falling one.
+    fn interrupt(link: &mut Link, port: &mut Port, usb: UsbState) -> Option<DtrEdge> {
+        let edge = link.update_usb(usb, port.dtr);
+        if edge == Some(DtrEdge::Falling) {
+            port.dtr = false;
+        }
+        edge
+    }
+
+    #[test]
+    fn suspend_and_resume_with_dtr_held_keep_the_connection() {
+        let mut link = Link::new();
+        let mut port = Port { dtr: true };
+        assert_eq!(
+            interrupt(&mut link, &mut port, UsbState::Configured),
+            Some(DtrEdge::Rising)
+        );
+        assert!(link.take_hello_due());
+        drain(&mut link);
+        assert!(link.send(&ack(1)));
+
+        // The host suspends the bus; the class keeps DTR, the port stays open.
+        assert_eq!(interrupt(&mut link, &mut port, UsbState::Suspended), None);
+        assert!(port.dtr, "no class reset while suspended");
+        assert!(link.connected());
+        assert!(link.send(&ack(2)), "frames keep queuing while suspended");
+        // Resume: usb-device is back to Configured, and the host sends no new line state.
+        assert_eq!(interrupt(&mut link, &mut port, UsbState::Configured), None);
+        assert!(!link.take_hello_due(), "the same connection: no new hello");
+        assert_eq!(
+            drain(&mut link),
+            [encoded(&ack(1)), encoded(&ack(2))].concat(),
+            "the stream goes on where it was, no delimiter in between"
+        );
+
+        // A long suspend fills the queue: whole frames are dropped and counted (the status
+        // frame reports `queue_drops`, a sample's loss shows as a gap in `seq`).
+        assert_eq!(interrupt(&mut link, &mut port, UsbState::Suspended), None);
+        let mut queued = 0;
+        while link.send(&ack(queued)) {
+            queued += 1;
+        }
+        assert_eq!(link.queue_drops(), 1);
+        assert_eq!(interrupt(&mut link, &mut port, UsbState::Configured), None);
+        assert_eq!(decode_all(&drain(&mut link)).len(), usize::from(queued));
+
+        // A real disconnect is a bus reset (usb-device resets the class: DTR cleared), seen as
+        // Default or Addressed, even if it came during a suspend.
+        assert_eq!(interrupt(&mut link, &mut port, UsbState::Suspended), None);
+        assert!(link.send(&ack(3)));
+        assert_eq!(
+            interrupt(&mut link, &mut port, UsbState::Unconfigured),
+            Some(DtrEdge::Falling),
+            "not configured is closed, whatever DTR the class last heard"
+        );
+        assert_eq!(link.queued(), 0);
+        assert_eq!(interrupt(&mut link, &mut port, UsbState::Configured), None);
+        port.dtr = true; // re-enumerated and opened again
+        assert_eq!(
+            interrupt(&mut link, &mut port, UsbState::Configured),
+            Some(DtrEdge::Rising)
+        );
         assert!(link.take_hello_due());
     }
 

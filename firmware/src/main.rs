@@ -27,7 +27,7 @@ mod app {
     use firmware::board::{Board, LinkAccess, Watchdog};
     use firmware::bus_recovery::Recovery;
     use firmware::led::LedPattern;
-    use firmware::link::{DtrEdge, Link};
+    use firmware::link::{DtrEdge, Link, UsbState};
     use firmware::sampler::SamplerConfig;
     use firmware::stm32_i2c::{BusControl, I2c1};
     use model_core::board_id::{BoardIdentity, SERIAL_LEN, UID_LEN};
@@ -412,7 +412,7 @@ mod app {
     }
 
     /// USB CDC-ACM: enumerate, take host bytes, send queued frames while DTR is held.
-    #[task(binds = OTG_FS, priority = 2, local = [usb_dev, serial, configured: bool = false], shared = [link])]
+    #[task(binds = OTG_FS, priority = 2, local = [usb_dev, serial, usb_state: UsbState = UsbState::Unconfigured], shared = [link])]
     fn usb(mut cx: usb::Context) {
         let (usb_dev, serial) = (cx.local.usb_dev, cx.local.serial);
         if usb_dev.poll(&mut [&mut *serial]) {
@@ -421,33 +421,47 @@ mod app {
                 cx.shared.link.lock(|link| link.receive(&buf[..n]));
             }
         }
-        let configured = usb_dev.state() == UsbDeviceState::Configured;
-        if configured != *cx.local.configured {
-            if configured {
-                defmt::info!("USB configured by the host (enumerated as a CDC-ACM port)");
-            } else {
-                defmt::info!("USB not configured (reset, suspended or unplugged)");
+        // usb-device 0.3.2: `Suspend` on the bus's suspend, the state before it back on resume
+        // (or `Default` if the bus was reset meanwhile); a bus reset also resets the class.
+        let usb = match usb_dev.state() {
+            UsbDeviceState::Default | UsbDeviceState::Addressed => UsbState::Unconfigured,
+            UsbDeviceState::Configured => UsbState::Configured,
+            UsbDeviceState::Suspend => UsbState::Suspended,
+        };
+        if usb != *cx.local.usb_state {
+            match usb {
+                UsbState::Configured => {
+                    defmt::info!("USB configured by the host (enumerated as a CDC-ACM port)")
+                }
+                UsbState::Unconfigured => {
+                    defmt::info!("USB reset by the host (not configured yet)")
+                }
+                UsbState::Suspended => {
+                    defmt::info!("USB suspended (host asleep or unplugged): the port stays open")
+                }
             }
-            *cx.local.configured = configured;
+            *cx.local.usb_state = usb;
         }
-        let dtr = configured && serial.dtr();
         cx.shared.link.lock(|link| {
-            match link.update_dtr(dtr) {
+            match link.update_usb(usb, serial.dtr()) {
                 Some(DtrEdge::Rising) => {
                     defmt::info!("host connected (DTR raised): hello, then the stream")
                 }
                 Some(DtrEdge::Falling) => {
                     // The host closed the port: drop usbd-serial's 128-byte write buffer too
                     // (only a USB reset would), so the next connection starts nearer its hello.
-                    // A packet already in the endpoint FIFO still goes out; the host skips
-                    // everything before the hello (`StreamDecoder::for_port`). The class reset
-                    // also clears DTR/RTS and the line coding, which the host sets again on open.
+                    // A packet already in the endpoint FIFO still goes out first on the next
+                    // connection, usually cut mid-frame: the link starts every connection with
+                    // a lone delimiter that ends it. The class reset also clears DTR/RTS and
+                    // the line coding, which the host sets again on open.
                     UsbClass::reset(serial);
                     defmt::info!("host disconnected (DTR dropped): sending stops");
                 }
                 None => {}
             }
-            while dtr && !link.pending().is_empty() {
+            // Not while suspended: frames wait in the link's queue (whole frames dropped and
+            // counted once it is full) and go out after the resume.
+            while usb == UsbState::Configured && link.connected() && !link.pending().is_empty() {
                 let chunk = &link.pending()[..link.pending().len().min(USB_PACKET)];
                 match serial.write(chunk) {
                     Ok(n) if n > 0 => link.consume(n),

@@ -54,7 +54,7 @@ use firmware::sampler::SamplerConfig;
 use host_tool::log::commands::{read_commands_csv, write_commands_csv_atomically, CommandRow};
 use host_tool::log::load::load_run;
 use host_tool::log::mcap::McapSink;
-use host_tool::log::run_csv::{read_run_csv, write_run_csv_atomically, RunSample};
+use host_tool::log::run_csv::{read_run_csv, write_run_csv_atomically, RigRange, RunSample};
 use host_tool::log::run_log::{LogEvent, RunLogSink};
 use host_tool::log::write_atomically;
 use host_tool::record::{record_on, BoardPort, RecordOptions, RecordSummary, StopReason};
@@ -705,6 +705,7 @@ fn rust_validate(
     let runs = StreamedRuns::scan(
         std::slice::from_ref(&path.to_owned()),
         false,
+        RigRange::default(),
         &setup.rover,
         &setup.options,
     )?;

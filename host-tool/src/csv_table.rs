@@ -56,7 +56,7 @@ pub enum RowError {
         column: usize,
         /// The column's name.
         name: &'static str,
-        /// The cell as written.
+        /// The cell as written (cut after 40 characters: [`crate::excerpt::cut`]).
         value: String,
         /// What is wrong.
         problem: &'static str,

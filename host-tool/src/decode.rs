@@ -250,8 +250,12 @@ impl StreamDecoder {
                 self.stats.stale_frames += 1;
                 true
             }
-            // A repeated delimiter: nothing to decode.
-            None => true,
+            // A repeated delimiter, or the lone one the board starts each connection with: an
+            // empty frame, nothing to decode and nothing left over from the last connection.
+            None => {
+                self.stale_pending -= self.frame_bytes;
+                true
+            }
         }
     }
 

@@ -51,8 +51,10 @@
 
 pub mod sweep;
 
+use crate::excerpt::{self, Number};
 use crate::file_error::{read_and_parse, FileError};
 use crate::rover::{decimal_f64, parse_rover};
+use crate::toml_syntax::TomlSyntaxError;
 use model_core::paths::{optimise_clc, ClcEnds, ClcPath, PathError, SegmentEnergy};
 use model_core::power::IcrHardGround;
 use model_core::Rover;
@@ -322,7 +324,8 @@ impl EnergyModel {
 
 /// Parses and checks the text of a model file.
 pub fn parse_model(text: &str) -> Result<EnergyModel, ModelError> {
-    let model: EnergyModel = toml::from_str(text).map_err(|e| ModelError::Syntax(Box::new(e)))?;
+    let model: EnergyModel =
+        toml::from_str(text).map_err(|e| ModelError::Syntax(TomlSyntaxError::new(text, &e)))?;
     model.check()?;
     Ok(model)
 }
@@ -338,12 +341,12 @@ pub enum ModelError {
     /// Not TOML, a missing or unknown key, a wrong type, or an invalid rover table (the message
     /// carries the line and column).
     #[error("{0}")]
-    Syntax(#[source] Box<toml::de::Error>),
+    Syntax(#[source] TomlSyntaxError),
     /// A format version this tool does not read.
     #[error("version {0} is not supported (this tool reads version {MODEL_FORMAT_VERSION})")]
     UnsupportedVersion(u32),
     /// A value outside its range.
-    #[error("`{key}` = {value} must be {want}")]
+    #[error("`{key}` = {} must be {want}", Number(*.value))]
     OutOfRange {
         /// The key (`table.key`).
         key: &'static str,
@@ -353,7 +356,7 @@ pub enum ModelError {
         want: &'static str,
     },
     /// An effect term with bad breakpoints.
-    #[error("effect {name:?} {why}")]
+    #[error("effect {:?} {why}", excerpt::cut(name))]
     Effect {
         /// The term's name.
         name: String,

@@ -14,13 +14,26 @@
 //! commands file takes its commanded speeds from those reports (`crate::record`), so
 //! `replay → record → validate` finds the same manoeuvres as the original log. Wheel rates are
 //! side speed / wheel radius of the replay's rover (default the Husky A200, as `record`'s).
+//!
+//! What the board does not measure, its stream cannot carry: the tracker's yaw, pitch and
+//! position fixes come from the robot, as on a real run (`record --commands`). So the replay
+//! writes the robot's side of the run beside the stream ([`robot_side`], `replay
+//! --commands-out`): a commands CSV with each sample's commanded speeds and pose (and a
+//! recording's own command rows) on the run time a recording of the replay will have, which
+//! `record --merge-commands` copies into the recording without sending anything to the board.
+//! Replay → record then gives back every column of the log: the readings within the registers'
+//! quantisation, the rest exactly.
 
-use crate::log::commands::CommandRow;
+use crate::log::commands::{CommandRow, CommandsCsvWriter};
 use crate::log::load::{
     load_salvaging, stream_salvaging, LoadError, LoadedRun, RunFormat, StreamFound,
 };
 use crate::log::mcap::McapError;
+use crate::log::run_csv::RigRange;
+use crate::log::run_csv::RunSample;
 use crate::log::run_log::{RunLog, RunLogSink};
+use crate::log::synthesis::synthesised_t_us;
+use crate::record::RunClock;
 use crate::serial::{PtyTask, PtyWriter};
 use crate::sim::board::USB_PACKET;
 use crate::validate::crosscheck::acknowledges;
@@ -157,6 +170,122 @@ pub fn frames_of(run: &RunLog, rover: &Rover) -> Result<Vec<(f64, Vec<u8>)>, wir
         .collect()
 }
 
+/// The robot's side of `run`, which the board's stream does not carry (see the module docs):
+/// one commands row per sample with its commanded speeds, yaw, pitch and position fix, and the
+/// log's own command rows (a recording's forwarded commands, with the tracker's pose at their
+/// time) where they fall between samples, on the run time a recording of [`frames_of`]'s
+/// stream will have. Fed to a recorder as commands that are not forwarded
+/// ([`crate::record::RecordOptions::forward_commands`] off), each sample gets its own row's
+/// values back (a row at a sample's time is not interpolated) and the log its command rows.
+pub fn robot_side(run: &RunLog) -> Vec<CommandRow> {
+    let mut rows = RobotSide::new(&run.commands, run.frames.is_empty());
+    let mut out = Vec::with_capacity(run.samples.len() + run.commands.len());
+    let mut push = |row: CommandRow| -> Result<(), Infallible> {
+        out.push(row);
+        Ok(())
+    };
+    for sample in &run.samples {
+        let Ok(()) = rows.sample(sample, &mut push);
+    }
+    let Ok(()) = rows.finish(&mut push);
+    out
+}
+
+/// [`robot_side`] sample by sample, for a log read as a stream.
+#[derive(Debug)]
+struct RobotSide {
+    /// The log's command rows by time, one per time, and the next one due.
+    commands: Vec<CommandRow>,
+    next: usize,
+    /// Frames synthesised from the samples: their board time counts from the first sample
+    /// ([`synthesised_t_us`]), and a recorder's run time from that ([`RunClock`]).
+    synthesised: Option<(Option<f64>, RunClock)>,
+    last_t_s: Option<f64>,
+}
+
+impl RobotSide {
+    fn new(commands: &[CommandRow], synthesised: bool) -> Self {
+        let mut commands = commands.to_vec();
+        commands.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+        // At equal times the later row is the one that was in force.
+        commands.reverse();
+        commands.dedup_by(|later, earlier| later.t_s == earlier.t_s);
+        commands.reverse();
+        Self {
+            commands,
+            next: 0,
+            synthesised: synthesised.then(|| (None, RunClock::new())),
+            last_t_s: None,
+        }
+    }
+
+    /// Where `t_s` of the log falls on the recording's time base: the same in a replay of a
+    /// recording's frames; counted from the first sample when the frames are synthesised.
+    fn recorded_t_s(&mut self, t_s: f64) -> f64 {
+        match &mut self.synthesised {
+            None => t_s,
+            Some((first, clock)) => {
+                let first = *first.get_or_insert(t_s);
+                RunClock::seconds(clock.at(synthesised_t_us(first, t_s)))
+            }
+        }
+    }
+
+    /// Hands `out` the command rows before `sample`, then the sample's own row.
+    fn sample<E>(
+        &mut self,
+        sample: &RunSample,
+        out: &mut (impl FnMut(CommandRow) -> Result<(), E> + ?Sized),
+    ) -> Result<(), E> {
+        let t_s = self.recorded_t_s(sample.t_s);
+        // Command rows on the log's time base, moved as the samples are.
+        let shift = sample.t_s - t_s;
+        while let Some(&c) = self.commands.get(self.next) {
+            let at = c.t_s - shift;
+            if at > t_s {
+                break;
+            }
+            self.next += 1;
+            // A command row at the sample's time: the sample's row stands for it.
+            if at < t_s && self.last_t_s.is_none_or(|last| at > last) {
+                out(CommandRow { t_s: at, ..c })?;
+                self.last_t_s = Some(at);
+            }
+        }
+        if self.last_t_s.is_some_and(|last| t_s <= last) {
+            return Ok(());
+        }
+        self.last_t_s = Some(t_s);
+        out(CommandRow {
+            t_s,
+            cmd_mps: sample.cmd_mps,
+            yaw_rad: sample.yaw_rad,
+            pitch_deg: sample.pitch_deg,
+            x_m: sample.x_m,
+            y_m: sample.y_m,
+        })
+    }
+
+    /// Hands `out` the command rows after the last sample (of a recording: synthesised frames
+    /// place rows by the samples' times, and there is none after the last).
+    fn finish<E>(
+        &mut self,
+        out: &mut (impl FnMut(CommandRow) -> Result<(), E> + ?Sized),
+    ) -> Result<(), E> {
+        if self.synthesised.is_some() {
+            return Ok(());
+        }
+        while let Some(&c) = self.commands.get(self.next) {
+            self.next += 1;
+            if self.last_t_s.is_none_or(|last| c.t_s > last) {
+                out(c)?;
+                self.last_t_s = Some(c.t_s);
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Writes the frames back to back into `out` (a capture file for `decode`); returns the bytes
 /// written.
 pub fn write_stream<W: Write + ?Sized>(frames: &[(f64, Vec<u8>)], out: &mut W) -> io::Result<u64> {
@@ -245,6 +374,9 @@ impl PtyTask<ReplayStats> {
             let mut stopped = false;
             let produced = produce(&mut |t_s, frame| {
                 let Some((t0_s, start)) = started else {
+                    // As the board starts every connection: a lone delimiter first.
+                    pty.write_all(&[0])?;
+                    stats.bytes += 1;
                     send(&mut pty, frame, &mut stats)?;
                     if !pty.wait_until_read(wait_for_reader)? {
                         return Err(io::Error::new(
@@ -289,6 +421,9 @@ pub struct ReplaySource {
     salvage: bool,
     rover: Rover,
     content: Content,
+    /// The robot's side of a log whose frames are synthesised ([`robot_side`]); a recording's
+    /// is read again when asked for.
+    robot_side: Vec<CommandRow>,
 }
 
 #[derive(Debug)]
@@ -304,24 +439,30 @@ enum Content {
 }
 
 impl ReplaySource {
-    /// Opens the run log at `path` (as [`load_salvaging`] reads it, with `salvage`): one pass
-    /// over the file learns what the replay needs, and what reading it found (truncation,
-    /// losses, dropped rows: for the user, before the replay starts).
+    /// Opens the run log at `path` (as [`load_salvaging`] reads it, with `salvage`; a run CSV's
+    /// readings within the board's range, [`RigRange::BoardStream`], as they become its
+    /// registers): one pass over the file learns what the replay needs, and what reading it
+    /// found (truncation, losses, dropped rows: for the user, before the replay starts).
     pub fn open(
         path: &Path,
         salvage: bool,
         rover: &Rover,
     ) -> Result<(ReplaySource, StreamFound), LoadError> {
-        let synthesised = |loaded: LoadedRun| {
+        let mut robot = Vec::new();
+        let mut synthesised = |loaded: LoadedRun| {
             let (run, found) = loaded.split();
             let frames = synthesise_frames(&run.samples, Some(rover));
+            robot = robot_side(&RunLog {
+                frames: Vec::new(),
+                ..run
+            });
             (Content::Synthesised(frames), found)
         };
         let (content, found) = match RunFormat::of(path)? {
-            RunFormat::Csv => synthesised(load_salvaging(path, salvage)?),
+            RunFormat::Csv => synthesised(load_salvaging(path, salvage, RigRange::BoardStream)?),
             RunFormat::Mcap => {
                 let mut scan = Scan::default();
-                let found = stream_salvaging(path, salvage, &mut scan)?;
+                let found = stream_salvaging(path, salvage, RigRange::BoardStream, &mut scan)?;
                 if scan.frames {
                     let content = Content::Recording {
                         commands: scan.commands,
@@ -330,7 +471,7 @@ impl ReplaySource {
                     (content, found)
                 } else {
                     // Samples only (no recorder writes this): synthesised as from a run CSV.
-                    synthesised(load_salvaging(path, salvage)?)
+                    synthesised(load_salvaging(path, salvage, RigRange::BoardStream)?)
                 }
             }
         };
@@ -339,6 +480,7 @@ impl ReplaySource {
             salvage,
             rover: *rover,
             content,
+            robot_side: robot,
         };
         Ok((source, found))
     }
@@ -369,14 +511,57 @@ impl ReplaySource {
                     reports: CommandReports::new(commands, *acked, &self.rover),
                     emit: &mut encoded,
                 };
-                stream_salvaging(&self.path, self.salvage, &mut replay).map_err(|e| match e {
-                    // The sink's own error (the reader's, or the replay stopped) as it was.
-                    LoadError::Mcap(McapError::Io { source, .. }) => source,
-                    other => io::Error::other(other.to_string()),
-                })?;
+                let range = RigRange::BoardStream;
+                stream_salvaging(&self.path, self.salvage, range, &mut replay).map_err(
+                    |e| match e {
+                        // The sink's own error (the reader's, or the replay stopped) as it was.
+                        LoadError::Mcap(McapError::Io { source, .. }) => source,
+                        other => io::Error::other(other.to_string()),
+                    },
+                )?;
                 Ok(())
             }
         }
+    }
+
+    /// Hands `out` the robot's side of the replayed run ([`robot_side`]) row by row; a
+    /// recording is read again for it (its samples are not kept).
+    pub fn robot_side(&self, out: &mut dyn FnMut(CommandRow) -> io::Result<()>) -> io::Result<()> {
+        let Content::Recording { commands, .. } = &self.content else {
+            return self.robot_side.iter().try_for_each(|&row| out(row));
+        };
+        struct Rows<'o> {
+            rows: RobotSide,
+            out: &'o mut dyn FnMut(CommandRow) -> io::Result<()>,
+        }
+        impl RunLogSink for Rows<'_> {
+            fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+                self.rows.sample(sample, &mut *self.out)
+            }
+        }
+        let mut rows = Rows {
+            rows: RobotSide::new(commands, false),
+            out,
+        };
+        let range = RigRange::BoardStream;
+        stream_salvaging(&self.path, self.salvage, range, &mut rows).map_err(|e| match e {
+            LoadError::Mcap(McapError::Io { source, .. }) => source,
+            other => io::Error::other(other.to_string()),
+        })?;
+        rows.rows.finish(&mut *rows.out)
+    }
+
+    /// Writes the robot's side of the replayed run ([`ReplaySource::robot_side`]) as a commands
+    /// CSV into `out`; returns the rows written.
+    pub fn write_robot_side<W: Write>(&self, out: W) -> io::Result<u64> {
+        let mut writer = CommandsCsvWriter::new(out).map_err(io::Error::other)?;
+        let mut rows = 0u64;
+        self.robot_side(&mut |row| {
+            rows += 1;
+            writer.write(&row).map_err(io::Error::other)
+        })?;
+        writer.into_inner().map_err(io::Error::other)?;
+        Ok(rows)
     }
 
     /// Writes the replay's frames back to back into `out` (a capture file for `decode`);

@@ -17,7 +17,9 @@
 //! Integers are accepted for any key (`mass_kg = 63`). Any other key is an error, so that a typo
 //! (`slip_trak_m`) cannot silently leave a value out.
 
+use crate::excerpt::{self, Number};
 use crate::file_error::{read_and_parse, FileError};
+use crate::toml_syntax::TomlSyntaxError;
 use model_core::Rover;
 use std::path::Path;
 
@@ -55,9 +57,9 @@ pub struct RoverFile {
 pub enum RoverTomlError {
     /// The text is not TOML at all (the message carries the line and column).
     #[error("not valid TOML: {0}")]
-    Syntax(#[source] Box<toml::de::Error>),
+    Syntax(#[source] TomlSyntaxError),
     /// A key that a rover file does not have (usually a typo).
-    #[error("unknown key `{key}` (a rover file has exactly: {}, and optionally {TRACKER_OFFSET_KEY})", ROVER_KEYS.join(", "))]
+    #[error("unknown key `{}` (a rover file has exactly: {}, and optionally {TRACKER_OFFSET_KEY})", excerpt::cut(key), ROVER_KEYS.join(", "))]
     UnknownKey {
         /// The key as written.
         key: String,
@@ -77,7 +79,7 @@ pub enum RoverTomlError {
         found: &'static str,
     },
     /// The number is not finite, not > 0, or does not fit the model's `f32`.
-    #[error("`{key}` = {value} must be finite and > 0")]
+    #[error("`{key}` = {} must be finite and > 0", Number(*.value))]
     OutOfRange {
         /// The key.
         key: &'static str,
@@ -85,7 +87,7 @@ pub enum RoverTomlError {
         value: f64,
     },
     /// The tracker offset is not a finite number.
-    #[error("`{key}` = {value} must be a finite number")]
+    #[error("`{key}` = {} must be a finite number", Number(*.value))]
     NotFinite {
         /// The key.
         key: &'static str,
@@ -120,7 +122,7 @@ fn number(table: &toml::Table, key: &'static str) -> Result<Option<f64>, RoverTo
 pub fn parse_rover_file(text: &str) -> Result<RoverFile, RoverTomlError> {
     let table: toml::Table = text
         .parse()
-        .map_err(|e| RoverTomlError::Syntax(Box::new(e)))?;
+        .map_err(|e| RoverTomlError::Syntax(TomlSyntaxError::new(text, &e)))?;
     if let Some(key) = table
         .keys()
         .find(|k| !ROVER_KEYS.contains(&k.as_str()) && k.as_str() != TRACKER_OFFSET_KEY)
@@ -220,8 +222,8 @@ mod tests {
             ("nan", "NaN"),
             ("inf", "inf"),
             ("-inf", "-inf"),
-            ("1e300", "1000000"), // beyond f32
-            ("1e-300", "0.000"),  // flushes to 0 in f32
+            ("1e300", "1e300 "),   // beyond f32 (not 301 digits)
+            ("1e-300", "1e-300 "), // flushes to 0 in f32
         ] {
             let text = HUSKY.replace("length_m = 0.52", &format!("length_m = {written}"));
             let e = parse_rover(&text).expect_err(written);
@@ -275,6 +277,32 @@ mod tests {
         let e = parse_rover("track_width_m = = 0.5\n").expect_err("syntax");
         assert!(matches!(e, RoverTomlError::Syntax(_)));
         assert!(e.to_string().contains("line 1"), "{e}");
+    }
+
+    /// Issue 34: a huge value printed as 309 digits, a 10 MB key or line quoted whole.
+    #[test]
+    fn quoted_input_stays_short() {
+        let e = parse_rover(&HUSKY.replace("0.545", "1e308")).expect_err("beyond f32");
+        assert_eq!(
+            e.to_string(),
+            "`track_width_m` = 1e308 must be finite and > 0"
+        );
+        let key = "k".repeat(10_000_000);
+        let e = parse_rover(&format!("{HUSKY}{key} = 1\n")).expect_err("unknown key");
+        let shown = e.to_string();
+        assert!(shown.len() < 300, "{} bytes", shown.len());
+        assert!(shown.starts_with("unknown key `kkkk"), "{shown}");
+        let value = "a".repeat(10_000_000);
+        let e = parse_rover(&format!("{HUSKY}x = \"{value}\n")).expect_err("open string");
+        let shown = e.to_string();
+        assert!(shown.len() < 300, "{} bytes", shown.len());
+        assert!(
+            shown.starts_with("not valid TOML: line 6, column "),
+            "{shown}"
+        );
+        // The source is not a second copy of the toml crate's message with the line.
+        let source = std::error::Error::source(&e).map(ToString::to_string);
+        assert!(source.is_some_and(|s| shown.ends_with(&s)), "{shown}");
     }
 
     #[test]

@@ -7,7 +7,7 @@ use crate::log::load::{
     RunFormat, StreamFound,
 };
 use crate::log::mcap::{Loss, Truncation};
-use crate::log::run_csv::{visit_own_run_csv, DroppedRow, RunSample};
+use crate::log::run_csv::{visit_own_run_csv, DroppedRow, RigRange, RunSample};
 use crate::log::run_log::{RunLog, RunLogSink};
 use crate::progress;
 use crate::validate::one_pass::{OnePass, RunResult};
@@ -32,14 +32,14 @@ pub struct Runs {
 }
 
 impl Runs {
-    /// Reads `paths` in order; with `salvage` damaged run CSV rows are left out instead of
-    /// refused (damaged MCAP stretches are always skipped and listed). The same run given twice
-    /// is refused: it would count as two independent repeats.
-    pub fn load(paths: &[PathBuf], salvage: bool) -> Result<Runs, LoadError> {
+    /// Reads `paths` in order, run CSVs' readings within `range`; with `salvage` damaged run
+    /// CSV rows are left out instead of refused (damaged MCAP stretches are always skipped and
+    /// listed). The same run given twice is refused: it would count as two independent repeats.
+    pub fn load(paths: &[PathBuf], salvage: bool, range: RigRange) -> Result<Runs, LoadError> {
         let bar = progress::bar(paths.len() as u64, "reading runs");
         let mut runs = Runs::default();
         for path in paths {
-            let loaded = load_salvaging(path, salvage)?;
+            let loaded = load_salvaging(path, salvage, range)?;
             if let Some(t) = loaded.truncated {
                 runs.truncated.push((path.clone(), t));
             }
@@ -102,6 +102,7 @@ pub struct StreamedRuns {
     pub names: Vec<String>,
     paths: Vec<PathBuf>,
     salvage: bool,
+    range: RigRange,
     rover: Rover,
     options: ValidateOptions,
     reads: Vec<FirstRead>,
@@ -142,16 +143,18 @@ impl StreamedRuns {
     pub fn scan(
         paths: &[PathBuf],
         salvage: bool,
+        range: RigRange,
         rover: &Rover,
         options: &ValidateOptions,
     ) -> Result<StreamedRuns, LoadError> {
-        Self::scan_with(paths, salvage, rover, options, true)
+        Self::scan_with(paths, salvage, range, rover, options, true)
     }
 
     /// [`Self::scan`]; without `one_pass`, this tool's run CSVs are streamed as the others.
     fn scan_with(
         paths: &[PathBuf],
         salvage: bool,
+        range: RigRange,
         rover: &Rover,
         options: &ValidateOptions,
         one_pass: bool,
@@ -161,6 +164,7 @@ impl StreamedRuns {
             names: Vec::with_capacity(paths.len()),
             paths: Vec::with_capacity(paths.len()),
             salvage,
+            range,
             rover: *rover,
             options: *options,
             reads: Vec::with_capacity(paths.len()),
@@ -171,7 +175,7 @@ impl StreamedRuns {
         for path in paths {
             let name = path.display().to_string();
             let validated = if one_pass {
-                validate_own_csv(path, &name, rover, options)?
+                validate_own_csv(path, &name, range, rover, options)?
             } else {
                 None
             };
@@ -179,7 +183,7 @@ impl StreamedRuns {
                 Some(read) => read,
                 None => {
                     let mut scan = RunScan::default();
-                    let found = stream_salvaging(path, salvage, &mut scan)?;
+                    let found = stream_salvaging(path, salvage, range, &mut scan)?;
                     if let Some(t) = found.truncated {
                         runs.truncated.push((path.clone(), t));
                     }
@@ -208,7 +212,7 @@ impl StreamedRuns {
         sink: &mut dyn RunLogSink,
     ) -> Option<Result<StreamFound, LoadError>> {
         let path = self.paths.get(index)?;
-        Some(stream_salvaging(path, self.salvage, sink))
+        Some(stream_salvaging(path, self.salvage, self.range, sink))
     }
 
     /// The second pass: validates the runs together, as [`Runs::validate`] does.
@@ -227,7 +231,7 @@ impl StreamedRuns {
                 FirstRead::Scanned(scan) => scan,
             };
             let mut pass = RunPass::new(name, scan, rover, options)?;
-            stream_salvaging(path, self.salvage, &mut pass)?;
+            stream_salvaging(path, self.salvage, self.range, &mut pass)?;
             if pass.samples() != scan.samples() {
                 return Err(StreamedRunsError::Changed {
                     name: name.clone(),
@@ -264,13 +268,14 @@ impl FirstRead {
     }
 }
 
-/// The first read of `path` if it is one of this tool's own run CSVs (valid throughout),
-/// validated as it is read ([`OnePass`]): its scan alone when the pass's guess failed (the run
-/// is validated from a second read). `None` for any other log, or for options `validate`
-/// refuses (streamed: read twice).
+/// The first read of `path` if it is one of this tool's own run CSVs (valid throughout, its
+/// readings within `range`), validated as it is read ([`OnePass`]): its scan alone when the
+/// pass's guess failed (the run is validated from a second read). `None` for any other log, or
+/// for options `validate` refuses (streamed: read twice).
 fn validate_own_csv(
     path: &Path,
     name: &str,
+    range: RigRange,
     rover: &Rover,
     options: &ValidateOptions,
 ) -> Result<Option<FirstRead>, LoadError> {
@@ -280,7 +285,7 @@ fn validate_own_csv(
     let Some(mut pass) = OnePass::new(name, rover, options) else {
         return Ok(None);
     };
-    if !visit_own_run_csv(path, &mut |rows| pass.push(rows))? {
+    if !visit_own_run_csv(path, range, &mut |rows| pass.push(rows))? {
         return Ok(None);
     }
     Ok(Some(match pass.finish() {
@@ -376,16 +381,22 @@ mod tests {
             vec![b.csv.clone(), a.csv.clone()],
             vec![damaged.clone(), cut.clone()],
         ] {
-            let in_memory = Runs::load(&paths, false).expect("loads");
+            let in_memory = Runs::load(&paths, false, RigRange::default()).expect("loads");
             let want = in_memory
                 .validate(&rover, &validate_options)
                 .expect("valid");
             // This tool's run CSVs validated in one pass (as `validate` reads them) and
             // streamed.
             for one_pass in [true, false] {
-                let streamed =
-                    StreamedRuns::scan_with(&paths, false, &rover, &validate_options, one_pass)
-                        .expect("scans");
+                let streamed = StreamedRuns::scan_with(
+                    &paths,
+                    false,
+                    RigRange::default(),
+                    &rover,
+                    &validate_options,
+                    one_pass,
+                )
+                .expect("scans");
                 let got = streamed.validate().expect("valid");
                 assert_eq!(outputs(&got), outputs(&want), "{paths:?}");
                 assert_eq!(streamed.names, in_memory.names);
@@ -410,8 +421,14 @@ mod tests {
             }
         }
         // The damage was seen (so the last case compared salvaged reads).
-        let streamed =
-            StreamedRuns::scan(&[damaged, cut], false, &rover, &validate_options).expect("scans");
+        let streamed = StreamedRuns::scan(
+            &[damaged, cut],
+            false,
+            RigRange::default(),
+            &rover,
+            &validate_options,
+        )
+        .expect("scans");
         assert!(
             streamed.lost_data && streamed.damage.len() >= 2,
             "{streamed:?}"
@@ -424,12 +441,18 @@ mod tests {
             vec![a.csv.clone(), a.mcap.clone()],
             vec![a.csv.clone(), a.csv.clone()],
         ] {
-            let want = Runs::load(&paths, false)
+            let want = Runs::load(&paths, false, RigRange::default())
                 .expect_err("duplicate")
                 .to_string();
-            let got = StreamedRuns::scan(&paths, false, &rover, &validate_options)
-                .expect_err("duplicate")
-                .to_string();
+            let got = StreamedRuns::scan(
+                &paths,
+                false,
+                RigRange::default(),
+                &rover,
+                &validate_options,
+            )
+            .expect_err("duplicate")
+            .to_string();
             assert_eq!(got, want);
         }
     }
@@ -461,11 +484,12 @@ mod tests {
                 .collect();
             crate::log::run_csv::write_run_csv_atomically(&path, &samples).expect("write");
             let paths = [path.clone()];
-            let want = Runs::load(&paths, false)
+            let want = Runs::load(&paths, false, RigRange::default())
                 .expect("loads")
                 .validate(&rover, &options)
                 .expect("valid");
-            let streamed = StreamedRuns::scan(&paths, false, &rover, &options).expect("scans");
+            let streamed = StreamedRuns::scan(&paths, false, RigRange::default(), &rover, &options)
+                .expect("scans");
             assert_eq!(
                 matches!(streamed.reads[0], FirstRead::Validated { .. }),
                 guessed
@@ -485,12 +509,13 @@ mod tests {
         )
         .expect("write");
         let paths = [path.clone()];
-        let want = Runs::load(&paths, false)
+        let want = Runs::load(&paths, false, RigRange::default())
             .expect("loads")
             .validate(&rover, &options)
             .expect_err("one sample")
             .to_string();
-        let streamed = StreamedRuns::scan(&paths, false, &rover, &options).expect("scans");
+        let streamed = StreamedRuns::scan(&paths, false, RigRange::default(), &rover, &options)
+            .expect("scans");
         assert!(matches!(streamed.reads[0], FirstRead::Validated { .. }));
         let got = streamed.validate().expect_err("one sample").to_string();
         assert_eq!(got, want);

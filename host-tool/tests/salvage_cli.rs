@@ -133,3 +133,45 @@ fn a_csv_cut_inside_its_last_row_converts_with_a_warning() {
     assert_eq!(read_mcap_run(&out).expect("mcap").run.samples.len(), 2);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 34, item 3: a length read from the file may not allocate more than the file holds. A
+/// chunk's compression-name length or a channel's topic length set to 0xffffffff made every
+/// reader ask for 4 GiB and abort (SIGABRT) where memory is bounded; under a 2 GB address
+/// space (a rover computer with overcommit off) the chunk is now a reported loss.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_huge_length_field_is_damage_not_an_allocation() {
+    let dir = temp_dir("salvage-huge-length");
+    let (mcap, _) = write_mcap(&dir);
+    let bytes = std::fs::read(&mcap).expect("read");
+    // The top-level records after the magic: the second chunk's compression length (after
+    // start, end, size and CRC).
+    let mut at = 8;
+    let mut chunks = 0;
+    while bytes[at] != 0x06 || {
+        chunks += 1;
+        chunks < 2
+    } {
+        at += 9 + u64::from_le_bytes(bytes[at + 1..at + 9].try_into().expect("8")) as usize;
+    }
+    let mut damaged = bytes.clone();
+    damaged[at + 9 + 28..at + 9 + 32].copy_from_slice(&[0xff; 4]);
+    let input = dir.join("huge.mcap");
+    std::fs::write(&input, &damaged).expect("write");
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 2000000 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_host-tool"))
+        .arg("convert")
+        .arg(&input)
+        .arg(dir.join("out.csv"))
+        .output()
+        .expect("run under ulimit");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{stderr}");
+    assert!(
+        stderr.contains("a string's length exceeds the record's"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).expect("clean up");
+}

@@ -121,3 +121,100 @@ fn validate_fails_clearly_on_standstill_only_runs() {
     assert!(stderr.contains("no manoeuvre to validate"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 34 item 6: another rig's run (the same power at a lower bus voltage: currents to
+/// 20 A, beyond the INA226 board's ±16.384 A) is validated by default; `--rig-range board`
+/// holds it to the board's range, naming the file, line, column, the range and the way out.
+#[test]
+fn validate_reads_another_rigs_currents_unless_held_to_the_boards_range() {
+    use host_tool::log::run_csv::{read_run_csv, CURRENT_A_MAX};
+    let dir = temp_dir("validate-cli-rig-range");
+    let run = dir.join("rig.csv");
+    write_run(&run, false);
+    let samples = read_run_csv(&run).expect("read");
+    let peak = samples
+        .iter()
+        .map(|s| s.current_a.left.abs().max(s.current_a.right.abs()))
+        .fold(0.0, f64::max);
+    let k = 20.0 / peak;
+    let rig: Vec<RunSample> = samples
+        .iter()
+        .map(|s| RunSample {
+            bus_v: Sides::new(s.bus_v.left / k, s.bus_v.right / k),
+            current_a: Sides::new(s.current_a.left * k, s.current_a.right * k),
+            ..*s
+        })
+        .collect();
+    write_run_csv_atomically(&run, &rig).expect("write");
+    let (first, column) = rig
+        .iter()
+        .enumerate()
+        .find_map(|(i, s)| {
+            if s.current_a.left.abs() > CURRENT_A_MAX {
+                Some((i, "3 (left_current_a)"))
+            } else {
+                (s.current_a.right.abs() > CURRENT_A_MAX).then_some((i, "5 (right_current_a)"))
+            }
+        })
+        .expect("beyond the board's range");
+    let validate = |range: Option<&str>| {
+        let mut cmd = host_tool();
+        cmd.args(["validate", "--rover"])
+            .arg(rover_toml())
+            .arg("--runs")
+            .arg(&run);
+        if let Some(range) = range {
+            cmd.args(["--rig-range", range]);
+        }
+        cmd.output().expect("runs")
+    };
+    for range in [None, Some("physical"), Some("30,25")] {
+        let out = validate(range);
+        assert!(
+            out.status.success(),
+            "{range:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(stdout.contains("at-r-prime"), "{stdout}");
+    }
+    let out = validate(Some("board"));
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "{}: line {}, column {column}: ",
+            run.display(),
+            first + 2
+        )),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(
+            "is outside the INA226 board's range (bus 0 to 40.96 V, current ±16.384 A), which \
+             --rig-range board holds the file to; for another rig's file leave the option out \
+             (any physical reading) or state that rig's range: --rig-range BUS_V,CURRENT_A"
+        ),
+        "{stderr}"
+    );
+    let out = validate(Some("16,amps"));
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("BUS_V,CURRENT_A"), "{stderr}");
+    // Only on the commands that read run CSVs for analysis.
+    for (command, has) in [
+        ("validate", true),
+        ("plot", true),
+        ("diagnose", true),
+        ("record", false),
+        ("plan", false),
+    ] {
+        let out = host_tool()
+            .args([command, "--help"])
+            .output()
+            .expect("help");
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(help.contains("--rig-range"), has, "{command}: {help}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -130,3 +130,29 @@ fn an_aborted_tick_is_not_fed() {
     assert!(outcome.is_err());
     assert_eq!(dog.feeds(), 0);
 }
+
+#[test]
+fn a_connection_starts_with_a_lone_delimiter_then_the_hello_then_the_stream() {
+    use model_core::wire::{FrameDecoder, MAX_FRAME};
+    let mut board = Board::new(SamplerConfig::BOARD);
+    let mut link = Link::new();
+    let mut i2c = Failing(ErrorKind::Bus);
+    for k in 0..2u64 {
+        link.set_connected(k == 1);
+        board.tick(&mut i2c, &mut link, &mut Counter::default(), k * 5_000);
+    }
+    let mut bytes = Vec::new();
+    while !link.pending().is_empty() {
+        let n = link.pending().len();
+        bytes.extend_from_slice(link.pending());
+        link.consume(n);
+    }
+    let mut hello = [0u8; MAX_FRAME];
+    let n = model_core::wire::encode(&BoardFrame::Hello(board.sampler().hello()), &mut hello)
+        .expect("fits");
+    assert_eq!(bytes[0], 0, "the delimiter first");
+    assert_eq!(bytes[1..=n], hello[..n], "then the hello");
+    let mut frames = Vec::new();
+    FrameDecoder::new().feed(&bytes[1 + n..], |f: Result<BoardFrame, _>| frames.push(f));
+    assert!(matches!(frames[..], [Ok(BoardFrame::Sample(s)), ..] if s.seq == 1));
+}

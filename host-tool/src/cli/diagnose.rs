@@ -1,11 +1,12 @@
 //! `host-tool diagnose`: where the hard-ground model departs, which effect, how much it closes.
 
 use super::output::{self, JsonOut};
-use super::validate::stream_and_validate;
+use super::validate::{stream_and_validate, RigRangeArg};
 use super::Departure;
 use anyhow::{bail, Context, Result};
 use host_tool::diagnose::features::{RunSampleScan, TurnRow};
 use host_tool::diagnose::{self, calibration::Calibration, report};
+use host_tool::log::run_csv::RigRange;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use host_tool::rover::load_rover_file;
 use host_tool::validate::ValidateOptions;
@@ -27,6 +28,8 @@ pub struct DiagnoseArgs {
     #[arg(long, num_args = 1.., required = true)]
     runs: Vec<PathBuf>,
     #[command(flatten)]
+    rig_range: RigRangeArg,
+    #[command(flatten)]
     json: JsonOut,
     /// Output directory: diagnosis.md, figures (PNG, SVG) and model.toml for `plan --model`;
     /// written whole or not at all.
@@ -40,13 +43,14 @@ pub struct DiagnoseArgs {
     fail_on_departure: bool,
 }
 
-/// The diagnosis rows of `paths`: run logs through `validate`, and per-turn summary CSVs
-/// (header with `radius_m` and `avg_power_w`, see `diagnose::summary`) as total-only rows, each
-/// file its own run; plus the summaries' caveats.
+/// The diagnosis rows of `paths`: run logs through `validate` (run CSVs' readings within
+/// `range`), and per-turn summary CSVs (header with `radius_m` and `avg_power_w`, see
+/// `diagnose::summary`) as total-only rows, each file its own run; plus the summaries' caveats.
 fn diagnosis_rows(
     rover: &Rover,
     tracker_offset_m: f64,
     paths: &[PathBuf],
+    range: RigRange,
     what: &str,
 ) -> Result<(Vec<TurnRow>, Vec<String>)> {
     let (summaries, runs): (Vec<&PathBuf>, Vec<&PathBuf>) = paths
@@ -62,8 +66,8 @@ fn diagnosis_rows(
         };
         // Streamed: validate reads each file twice, the standstill draw and the manoeuvres'
         // bus voltage a third time; memory stays bounded whatever the logs' length.
-        let (streamed, report) =
-            stream_and_validate(rover, &runs, &options).with_context(|| format!("{what} runs"))?;
+        let (streamed, report) = stream_and_validate(rover, &runs, range, &options)
+            .with_context(|| format!("{what} runs"))?;
         let mut facts = Vec::with_capacity(runs.len());
         for index in 0..runs.len() {
             let mut scan = RunSampleScan::new(&report, index);
@@ -114,11 +118,12 @@ impl DiagnoseArgs {
         {
             return self.path_table(&rover);
         }
-        let (rows, notes) = diagnosis_rows(&rover, offset, &self.runs, "diagnosed")?;
+        let range = self.rig_range.range;
+        let (rows, notes) = diagnosis_rows(&rover, offset, &self.runs, range, "diagnosed")?;
         let cal_rows = if self.calibration.is_empty() {
             None
         } else {
-            Some(diagnosis_rows(&rover, offset, &self.calibration, "calibration")?.0)
+            Some(diagnosis_rows(&rover, offset, &self.calibration, range, "calibration")?.0)
         };
         let calibration = match &cal_rows {
             Some(rows) => Calibration::rows(rows),
@@ -179,11 +184,14 @@ impl DiagnoseArgs {
                  the rover: --calibration and --out do not apply"
             );
         }
+        let model = path_table::hard_ground_for(rover);
         let mut rows = Vec::new();
         for path in &self.runs {
-            rows.extend(path_table::load_path_table(path)?);
+            let of = path_table::load_path_table(path)?;
+            // Each file's rows on their own: the error's line is then in a file it can name.
+            path_table::check_rows(&model, &of).map_err(|e| output::naming(path, e))?;
+            rows.extend(of);
         }
-        let model = path_table::hard_ground_for(rover);
         let diagnosis = path_table::diagnose_path_table(&model, &rows)?;
         if !self
             .json

@@ -151,7 +151,8 @@ fn dump(options: &BenchOptions, dir: &Path, only: Option<usize>, force: bool) ->
                 let _ = writeln!(
                     text,
                     "  note: its currents reach {peak:.1} A, beyond the INA226 board's ±{CURRENT_A_MAX} A: \
-                     `diagnose` refuses these files (the bench hands its samples to the diagnosis directly)"
+                     read as another rig's files (not with `--rig-range board`; `replay` and \
+                     `convert` to MCAP refuse them)"
                 );
             }
         }

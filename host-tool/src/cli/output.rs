@@ -78,8 +78,24 @@ pub fn check_new_file(path: &Path, force: bool) -> Result<()> {
 pub fn write_file(path: &Path, bytes: &[u8], force: bool) -> Result<()> {
     check_new_file(path, force)?;
     create_parent(path)?;
-    write_atomically(path, |w| w.write_all(bytes))
-        .with_context(|| format!("writing {}", path.display()))
+    // The error names the file (either part of AtomicWriteError).
+    write_atomically(path, |w| w.write_all(bytes))?;
+    Ok(())
+}
+
+/// `error` with `path` in front unless a message in its chain already names the file: every
+/// error names its file, once.
+pub fn naming(path: &Path, error: impl Into<anyhow::Error>) -> anyhow::Error {
+    let error = error.into();
+    let shown = path.display().to_string();
+    if error
+        .chain()
+        .any(|cause| cause.to_string().contains(&shown))
+    {
+        error
+    } else {
+        error.context(shown)
+    }
 }
 
 /// Creates the directory `path` will be written into.

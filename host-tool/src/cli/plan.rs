@@ -1,7 +1,7 @@
 //! `host-tool plan`: energy of the optimal CLC path against the PLP path between two poses.
 
 use super::output::{self, JsonOut};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use host_tool::plan::{self, ModelSource, Preset};
 use std::path::PathBuf;
 
@@ -110,8 +110,7 @@ impl PlanArgs {
             grid,
         )?;
         if let Some(path) = &self.figure {
-            host_tool::plot::render(&report.chart(), path)
-                .with_context(|| format!("writing {}", path.display()))?;
+            host_tool::plot::render(&report.chart(), path).map_err(|e| output::naming(path, e))?;
         }
         if !self.json.emit(&report, "sweep", self.force)? {
             output::print(&report)?;

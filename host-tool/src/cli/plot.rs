@@ -1,7 +1,7 @@
 //! `host-tool plot`: the validation figures of runs.
 
 use super::output;
-use super::validate::load_and_validate;
+use super::validate::{load_and_validate, RigRangeArg};
 use anyhow::Result;
 use host_tool::figures::write_figures_with;
 use host_tool::out_dir::write_dir_whole;
@@ -19,6 +19,8 @@ pub struct PlotArgs {
     /// Run logs, .csv or .mcap.
     #[arg(long, num_args = 1.., required = true)]
     runs: Vec<PathBuf>,
+    #[command(flatten)]
+    rig_range: RigRangeArg,
     /// Output directory (created if missing; written whole or not at all).
     #[arg(long, default_value = "plots")]
     out: PathBuf,
@@ -63,8 +65,8 @@ impl PlotArgs {
             );
         }
         let rover = load_rover(&self.rover)?;
-        let (runs, report) =
-            load_and_validate(&rover, &self.runs, &ValidateOptions::for_rover(&rover))?;
+        let options = ValidateOptions::for_rover(&rover);
+        let (runs, report) = load_and_validate(&rover, &self.runs, self.rig_range.range, &options)?;
         let samples = runs.samples();
         let files = write_dir_whole(&self.out, self.force, |staging| {
             write_figures_with(

@@ -5,7 +5,7 @@ use anyhow::{bail, Context, Result};
 use host_tool::eprintln_best_effort;
 use host_tool::live::{LiveServer, LiveTee};
 use host_tool::log::commands::read_commands_csv;
-use host_tool::record::{self, RecordOptions, RecordStatus};
+use host_tool::record::{self, RecordError, RecordOptions, RecordStatus};
 use host_tool::rover::load_rover;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -34,6 +34,11 @@ pub struct RecordArgs {
     /// board's own reports (a replay carries the original's that way).
     #[arg(long)]
     commands: Option<PathBuf>,
+    /// Commands CSV copied into the log like --commands (speeds, tracker yaw, pitch and
+    /// position) but not sent to the board, whose stream reports the speeds in force: for a
+    /// replay's pty, with the file `replay --commands-out` wrote.
+    #[arg(long, value_name = "FILE", conflicts_with = "commands")]
+    merge_commands: Option<PathBuf>,
     /// Rover TOML for the wheel radius (default: the Husky A200).
     #[arg(long)]
     rover: Option<PathBuf>,
@@ -86,10 +91,18 @@ impl RecordArgs {
         if let Some(path) = &self.commands {
             options.commands = read_commands_csv(path)?;
         }
+        if let Some(path) = &self.merge_commands {
+            options.commands = read_commands_csv(path)?;
+            options.forward_commands = false;
+        }
         if let Some(path) = &self.rover {
             options.rover = load_rover(path)?;
         }
-        options.validate()?;
+        let commands_file = self.commands.as_ref().or(self.merge_commands.as_ref());
+        options.validate().map_err(|e| match (&e, commands_file) {
+            (RecordError::Command { .. }, Some(path)) => output::naming(path, e),
+            _ => e.into(),
+        })?;
         // Ctrl-C, SIGTERM and SIGHUP stop cleanly (footer written, exit 0).
         let stop = record::stop_signal::install().context("installing the stop-signal handler")?;
         let mut open = record::serial_opener(options.read_timeout);
@@ -99,7 +112,8 @@ impl RecordArgs {
         // Before the log: an address in use leaves no empty log behind.
         let live_server = self.serve.start()?;
         create_parent(&self.out)?;
-        let mut file = record::create_sink(&self.out, self.force)?;
+        let mut file =
+            record::create_sink(&self.out, self.force).map_err(|e| output::naming(&self.out, e))?;
         // The viewers beside the file, never ahead of it.
         let mut sink = LiveTee::new(
             file.as_mut(),
@@ -127,7 +141,10 @@ impl RecordArgs {
         if live {
             eprintln_best_effort!();
         }
-        let summary = result?;
+        let summary = result.map_err(|e| match e {
+            RecordError::Sink(_) => output::naming(&self.out, e),
+            e => e.into(),
+        })?;
         output::print(format_args!("{}: {summary}", self.out.display()))?;
         if summary.samples == 0 {
             bail!("no samples were recorded");

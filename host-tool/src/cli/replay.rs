@@ -6,6 +6,7 @@ use host_tool::eprintln_best_effort;
 use host_tool::live::serve_run;
 use host_tool::log::convert::same_file;
 use host_tool::log::load::{load_salvaging, Loaded};
+use host_tool::log::run_csv::RigRange;
 use host_tool::log::run_log::RunLog;
 use host_tool::log::write_atomically;
 use host_tool::record::stop_signal;
@@ -30,7 +31,12 @@ pub struct ReplayArgs {
     /// Write the whole byte stream to this file instead.
     #[arg(long, value_name = "FILE")]
     to: Option<PathBuf>,
-    /// Overwrite an existing --to file.
+    /// Also write the robot's side of the run to FILE, as a commands CSV: each sample's
+    /// commanded speeds, tracker yaw, pitch and position (what the board's stream cannot
+    /// carry), on the recording's run time; `record --merge-commands FILE` puts them back.
+    #[arg(long, value_name = "FILE", conflicts_with = "serve")]
+    commands_out: Option<PathBuf>,
+    /// Overwrite an existing --to or --commands-out file.
     #[arg(long)]
     force: bool,
     /// Playback speed factor (2 = twice real time).
@@ -79,14 +85,16 @@ impl ReplayArgs {
             Some(path) => load_rover(path)?,
             None => Rover::HUSKY_A200,
         };
-        if let Some(out) = &self.to {
+        for out in [&self.to, &self.commands_out].into_iter().flatten() {
             if same_file(&self.log, out) {
                 bail!("{}: the output is the input file", out.display());
             }
             check_new_file(out, self.force)?;
         }
         if self.serve.serve.is_some() {
-            let loaded = load_salvaging(&self.log, super::salvage())?;
+            // Served as the board's frames: its range, whatever the rig.
+            let range = RigRange::BoardStream;
+            let loaded = load_salvaging(&self.log, super::salvage(), range)?;
             warn_about(&self.log, &loaded);
             return self.serve_live(&loaded.run, &rover);
         }
@@ -99,10 +107,21 @@ impl ReplayArgs {
                 self.log.display()
             );
         }
+        // Before the stream: a recorder started on the pty needs the file at once.
+        if let Some(out) = &self.commands_out {
+            create_parent(out)?;
+            let rows = write_atomically(out, |w| source.write_robot_side(w))?;
+            eprintln_best_effort!(
+                "{}: {rows} rows (commanded speeds and tracker pose); record with \
+                 --merge-commands {}",
+                out.display(),
+                out.display()
+            );
+        }
         if let Some(out) = &self.to {
             create_parent(out)?;
-            let stats = write_atomically(out, |w| source.write_stream(w))
-                .with_context(|| format!("writing {}", out.display()))?;
+            // The error names the file (either part of AtomicWriteError).
+            let stats = write_atomically(out, |w| source.write_stream(w))?;
             output::print(format_args!(
                 "{}: {} frames, {} bytes\n",
                 out.display(),

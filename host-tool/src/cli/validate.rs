@@ -5,6 +5,7 @@ use super::Departure;
 use anyhow::Result;
 use host_tool::eprintln_best_effort;
 use host_tool::log::mcap::Truncation;
+use host_tool::log::run_csv::RigRange;
 use host_tool::rover::load_rover_file;
 use host_tool::runs::{truncation_warning, Runs, StreamedRuns};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
@@ -20,6 +21,8 @@ pub struct ValidateArgs {
     /// Run logs, .csv or .mcap (each is validated as an independent run).
     #[arg(long, num_args = 1.., required = true)]
     runs: Vec<PathBuf>,
+    #[command(flatten)]
+    rig_range: RigRangeArg,
     #[command(flatten)]
     json: JsonOut,
     /// Write the per-manoeuvre table as CSV to FILE.
@@ -57,6 +60,23 @@ pub struct ValidateArgs {
     no_hard_ground: bool,
 }
 
+/// `--rig-range`, on the commands that read run CSVs for analysis (`validate`, `plot`,
+/// `diagnose`).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct RigRangeArg {
+    /// Readings a run CSV may hold: `physical` (any physical reading, bus 0 to 1000 V, current
+    /// ±1000 A: files from other rigs), `board` (this board's INA226, bus 0 to 40.96 V, current
+    /// ±16.384 A), or the rig's own range as BUS_V,CURRENT_A (e.g. 60,50). A reading beyond is
+    /// an error naming the file, line and column. MCAP logs keep the board's range.
+    #[arg(
+        long = "rig-range",
+        value_name = "physical|board|BUS_V,CURRENT_A",
+        default_value = "physical",
+        value_parser = RigRange::parse
+    )]
+    pub range: RigRange,
+}
+
 /// `MU,G_N,BS_M` → three finite positive numbers.
 fn parse_hard_ground(text: &str) -> Result<[f64; 3], String> {
     let values: Vec<f64> = text
@@ -69,14 +89,15 @@ fn parse_hard_ground(text: &str) -> Result<[f64; 3], String> {
     }
 }
 
-/// Loads `paths` and validates them with `options`, warning about truncated files: the
-/// sequence `validate`, `plot` and `diagnose` share.
+/// Loads `paths` (run CSVs' readings within `range`) and validates them with `options`,
+/// warning about truncated files: the sequence `validate`, `plot` and `diagnose` share.
 pub fn load_and_validate(
     rover: &model_core::Rover,
     paths: &[PathBuf],
+    range: RigRange,
     options: &ValidateOptions,
 ) -> Result<(Runs, ValidationReport)> {
-    let runs = Runs::load(paths, super::salvage())?;
+    let runs = Runs::load(paths, super::salvage(), range)?;
     warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
     let report = runs.validate(rover, options)?;
     Ok((runs, report))
@@ -87,9 +108,10 @@ pub fn load_and_validate(
 pub fn stream_and_validate(
     rover: &model_core::Rover,
     paths: &[PathBuf],
+    range: RigRange,
     options: &ValidateOptions,
 ) -> Result<(StreamedRuns, ValidationReport)> {
-    let runs = StreamedRuns::scan(paths, super::salvage(), rover, options)?;
+    let runs = StreamedRuns::scan(paths, super::salvage(), range, rover, options)?;
     warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
     let report = runs.validate()?;
     Ok((runs, report))
@@ -137,7 +159,7 @@ impl ValidateArgs {
                 slip_track_m: bs,
             });
         }
-        let (_, report) = stream_and_validate(&rover, &self.runs, &options)?;
+        let (_, report) = stream_and_validate(&rover, &self.runs, self.rig_range.range, &options)?;
         let json_to_stdout = self.json.emit(&report, "report", self.force)?;
         if let Some(path) = &self.csv {
             let mut text = Vec::new();

@@ -257,33 +257,52 @@ fn a_stop_ack_pauses_the_host_energy_like_the_board() {
     assert_eq!(dec.current_segment().host_energy_lsb_us, [400 * 90_000; 2]);
 }
 
+/// Corrupting frames (without touching delimiters) loses exactly those frames: each is
+/// reported bad, and the sample gaps add up to the number corrupted.
+fn check_corrupted_frames(
+    corrupt: &std::collections::BTreeSet<usize>,
+    byte: usize,
+    flip: u8,
+) -> Result<(), TestCaseError> {
+    let frames = bytes_of((0..50).map(sample));
+    let mut stream = Vec::new();
+    for (i, f) in frames.iter().enumerate() {
+        let mut f = f.clone();
+        if corrupt.contains(&i) {
+            let at = byte % (f.len() - 1);
+            // Always change the byte, never into a 0x00: delimiters stay where they are.
+            let mut corrupted = f[at] ^ flip;
+            if corrupted == 0 {
+                corrupted = if f[at] == 0xFF { 0x01 } else { 0xFF };
+            }
+            f[at] = corrupted;
+        }
+        stream.extend(f);
+    }
+    let mut dec = StreamDecoder::new();
+    let mut good = 0u64;
+    dec.feed(&stream, |e| {
+        if matches!(e, Event::Frame(_)) {
+            good += 1
+        }
+    });
+    prop_assert_eq!(dec.stats().lost_samples, corrupt.len() as u64);
+    prop_assert_eq!(good, 50 - corrupt.len() as u64);
+    prop_assert!(dec.stats().bad_frames >= corrupt.len() as u64);
+    Ok(())
+}
+
 proptest! {
-    /// Corrupting frames (without touching delimiters) loses exactly those frames: each is
-    /// reported bad, and the sample gaps add up to the number corrupted.
     #[test]
     fn corrupted_frames_are_lost_exactly(corrupt in proptest::collection::btree_set(1usize..49, 0..12), byte in 0usize..20, flip in 1u8..=255) {
-        let frames = bytes_of((0..50).map(sample));
-        let mut stream = Vec::new();
-        for (i, f) in frames.iter().enumerate() {
-            let mut f = f.clone();
-            if corrupt.contains(&i) {
-                let at = byte % (f.len() - 1);
-                // Always change the byte, never into a 0x00: delimiters stay where they are.
-                let mut corrupted = f[at] ^ flip;
-                if corrupted == 0 {
-                    corrupted = if f[at] == 0xFF { 0x01 } else { 0xFF };
-                }
-                f[at] = corrupted;
-            }
-            stream.extend(f);
-        }
-        let mut dec = StreamDecoder::new();
-        let mut good = 0u64;
-        dec.feed(&stream, |e| if matches!(e, Event::Frame(_)) { good += 1 });
-        prop_assert_eq!(dec.stats().lost_samples, corrupt.len() as u64);
-        prop_assert_eq!(good, 50 - corrupt.len() as u64);
-        prop_assert!(dec.stats().bad_frames >= corrupt.len() as u64);
+        check_corrupted_frames(&corrupt, byte, flip)?;
     }
+}
+
+/// A case the property found, kept as a test: the second frame's second byte flipped.
+#[test]
+fn corrupted_frames_regressions() {
+    check_corrupted_frames(&[1].into(), 1, 1).expect("lost exactly");
 }
 
 #[test]

@@ -30,6 +30,7 @@ use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
 use super::observe::Residuals;
 use crate::effect_id::EffectId;
+use model_core::kinematics::Regime;
 use model_core::rng::SplitMix64;
 use model_core::Rover;
 use serde::Serialize;
@@ -110,6 +111,105 @@ pub struct RowResidual {
 /// Held-out residuals, in row order.
 pub type HeldOut = Vec<RowResidual>;
 
+/// The manoeuvres one fold holds out.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum HeldOutGroup {
+    /// One run (leave-one-run-out): its index among the diagnosed runs, from 0.
+    Run {
+        /// The run's index.
+        run: usize,
+    },
+    /// One commanded radius (leave-one-radius-out), R/R′ to 0.01.
+    Radius {
+        /// R/R′ of the held-out turns.
+        r_over_r_prime: f64,
+    },
+    /// The straights (leave-one-radius-out's group of them).
+    Straights,
+}
+
+impl HeldOutGroup {
+    /// The group `row` belongs to under `scheme`.
+    fn of(scheme: Scheme, row: &TurnRow) -> Self {
+        match (scheme, radius_group(row)) {
+            (Scheme::LeaveOneRunOut, _) => HeldOutGroup::Run { run: row.run_index },
+            (Scheme::LeaveOneRadiusOut, i64::MAX) => HeldOutGroup::Straights,
+            (Scheme::LeaveOneRadiusOut, k) => HeldOutGroup::Radius {
+                r_over_r_prime: k as f64 / 100.0,
+            },
+        }
+    }
+
+    /// In words: `run 2`, `R/R′ = 1.00`, `the straights`.
+    pub fn describe(self) -> String {
+        match self {
+            HeldOutGroup::Run { run } => format!("run {}", run + 1),
+            HeldOutGroup::Radius { r_over_r_prime } => format!("R/R′ = {r_over_r_prime:.2}"),
+            HeldOutGroup::Straights => "the straights".to_owned(),
+        }
+    }
+}
+
+/// Largest leverage of a held-out observation that is still a prediction within what the model
+/// was fitted on. Every training observation lies inside the ellipsoid z′(Z′Z)⁻¹z ≤ 1 of the
+/// fitted columns Z (its own leverage is at most 1); a held-out observation beyond it is
+/// predicted less precisely than one measurement (variance h·σ² > σ²): the term's shape is not
+/// tested there, its extrapolation is (the regressor-hull test of regression texts, with the
+/// hull's enclosing ellipsoid, so that a repeat of a training manoeuvre whose noise puts it a
+/// hair past its twins is not called one).
+pub const MAX_HELDOUT_LEVERAGE: f64 = 1.0;
+
+/// Why a candidate has no out-of-sample score: one of its folds does not test it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "kebab-case")]
+pub enum NotTestable {
+    /// The fold holding out `held_out` leaves no training observation that identifies the term
+    /// (its columns are zero or collinear there), yet it acts on the held-out manoeuvres: its
+    /// prediction there would be a guess (e.g. a term acting at one radius, one run).
+    NotIdentifiable {
+        /// The fold's held-out group.
+        held_out: HeldOutGroup,
+    },
+    /// The held-out prediction for a manoeuvre of `regime` lies beyond what the term was fitted
+    /// on: its leverage relative to the training fold exceeds [`MAX_HELDOUT_LEVERAGE`].
+    Extrapolation {
+        /// The fold's held-out group.
+        held_out: HeldOutGroup,
+        /// The regime of the held-out manoeuvre with the largest leverage.
+        regime: Regime,
+        /// That leverage, z′(Z′Z)⁻¹z.
+        leverage: f64,
+    },
+}
+
+impl NotTestable {
+    /// Why, in words (after "not testable out of sample: ").
+    pub fn describe(&self) -> String {
+        match self {
+            NotTestable::NotIdentifiable { held_out } => format!(
+                "the fold holding out {} leaves nothing to fit the term on, yet it acts there",
+                held_out.describe()
+            ),
+            NotTestable::Extrapolation {
+                held_out,
+                regime,
+                leverage,
+            } => format!(
+                "its held-out prediction for the {} manoeuvre (fold holding out {}) extrapolates \
+                 beyond the manoeuvres it was fitted on (leverage {} > {MAX_HELDOUT_LEVERAGE})",
+                regime.id(),
+                held_out.describe(),
+                if *leverage < 1e3 {
+                    format!("{leverage:.2}")
+                } else {
+                    format!("{leverage:.1e}")
+                }
+            ),
+        }
+    }
+}
+
 /// Held-out residuals of every row and side, before (the baseline; `effects` empty) or after
 /// adding the jointly fitted `effects`, pooled over the folds of `scheme`. `Ok(None)` when the
 /// scheme has fewer than 2 groups. With in-run calibration the baseline is refitted on each
@@ -123,6 +223,19 @@ pub fn heldout_residuals(
     effects: &[EffectId],
     calibration: Calibration<'_>,
 ) -> Result<Option<HeldOut>, BaselineError> {
+    Ok(heldout(rover, rows, scheme, effects, calibration, false)?.map(|(res, _)| res))
+}
+
+/// [`heldout_residuals`], and with `check` whether some fold does not test `effects`
+/// ([`NotTestable`]: not identifiable there, else the largest extrapolation).
+fn heldout(
+    rover: &Rover,
+    rows: &[TurnRow],
+    scheme: Scheme,
+    effects: &[EffectId],
+    calibration: Calibration<'_>,
+    check: bool,
+) -> Result<Option<(HeldOut, Option<NotTestable>)>, BaselineError> {
     let mut groups: Vec<i64> = rows.iter().map(|r| scheme.group(r)).collect();
     groups.sort_unstable();
     groups.dedup();
@@ -138,6 +251,8 @@ pub fn heldout_residuals(
         )),
     };
     let mut out = Vec::with_capacity(rows.len());
+    let (mut unidentified, mut extrapolated): (Option<NotTestable>, Option<NotTestable>) =
+        (None, None);
     for g in groups {
         let mut train: Vec<&TurnRow> = rows.iter().filter(|r| scheme.group(r) != g).collect();
         // The rows the baseline is fitted on: what it absorbs of a power-type term is measured
@@ -163,8 +278,40 @@ pub fn heldout_residuals(
             heating_tau_s: HEATING_TAU_GRID_S[0],
         };
         // A fold where the model cannot be fitted predicts no extra power.
-        let fitted = FittedModel::fit(effects, &train, fitted_on, &ctx)
-            .unwrap_or_else(|_| FittedModel::empty());
+        let fitted = FittedModel::fit(effects, &train, fitted_on, &ctx);
+        if check {
+            let held: Vec<&TurnRow> = rows.iter().filter(|r| scheme.group(r) == g).collect();
+            let group = || held.first().map(|r| HeldOutGroup::of(scheme, r));
+            match &fitted {
+                Err(_) if unidentified.is_none() && acts_on_any(effects, &held, &ctx) => {
+                    unidentified =
+                        group().map(|held_out| NotTestable::NotIdentifiable { held_out });
+                }
+                Err(_) => {}
+                Ok(model) => match largest_leverage(model, &train, &held, &ctx) {
+                    None => {
+                        unidentified = unidentified.or_else(|| {
+                            group().map(|held_out| NotTestable::NotIdentifiable { held_out })
+                        });
+                    }
+                    Some(Some((leverage, row))) if leverage > MAX_HELDOUT_LEVERAGE => {
+                        let worse = match extrapolated {
+                            Some(NotTestable::Extrapolation { leverage: h, .. }) => leverage > h,
+                            _ => true,
+                        };
+                        if worse {
+                            extrapolated = Some(NotTestable::Extrapolation {
+                                held_out: HeldOutGroup::of(scheme, row),
+                                regime: row.regime,
+                                leverage,
+                            });
+                        }
+                    }
+                    Some(_) => {}
+                },
+            }
+        }
+        let fitted = fitted.unwrap_or_else(|_| FittedModel::empty());
         for (i, row) in rows
             .iter()
             .enumerate()
@@ -198,7 +345,92 @@ pub fn heldout_residuals(
         }
     }
     out.sort_by_key(|r| r.row);
-    Ok(Some(out))
+    Ok(Some((out, unidentified.or(extrapolated))))
+}
+
+/// Whether some term of `effects` has a nonzero regressor on some side of `rows`.
+fn acts_on_any(effects: &[EffectId], rows: &[&TurnRow], ctx: &Context<'_>) -> bool {
+    rows.iter().any(|row| {
+        effects.iter().any(|&e| {
+            (0..row.sides.len()).any(|side| {
+                super::effects::regressors(e, row, side, ctx)
+                    .is_some_and(|x| x.iter().any(|v| *v != 0.0))
+            })
+        })
+    })
+}
+
+/// The largest leverage z′(Z′Z)⁻¹z of the observations of `held` with respect to the
+/// training observations of `train`, in `model`'s fitted columns ([`FittedModel::design_row`]),
+/// with its row: `Some(None)` when the model predicts nothing there (every column 0), `None`
+/// when it would have to but Z′Z is not positive definite (nothing identifies the columns).
+fn largest_leverage<'r>(
+    model: &FittedModel,
+    train: &[&TurnRow],
+    held: &[&'r TurnRow],
+    ctx: &Context<'_>,
+) -> Option<Option<(f64, &'r TurnRow)>> {
+    let k = model.columns();
+    let observations = |row: &TurnRow| {
+        super::observe::observations(row)
+            .iter()
+            .map(|sides| model.design_row(row, sides, ctx))
+            .collect::<Vec<_>>()
+    };
+    let mut gram = vec![0.0; k * k];
+    for z in train.iter().flat_map(|r| observations(r)) {
+        for i in 0..k {
+            for j in 0..k {
+                gram[i * k + j] += z[i] * z[j];
+            }
+        }
+    }
+    let factor = cholesky(&gram, k);
+    let mut largest: Option<(f64, &TurnRow)> = None;
+    for &row in held {
+        for z in observations(row) {
+            let z = &z[..k];
+            if z.iter().all(|v| *v == 0.0) {
+                continue;
+            }
+            let h = leverage(factor.as_deref()?, k, z);
+            if largest.is_none_or(|(l, _)| h > l) {
+                largest = Some((h, row));
+            }
+        }
+    }
+    Some(largest)
+}
+
+/// The lower-triangular Cholesky factor L (row-major, k × k) of the symmetric `a` = LL′; `None`
+/// unless `a` is positive definite.
+fn cholesky(a: &[f64], k: usize) -> Option<Vec<f64>> {
+    let mut l = vec![0.0; k * k];
+    for i in 0..k {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|m| l[i * k + m] * l[j * k + m]).sum();
+            if i == j {
+                let d = a[i * k + i] - s;
+                if !(d > 0.0 && d.is_finite()) {
+                    return None;
+                }
+                l[i * k + i] = d.sqrt();
+            } else {
+                l[i * k + j] = (a[i * k + j] - s) / l[j * k + j];
+            }
+        }
+    }
+    Some(l)
+}
+
+/// z′(LL′)⁻¹z = |L⁻¹z|² for the Cholesky factor `l` ([`cholesky`]).
+fn leverage(l: &[f64], k: usize, z: &[f64]) -> f64 {
+    let mut y = vec![0.0; k];
+    for i in 0..k {
+        let s: f64 = (0..i).map(|m| l[i * k + m] * y[m]).sum();
+        y[i] = (z[i] - s) / l[i * k + i];
+    }
+    y.iter().map(|v| v * v).sum()
 }
 
 /// Mean square of the effective-power residuals of the rows `keep` selects [W²]; `None` if
@@ -259,6 +491,9 @@ pub struct CandidateScore {
     pub penalised_mse_total: f64,
     /// 100·(1 − after/before) on the RMS of the total residuals [%].
     pub shrink_total_pct: f64,
+    /// Why some fold does not test the candidate out of sample (then the scores above are not
+    /// a test of it, and it is left out of the ranking); `None` when every fold does.
+    pub not_testable: Option<NotTestable>,
 }
 
 /// 100·(1 − after/before) of two RMS errors: the share of the held-out error a model closes
@@ -315,7 +550,8 @@ pub fn score_model(
     let Some(&effect) = effects.last() else {
         return Ok(None);
     };
-    let Some(after) = heldout_residuals(rover, rows, scheme, effects, calibration)? else {
+    let Some((after, not_testable)) = heldout(rover, rows, scheme, effects, calibration, true)?
+    else {
         return Ok(None);
     };
     let rms_before = mean_square(before, |_| true).unwrap_or(0.0).sqrt();
@@ -341,6 +577,7 @@ pub fn score_model(
             total_mean_square(before).sqrt(),
             total_mean_square(&after).sqrt(),
         ),
+        not_testable,
     }))
 }
 

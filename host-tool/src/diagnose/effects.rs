@@ -242,6 +242,39 @@ pub fn regressors(
     Some(x)
 }
 
+/// The baseline's features of side `side` of `row`, the columns a power-type term is projected
+/// off: [skid, |V|] (see [`is_power_type`]).
+fn baseline_features(row: &TurnRow, side: usize) -> [f64; 2] {
+    [
+        super::baseline::skid_feature_mps(row, side),
+        row.sides[side].cmd_mps.abs(),
+    ]
+}
+
+/// One observation's columns of the joint fit of `effects`: each term's regressors (summed over
+/// `sides`) less their projection `projections` on the baseline's features `f` (summed likewise).
+fn design_row(
+    effects: &[EffectId],
+    projections: &[[[f64; 2]; MAX_PARAMS]],
+    row: &TurnRow,
+    sides: &[usize],
+    f: [f64; 2],
+    ctx: &Context<'_>,
+) -> [f64; MAX_COLUMNS] {
+    let mut x = [0.0; MAX_COLUMNS];
+    let mut at = 0;
+    for (&e, proj) in effects.iter().zip(projections) {
+        let r = observe::sum_sides(sides, |side| {
+            regressors(e, row, side, ctx).unwrap_or([0.0; MAX_PARAMS])
+        });
+        for p in 0..param_count(e) {
+            x[at] = r[p] - proj[p][0] * f[0] - proj[p][1] * f[1];
+            at += 1;
+        }
+    }
+    x
+}
+
 /// One effect's fitted term within a [`FittedModel`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FittedEffect {
@@ -266,6 +299,11 @@ pub struct FittedModel {
     pub correction_g_n: f64,
     /// τ of `motor-heating` chosen on the training rows [s] (the grid's first if absent).
     pub heating_tau_s: f64,
+    /// Each term's projection of its power-type columns on the baseline's features over the rows
+    /// the baseline was fitted on ([effect][param] → [on skid, on |V|]; zeros for time-type
+    /// terms): what [`FittedModel::design_row`] takes off the regressors.
+    #[serde(skip)]
+    pub projections: Vec<[[f64; 2]; MAX_PARAMS]>,
 }
 
 /// Why an effect could not be fitted on a training set (e.g. its regressors are all zero there:
@@ -329,6 +367,7 @@ impl FittedModel {
             correction_a_n: 0.0,
             correction_g_n: 0.0,
             heating_tau_s: HEATING_TAU_GRID_S[0],
+            projections: Vec::new(),
         }
     }
 
@@ -362,12 +401,6 @@ impl FittedModel {
         } else {
             &HEATING_TAU_GRID_S[..1]
         };
-        let features = |row: &TurnRow, side: usize| {
-            [
-                super::baseline::skid_feature_mps(row, side),
-                row.sides[side].cmd_mps.abs(),
-            ]
-        };
         // What does not depend on τ, once: each training observation's sides, baseline features
         // and residual (the heating term alone is tried on several τ).
         let observed: Vec<(&TurnRow, &[usize], [f64; 2], f64)> = train
@@ -378,7 +411,7 @@ impl FittedModel {
                     .iter()
                     .enumerate()
                     .map(move |(i, &sides)| {
-                        let f = observe::sum_sides(sides, |side| features(row, side));
+                        let f = observe::sum_sides(sides, |side| baseline_features(row, side));
                         (row, sides, f, res[i])
                     })
             })
@@ -405,7 +438,8 @@ impl FittedModel {
                                 let [z] = observe::sum_sides(sides, |side| {
                                     [regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS])[p]]
                                 });
-                                let f = observe::sum_sides(sides, |side| features(r, side));
+                                let f =
+                                    observe::sum_sides(sides, |side| baseline_features(r, side));
                                 (f, z)
                             })
                         });
@@ -418,18 +452,7 @@ impl FittedModel {
                 .collect();
             // One observation per side, or one per total-only row on the summed regressors.
             let design = observed.iter().map(|&(row, sides, f, y)| {
-                let mut x = [0.0; MAX_COLUMNS];
-                let mut at = 0;
-                for (&e, proj) in effects.iter().zip(&projections) {
-                    let r = observe::sum_sides(sides, |side| {
-                        regressors(e, row, side, &ctx).unwrap_or([0.0; MAX_PARAMS])
-                    });
-                    for p in 0..param_count(e) {
-                        x[at] = r[p] - proj[p][0] * f[0] - proj[p][1] * f[1];
-                        at += 1;
-                    }
-                }
-                (x, y)
+                (design_row(effects, &projections, row, sides, f, &ctx), y)
             });
             let Some((b, ssr)) = least_squares_of(columns, design) else {
                 continue;
@@ -461,6 +484,7 @@ impl FittedModel {
                     correction_a_n,
                     correction_g_n,
                     heating_tau_s: tau,
+                    projections,
                 },
             ));
         }
@@ -490,6 +514,27 @@ impl FittedModel {
             }
         }
         Ok(model)
+    }
+
+    /// The fitted columns of one observation of `row` (the sides `sides` summed, see
+    /// [`observe::observations`]): each term's regressors less their projection on the baseline's
+    /// features, in the order of the coefficients. The model's extra effective power there is
+    /// their dot product with the coefficients, so where these columns lie relative to the
+    /// training observations' is where the prediction lies relative to what it was fitted on.
+    pub fn design_row(
+        &self,
+        row: &TurnRow,
+        sides: &[usize],
+        ctx: &Context<'_>,
+    ) -> [f64; MAX_COLUMNS] {
+        let effects: Vec<EffectId> = self.effects.iter().map(|t| t.effect).collect();
+        let f = observe::sum_sides(sides, |side| baseline_features(row, side));
+        design_row(&effects, &self.projections, row, sides, f, &self.ctx(ctx))
+    }
+
+    /// Number of fitted columns of the effective-power design ([`FittedModel::design_row`]).
+    pub fn columns(&self) -> usize {
+        self.effects.iter().map(|t| param_count(t.effect)).sum()
     }
 
     /// The context with this model's τ.

@@ -89,8 +89,12 @@ pub struct Diagnosis {
     pub where_: WhereAnalysis,
     /// The scheme the selection used.
     pub scheme: Scheme,
-    /// Every candidate under `scheme`, best first.
+    /// Every candidate under `scheme` that every fold tests, best first (the ranking).
     pub candidates: Vec<CandidateScore>,
+    /// The candidates some fold of `scheme` does not test ([`cv::NotTestable`]), catalogue
+    /// order: their held-out figures would be an extrapolation's, so they are left out of the
+    /// ranking, and so of the rules that name an effect from it.
+    pub not_testable: Vec<CandidateScore>,
     /// Every candidate under the other scheme (if it has ≥ 2 groups), catalogue order.
     pub other_scheme: Option<(Scheme, Vec<CandidateScore>)>,
     /// Held-out error before/after the named effect (the best candidate when none is named),
@@ -157,6 +161,15 @@ impl Diagnosis {
                 "heldout_error_after": c.heldout_error_after,
                 "shrink_pct": c.shrink_pct,
             })).collect::<Vec<_>>(),
+            "not_testable_out_of_sample": self.not_testable.iter().filter_map(|c| {
+                let why = c.not_testable?;
+                Some(serde_json::json!({
+                    "effect": c.effect.id(),
+                    "scheme": self.scheme.id(),
+                    "why": why,
+                    "statement": format!("not testable out of sample: {}", why.describe()),
+                }))
+            }).collect::<Vec<_>>(),
             "metric": {
                 "what": "RMS over held-out manoeuvres and both sides of the effective-power \
                          residual (energy / expected duration, measured minus model)",
@@ -245,8 +258,11 @@ pub(crate) fn diagnose_against(
     let (admission, mut notes) = Admission::of(rows, &where_);
     let allowed = |e: EffectId| admission.allows(e);
     let admitted = || EffectId::ALL.into_iter().filter(|&e| allowed(e));
-    let mut candidates = cv::score_all(rover, rows, primary, calibration, &before, admitted())?
+    let scored = cv::score_all(rover, rows, primary, calibration, &before, admitted())?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
+    // A candidate some fold does not test has no out-of-sample score: not ranked, not named.
+    let (mut candidates, not_testable): (Vec<CandidateScore>, Vec<CandidateScore>) =
+        scored.into_iter().partition(|c| c.not_testable.is_none());
     candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
     let other_scheme = match cv::heldout_residuals(rover, rows, secondary, &[], calibration)? {
         Some(before) => cv::score_all(rover, rows, secondary, calibration, &before, admitted())?
@@ -354,16 +370,19 @@ pub(crate) fn diagnose_against(
     if named == Some(EffectId::SinkageBulldozing) {
         notes.extend(sinkage_deficit_note(rover, rows, calibration));
     }
-    let added = named.unwrap_or(candidates[0].effect);
-    let heldout = heldout_errors(
-        rover,
-        rows,
-        primary,
-        calibration,
-        &before,
-        added,
-        &significant_gaps.regimes,
-    )?;
+    let added = named.or(candidates.first().map(|c| c.effect));
+    let heldout = match added {
+        Some(added) => heldout_errors(
+            rover,
+            rows,
+            primary,
+            calibration,
+            &before,
+            added,
+            &significant_gaps.regimes,
+        )?,
+        None => Vec::new(),
+    };
     let regime = scope_of(rover, rows, named, calibration, &significant_gaps)?;
     Ok(Diagnosis {
         heldout,
@@ -377,6 +396,7 @@ pub(crate) fn diagnose_against(
         where_,
         scheme: primary,
         candidates,
+        not_testable,
         other_scheme,
         gap_regimes: significant_gaps.regimes,
         secondary: secondary_steps,

@@ -23,6 +23,7 @@
 use super::verdict::{Scope, Verdict};
 use crate::csv_table::{content_lines, csv_header, RowError};
 use crate::effect_id::EffectId;
+use crate::excerpt::{self, Number};
 use crate::file_error::{read_bytes_and_parse, FileError};
 use crate::plan::{EnergyModel, ModelLaw};
 use model_core::kinematics::{Regime, RegimeBounds};
@@ -82,14 +83,14 @@ pub enum PathTableError {
     Header {
         /// The header's line (0: no header).
         line: usize,
-        /// As written.
+        /// As written (cut after 40 characters).
         found: String,
     },
     /// A row that does not parse.
     #[error(transparent)]
     Row(#[from] RowError),
     /// A slice whose lower bound is not below its upper bound.
-    #[error("line {line}: slice {lo} – {hi} of R/R' is empty (r_lo_over_r_prime must be < r_hi_over_r_prime)")]
+    #[error("line {line}: slice {} – {} of R/R' is empty (r_lo_over_r_prime must be < r_hi_over_r_prime)", Number(*.lo), Number(*.hi))]
     EmptySlice {
         /// The line.
         line: usize,
@@ -131,7 +132,7 @@ pub fn parse_path_table(text: &str) -> Result<Vec<PathRow>, PathTableError> {
     if !is_header(header) {
         return Err(PathTableError::Header {
             line: header_line,
-            found: header.to_owned(),
+            found: excerpt::cut(header),
         });
     }
     let columns = header.split(',').count();
@@ -151,7 +152,7 @@ pub fn parse_path_table(text: &str) -> Result<Vec<PathRow>, PathTableError> {
                 line,
                 column: k + 1,
                 name: PATH_TABLE_COLUMNS[k],
-                value: cells[k].to_owned(),
+                value: excerpt::cut(cells[k]),
                 problem,
             })
         };
@@ -562,6 +563,31 @@ fn score(
     }))
 }
 
+/// The law of `model` and its rover with the terrain's R' (the model's B_s), not the
+/// controller's: what the rows are priced with.
+fn law_and_rover(model: &EnergyModel) -> Result<(ModelLaw, Rover), PathTableError> {
+    let law = model.law().map_err(|e| PathTableError::Path {
+        line: 0,
+        why: format!("model: {e}"),
+    })?;
+    let rover = Rover {
+        slip_track_m: model.base.slip_track_m as f32,
+        ..model.rover
+    };
+    Ok((law, rover))
+}
+
+/// Checks that `model` can price every row of one path table (the poses have a path at every
+/// R/R' of the slice). Its errors name a line, so a caller merging files checks each file's
+/// rows before [`diagnose_path_table`], whose errors cannot say which file a line is in.
+pub fn check_rows(model: &EnergyModel, rows: &[PathRow]) -> Result<(), PathTableError> {
+    let (law, rover) = law_and_rover(model)?;
+    for row in rows {
+        row_energies(row, &law, &rover, None)?;
+    }
+    Ok(())
+}
+
 /// Judges `rows` against `model` (a hard-ground model, e.g. [`hard_ground_for`]).
 pub fn diagnose_path_table(
     model: &EnergyModel,
@@ -570,15 +596,7 @@ pub fn diagnose_path_table(
     if rows.len() < 3 {
         return Err(PathTableError::TooFewRows(rows.len()));
     }
-    let law = model.law().map_err(|e| PathTableError::Path {
-        line: 0,
-        why: format!("model: {e}"),
-    })?;
-    // Regimes with the terrain's R' (the model's B_s), not the controller's.
-    let rover = Rover {
-        slip_track_m: model.base.slip_track_m as f32,
-        ..model.rover
-    };
+    let (law, rover) = law_and_rover(model)?;
     let mut slices = Vec::with_capacity(rows.len());
     for row in rows {
         let e = row_energies(row, &law, &rover, None)?.ok_or(PathTableError::NoRows)?;

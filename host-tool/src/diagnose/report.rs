@@ -167,6 +167,20 @@ pub fn findings(d: &Diagnosis) -> Vec<String> {
     out
 }
 
+/// The candidates some fold does not test, for the conclusion: their held-out figures would be
+/// an extrapolation's, so they were not ranked, and not ruled out either.
+fn untested(d: &Diagnosis) -> String {
+    let untested: Vec<&str> = d.not_testable.iter().map(|c| c.effect.id()).collect();
+    if untested.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; not testable out of sample, so not ruled out: {}",
+            untested.join(", ")
+        )
+    }
+}
+
 /// The one-line conclusion.
 pub fn conclusion(d: &Diagnosis) -> String {
     let all = d.heldout.iter().find(|h| h.regime == super::Scope::All);
@@ -193,7 +207,11 @@ pub fn conclusion(d: &Diagnosis) -> String {
         )
     } else if let Some(effect) = named_effect(d) {
         let h = all.map_or_else(|| d.scheme.id().to_owned(), heldout);
-        format!("diagnosis: {effect} @ {} (significant gap); {h}", d.regime)
+        format!(
+            "diagnosis: {effect} @ {} (significant gap); {h}{}",
+            d.regime,
+            untested(d)
+        )
     } else if d.effect == super::Verdict::Ambiguous {
         let best: Vec<String> = d
             .candidates
@@ -201,9 +219,11 @@ pub fn conclusion(d: &Diagnosis) -> String {
             .take(2)
             .map(|c| format!("{} closes {:.0} %", c.effect, c.shrink_pct))
             .collect();
+        let untested = untested(d);
         format!(
             "diagnosis: ambiguous @ {} (significant gap, no clear cause): {}; naming one needs ≥ \
-             {:.0} % closed and a {:.1}× margin in penalised held-out error over the runner-up",
+             {:.0} % closed and a {:.1}× margin in penalised held-out error over the runner-up\
+             {untested}",
             d.regime,
             best.join(", "),
             cv::MIN_SHRINK_PCT,
@@ -409,41 +429,64 @@ fn gap_rows(d: &Diagnosis) -> Vec<Vec<String>> {
     rows
 }
 
+/// The ranked candidates' table: the other scheme's shrink only when there is another scheme
+/// (one run has no leave-one-run-out), `not testable` where that scheme's folds do not test one.
 fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
     let other = d.other_scheme.as_ref();
-    let other_head = other.map_or("-".to_owned(), |(s, _)| format!("shrink {}", s.id()));
-    let mut rows = vec![vec![
+    let mut head = vec![
         "effect".to_owned(),
         "before [W]".to_owned(),
         "after [W]".to_owned(),
         "shrink".to_owned(),
         "penalised [W²]".to_owned(),
         "shrink of totals".to_owned(),
-        other_head,
-        String::new(),
-    ]];
+    ];
+    head.extend(other.map(|(s, _)| format!("shrink {}", s.id())));
+    head.push(String::new());
+    let mut rows = vec![head];
     let named = named_effect(d);
     for c in &d.candidates {
-        let other_shrink = other
-            .and_then(|(_, list)| list.iter().find(|o| o.effect == c.effect))
-            .map_or("-".to_owned(), |o| format!("{:.0} %", o.shrink_pct));
-        rows.push(vec![
+        let mut row = vec![
             c.effect.id().to_owned(),
             format!("{:.2}", c.heldout_error_before),
             format!("{:.2}", c.heldout_error_after),
             format!("{:.0} %", c.shrink_pct),
             format!("{:.3}", c.penalised_mse),
             format!("{:.0} %", c.shrink_total_pct),
-            other_shrink,
+        ];
+        row.extend(other.map(
+            |(_, list)| match list.iter().find(|o| o.effect == c.effect) {
+                Some(o) if o.not_testable.is_some() => "not testable".to_owned(),
+                Some(o) => format!("{:.0} %", o.shrink_pct),
+                None => "-".to_owned(),
+            },
+        ));
+        row.push(
             if Some(c.effect) == named {
                 "<- named"
             } else {
                 ""
             }
             .to_owned(),
-        ]);
+        );
+        rows.push(row);
     }
     rows
+}
+
+/// One line per candidate left out of the ranking: `effect: not testable out of sample: why`.
+fn not_testable_lines(d: &Diagnosis) -> Vec<String> {
+    d.not_testable
+        .iter()
+        .filter_map(|c| {
+            let why = c.not_testable?;
+            Some(format!(
+                "{}: not testable out of sample: {}",
+                c.effect,
+                why.describe()
+            ))
+        })
+        .collect()
 }
 
 fn regime_rows(d: &Diagnosis) -> Vec<Vec<String>> {
@@ -499,6 +542,13 @@ pub fn table(d: &Diagnosis) -> String {
         d.scheme.id()
     );
     out.push_str(&columns(&candidate_rows(d)));
+    let untested = not_testable_lines(d);
+    if !untested.is_empty() {
+        let _ = writeln!(out, "left out of the ranking:");
+        for line in untested {
+            let _ = writeln!(out, "  {line}");
+        }
+    }
     if let Some(effect) = added_effect(d) {
         let _ = writeln!(out, "\nheld-out error per regime with {effect}:");
         out.push_str(&columns(&regime_rows(d)));
@@ -550,6 +600,13 @@ pub fn markdown(
         d.scheme.id()
     );
     out.push_str(&markdown_table(&candidate_rows(d)));
+    let untested = not_testable_lines(d);
+    if !untested.is_empty() {
+        let _ = writeln!(out, "\nLeft out of the ranking:\n");
+        for line in untested {
+            let _ = writeln!(out, "- {line}");
+        }
+    }
     if let Some(effect) = added_effect(d) {
         let _ = writeln!(
             out,

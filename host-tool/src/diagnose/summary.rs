@@ -20,6 +20,7 @@
 
 use super::features::{Observed, SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
 use crate::csv_table::{content_lines, csv_header, RowError};
+use crate::excerpt;
 use crate::file_error::{read_bytes_and_parse, FileError};
 use model_core::kinematics::{self, Regime, RegimeBounds, TurnDirection};
 use model_core::Rover;
@@ -68,7 +69,7 @@ pub enum SummaryError {
         line: usize,
         /// 1-based column.
         column: usize,
-        /// As written.
+        /// As written (cut after 40 characters).
         name: String,
     },
     /// A column named twice.
@@ -128,7 +129,7 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
             return Err(SummaryError::UnknownColumn {
                 line: header_line,
                 column: k + 1,
-                name: (*name).to_owned(),
+                name: excerpt::cut(name),
             });
         };
         if index[c].replace(k).is_some() {
@@ -165,7 +166,7 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
                 line,
                 column: k + 1,
                 name: SUMMARY_COLUMNS[c],
-                value: v.to_owned(),
+                value: excerpt::cut(v),
                 problem,
             })
         };
@@ -403,6 +404,27 @@ mod tests {
         assert!(missing
             .to_string()
             .starts_with("/nonexistent/summary.csv: "));
+    }
+
+    /// Issue 34: a 10 MB cell (or header cell) gave a 10 MB message, twice over.
+    #[test]
+    fn quoted_cells_are_cut() {
+        let err = |text: &str| parse_summary(text).expect_err("invalid").to_string();
+        let cell = "9".repeat(10_000_000);
+        let e = err(&format!("radius_m,avg_power_w\n0,{cell}x\n"));
+        assert_eq!(
+            e,
+            format!(
+                "line 2, column 2 (avg_power_w): `{}…` is not a finite number",
+                "9".repeat(40)
+            )
+        );
+        let e = err(&format!("radius_m,avg_power_w,{cell}\n0,1,2\n"));
+        assert!(e.len() < 200, "{} bytes", e.len());
+        assert!(
+            e.starts_with("line 1, column 3: unknown column `9999"),
+            "{e}"
+        );
     }
 
     proptest::proptest! {

@@ -196,7 +196,7 @@ pub fn write_commands_csv_atomically<'a>(
             path,
             source: source.into(),
         },
-        super::AtomicWriteError::Content(e) => e,
+        super::AtomicWriteError::Content { source, .. } => source,
     })
 }
 
@@ -278,5 +278,25 @@ mod tests {
         let e = write_commands_csv_atomically(&other, &bad).expect_err("time goes back");
         assert!(e.to_string().contains("line 3"), "{e}");
         assert!(!other.exists());
+    }
+
+    /// Issue 34: 1e308 in a message was 309 digits, a 10 MB cell 10 MB.
+    #[test]
+    fn quoted_numbers_and_cells_stay_short() {
+        let e = read("t_s,cmd_left_mps,cmd_right_mps\n1e308,0,0\n1,0,0\n").expect_err("back");
+        assert_eq!(
+            e.to_string(),
+            "line 3, column 1 (t_s): time 1 is not after the previous row's 1e308"
+        );
+        let cell = "9".repeat(10_000_000);
+        let e = read(&format!("t_s,cmd_left_mps,cmd_right_mps\n0,{cell}x,0\n")).expect_err("cell");
+        assert!(e.to_string().len() < 200, "{} bytes", e.to_string().len());
+        let mut out = CommandsCsvWriter::new(Vec::new()).expect("header");
+        out.write(&row(1e308, 0.0, 0.0)).expect("first row");
+        let e = out.write(&row(1e308, 0.0, 0.0)).expect_err("same time");
+        assert_eq!(
+            e.to_string(),
+            "line 3, column 1 (t_s): time 1e308 is not after the previous row's 1e308"
+        );
     }
 }

@@ -15,8 +15,8 @@
 
 use super::load::{load_salvaging, LoadError, RunFormat};
 use super::mcap::{write_mcap_run, Loss, McapError, Truncation};
-use super::run_csv::DroppedRow;
 use super::run_csv::{write_run_csv_atomically, RunCsvFileError};
+use super::run_csv::{DroppedRow, RigRange};
 use super::run_log::RunLog;
 use super::{write_atomically, AtomicWriteError};
 use std::path::{Path, PathBuf};
@@ -80,7 +80,7 @@ pub fn save_run(path: &Path, run: &RunLog) -> Result<RunFormat, ConvertError> {
             write_atomically(path, |out| write_mcap_run(out, run).map(|_| ())).map_err(|e| {
                 let source = match e {
                     AtomicWriteError::Io { source, path } => McapError::Io { path, source },
-                    AtomicWriteError::Content(e) => e,
+                    AtomicWriteError::Content { source, .. } => source,
                 };
                 ConvertError::Mcap {
                     path: path.to_owned(),
@@ -99,7 +99,9 @@ pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
 }
 
 /// [`convert`]; with `salvage`, damaged rows of an input run CSV are left out instead of
-/// refused (a damaged MCAP input is always salvaged).
+/// refused (a damaged MCAP input is always salvaged). An input run CSV may hold any physical
+/// reading, but only the board's range ([`RigRange::BoardStream`]) into MCAP, whose frames
+/// hold the board's registers.
 pub fn convert_salvaging(
     input: &Path,
     output: &Path,
@@ -111,7 +113,11 @@ pub fn convert_salvaging(
             path: output.to_owned(),
         });
     }
-    let loaded = load_salvaging(input, salvage)?;
+    let range = match to {
+        RunFormat::Mcap => RigRange::BoardStream,
+        RunFormat::Csv => RigRange::Physical,
+    };
+    let loaded = load_salvaging(input, salvage, range)?;
     let mut run = loaded.run;
     let synthesised_frames =
         to == RunFormat::Mcap && loaded.format == RunFormat::Csv && run.frames.is_empty();
@@ -236,6 +242,32 @@ mod tests {
             std::fs::read(&csv).expect("bytes"),
             "byte for byte the canonical CSV"
         );
+    }
+
+    /// Another rig's run CSV converts to a run CSV as it is, but not into MCAP, whose frames
+    /// hold the board's registers (they would saturate).
+    #[test]
+    fn a_run_csv_beyond_the_boards_range_converts_to_csv_but_not_to_mcap() {
+        let dir = TempDir::new("convert-argo");
+        let csv = dir.path().join("argo.csv");
+        let mut rows = samples();
+        rows[3].current_a.left = 27.5;
+        write_run_csv_atomically(&csv, &rows).expect("csv");
+        let back = dir.path().join("back.csv");
+        convert(&csv, &back).expect("csv -> csv");
+        assert_eq!(read_run_csv(&back).expect("back"), rows);
+        let mcap = dir.path().join("argo.mcap");
+        let e = convert(&csv, &mcap).expect_err("beyond the board's registers");
+        let text = e.to_string();
+        assert!(
+            text.starts_with(&format!(
+                "{}: line 5, column 3 (left_current_a): 27.5 is outside the INA226 board's range",
+                csv.display()
+            )),
+            "{text}"
+        );
+        assert!(text.contains("`replay` and `convert` to MCAP"), "{text}");
+        assert!(!mcap.exists());
     }
 
     #[test]

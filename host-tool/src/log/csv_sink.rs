@@ -326,8 +326,9 @@ mod tests {
         let last_comma = text.rfind(',').expect("comma");
         for cut in last_row_start + 1..=last_comma {
             std::fs::write(&path, &text[..cut]).expect("write");
+            let range = crate::log::run_csv::RigRange::default();
             let (rows, dropped) =
-                crate::log::run_csv::read_run_csv_salvaging(&path, false).expect("cut row");
+                crate::log::run_csv::read_run_csv_salvaging(&path, false, range).expect("cut row");
             assert_eq!(rows, vec![sample(0.0)], "{cut}");
             assert_eq!(dropped.len(), 1, "{cut}");
             assert!(

@@ -3,7 +3,7 @@
 
 use super::mcap::{read_mcap_run, stream_mcap_run, Loss, McapError, Truncation};
 use super::run_csv::{
-    read_run_csv_salvaging, DroppedRow, RunCsvFileError, RunCsvReader, RunSample,
+    read_run_csv_salvaging, DroppedRow, RigRange, RunCsvFileError, RunCsvReader, RunSample,
 };
 use super::run_log::{RunLog, RunLogSink};
 use std::fmt;
@@ -191,6 +191,7 @@ pub fn refuse_duplicate_digests(names: &[String], digests: &[&RunDigest]) -> Res
 pub fn stream_salvaging(
     path: &Path,
     salvage: bool,
+    range: RigRange,
     sink: &mut dyn RunLogSink,
 ) -> Result<StreamFound, LoadError> {
     match RunFormat::of(path)? {
@@ -202,7 +203,8 @@ pub fn stream_salvaging(
             let file = std::fs::File::open(path).map_err(|e| file_err(e.into()))?;
             let mut reader = RunCsvReader::new(std::io::BufReader::with_capacity(1 << 16, file))
                 .map_err(file_err)?
-                .salvaging(salvage);
+                .salvaging(salvage)
+                .within(range);
             for sample in reader.by_ref() {
                 let sample = sample.map_err(file_err)?;
                 sink.sample(&sample).map_err(|e| file_err(e.into()))?;
@@ -284,17 +286,19 @@ pub fn lost_data(losses: &[Loss], dropped_rows: &[DroppedRow]) -> bool {
 }
 
 /// Loads the run log at `path` (`.mcap` or `.csv`), reporting a truncated or damaged MCAP file
-/// and a cut last CSV row; a damaged CSV row is an error.
+/// and a cut last CSV row; a damaged CSV row is an error. A run CSV may hold any physical
+/// reading.
 pub fn load(path: &Path) -> Result<LoadedRun, LoadError> {
-    load_salvaging(path, false)
+    load_salvaging(path, false, RigRange::default())
 }
 
 /// [`load`], and with `salvage` damaged CSV rows are left out (and listed) instead of refused.
-/// (A damaged MCAP file is always salvaged: its losses are listed.)
-pub fn load_salvaging(path: &Path, salvage: bool) -> Result<LoadedRun, LoadError> {
+/// (A damaged MCAP file is always salvaged: its losses are listed.) A run CSV's readings must
+/// lie within `range` (an MCAP file's within the board's: they come from its registers).
+pub fn load_salvaging(path: &Path, salvage: bool, range: RigRange) -> Result<LoadedRun, LoadError> {
     match RunFormat::of(path)? {
         RunFormat::Csv => {
-            let (samples, dropped_rows) = read_run_csv_salvaging(path, salvage)?;
+            let (samples, dropped_rows) = read_run_csv_salvaging(path, salvage, range)?;
             Ok(LoadedRun {
                 run: RunLog {
                     samples,

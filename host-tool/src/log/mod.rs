@@ -29,10 +29,17 @@ pub enum AtomicWriteError<E> {
         #[source]
         source: io::Error,
     },
-    /// The content callback failed; nothing was written at the target path. Its source, not
+    /// The content callback failed (a full disk while writing, bad content); nothing was written
+    /// at the target path. Names the target: an `io::Error` does not. Its source, not
     /// transparent: the CLI finds an `io::Error` such as a closed stdout in the chain.
-    #[error("{0}")]
-    Content(#[source] E),
+    #[error("{}: {source}", path.display())]
+    Content {
+        /// The file that was being written (the target, not the temporary file beside it).
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: E,
+    },
 }
 
 /// Writes a whole file or nothing: `write` fills a temporary file in the target's directory,
@@ -51,13 +58,17 @@ pub fn write_atomically<T, E>(
         let path = path.to_owned();
         move |source| AtomicWriteError::Io { path, source }
     };
+    let content_err = |path: &Path| {
+        let path = path.to_owned();
+        move |source| AtomicWriteError::Content { path, source }
+    };
     if fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
         let file = OpenOptions::new()
             .write(true)
             .open(path)
             .map_err(io_err(path))?;
         let mut out = BufWriter::new(file);
-        let value = write(&mut out).map_err(AtomicWriteError::Content)?;
+        let value = write(&mut out).map_err(content_err(path))?;
         out.flush().map_err(io_err(path))?;
         return Ok(value);
     }
@@ -85,7 +96,7 @@ pub fn write_atomically<T, E>(
         .map_err(io_err(&tmp_path))?;
     tmp.0 = Some(tmp_path.clone());
     let mut out = BufWriter::new(file);
-    let value = write(&mut out).map_err(AtomicWriteError::Content)?;
+    let value = write(&mut out).map_err(content_err(path))?;
     let file = out
         .into_inner()
         .map_err(|e| io_err(&tmp_path)(e.into_error()))?;
@@ -187,7 +198,8 @@ mod tests {
             Err::<(), _>(io::Error::other("input broke"))
         })
         .expect_err("fails");
-        assert!(matches!(e, AtomicWriteError::Content(_)));
+        assert!(matches!(&e, AtomicWriteError::Content { path: p, .. } if *p == path));
+        assert_eq!(e.to_string(), format!("{}: input broke", path.display()));
         assert!(dir.entries().is_empty(), "{:?}", dir.entries());
 
         fs::write(&path, b"old").expect("write");
@@ -221,5 +233,26 @@ mod tests {
         }
         write_atomically::<_, io::Error>(null, |w| w.write_all(b"discarded")).expect("writes");
         assert!(is_device(null), "/dev/null is no longer a device");
+    }
+
+    /// Issue 34: `No space left on device` from `plot`, `diagnose --out` named no file (the
+    /// content's io::Error knows none).
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_full_disk_while_writing_names_the_file() {
+        let full = Path::new("/dev/full");
+        if !full.exists() {
+            return; // no /dev/full here: nothing to check
+        }
+        // Larger than BufWriter's buffer: the write itself fails (Content), not the flush (Io).
+        let e = write_atomically::<_, io::Error>(full, |w| w.write_all(&[0; 1 << 16]))
+            .expect_err("disk full");
+        assert!(matches!(e, AtomicWriteError::Content { .. }), "{e:?}");
+        let shown = e.to_string();
+        assert!(shown.starts_with("/dev/full: "), "{shown}");
+        assert!(shown.contains("No space left on device"), "{shown}");
+        // A small write fails at the flush: also named.
+        let e = write_atomically::<_, io::Error>(full, |w| w.write_all(b"x")).expect_err("full");
+        assert!(e.to_string().starts_with("/dev/full: "), "{e}");
     }
 }

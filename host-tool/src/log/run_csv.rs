@@ -19,6 +19,9 @@
 //! - Every row has exactly as many cells as the header. Required cells hold a finite number
 //!   (anything Rust's `f64` parser takes: `1`, `-0.5`, `1e-3`); optional cells may be empty
 //!   (→ `None`). NaN and infinities are rejected.
+//! - Bus voltages and currents lie within the range the file is read with ([`RigRange`]): by
+//!   default any physical reading (bus 0 to 1000 V, current ±1000 A: the file may come from
+//!   any rig), or the board's (`--rig-range board`), or a range the user states.
 //! - `t_s` strictly increases from row to row: equal timestamps are an error (the per-sample
 //!   energy integration and the segmentation need dt > 0; a repeated time is a rig's bug).
 //! - Comma-separated, RFC 4180 quoting (`"1.5"` is fine), LF or CRLF line ends, an optional UTF-8
@@ -31,6 +34,7 @@
 //! `line 7, column 3 (left_current_a): "abc" is not a number`.
 
 use super::{write_atomically, AtomicWriteError};
+use crate::excerpt::{cut, Number};
 use model_core::Sides;
 use std::fmt;
 use std::io::{self, BufRead, Write};
@@ -94,12 +98,6 @@ impl RunSample {
         }
     }
 }
-
-/// Highest bus voltage the INA226 reads: its bus input's full scale, 32 768 × 1.25 mV [V].
-pub const BUS_V_MAX: f64 = 40.96;
-/// Largest current the board measures: the INA226's full scale at its calibration (5 mΩ shunt,
-/// 0.5 mA current LSB), 32 768 × 0.5 mA [A]. A reading beyond it is a unit or scale error.
-pub const CURRENT_A_MAX: f64 = 16.384;
 
 /// A column the run CSV defines.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -183,28 +181,11 @@ impl Column {
     const fn index(self) -> usize {
         self as usize
     }
-
-    /// The values the board can measure in this column (`None`: any finite number): bus
-    /// voltages within the INA226's bus input range, currents within its full scale.
-    pub fn range(self) -> Option<(f64, f64)> {
-        match self {
-            Column::LeftBusV | Column::RightBusV => Some((0.0, BUS_V_MAX)),
-            Column::LeftCurrentA | Column::RightCurrentA => Some((-CURRENT_A_MAX, CURRENT_A_MAX)),
-            Column::TimeS
-            | Column::CmdLeftMps
-            | Column::CmdRightMps
-            | Column::YawRad
-            | Column::PitchDeg
-            | Column::XM
-            | Column::YM => None,
-        }
-    }
 }
 
 impl RunSample {
-    /// The first value outside what the board can measure ([`Column::range`]) or not finite,
-    /// with its column.
-    pub fn out_of_range(&self) -> Option<(Column, f64)> {
+    /// The first value outside `range` or not finite, with its column.
+    pub fn out_of_range(&self, range: RigRange) -> Option<(Column, f64)> {
         let values = [
             (Column::TimeS, self.t_s),
             (Column::LeftBusV, self.bus_v.left),
@@ -223,9 +204,7 @@ impl RunSample {
         values
             .into_iter()
             .chain(optional.into_iter().filter_map(|(c, v)| Some((c, v?))))
-            .find(|&(column, v)| {
-                !v.is_finite() || column.range().is_some_and(|(lo, hi)| v < lo || v > hi)
-            })
+            .find(|&(column, v)| !range.admits(column, v))
     }
 }
 
@@ -236,7 +215,7 @@ impl fmt::Display for Column {
 }
 
 /// Why a cell is not a valid value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CellProblem {
     /// The cell is empty in a required column.
     Empty,
@@ -246,8 +225,8 @@ pub enum CellProblem {
     NotFinite,
     /// `t_s` is not greater than the previous row's.
     TimeNotIncreasing,
-    /// The number is outside what the board can measure ([`Column::range`]).
-    OutOfRange,
+    /// The number is outside the range the file is read with.
+    OutOfRange(RigRange),
 }
 
 /// What is wrong with a run CSV or a commands CSV (reading), or with a row handed to a writer
@@ -335,22 +314,14 @@ fn describe(problem: CellProblem, value: &str, previous_t_s: Option<f64>) -> Str
         CellProblem::Empty => "empty cell in a required column".into(),
         CellProblem::NotANumber => format!("{value:?} is not a number"),
         CellProblem::NotFinite => format!("{value:?} is not a finite number"),
-        CellProblem::OutOfRange => format!(
-            "{value} is outside the board's measuring range (INA226 at the board's calibration: \
-             bus 0 to {BUS_V_MAX} V, current ±{CURRENT_A_MAX} A)"
-        ),
+        CellProblem::OutOfRange(range) => format!("{value} is outside {range}"),
         CellProblem::TimeNotIncreasing => match previous_t_s {
-            Some(prev) => format!("time {value} is not after the previous row's {prev}"),
+            Some(prev) => format!(
+                "time {value} is not after the previous row's {}",
+                Number(prev)
+            ),
             None => format!("time {value} is not increasing"),
         },
-    }
-}
-
-fn cut(text: &str) -> String {
-    const MAX: usize = 40;
-    match text.char_indices().nth(MAX) {
-        Some((i, _)) => format!("{}…", &text[..i]),
-        None => text.to_owned(),
     }
 }
 
@@ -374,26 +345,28 @@ impl RunCsvFileError {
     }
 }
 
-/// Reads a whole run CSV file (a cut last row is left out; see [`read_run_csv_salvaging`] to
-/// learn about it).
+/// Reads a whole run CSV file, any physical reading (a cut last row is left out; see
+/// [`read_run_csv_salvaging`] to learn about it, or to read it within another range).
 pub fn read_run_csv(path: &Path) -> Result<Vec<RunSample>, RunCsvFileError> {
-    read_run_csv_salvaging(path, false).map(|(samples, _)| samples)
+    read_run_csv_salvaging(path, false, RigRange::default()).map(|(samples, _)| samples)
 }
 
-/// Reads a whole run CSV file and the rows left out: a cut last row always, any damaged row
-/// with `salvage` (see [`RunCsvReader::salvaging`]).
+/// Reads a whole run CSV file, its readings within `range`, and the rows left out: a cut last
+/// row always, any damaged row with `salvage` (see [`RunCsvReader::salvaging`]).
 pub fn read_run_csv_salvaging(
     path: &Path,
     salvage: bool,
+    range: RigRange,
 ) -> Result<(Vec<RunSample>, Vec<DroppedRow>), RunCsvFileError> {
     // This tool's own files, valid throughout: read and parsed in parallel, block by block.
-    if let Some(samples) = read_own_run_csv(path)? {
+    if let Some(samples) = read_own_run_csv(path, range)? {
         return Ok((samples, Vec::new()));
     }
     let bytes = std::fs::read(path).map_err(|e| RunCsvFileError::new(path, e))?;
     let mut reader = RunCsvReader::new(&bytes[..])
         .map_err(|e| RunCsvFileError::new(path, e))?
-        .salvaging(salvage);
+        .salvaging(salvage)
+        .within(range);
     let samples = reader
         .by_ref()
         .collect::<Result<_, _>>()
@@ -402,26 +375,31 @@ pub fn read_run_csv_salvaging(
 }
 
 /// The samples of the run CSV at `path` if it is one of this tool's own (its header and layout,
-/// valid throughout), read once and parsed on every core ([`visit_own_run_csv`]); `Ok(None)`
-/// for any other file, which [`RunCsvReader`] reads and judges (it words the errors, drops a
-/// cut last row).
-pub fn read_own_run_csv(path: &Path) -> Result<Option<Vec<RunSample>>, RunCsvFileError> {
+/// valid throughout, readings within `range`), read once and parsed on every core
+/// ([`visit_own_run_csv`]); `Ok(None)` for any other file, which [`RunCsvReader`] reads and
+/// judges (it words the errors, drops a cut last row).
+pub fn read_own_run_csv(
+    path: &Path,
+    range: RigRange,
+) -> Result<Option<Vec<RunSample>>, RunCsvFileError> {
     let mut samples = Vec::new();
-    let own = visit_own_run_csv(path, &mut |rows| samples.extend_from_slice(rows))?;
+    let own = visit_own_run_csv(path, range, &mut |rows| samples.extend_from_slice(rows))?;
     Ok(own.then_some(samples))
 }
 
 /// Hands `visit` the samples of the run CSV at `path`, in file order, a stretch at a time as
 /// they are read (on the core that parsed them, while they are in its cache), and returns
-/// true if the file is one of this tool's own (its header and layout, valid throughout): read
-/// once, parsed on every core, in memory of a few stretches whatever its length. False for any
-/// other file, which [`RunCsvReader`] reads and judges; `visit` may have had some of its
-/// samples by then (not all).
+/// true if the file is one of this tool's own (its header and layout, valid throughout,
+/// readings within `range`): read once, parsed on every core, in memory of a few stretches
+/// whatever its length. False for any other file, which [`RunCsvReader`] reads and judges;
+/// `visit` may have had some of its samples by then (not all).
 pub fn visit_own_run_csv(
     path: &Path,
+    range: RigRange,
     visit: &mut (dyn FnMut(&[RunSample]) + Send),
 ) -> Result<bool, RunCsvFileError> {
-    fast::read_file(path, fast::BLOCK_BYTES, visit).map_err(|e| RunCsvFileError::new(path, e))
+    fast::read_file(path, fast::BLOCK_BYTES, range, visit)
+        .map_err(|e| RunCsvFileError::new(path, e))
 }
 
 /// Writes `samples` to a run CSV at `path`, all or nothing (see [`write_atomically`]): if any
@@ -456,7 +434,7 @@ pub fn try_write_run_csv_atomically(
     });
     written.map_err(|e| match e {
         AtomicWriteError::Io { path, source } => RunCsvFileError::new(&path, source),
-        AtomicWriteError::Content(e) => e,
+        AtomicWriteError::Content { source, .. } => source,
     })
 }
 
@@ -474,9 +452,12 @@ pub fn normalize_run_csv(input: &Path, output: &Path) -> Result<u64, RunCsvFileE
 }
 
 mod fast;
+mod range;
 mod read;
 mod records;
 mod write;
+
+pub use range::{RigRange, BUS_V_MAX, CURRENT_A_MAX, PHYSICAL_BUS_V_MAX, PHYSICAL_CURRENT_A_MAX};
 
 pub(crate) use read::Table;
 pub use read::{DroppedRow, RunCsvReader};

@@ -85,7 +85,7 @@ pub fn synthesise_frames(
     let Some(first) = samples.first() else {
         return Vec::new();
     };
-    let t_us = |s: &RunSample| ((s.t_s - first.t_s) * 1e6).round() as u64;
+    let t_us = |s: &RunSample| synthesised_t_us(first.t_s, s.t_s);
     let mut intervals: Vec<u64> = samples
         .windows(2)
         .map(|w| t_us(&w[1]).saturating_sub(t_us(&w[0])))
@@ -143,6 +143,12 @@ pub fn synthesise_frames(
         }
     }
     frames
+}
+
+/// The board time [µs] a synthesised stream stamps the sample logged at `t_s` with, the first
+/// sample logged at `first_t_s` (so a recording of it starts its run time there).
+pub fn synthesised_t_us(first_t_s: f64, t_s: f64) -> u64 {
+    ((t_s - first_t_s) * 1e6).round() as u64
 }
 
 /// Wheel rates for side speeds `cmd_mps` [m/s] on `rover`'s wheels [rad/s], as `record`

@@ -21,6 +21,11 @@
 //!   (v = ω · wheel radius, rounded to 1 µm/s) in the log and the samples' `cmd_*` columns. A
 //!   replay reports every command it carries that way (`crate::replay`), so a recording of a
 //!   replay holds the original's commands.
+//! - Merged, not forwarded ([`RecordOptions::forward_commands`] off, `--merge-commands`): the
+//!   rows fill the samples' `cmd_*` and pose columns and the log's command rows as with
+//!   `--commands`, but nothing goes to the board, whose stream reports the speeds in force (a
+//!   replay's). The robot's side of a run, which the board's stream cannot carry (its tracker's
+//!   yaw, pitch and position fixes), comes back this way: `replay --commands-out` writes it.
 //! - Unplug: on a vanished device the log gets [`LogEvent::DeviceVanished`] and is flushed; the
 //!   same path is re-opened every [`RecordOptions::retry_every`] until it works
 //!   ([`LogEvent::Reconnected`]) or [`RecordOptions::reconnect_timeout`] passes.
@@ -51,6 +56,7 @@ pub use timeline::CommandTimeline;
 use recorder::Recorder;
 
 use crate::decode::{Segment, StreamStats};
+use crate::excerpt::Number;
 use crate::log::commands::CommandRow;
 use crate::log::csv_sink::CsvRunSink;
 use crate::log::mcap::{McapError, McapSink};
@@ -124,6 +130,11 @@ pub struct RecordOptions {
     pub max_samples: Option<u64>,
     /// Commands to forward and to copy into the samples' `cmd_*`/pose columns (empty: none).
     pub commands: Vec<CommandRow>,
+    /// Whether [`Self::commands`] go to the board (`record --commands`), or are only copied into
+    /// the log because the board's stream already reports their speeds (`record
+    /// --merge-commands`: a replay's pty, which takes no commands and whose acks answer the
+    /// original recorder's).
+    pub forward_commands: bool,
     /// The rover whose wheel radius turns side speeds into wheel rates.
     pub rover: Rover,
     /// How long a vanished device may stay away before the recording stops.
@@ -149,6 +160,7 @@ impl RecordOptions {
             duration: None,
             max_samples: None,
             commands: Vec::new(),
+            forward_commands: true,
             rover: Rover::HUSKY_A200,
             reconnect_timeout: Duration::from_secs(60),
             retry_every: Duration::from_millis(200),
@@ -206,10 +218,10 @@ impl RecordOptions {
                     t_s: row.t_s,
                     reason: format!(
                         "side speeds {} / {} m/s are wheel rates {} / {} rad/s; the board accepts |ω| ≤ {} rad/s",
-                        row.cmd_mps.left,
-                        row.cmd_mps.right,
-                        rates.left,
-                        rates.right,
+                        Number(row.cmd_mps.left),
+                        Number(row.cmd_mps.right),
+                        Number(rates.left),
+                        Number(rates.right),
                         wire::MAX_WHEEL_RATE_RAD_S
                     ),
                 });
@@ -229,7 +241,7 @@ pub enum RecordError {
     #[error("writing the log: {0}")]
     Sink(#[source] io::Error),
     /// A command row the board would refuse.
-    #[error("commands row {row} (t_s = {t_s} s): {reason}")]
+    #[error("commands row {row} (t_s = {} s): {reason}", Number(*t_s))]
     Command {
         /// 1-based row (not counting the header).
         row: usize,

@@ -46,6 +46,10 @@ pub(super) struct Recorder<'a, 'o> {
     vanished: u64,
     reconnects: u64,
     last_sent_mps: Option<Sides<f64>>,
+    /// Without forwarding ([`RecordOptions::forward_commands`] off): the commands rows already
+    /// looked at, and the speeds of the last one logged.
+    copied_rows: usize,
+    last_copied_mps: Option<Sides<f64>>,
     next_id: u16,
     awaiting: Vec<u16>,
     commands_sent: u64,
@@ -94,6 +98,8 @@ impl<'a, 'o> Recorder<'a, 'o> {
             vanished: 0,
             reconnects: 0,
             last_sent_mps: None,
+            copied_rows: 0,
+            last_copied_mps: None,
             next_id: 0,
             awaiting: Vec::new(),
             commands_sent: 0,
@@ -448,6 +454,9 @@ impl<'a, 'o> Recorder<'a, 'o> {
         if self.options.commands.is_empty() {
             return Ok(()); // the timeline holds what the board reported, not ours to send
         }
+        if !self.options.forward_commands {
+            return self.copy_commands(t_s);
+        }
         let Some((_, row)) = self.timeline.active(t_s) else {
             return Ok(());
         };
@@ -477,6 +486,26 @@ impl<'a, 'o> Recorder<'a, 'o> {
         self.last_sent_mps = Some(row.cmd_mps);
         self.commands_sent += 1;
         self.sink.command(&row).map_err(RecordError::Sink)
+    }
+
+    /// Commands not forwarded (their speeds are in force on the board already, e.g. a replay's,
+    /// whose stream reports them): each row up to `t_s` whose speeds differ from the previous
+    /// row's goes into the log as it is, as a forwarded one would have; nothing goes to the board.
+    fn copy_commands(&mut self, t_s: f64) -> Result<(), RecordError> {
+        let Some((active, _)) = self.timeline.active(t_s) else {
+            return Ok(());
+        };
+        while self.copied_rows <= active {
+            let Some(&row) = self.timeline.rows().get(self.copied_rows) else {
+                break;
+            };
+            self.copied_rows += 1;
+            if self.last_copied_mps != Some(row.cmd_mps) {
+                self.last_copied_mps = Some(row.cmd_mps);
+                self.sink.command(&row).map_err(RecordError::Sink)?;
+            }
+        }
+        Ok(())
     }
 
     fn energy_j(&self) -> Sides<f64> {

@@ -3,6 +3,7 @@ use crate::decode::{Event, Summary};
 use crate::log::mcap::tests::sim_run;
 use crate::log::mcap::{read_mcap_bytes, write_mcap_run};
 use crate::log::run_csv::RunSample;
+use crate::record::RunClock;
 use crate::serial::{self, PortReader, ReadOutcome};
 use model_core::ina226::Scale;
 use model_core::wire::Sample;
@@ -10,6 +11,7 @@ use model_core::Sides;
 use proptest::prelude::*;
 use std::io::Cursor;
 use std::path::Path;
+use std::sync::atomic::AtomicBool;
 
 /// Half an LSB of the bus (1.25 mV) and current (0.5 mA) registers, plus rounding slack.
 const HALF_BUS_LSB_V: f64 = 0.625e-3 + 1e-12;
@@ -319,33 +321,47 @@ fn an_empty_log_replays_nothing() {
     assert!(synthesise_frames(&[], None).is_empty());
 }
 
+/// Within the registers' range every value comes back within half an LSB; outside it, the
+/// registers saturate; power is the chip's |current| × bus / 20000.
+fn check_quantisation(bus_v: f64, current_a: f64) -> Result<(), TestCaseError> {
+    let scale = Scale::BOARD;
+    let regs = registers_of(bus_v, current_a);
+    let bus_back = scale.bus_v(regs.bus);
+    // The largest bus reading is 0x7FFF × 1.25 mV = 40.95875 V.
+    if (0.0..=40.958_75).contains(&bus_v) {
+        prop_assert!((bus_back - bus_v).abs() <= HALF_BUS_LSB_V);
+    } else if bus_v < 0.0 {
+        prop_assert_eq!(regs.bus.0, 0);
+    } else {
+        prop_assert_eq!(regs.bus.0, 0x7FFF);
+    }
+    // The current register spans −32768 … 32767 LSB of 0.5 mA: −16.384 A … 16.3835 A.
+    let lsb = (current_a / 0.5e-3).round();
+    if (f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&lsb) {
+        prop_assert!((scale.current_a(regs.current) - current_a).abs() <= HALF_CURRENT_LSB_A);
+        // 5 mΩ / 2.5 µV = 0.5 mA: on our board the shunt and current registers agree.
+        prop_assert_eq!(regs.shunt.0, regs.current.0);
+    } else {
+        prop_assert!(regs.current.0 == i16::MIN || regs.current.0 == i16::MAX);
+    }
+    let power = u32::from(regs.current.0.unsigned_abs()) * u32::from(regs.bus.0) / 20_000;
+    prop_assert_eq!(u32::from(regs.power.0), power);
+    Ok(())
+}
+
 proptest! {
-    /// Within the registers' range every value comes back within half an LSB; outside it, the
-    /// registers saturate; power is the chip's |current| × bus / 20000.
     #[test]
     fn registers_quantise_to_the_nearest_lsb(bus_v in -5.0..50.0f64, current_a in -20.0..20.0f64) {
-        let scale = Scale::BOARD;
-        let regs = registers_of(bus_v, current_a);
-        let bus_back = scale.bus_v(regs.bus);
-        // The largest bus reading is 0x7FFF × 1.25 mV = 40.95875 V.
-        if (0.0..=40.958_75).contains(&bus_v) {
-            prop_assert!((bus_back - bus_v).abs() <= HALF_BUS_LSB_V);
-        } else if bus_v < 0.0 {
-            prop_assert_eq!(regs.bus.0, 0);
-        } else {
-            prop_assert_eq!(regs.bus.0, 0x7FFF);
-        }
-        // The current register spans −32768 … 32767 LSB of 0.5 mA: −16.384 A … 16.3835 A.
-        let lsb = (current_a / 0.5e-3).round();
-        if (f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&lsb) {
-            prop_assert!((scale.current_a(regs.current) - current_a).abs() <= HALF_CURRENT_LSB_A);
-            // 5 mΩ / 2.5 µV = 0.5 mA: on our board the shunt and current registers agree.
-            prop_assert_eq!(regs.shunt.0, regs.current.0);
-        } else {
-            prop_assert!(regs.current.0 == i16::MIN || regs.current.0 == i16::MAX);
-        }
-        let power = u32::from(regs.current.0.unsigned_abs()) * u32::from(regs.bus.0) / 20_000;
-        prop_assert_eq!(u32::from(regs.power.0), power);
+        check_quantisation(bus_v, current_a)?;
+    }
+}
+
+/// Cases the property found, kept as tests: a bus reading just below the register's top, and
+/// a current just above its bottom.
+#[test]
+fn quantisation_regressions() {
+    for (bus_v, current_a) in [(40.95459970456375, 0.0), (0.0, -16.38206818452895)] {
+        check_quantisation(bus_v, current_a).expect("quantised");
     }
 }
 
@@ -404,4 +420,195 @@ fn a_streamed_replay_is_the_loaded_replay_byte_for_byte() {
     let csv = dir.path().join("run.csv");
     crate::log::run_csv::write_run_csv_atomically(&csv, &run.samples).expect("csv");
     streams_as_loaded(&csv);
+}
+
+/// A run CSV may hold another rig's readings, but a replay turns them into the board's
+/// registers: beyond the board's range they would saturate silently, so the file is refused.
+#[test]
+fn a_run_csv_beyond_the_boards_registers_is_refused_naming_the_cell() {
+    let dir = crate::log::tests_support::TempDir::new("replay-argo");
+    let (run, _) = sim_run(50);
+    let mut samples = run.samples.clone();
+    samples[7].current_a.right = -30.0;
+    let csv = dir.path().join("argo.csv");
+    crate::log::run_csv::write_run_csv_atomically(&csv, &samples).expect("csv");
+    assert_eq!(
+        crate::log::run_csv::read_run_csv(&csv).expect("another rig's file"),
+        samples
+    );
+    let Err(e) = ReplaySource::open(&csv, false, &Rover::HUSKY_A200) else {
+        panic!("replayed -30 A");
+    };
+    let text = e.to_string();
+    assert!(
+        text.starts_with(&format!(
+            "{}: line 9, column 5 (right_current_a): -30 is outside the INA226 board's range \
+             (bus 0 to 40.96 V, current ±16.384 A): `replay` and `convert` to MCAP",
+            csv.display()
+        )),
+        "{text}"
+    );
+}
+
+/// `run` replayed into a pty as fast as the recorder reads, and recorded from it; with
+/// `robot_side`, the replay's robot side merged as `record --merge-commands` does.
+fn replay_and_record(run: &RunLog, robot_side: Option<Vec<CommandRow>>) -> RunLog {
+    let frames = frames_of(run, &Rover::HUSKY_A200).expect("encode");
+    let replay = ReplayPty::spawn(
+        frames,
+        ReplayPacing::AsFastAsPossible,
+        Some(Duration::from_secs(10)),
+    )
+    .expect("pty");
+    let mut options = crate::record::RecordOptions::new(replay.path());
+    if let Some(rows) = robot_side {
+        options.commands = rows;
+        options.forward_commands = false;
+    }
+    let mut open = crate::record::serial_opener(options.read_timeout);
+    let mut recorded = RunLog::default();
+    let stop = AtomicBool::new(false);
+    let summary = crate::record::record(&options, &mut open, &mut recorded, &stop, &mut |_| {})
+        .expect("records");
+    assert_eq!(summary.commands_sent, 0, "nothing is sent to a replay");
+    assert_eq!(summary.stream.model_mismatches, 0);
+    replay.join().expect("replayed");
+    recorded
+}
+
+/// A run as the demo's run CSVs hold it: 200 Hz from 5 ms (the board's first sample had no
+/// reading yet), a point turn then a turn at R′, the tracker's yaw and pitch from its first
+/// row on (none before it) and a position fix on every tenth sample.
+fn tracked_run() -> RunLog {
+    let samples = (0..600)
+        .map(|i| {
+            let t_s = 0.005 * f64::from(i + 1);
+            let cmd = match i {
+                0..=99 => Sides::new(0.0, 0.0),
+                100..=349 => Sides::new(-0.3, 0.3),
+                _ => Sides::new(0.0, 0.6),
+            };
+            let tracked = i >= 3;
+            RunSample {
+                t_s,
+                bus_v: Sides::new(24.0 - 0.001 * f64::from(i), 23.9),
+                current_a: Sides::new(2.0 + (t_s * 3.0).sin(), 4.0 * (t_s * 5.0).cos()),
+                cmd_mps: cmd,
+                yaw_rad: tracked.then_some(0.25 * t_s - 0.0123),
+                pitch_deg: tracked.then(|| 1.5 * (t_s * 2.0).sin()),
+                x_m: (i % 10 == 4).then_some(0.3 * t_s),
+                y_m: (i % 10 == 4).then(|| -0.2 * t_s),
+            }
+        })
+        .collect();
+    RunLog {
+        samples,
+        ..RunLog::default()
+    }
+}
+
+/// Every column of `recorded` against `original`'s: the readings within half a register LSB,
+/// the rest exactly; times counted from `t0_s` of the original.
+fn assert_same_samples(original: &RunLog, recorded: &RunLog, t0_s: f64) {
+    assert_eq!(recorded.samples.len(), original.samples.len());
+    for (a, b) in original.samples.iter().zip(&recorded.samples) {
+        assert!(
+            (b.t_s - (a.t_s - t0_s)).abs() < 1e-9,
+            "{} vs {}",
+            b.t_s,
+            a.t_s
+        );
+        for (x, y) in [(a.bus_v.left, b.bus_v.left), (a.bus_v.right, b.bus_v.right)] {
+            assert!((x - y).abs() <= HALF_BUS_LSB_V, "{a:?} vs {b:?}");
+        }
+        for (x, y) in [
+            (a.current_a.left, b.current_a.left),
+            (a.current_a.right, b.current_a.right),
+        ] {
+            assert!((x - y).abs() <= HALF_CURRENT_LSB_A, "{a:?} vs {b:?}");
+        }
+        assert_eq!(
+            (b.cmd_mps, b.yaw_rad, b.pitch_deg, b.x_m, b.y_m),
+            (a.cmd_mps, a.yaw_rad, a.pitch_deg, a.x_m, a.y_m),
+            "at {} s",
+            a.t_s
+        );
+    }
+}
+
+#[test]
+fn replay_then_record_gives_back_every_column_of_the_run() {
+    // Issue 34, item 8: the round trip dropped yaw and pitch (and with them the turns' angular
+    // slip, so the diagnosis moved from dragged-inner to at-r-prime) and the position fixes.
+    let original = tracked_run();
+    let t0_s = original.samples[0].t_s;
+    let recorded = replay_and_record(&original, Some(robot_side(&original)));
+    assert_same_samples(&original, &recorded, t0_s);
+    // A run CSV has no command rows; the recording logs one where the speeds change, with the
+    // pose of its sample.
+    let changes: Vec<(f64, Sides<f64>)> = recorded
+        .commands
+        .iter()
+        .map(|c| (c.t_s, c.cmd_mps))
+        .collect();
+    assert_eq!(
+        changes,
+        [
+            (0.0, Sides::new(0.0, 0.0)),
+            (0.5, Sides::new(-0.3, 0.3)),
+            (1.75, Sides::new(0.0, 0.6)),
+        ]
+        .map(|(t, cmd)| (RunClock::seconds((t * 1e6_f64).round() as u64), cmd))
+    );
+    // The recording's own events: the session's, nothing else (a run CSV holds none).
+    let kinds: Vec<&str> = recorded
+        .events
+        .iter()
+        .map(|(_, e)| e.short_name())
+        .collect();
+    assert_eq!(kinds, ["started", "clock", "vanished", "stopped"]);
+
+    // Again from the recording (frames, command rows with their pose, events): the same
+    // samples on the same time base, the same command rows, and the stream's events.
+    let again = replay_and_record(&recorded, Some(robot_side(&recorded)));
+    assert_same_samples(&recorded, &again, 0.0);
+    assert_eq!(again.commands, recorded.commands);
+    let times = |run: &RunLog| -> Vec<(f64, &str)> {
+        run.events
+            .iter()
+            .map(|(t, e)| (*t, e.short_name()))
+            .collect()
+    };
+    assert_eq!(times(&again), times(&recorded));
+}
+
+#[test]
+fn zz_scratch_mcap_compare() {
+    let a = crate::log::load::load(Path::new("/work/main/demo-out/run-1.mcap"))
+        .expect("a")
+        .run;
+    let b = crate::log::load::load(Path::new("/tmp/me/rt/rt.mcap"))
+        .expect("b")
+        .run;
+    eprintln!("commands {} vs {}", a.commands.len(), b.commands.len());
+    for (x, y) in a.commands.iter().zip(&b.commands) {
+        if x != y {
+            eprintln!("DIFF {x:?}\n     {y:?}");
+        }
+    }
+    eprintln!(
+        "events a {:?}",
+        a.events
+            .iter()
+            .map(|(t, e)| (t, e.short_name()))
+            .collect::<Vec<_>>()
+    );
+    eprintln!(
+        "events b {:?}",
+        b.events
+            .iter()
+            .map(|(t, e)| (t, e.short_name()))
+            .collect::<Vec<_>>()
+    );
+    eprintln!("samples equal: {}", a.samples == b.samples);
 }

@@ -51,8 +51,9 @@ struct DatasetFile<'a> {
 pub struct Dumped {
     /// The command line that diagnoses the files as the bench does.
     pub diagnose: String,
-    /// The largest side current of the runs when beyond the board's range [A]: the run CSV
-    /// reader refuses such readings (the bench hands its samples to the diagnosis directly).
+    /// The largest side current of the runs when beyond the board's range [A]: `diagnose`
+    /// reads such files as another rig's, but not with `--rig-range board`, and `replay` and
+    /// `convert` to MCAP refuse them (the board's registers cannot hold them).
     pub over_range_a: Option<f64>,
 }
 
@@ -150,5 +151,45 @@ mod tests {
         )
         .expect("JSON");
         assert_eq!(json["truth"]["effect"], "none");
+    }
+
+    /// Issue 34 item 6: the Argo J5 draws beyond the INA226 board's ±16.384 A, and the run CSV
+    /// reader refused the files `--dump` wrote for it.
+    #[test]
+    fn a_dumped_argo_dataset_beyond_the_boards_range_reads_back_as_another_rigs() {
+        use crate::log::run_csv::{read_run_csv, read_run_csv_salvaging, RigRange};
+        let spec = generate(Part::HeldOut, 1, 7).remove(0);
+        assert_eq!(spec.rover, RoverKind::ArgoJ5);
+        let dir = crate::log::tests_support::TempDir::new("bench-dump-argo");
+        let dumped = dump_dataset(&spec, dir.path(), false).expect("dumps");
+        let peak = dumped.over_range_a.expect("beyond the board's range");
+        assert!(peak > CURRENT_A_MAX, "{peak}");
+        let data = simulate(&spec).expect("simulates");
+        let files = [("cal", &data.calibration), ("run", &data.runs)];
+        let mut beyond = Vec::new();
+        for (prefix, runs) in files {
+            for (k, samples) in runs.iter().enumerate() {
+                let path = dir.path().join(format!("{prefix}-{k}.csv"));
+                let back = read_run_csv(&path).expect("another rig's run CSV reads");
+                assert_eq!(back, without_positions(samples), "{}", path.display());
+                if back
+                    .iter()
+                    .any(|s| s.current_a.left.abs().max(s.current_a.right.abs()) > CURRENT_A_MAX)
+                {
+                    beyond.push(path);
+                }
+            }
+        }
+        // The board's range still refuses them, naming the file and the way out.
+        assert!(!beyond.is_empty());
+        for path in beyond {
+            let e = read_run_csv_salvaging(&path, false, RigRange::Board).expect_err("board");
+            let text = e.to_string();
+            assert!(
+                text.starts_with(&format!("{}: line ", path.display())),
+                "{text}"
+            );
+            assert!(text.contains("--rig-range board"), "{text}");
+        }
     }
 }

@@ -103,6 +103,7 @@ fn a_heldout_departure_is_recorded_in_where() {
         penalised_mse_with_avg_power: 9.0,
         penalised_mse_total: 9.0,
         shrink_total_pct: 40.0,
+        not_testable: None,
     };
     a.add_heldout_departure(&c, cv::Scheme::LeaveOneRunOut, 3.5);
     assert!(a.significant);

@@ -76,6 +76,33 @@ fn malformed_tables_are_clear_errors() {
     assert!(e.to_string().starts_with("line 2:"), "{e}");
 }
 
+/// Issue 34: a 10 MB cell or header quoted whole, a huge bound printed as 309 digits; a row the
+/// model cannot price is found in the file's own rows ([`check_rows`]), so the CLI can name it.
+#[test]
+fn quoted_input_stays_short_and_rows_are_checked_per_table() {
+    let head = "start_deg,end_deg,distance_m,r_lo_over_r_prime,r_hi_over_r_prime,delta_e_pct";
+    let err = |text: &str| parse_path_table(text).expect_err("invalid").to_string();
+    let cell = "9".repeat(10_000_000);
+    let e = err(&format!("{head}\n45,45,10,0,0.5,{cell}x\n"));
+    assert!(e.len() < 200, "{} bytes", e.len());
+    assert!(
+        e.starts_with("line 2, column 6 (delta_e_pct): `9999"),
+        "{e}"
+    );
+    let e = err(&format!("{head}{cell}\n"));
+    assert!(e.len() < 300, "{} bytes", e.len());
+    assert_eq!(
+        err(&format!("{head}\n45,45,10,1e308,1,3\n")),
+        "line 2: slice 1e308 – 1 of R/R' is empty (r_lo_over_r_prime must be < r_hi_over_r_prime)"
+    );
+    let model = hard_ground_for(&husky());
+    let rows = parse_path_table(&format!("{head}\n45,45,10,0,0.5,3\n45,-45,10,0.5,1,3\n"))
+        .expect("parses");
+    let e = check_rows(&model, &rows).expect_err("Eq 50");
+    assert!(e.to_string().starts_with("line 3:"), "{e}");
+    assert!(check_rows(&model, &rows[..1]).is_ok());
+}
+
 #[test]
 fn p_values_set_the_uncertainty() {
     // Two-tailed: p = 0.05 is |z| = 1.96, p = 1 is z = 0.

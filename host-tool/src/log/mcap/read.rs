@@ -7,12 +7,12 @@
 //! could not be is reported as [`Loss`]es (byte range, run time range, samples).
 
 use super::sample_json::parse_sample_msg;
-use super::walk::{ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
+use super::walk::{parse_record, ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use super::{
     frame_encoding, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND, TOPIC_EVENT,
     TOPIC_FRAME, TOPIC_SAMPLE,
 };
-use crate::log::run_csv::{BUS_V_MAX, CURRENT_A_MAX};
+use crate::log::run_csv::{RigRange, BUS_V_MAX, CURRENT_A_MAX};
 use crate::log::run_log::{RunLog, RunLogSink};
 use ::mcap::records::{op, Record};
 use model_core::wire::{self, BoardFrame, MAX_FRAME};
@@ -91,8 +91,8 @@ pub struct McapRun {
 
 /// Reads the MCAP run log at `path`, streaming it (memory stays bounded by one chunk plus the
 /// run itself). A file cut short is not an error (see [`McapRun::truncated`]), nor is a damaged
-/// one (see [`McapRun::losses`]); a foreign file, or a message that does not hold what its
-/// verified chunk promises, is.
+/// one (see [`McapRun::losses`]: a damaged chunk, a record that does not parse, a message
+/// that does not hold what its channel promises); a foreign file is.
 pub fn read_mcap_run(path: &Path) -> Result<McapRun, McapError> {
     let mut run = RunLog::default();
     let found = stream_mcap_run(path, &mut run)?;
@@ -158,7 +158,7 @@ fn read_mcap<R: Read + Seek>(
             .map(|()| head == ::mcap::MAGIC)
             .map_err(io_err)?;
     let mut walker = Walker::new(input, len, magic.min(len)).map_err(io_err)?;
-    let mut skipped = Vec::new();
+    let mut state = State::new(path, sink);
     if !has_magic {
         // A damaged start (a zeroed first block): salvage from the first record found.
         let Some(at) = walker.resync(0).map_err(io_err)? else {
@@ -167,20 +167,11 @@ fn read_mcap<R: Read + Seek>(
             });
         };
         walker.seek(at).map_err(io_err)?;
-        skipped.push(Skip {
-            skipped: Skipped {
-                start_byte: 0,
-                end_byte: at,
-                detail: format!("no MCAP magic; resynchronised at byte {at}"),
-            },
-            at_sample: 0,
-            indexed: None,
-            times: SkipTimes::default(),
+        state.skip(Skipped {
+            start_byte: 0,
+            end_byte: at,
+            detail: format!("no MCAP magic; resynchronised at byte {at}"),
         });
-    }
-    let mut state = State::new(path, sink);
-    if let Some(start) = skipped.first_mut() {
-        start.times = state.times.open(0);
     }
     let mut summary_is_ours = false;
     for channel in walker.summary_channels() {
@@ -206,7 +197,7 @@ fn read_mcap<R: Read + Seek>(
                 body,
             } => match decoder.decode(body) {
                 Ok(records) => {
-                    state.chunk_records(records, offset)?;
+                    state.chunk_records(records, offset, offset + 9 + body.len() as u64)?;
                     pending = None;
                 }
                 Err(problem) => {
@@ -218,17 +209,15 @@ fn read_mcap<R: Read + Seek>(
                              and lz4 chunks"
                         ),
                     };
-                    skipped.push(Skip {
-                        skipped: Skipped {
-                            start_byte: offset,
-                            end_byte: offset + 9 + body.len() as u64,
-                            detail,
-                        },
-                        at_sample: state.samples,
-                        indexed: Some(Indexed::default()),
-                        times: state.times.open(skipped.len()),
+                    state.skip(Skipped {
+                        start_byte: offset,
+                        end_byte: offset + 9 + body.len() as u64,
+                        detail,
                     });
-                    pending = Some(skipped.len() - 1);
+                    if let Some(skip) = state.skipped.last_mut() {
+                        skip.indexed = Some(Indexed::default());
+                    }
+                    pending = Some(state.skipped.len() - 1);
                 }
             },
             Step::Record {
@@ -236,22 +225,17 @@ fn read_mcap<R: Read + Seek>(
                 body,
                 ..
             } => {
-                if let Some(skip) = pending.and_then(|i| skipped.get_mut(i)) {
-                    state.count_index(body, skip);
+                if let Some(i) = pending {
+                    state.count_index(body, i);
                 }
             }
             Step::Record {
                 opcode,
                 offset,
                 body,
-            } => state.inner_record(opcode, body, offset)?,
+            } => state.record_or_skip(opcode, body, offset, offset + 9 + body.len() as u64)?,
             Step::Skipped(s) => {
-                skipped.push(Skip {
-                    skipped: s,
-                    at_sample: state.samples,
-                    indexed: None,
-                    times: state.times.open(skipped.len()),
-                });
+                state.skip(s);
                 pending = None;
             }
             Step::Footer => {}
@@ -277,6 +261,7 @@ fn read_mcap<R: Read + Seek>(
             },
         });
     }
+    let mut skipped = std::mem::take(&mut state.skipped);
     state.times.close(&mut skipped);
     Ok(McapFound {
         truncated,
@@ -461,6 +446,8 @@ struct State<'s> {
     last_t_s: Option<f64>,
     /// Sample times around skipped stretches.
     times: RecentTimes,
+    /// The stretches skipped so far, in file order.
+    skipped: Vec<Skip>,
 }
 
 impl<'s> State<'s> {
@@ -475,6 +462,55 @@ impl<'s> State<'s> {
             samples: 0,
             last_t_s: None,
             times: RecentTimes::default(),
+            skipped: Vec::new(),
+        }
+    }
+
+    /// Skips `stretch` as damaged: what was read before it stays, reading goes on after it.
+    fn skip(&mut self, stretch: Skipped) {
+        let times = self.times.open(self.skipped.len());
+        self.skipped.push(Skip {
+            skipped: stretch,
+            at_sample: self.samples,
+            indexed: None,
+            times,
+        });
+    }
+
+    /// [`State::inner_record`] for the record of `opcode` whose bytes in the file are
+    /// `start..end` (its chunk's, for a record inside one); a record that does not parse or a
+    /// message that does not hold what its channel promises is damage: skipped as a loss, and
+    /// reading goes on (one flipped byte costs one record, not the file).
+    fn record_or_skip(
+        &mut self,
+        opcode: u8,
+        data: &[u8],
+        start: u64,
+        end: u64,
+    ) -> Result<(), McapError> {
+        match self.inner_record(opcode, data, start) {
+            Err(McapError::Corrupt { detail, .. }) => {
+                self.skip(Skipped {
+                    start_byte: start,
+                    end_byte: end,
+                    detail,
+                });
+                Ok(())
+            }
+            Err(McapError::BadMessage {
+                topic,
+                run_time_ns,
+                detail,
+                ..
+            }) => {
+                self.skip(Skipped {
+                    start_byte: start,
+                    end_byte: end,
+                    detail: format!("{topic} message at run time {run_time_ns} ns: {detail}"),
+                });
+                Ok(())
+            }
+            other => other,
         }
     }
 
@@ -494,40 +530,47 @@ impl<'s> State<'s> {
         }
     }
 
-    /// The records of a verified chunk starting at byte `offset`.
-    fn chunk_records(&mut self, records: &[u8], offset: u64) -> Result<(), McapError> {
+    /// The records of a decoded chunk at bytes `offset..end` of the file. A record that does
+    /// not fit ends the chunk (the rest is skipped as damage); one that does not parse is
+    /// skipped alone ([`State::record_or_skip`]).
+    fn chunk_records(&mut self, records: &[u8], offset: u64, end: u64) -> Result<(), McapError> {
         let mut rest = records;
         while let Some((&opcode, after)) = rest.split_first() {
-            let Some((len, after)) = after.split_first_chunk::<8>() else {
-                return Err(self.corrupt(offset, "chunk ends inside a record header".into()));
+            let body = after.split_first_chunk::<8>().and_then(|(len, after)| {
+                let len = u64::from_le_bytes(*len);
+                usize::try_from(len).ok().and_then(|n| after.get(..n))
+            });
+            let Some(body) = body else {
+                self.skip(Skipped {
+                    start_byte: offset,
+                    end_byte: end,
+                    detail: format!(
+                        "the chunk's record at its byte {} does not fit in it",
+                        records.len() - rest.len()
+                    ),
+                });
+                return Ok(());
             };
-            let len = u64::from_le_bytes(*len);
-            let Some(body) = usize::try_from(len).ok().and_then(|n| after.get(..n)) else {
-                return Err(self.corrupt(
-                    offset,
-                    format!("record of {len} bytes does not fit in its chunk"),
-                ));
-            };
-            self.inner_record(opcode, body, offset)?;
-            rest = &after[body.len()..];
+            self.record_or_skip(opcode, body, offset, end)?;
+            rest = &after[8 + body.len()..];
         }
         Ok(())
     }
 
     /// Adds what a message index record after a damaged chunk says it held on the sample
     /// channel.
-    fn count_index(&self, body: &[u8], skip: &mut Skip) {
-        let Ok(Record::MessageIndex(index)) = ::mcap::parse_record(op::MESSAGE_INDEX, body) else {
+    fn count_index(&mut self, body: &[u8], skip: usize) {
+        let Ok(Record::MessageIndex(index)) = parse_record(op::MESSAGE_INDEX, body) else {
             return;
         };
-        let Some(indexed) = skip.indexed.as_mut() else {
-            return;
-        };
-        indexed.seen = true;
         let is_sample = self
             .channels
             .get(&index.channel_id)
             .is_some_and(|(topic, _)| *topic == Topic::Sample);
+        let Some(indexed) = self.skipped.get_mut(skip).and_then(|s| s.indexed.as_mut()) else {
+            return;
+        };
+        indexed.seen = true;
         if !is_sample {
             return;
         }
@@ -540,8 +583,7 @@ impl<'s> State<'s> {
         if opcode != op::CHANNEL && opcode != op::MESSAGE {
             return Ok(());
         }
-        let record = ::mcap::parse_record(opcode, data)
-            .map_err(|e| self.corrupt(offset, format!("record {opcode:#04x}: {e}")))?;
+        let record = parse_record(opcode, data).map_err(|e| self.corrupt(offset, e))?;
         match record {
             Record::Channel(channel) => self.channel(channel, offset),
             Record::Message { header, data } => {
@@ -634,7 +676,8 @@ impl<'s> State<'s> {
                         .map_err(|e| bad(self, e.to_string()))?,
                 };
                 let sample = msg.sample();
-                if let Some((column, value)) = sample.out_of_range() {
+                // The board's registers: its range, not a foreign rig's.
+                if let Some((column, value)) = sample.out_of_range(RigRange::Board) {
                     return Err(bad(
                         self,
                         format!(

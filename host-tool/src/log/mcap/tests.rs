@@ -498,18 +498,42 @@ fn a_damaged_uncompressed_chunk_is_skipped_and_reported() {
     assert!(got.run.samples.iter().all(|s| run.samples.contains(s)));
 }
 
+/// A message that does not hold what its channel promises is one loss, named by its topic and
+/// time; the rest of the file is read (issue 34, item 9: one malformed sample message rejected
+/// the whole file, even with `--salvage`).
 #[test]
-fn a_bad_frame_message_names_its_topic_and_time() {
+fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
+    let (run, _) = sim_run(10);
     let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
-    // Bypass the encoder: a frame message that is not a frame.
-    sink.write(sink::Ch::Frame, 1.5, b"\x05garbage\x00")
+    // Bypass the encoders: a frame message that is not a frame, a sample that is not JSON.
+    sink.write(sink::Ch::Frame, 0.001, b"\x05garbage\x00")
         .expect("written");
+    for (i, s) in run.samples.iter().enumerate() {
+        if i == 4 {
+            sink.write(sink::Ch::Sample, s.t_s, b"{\"t_s\":")
+                .expect("written");
+        } else {
+            sink.sample(s).expect("sample");
+        }
+    }
     let bytes = sink.finish().expect("finish").into_inner();
-    let e = read(&bytes).expect_err("bad frame");
+    let got = read(&bytes).expect("read, with its losses");
+    let details: Vec<&str> = got.losses.iter().map(|l| l.detail.as_str()).collect();
     assert_eq!(
-        e.to_string(),
-        "test.mcap: /rover_power/frame message at run time 1500000000 ns: frame does not decode: invalid COBS encoding"
+        details,
+        [
+            "/rover_power/frame message at run time 1000000 ns: frame does not decode: invalid \
+             COBS encoding",
+            &format!(
+                "/rover_power/sample message at run time {} ns: EOF while parsing a value at \
+                 line 1 column 7",
+                (run.samples[4].t_s * 1e9).round()
+            ),
+        ]
     );
+    let mut kept = run.samples.clone();
+    kept.remove(4);
+    assert_eq!(got.run.samples, kept);
 }
 
 #[test]

@@ -406,9 +406,7 @@ impl<R: Read + Seek> Walker<R> {
             if header[0] == op::CHANNEL {
                 let mut body = vec![0u8; usize::try_from(len).map_err(io::Error::other)?];
                 self.input.read_exact(&mut body)?;
-                if let Ok(::mcap::records::Record::Channel(c)) =
-                    ::mcap::parse_record(op::CHANNEL, &body)
-                {
+                if let Ok(::mcap::records::Record::Channel(c)) = parse_record(op::CHANNEL, &body) {
                     found.push(c);
                 }
             } else {
@@ -418,6 +416,55 @@ impl<R: Read + Seek> Walker<R> {
             at += HEADER_BYTES + len;
         }
         Ok(())
+    }
+}
+
+/// `mcap::parse_record`, once every string length in `body` is known to fit in it: the parser
+/// allocates a string's claimed length before reading it, so one damaged length (0xffffffff)
+/// asked for 4 GiB and aborted the process where memory is bounded.
+pub(super) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::Record<'_>, String> {
+    if !strings_fit(opcode, body) {
+        return Err(format!(
+            "record {opcode:#04x}: a string's length exceeds the record's {} bytes",
+            body.len()
+        ));
+    }
+    ::mcap::parse_record(opcode, body).map_err(|e| format!("record {opcode:#04x}: {e}"))
+}
+
+/// Whether each length-prefixed string of the record types this reader parses (chunk: its
+/// compression; channel: topic, encoding and the metadata's keys and values) fits in `body`.
+fn strings_fit(opcode: u8, body: &[u8]) -> bool {
+    let u32_at = |at: usize| {
+        body.get(at..at + 4)
+            .map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()) as usize)
+    };
+    // The end of the string at `at`, if it fits.
+    let string = |at: usize| {
+        let end = at.checked_add(4)?.checked_add(u32_at(at)?)?;
+        (end <= body.len()).then_some(end)
+    };
+    match opcode {
+        // Start time, end time, uncompressed size (8 each), CRC (4), then the compression.
+        op::CHUNK => string(28).is_some(),
+        // Channel id, schema id (2 each), topic, encoding, metadata (byte length, string pairs).
+        op::CHANNEL => {
+            let Some(mut at) = string(4).and_then(string) else {
+                return false;
+            };
+            let Some(map_end) = u32_at(at).and_then(|n| (at + 4).checked_add(n)) else {
+                return false;
+            };
+            at += 4;
+            while at < map_end.min(body.len()) {
+                match string(at) {
+                    Some(end) => at = end,
+                    None => return false,
+                }
+            }
+            true
+        }
+        _ => true,
     }
 }
 
@@ -441,10 +488,10 @@ impl ChunkDecoder {
     /// A chunk record's records, decompressed and CRC-checked; `Err` with why the chunk cannot
     /// be trusted. An unknown compression is `Ok(Err)` too (the caller decides).
     pub(super) fn decode(&mut self, body: &[u8]) -> Result<&[u8], ChunkProblem> {
-        let (header, data) = match ::mcap::parse_record(op::CHUNK, body) {
+        let (header, data) = match parse_record(op::CHUNK, body) {
             Ok(::mcap::records::Record::Chunk { header, data }) => (header, data),
             Ok(_) => return Err(ChunkProblem::Damaged("chunk record did not parse".into())),
-            Err(e) => return Err(ChunkProblem::Damaged(format!("chunk: {e}"))),
+            Err(e) => return Err(ChunkProblem::Damaged(e)),
         };
         // The fields must fill the record exactly: a zeroed chunk header otherwise reads as a
         // valid empty chunk, and its messages would vanish unreported.

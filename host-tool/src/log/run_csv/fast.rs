@@ -11,7 +11,7 @@
 //! layout it does not accept it returns `false`, and the general reader reads the file and
 //! words the error (or drops the cut row) exactly as before.
 
-use super::{Column, RunSample};
+use super::{Column, RigRange, RunSample};
 use model_core::Sides;
 use std::fs::File;
 use std::io::{self, Read, Seek, SeekFrom};
@@ -39,10 +39,16 @@ fn layout(header_line: &[u8]) -> Option<usize> {
 pub type Visit<'a> = &'a mut (dyn FnMut(&[RunSample]) + Send);
 
 /// Hands `visit` the samples of the run CSV at `path`, in file order, read in blocks of
-/// `block` bytes, and returns true if the file is valid and in this tool's layout; false
-/// otherwise (see the module docs), when `visit` may have had some of its samples (not all).
-/// `visit` gets a job's rows on the core that parsed them, while they are in its cache.
-pub(super) fn read_file(path: &Path, block: usize, visit: Visit<'_>) -> io::Result<bool> {
+/// `block` bytes, and returns true if the file is valid (its readings within `range`) and in
+/// this tool's layout; false otherwise (see the module docs), when `visit` may have had some
+/// of its samples (not all). `visit` gets a job's rows on the core that parsed them, while
+/// they are in its cache.
+pub(super) fn read_file(
+    path: &Path,
+    block: usize,
+    range: RigRange,
+    visit: Visit<'_>,
+) -> io::Result<bool> {
     let mut file = File::open(path)?;
     let metadata = file.metadata()?;
     if !metadata.is_file() {
@@ -75,6 +81,7 @@ pub(super) fn read_file(path: &Path, block: usize, visit: Visit<'_>) -> io::Resu
     let mut reader = PartReader {
         columns,
         block,
+        range,
         previous_t_s: f64::NEG_INFINITY,
         buf: Vec::with_capacity(2 * block),
     };
@@ -215,6 +222,8 @@ impl Drop for FailOnPanic<'_, '_> {
 struct PartReader {
     columns: usize,
     block: usize,
+    /// The readings accepted.
+    range: RigRange,
     /// The time of the last row read.
     previous_t_s: f64,
     /// The bytes read and not yet parsed.
@@ -270,7 +279,16 @@ impl PartReader {
             } else {
                 complete
             };
-            if parse_lines(&buf[from..stop], self.columns, &mut self.previous_t_s, out).is_none() {
+            let (columns, range) = (self.columns, self.range);
+            if parse_lines(
+                &buf[from..stop],
+                columns,
+                range,
+                &mut self.previous_t_s,
+                out,
+            )
+            .is_none()
+            {
                 return Ok(false);
             }
             if last {
@@ -290,13 +308,15 @@ fn header(columns: &[Column]) -> String {
         .join(",")
 }
 
-/// Whole lines of `columns` cells each into samples appended to `out`, their times after
-/// `previous_t_s` and increasing (which is updated); `None` on anything the general reader
-/// would refuse or treat specially. One pass over the bytes: each cell is parsed where it
-/// starts and its number's end is its delimiter (no line or cell split before parsing).
+/// Whole lines of `columns` cells each into samples appended to `out`, their readings within
+/// `range`, their times after `previous_t_s` and increasing (which is updated); `None` on
+/// anything the general reader would refuse or treat specially. One pass over the bytes: each
+/// cell is parsed where it starts and its number's end is its delimiter (no line or cell split
+/// before parsing).
 fn parse_lines(
     part: &[u8],
     columns: usize,
+    range: RigRange,
     previous_t_s: &mut f64,
     out: &mut Vec<RunSample>,
 ) -> Option<()> {
@@ -319,7 +339,7 @@ fn parse_lines(
             }
             pos = end + 1;
         }
-        let sample = row_sample(&cells, columns)?;
+        let sample = row_sample(&cells, columns, range)?;
         if sample.t_s <= *previous_t_s {
             return None;
         }
@@ -330,11 +350,14 @@ fn parse_lines(
 }
 
 /// The sample of one row's cells, checked as the general reader checks them.
-fn row_sample(cells: &[Option<f64>; Column::ALL.len()], columns: usize) -> Option<RunSample> {
+fn row_sample(
+    cells: &[Option<f64>; Column::ALL.len()],
+    columns: usize,
+    range: RigRange,
+) -> Option<RunSample> {
     let value = |column: Column| -> Option<f64> {
         let v = cells[column as usize]?;
-        let in_range = column.range().is_none_or(|(lo, hi)| v >= lo && v <= hi);
-        (v.is_finite() && in_range).then_some(v)
+        range.admits(column, v).then_some(v)
     };
     let optional = |column: Column| -> Result<Option<f64>, ()> {
         if column as usize >= columns {

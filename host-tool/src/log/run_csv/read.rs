@@ -4,8 +4,8 @@
 use super::*;
 
 /// The table layer shared by the run CSV and the commands CSV (same cell rules, same column
-/// names): locates the known columns in the header, checks cell counts, parses numbers and
-/// keeps `t_s` strictly increasing.
+/// names): locates the known columns in the header, checks cell counts, parses numbers
+/// (within a [`RigRange`]) and keeps `t_s` strictly increasing.
 #[derive(Debug)]
 pub(crate) struct Table<R> {
     records: Records<R>,
@@ -13,6 +13,8 @@ pub(crate) struct Table<R> {
     positions: [Option<usize>; Column::ALL.len()],
     cells: usize,
     previous_t_s: Option<f64>,
+    /// The readings accepted.
+    range: RigRange,
 }
 
 impl<R: BufRead> Table<R> {
@@ -54,6 +56,7 @@ impl<R: BufRead> Table<R> {
             records,
             positions,
             previous_t_s: None,
+            range: RigRange::default(),
         })
     }
 
@@ -113,11 +116,8 @@ impl<R: BufRead> Table<R> {
             Ok(None)
         } else if !value.is_finite() {
             Err(err(CellProblem::NotFinite))
-        } else if column
-            .range()
-            .is_some_and(|(lo, hi)| value < lo || value > hi)
-        {
-            Err(err(CellProblem::OutOfRange))
+        } else if !self.range.admits(column, value) {
+            Err(err(CellProblem::OutOfRange(self.range)))
         } else {
             Ok(Some(value))
         }
@@ -200,6 +200,12 @@ impl<R: BufRead> RunCsvReader<R> {
     /// instead of ending the read with an error. Without it, only a cut last row is.
     pub fn salvaging(mut self, salvage: bool) -> Self {
         self.salvage = salvage;
+        self
+    }
+
+    /// Reads the bus voltages and currents within `range` (default: any physical reading).
+    pub fn within(mut self, range: RigRange) -> Self {
+        self.table.range = range;
         self
     }
 

@@ -355,15 +355,27 @@ fn finite() -> impl Strategy<Value = f64> {
     ]
 }
 
-/// Any value the board can measure in a range (the range checks refuse the rest).
-fn within(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
-    prop_oneof![lo..=hi, Just(lo), Just(hi), Just(0.0)]
+/// Any value in a range (the range checks refuse the rest), the board's limits among them.
+fn within(lo: f64, hi: f64, board: f64) -> impl Strategy<Value = f64> {
+    prop_oneof![lo..=hi, Just(lo), Just(hi), Just(0.0), -board..=board]
 }
 
+/// Rows of physical readings, some beyond the board's range.
 fn samples() -> impl Strategy<Value = Vec<RunSample>> {
     let (bus, current) = (
-        || within(0.0, BUS_V_MAX).boxed(),
-        || within(-CURRENT_A_MAX, CURRENT_A_MAX).boxed(),
+        || {
+            within(0.0, PHYSICAL_BUS_V_MAX, BUS_V_MAX)
+                .prop_map(f64::abs)
+                .boxed()
+        },
+        || {
+            within(
+                -PHYSICAL_CURRENT_A_MAX,
+                PHYSICAL_CURRENT_A_MAX,
+                CURRENT_A_MAX,
+            )
+            .boxed()
+        },
     );
     let row = (
         1e-9..10.0f64,
@@ -572,27 +584,115 @@ fn a_cut_last_row_is_dropped_with_its_line_and_damage_elsewhere_is_an_error() {
 }
 
 #[test]
-fn impossible_readings_are_errors_naming_line_and_column() {
+fn unphysical_readings_are_errors_naming_line_and_column() {
     for (cells, column) in [
         ("0,24,1e308,24,1,0.1,0.1", "column 3 (left_current_a)"),
         ("0,3.4e38,1,24,1,0.1,0.1", "column 2 (left_bus_v)"),
         ("0,24,1,-0.5,1,0.1,0.1", "column 4 (right_bus_v)"),
-        ("0,24,1,24,-16.5,0.1,0.1", "column 5 (right_current_a)"),
+        // Milliamperes and millivolts for amperes and volts.
+        ("0,24,1,24,-3500,0.1,0.1", "column 5 (right_current_a)"),
+        ("0,24000,1,24,1,0.1,0.1", "column 2 (left_bus_v)"),
     ] {
         let e = read_text(&format!("{HEADER_LF}{cells}\n"), false).expect_err(cells);
         let text = e.to_string();
         assert!(text.starts_with(&format!("line 2, {column}: ")), "{text}");
         assert!(
-            text.contains("outside the board's measuring range"),
+            text.contains(
+                "outside any physical reading's range (bus 0 to 1000 V, current ±1000 A)"
+            ),
             "{text}"
         );
     }
+}
+
+/// Issue 34 item 6: the run CSV is the interchange format for other rigs, whose readings go
+/// beyond the board's range (an Argo J5 draws ≈ 20 A, a Hall sensor reads 50 A).
+#[test]
+fn other_rigs_readings_beyond_the_boards_range_are_read_by_default() {
+    let text = format!(
+        "{HEADER_LF}0,48,20,48,-16.5,0.1,0.1\n0.01,60,50,0,-1000,0.1,0.1\n0.02,1000,1000,0,0,0,0\n"
+    );
+    let (got, dropped) = read_text(&text, false).expect("another rig's readings");
+    assert_eq!((got.len(), dropped.len()), (3, 0));
+    assert_eq!(got[1].current_a, Sides::new(50.0, -1000.0));
+    // The same through the fast path (a file in this tool's layout) and the writer.
+    let dir = TempDir::new("other-rig");
+    let path = dir.path().join("argo.csv");
+    write_run_csv_atomically(&path, &got).expect("written");
+    assert!(read_own_run_csv(&path, RigRange::default())
+        .expect("read")
+        .is_some_and(|own| own == got));
+    assert_eq!(read_run_csv(&path).expect("read"), got);
+}
+
+#[test]
+fn the_board_range_refuses_another_rigs_reading_naming_file_line_column_and_the_way_out() {
+    let dir = TempDir::new("board-range");
+    let own = dir.path().join("own.csv");
+    let rows = [sample(0.0), sample(0.01), sample(0.02)];
+    let mut argo = rows;
+    argo[1].current_a.left = 20.0;
+    write_run_csv_atomically(&own, &argo).expect("written");
+    // A foreign layout too (columns reordered, CRLF): the general reader.
+    let foreign = dir.path().join("foreign.csv");
+    let text = String::from_utf8(to_csv(&argo)).expect("utf8");
+    let swapped: Vec<String> = text
+        .lines()
+        .map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells.swap(0, 1);
+            cells.join(",")
+        })
+        .collect();
+    std::fs::write(&foreign, swapped.join("\r\n")).expect("written");
+    for (path, column) in [(&own, 3), (&foreign, 3)] {
+        assert_eq!(
+            read_run_csv(path).expect("read by default")[1]
+                .current_a
+                .left,
+            20.0
+        );
+        let e = read_run_csv_salvaging(path, false, RigRange::Board).expect_err("board range");
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: line 3, column {column} (left_current_a): 20 is outside the INA226 board's \
+                 range (bus 0 to 40.96 V, current ±16.384 A), which --rig-range board holds the \
+                 file to; for another rig's file leave the option out (any physical reading) or \
+                 state that rig's range: --rig-range BUS_V,CURRENT_A",
+                path.display()
+            )
+        );
+        // A stated range: the rig's own.
+        let hall = RigRange::parse("60,50").expect("a range");
+        assert_eq!(
+            read_run_csv_salvaging(path, false, hall)
+                .expect("within 50 A")
+                .0,
+            read_run_csv(path).expect("read")
+        );
+        let tight = RigRange::parse("30,15").expect("a range");
+        let e = read_run_csv_salvaging(path, false, tight).expect_err("beyond 15 A");
+        assert!(
+            e.to_string().ends_with(
+                "20 is outside the rig's range stated by --rig-range 30,15 (bus 0 to 30 V, \
+                 current ±15 A); widen it, or leave the option out (any physical reading)"
+            ),
+            "{e}"
+        );
+    }
+    // Full scale is the board's.
     let (got, _) = read_text(
         &format!("{HEADER_LF}0,40.96,16.384,0,-16.384,0.1,0.1\n"),
         false,
     )
-    .expect("full scale is fine");
-    assert_eq!(got.len(), 1);
+    .expect("full scale");
+    let board = RunCsvReader::new(to_csv(&got).as_slice())
+        .expect("header")
+        .within(RigRange::Board)
+        .collect::<Result<Vec<_>, _>>()
+        .expect("full scale is within the board's range");
+    assert_eq!(board, got);
 }
 
 proptest! {
@@ -669,11 +769,19 @@ proptest! {
         let dir = crate::log::tests_support::TempDir::new("fast-path");
         let path = dir.path().join("run.csv");
         std::fs::write(&path, &text).expect("write");
+        // Within the board's range the fast path reads the file iff the general reader does.
+        let board = RunCsvReader::new(&text[..]).expect("header").within(RigRange::Board).collect::<Result<Vec<_>, _>>();
+        let mut fast = Vec::new();
+        let own = super::fast::read_file(&path, 4096, RigRange::Board, &mut |rows| fast.extend_from_slice(rows)).expect("read");
+        prop_assert_eq!(own, board.is_ok());
+        if let Ok(board) = board {
+            prop_assert_eq!(fast, board);
+        }
         // Small blocks too: rows cut by the block and part seams.
         for block in [super::fast::BLOCK_BYTES, 4096, 97] {
             // The visitor is handed every sample once, in file order.
             let mut fast = Vec::new();
-            let own = super::fast::read_file(&path, block, &mut |rows| fast.extend_from_slice(rows)).expect("read");
+            let own = super::fast::read_file(&path, block, RigRange::default(), &mut |rows| fast.extend_from_slice(rows)).expect("read");
             prop_assert!(own, "this tool's layout");
             prop_assert_eq!(fast.len(), general.len());
             for (a, b) in fast.iter().zip(&general) {
@@ -739,7 +847,8 @@ fn the_parallel_fast_path_leaves_damage_anywhere_to_the_general_reader() {
             let text = format!("{HEADER}\n{}\n", rows.join("\n"));
             std::fs::write(&path, &text).expect("write");
             for block in [super::fast::BLOCK_BYTES, 97] {
-                let fast = super::fast::read_file(&path, block, &mut |_| {}).expect("read");
+                let fast = super::fast::read_file(&path, block, RigRange::default(), &mut |_| {})
+                    .expect("read");
                 assert!(!fast, "row {k} ({bad}) passed the fast path");
             }
             let general = RunCsvReader::new(text.as_bytes())
@@ -755,7 +864,10 @@ fn the_parallel_fast_path_leaves_damage_anywhere_to_the_general_reader() {
     // Undamaged, the same file takes the fast path.
     std::fs::write(&path, format!("{HEADER}\n{}\n", rows.join("\n"))).expect("write");
     let mut fast = 0;
-    let own = super::fast::read_file(&path, 97, &mut |rows| fast += rows.len()).expect("read");
+    let own = super::fast::read_file(&path, 97, RigRange::default(), &mut |rows| {
+        fast += rows.len()
+    })
+    .expect("read");
     assert!(own, "the fast path");
     assert_eq!(fast, rows.len());
 }

@@ -94,7 +94,7 @@ pub(crate) fn write_row<W: Write>(
                     line,
                     column: i + 1,
                     name: *column,
-                    value: v.to_string(),
+                    value: Number(v).to_string(),
                     problem,
                     previous_t_s: previous,
                 });

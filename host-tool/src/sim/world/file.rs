@@ -6,6 +6,7 @@ use super::{
     Battery, Driver, EffectId, Ground, IcrParams, Motor, Noise, Structure, Tracker, WorldConfig,
     WorldError,
 };
+use crate::toml_syntax::TomlSyntaxError;
 use model_core::Rover;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -97,7 +98,7 @@ fn parse_world_at(
 ) -> Result<WorldConfig, WorldError> {
     let raw: WorldToml = toml::from_str(text).map_err(|e| WorldError::Toml {
         origin: origin.to_string(),
-        source: Box::new(e),
+        source: TomlSyntaxError::new(text, &e),
     })?;
     resolve(raw, origin, base)
 }

@@ -98,6 +98,7 @@ pub use structure::{DrivePower, PowerSplit, Structure};
 pub use timeline::{ManoeuvreTruth, Timeline, TimelineLoad};
 pub use tracker::Tracker;
 
+use crate::toml_syntax::TomlSyntaxError;
 use model_core::power::{DcMotor, IcrHardGround};
 use model_core::{Rover, Sides};
 use serde::{Deserialize, Serialize};
@@ -126,7 +127,7 @@ pub enum WorldError {
         origin: String,
         /// The parser's error.
         #[source]
-        source: Box<toml::de::Error>,
+        source: TomlSyntaxError,
     },
     /// A value outside its domain.
     #[error("{origin}: `{key}` {reason}")]

@@ -43,6 +43,7 @@
 
 use super::WorldError;
 use crate::rover::decimal_f64;
+use crate::toml_syntax::TomlSyntaxError;
 use model_core::kinematics::{side_speeds_for, TurnDirection};
 use model_core::paths::{ClcEnds, ClcPath};
 use model_core::Rover;
@@ -581,7 +582,7 @@ fn path_segments(
 pub(crate) fn parse_scenario_at(text: &str, origin: &str) -> Result<Scenario, WorldError> {
     toml::from_str(text).map_err(|e| WorldError::Toml {
         origin: origin.to_string(),
-        source: Box::new(e),
+        source: TomlSyntaxError::new(text, &e),
     })
 }
 
