@@ -307,12 +307,17 @@ pub fn truncation_warning(path: &Path, t: &Truncation) -> String {
     )
 }
 
-/// One warning per damaged stretch of an MCAP file and per dropped run CSV row.
+/// Dropped run CSV rows warned about one by one; the rest are counted in one more line (a file
+/// whose every row is damaged would otherwise print a line per row).
+pub const DROPPED_ROWS_SHOWN: usize = 20;
+
+/// One warning per damaged stretch of an MCAP file and per dropped run CSV row (the first
+/// [`DROPPED_ROWS_SHOWN`], then a count).
 pub fn damage_warnings(path: &Path, losses: &[Loss], dropped_rows: &[DroppedRow]) -> Vec<String> {
     let losses = losses
         .iter()
         .map(|loss| format!("warning: {}: damaged, skipped {loss}", path.display()));
-    let rows = dropped_rows.iter().map(|row| {
+    let rows = dropped_rows.iter().take(DROPPED_ROWS_SHOWN).map(|row| {
         let why = if row.cut {
             "the file ends inside it (cut by a kill or a full disk)"
         } else {
@@ -325,7 +330,16 @@ pub fn damage_warnings(path: &Path, losses: &[Loss], dropped_rows: &[DroppedRow]
             row.reason
         )
     });
-    losses.chain(rows).collect()
+    let more = match dropped_rows.get(DROPPED_ROWS_SHOWN..) {
+        Some(rest @ [.., last]) => Some(format!(
+            "warning: {}: {} more lines dropped, the last at line {}",
+            path.display(),
+            rest.len(),
+            last.line
+        )),
+        _ => None,
+    };
+    losses.chain(rows).chain(more).collect()
 }
 
 #[cfg(test)]
@@ -334,6 +348,33 @@ mod tests {
     use crate::demo::{self, DemoOptions};
     use crate::log::tests_support::TempDir;
     use model_core::Sides;
+
+    /// A file whose every row is damaged: 20 warnings and a count, not a line per row (the
+    /// fuzzing found 100 kB of warnings from one damaged header).
+    #[test]
+    fn dropped_rows_beyond_twenty_are_counted_in_one_line() {
+        let rows: Vec<DroppedRow> = (2..=5001)
+            .map(|line| DroppedRow {
+                line,
+                reason: format!("line {line}, column 2 (left_bus_v): empty cell"),
+                cut: false,
+            })
+            .collect();
+        let warnings = damage_warnings(Path::new("bad.csv"), &[], &rows);
+        assert_eq!(warnings.len(), DROPPED_ROWS_SHOWN + 1);
+        assert_eq!(
+            warnings[0],
+            "warning: bad.csv: line 2 dropped, damaged: line 2, column 2 (left_bus_v): empty cell"
+        );
+        assert_eq!(
+            warnings[DROPPED_ROWS_SHOWN],
+            "warning: bad.csv: 4980 more lines dropped, the last at line 5001"
+        );
+        assert_eq!(
+            damage_warnings(Path::new("bad.csv"), &[], &rows[..20]).len(),
+            20
+        );
+    }
 
     /// Everything `validate` prints or writes of a report.
     fn outputs(report: &ValidationReport) -> (String, String, Vec<u8>) {

@@ -118,7 +118,14 @@ fn validate_fails_clearly_on_standstill_only_runs() {
         .expect("runs");
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("no manoeuvre to validate"), "{stderr}");
+    // About the runs as a whole, and naming them (issue 34, item 5).
+    assert!(
+        stderr.contains(&format!(
+            "Error: {}: no manoeuvre to validate",
+            run.display()
+        )),
+        "{stderr}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

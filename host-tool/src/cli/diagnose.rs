@@ -129,8 +129,8 @@ impl DiagnoseArgs {
             Some(rows) => Calibration::rows(rows),
             None => Calibration::FROM_RUNS,
         };
-        let mut diagnosis =
-            diagnose::diagnose_with(&rover, &rows, calibration).context("diagnosing the runs")?;
+        let mut diagnosis = diagnose::diagnose_with(&rover, &rows, calibration)
+            .with_context(|| format!("diagnosing {}", output::runs_named(&self.runs)))?;
         // The inputs' caveats first, then the diagnosis' own.
         diagnosis.notes.splice(0..0, notes);
         // Files first: a closed stdout (`| head`) must not lose them.

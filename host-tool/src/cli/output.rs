@@ -98,6 +98,20 @@ pub fn naming(path: &Path, error: impl Into<anyhow::Error>) -> anyhow::Error {
     }
 }
 
+/// The runs a whole-run-set error is about, for its message: `a.csv`, `a.csv, b.csv`, or the
+/// first three and how many more.
+pub fn runs_named(paths: &[PathBuf]) -> String {
+    let shown: Vec<String> = paths
+        .iter()
+        .take(3)
+        .map(|p| p.display().to_string())
+        .collect();
+    match paths.len() {
+        0..=3 => shown.join(", "),
+        n => format!("{} and {} more", shown.join(", "), n - 3),
+    }
+}
+
 /// Creates the directory `path` will be written into.
 pub fn create_parent(path: &Path) -> Result<()> {
     match path.parent() {

@@ -7,7 +7,7 @@ use host_tool::eprintln_best_effort;
 use host_tool::log::mcap::Truncation;
 use host_tool::log::run_csv::RigRange;
 use host_tool::rover::load_rover_file;
-use host_tool::runs::{truncation_warning, Runs, StreamedRuns};
+use host_tool::runs::{truncation_warning, Runs, StreamedRuns, StreamedRunsError};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
 use model_core::power::IcrHardGround;
 use std::path::PathBuf;
@@ -99,8 +99,21 @@ pub fn load_and_validate(
 ) -> Result<(Runs, ValidationReport)> {
     let runs = Runs::load(paths, super::salvage(), range)?;
     warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
-    let report = runs.validate(rover, options)?;
+    let report = runs
+        .validate(rover, options)
+        .map_err(|e| about_the_runs(e, paths))?;
     Ok((runs, report))
+}
+
+/// A validation error about the runs as a whole (no manoeuvre in them) names them; the others
+/// name their run already.
+fn about_the_runs(e: validate::ValidateError, paths: &[PathBuf]) -> anyhow::Error {
+    match e {
+        validate::ValidateError::NoManoeuvres { .. } => {
+            anyhow::anyhow!("{}: {e}", super::output::runs_named(paths))
+        }
+        other => other.into(),
+    }
 }
 
 /// [`load_and_validate`] with the runs streamed (each file read twice): memory stays bounded
@@ -113,7 +126,10 @@ pub fn stream_and_validate(
 ) -> Result<(StreamedRuns, ValidationReport)> {
     let runs = StreamedRuns::scan(paths, super::salvage(), range, rover, options)?;
     warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
-    let report = runs.validate()?;
+    let report = runs.validate().map_err(|e| match e {
+        StreamedRunsError::Validate(e) => about_the_runs(e, paths),
+        other => other.into(),
+    })?;
     Ok((runs, report))
 }
 
