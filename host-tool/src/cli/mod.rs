@@ -57,7 +57,8 @@ Conventions (every command):
   units           options with a unit carry it in their name (--duration-s, --distance-m)
 Exit codes: 0 done; 1 error; 2 bad arguments; 3 the runs depart from the model
 (validate, diagnose with --fail-on-departure); 4 a run log lost data to damage (the outputs hold
-the rest; --salvage accepts that: 0); a closed stdout (`| head`) ends quietly with 0.";
+the rest; --salvage accepts that: 0); a closed stdout (`| head`) ends quietly with 0, a
+closed stderr loses only the messages.";
 
 /// The rover-power host tool.
 #[derive(Parser, Debug)]
