@@ -25,8 +25,10 @@ use crate::log::{write_atomically, AtomicWriteError};
 use crate::plan::sweep::{SweepGrid, SweepReport, TABLE_6_1_PATH};
 use crate::plan::{self, ModelFileError, ModelSource, PlanError, PlanReport};
 use crate::plot::{Format, PlotError};
-use crate::record::{self, RecordError, RecordOptions, RecordStatus, RecordSummary, SinkError};
-use crate::sim::board::{Pacing, PtyBoard, SimBoard};
+use crate::record::{
+    self, CommandTimeline, RecordError, RecordOptions, RecordStatus, RecordSummary, SinkError,
+};
+use crate::sim::board::{Pacing, PtyBoard, PtyHooks, SimBoard, COMMAND_WAIT};
 use crate::sim::world::{Ground, ManoeuvreTruth, Scenario, WorldConfig, WorldError};
 use crate::validate::{self, RunInput, ValidateError, ValidateOptions, ValidationReport};
 use firmware::sampler::SamplerConfig;
@@ -351,12 +353,20 @@ fn record_run(
     let steps = timeline.duration_us() / u64::from(config.sample_period_us) + 1;
     let mut board = SimBoard::new(config);
     board.set_load(timeline.load_source());
-    let pty = PtyBoard::spawn(board, steps, Pacing::Scaled(options.speed)).map_err(|source| {
-        DemoError::Io {
+    // The board waits for each command the recorder will send: a loaded machine slows the run
+    // down, it does not let the board run ahead of its commands.
+    let period_us = u64::from(config.sample_period_us);
+    let hooks = PtyHooks {
+        commands_due_us: CommandTimeline::new(commands.clone())
+            .sends_us((0..steps).map(|k| k * period_us)),
+        ..PtyHooks::default()
+    };
+    let pacing = Pacing::Scaled(options.speed);
+    let pty =
+        PtyBoard::spawn_with(board, steps, pacing, hooks).map_err(|source| DemoError::Io {
             what: "starting the simulated board's pty".into(),
             source,
-        }
-    })?;
+        })?;
 
     let mut record_options = RecordOptions::new(pty.path());
     record_options.commands = commands;
@@ -398,15 +408,15 @@ fn record_run(
             summary.samples, summary.stream.lost_samples, summary.stream.bad_frames
         )));
     }
-    // A board far ahead of the recorder (a huge --speed) answers commands after the last
-    // sample, or applies them late: its τ no longer matches the host's. Fail, do not report.
+    // The board waits for each command, but not for a recorder that stopped sending (at most
+    // `COMMAND_WAIT` per command): then it answers commands late or never. Fail, do not report.
     if summary.unanswered_commands() > 0 {
         return Err(check(format!(
-            "{} of {} commands answered by the board before the run ended: at --speed {} the \
-             simulated board runs ahead of the recorder's commands (use a lower --speed)",
+            "{} of {} commands answered by the board before the run ended: the recorder sent \
+             them more than {} s late",
             summary.commands_acked + summary.commands_rejected,
             summary.commands_sent,
-            options.speed
+            COMMAND_WAIT.as_secs()
         )));
     }
     let board_energy = board_run.board_energy_lsb_us();

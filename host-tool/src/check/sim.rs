@@ -148,6 +148,7 @@ impl SimulatedBoard {
         let hooks = PtyHooks {
             before_step: Some(Box::new(before_step)),
             line,
+            ..PtyHooks::default()
         };
         let task = PtyBoard::spawn_with(board, u64::MAX, pacing, hooks)?;
         Ok(SimulatedBoard {

@@ -40,9 +40,9 @@ pub struct DemoArgs {
     /// Noise seed of the first run (run k uses seed + k).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Simulated seconds per wall-clock second (a board far ahead of the recorder cannot
-    /// answer its commands in time: the demo then fails, naming the run) [default: 25; 1 with
-    /// --serve, to watch it as it would happen].
+    /// Simulated seconds per wall-clock second, at most (the simulated board waits for each of
+    /// the recorder's commands, so a loaded machine or a huge factor slows the run down and
+    /// leaves its data as it is) [default: 25; 1 with --serve, to watch it as it would happen].
     #[arg(long, value_parser = positive_factor)]
     speed: Option<f64>,
     // --serve: the runs are served live to Foxglove as they are recorded; the demo starts

@@ -123,6 +123,24 @@ impl CommandTimeline {
         &self.rows
     }
 
+    /// The sample times (from `samples_us`, run time [µs], increasing) at which a recorder
+    /// forwarding these rows sends a command: as `Recorder::forward` does, the row in force at
+    /// each sample when its speeds differ from the last ones sent.
+    pub fn sends_us(&self, samples_us: impl IntoIterator<Item = u64>) -> Vec<u64> {
+        let mut last_sent = None;
+        let mut sends = Vec::new();
+        for t_us in samples_us {
+            let Some((_, row)) = self.active(super::RunClock::seconds(t_us)) else {
+                continue;
+            };
+            if last_sent != Some(row.cmd_mps) {
+                last_sent = Some(row.cmd_mps);
+                sends.push(t_us);
+            }
+        }
+        sends
+    }
+
     /// The row in force at `t_s` (the last one at or before it) and its index.
     pub fn active(&self, t_s: f64) -> Option<(usize, &CommandRow)> {
         let rows = &self.rows;
@@ -188,6 +206,21 @@ mod tests {
         assert_eq!(tl.cmd_mps(9.0), Sides::new(0.7, -0.7));
         assert_eq!(tl.active(1.5).map(|(i, _)| i), Some(0));
         assert_eq!(tl.active(0.0), None);
+    }
+
+    /// A send at the first sample a row is in force, once per change of speeds; a row that is
+    /// in force at no sample (replaced within one period) is never sent.
+    #[test]
+    fn sends_are_the_samples_where_the_speeds_in_force_change() {
+        let tl = CommandTimeline::new(vec![
+            row(0.0, 0.5, None, None),
+            row(0.0075, 0.5, None, None),
+            row(0.012, 0.7, None, None),
+            row(0.021, 0.9, None, None),
+            row(0.022, 0.3, None, None),
+        ]);
+        let samples = (0..10).map(|k| k * 5_000);
+        assert_eq!(tl.sends_us(samples), [0, 15_000, 25_000]);
     }
 
     #[test]

@@ -8,6 +8,7 @@ use crate::serial::PtyTask;
 use firmware::board::{Board, Watchdog};
 use firmware::link::Link;
 use firmware::sampler::SamplerConfig;
+use model_core::wire::{Command, HostFrame};
 use model_core::Sides;
 use std::fmt;
 use std::io::{self, Write};
@@ -235,18 +236,56 @@ pub struct PtyHooks {
     /// Transforms each step's bytes; with it, a step's bytes leave the board's queue at once
     /// (they are the line's), then go into the pty whole.
     pub line: Option<Line>,
+    /// The host's wheel-rate commands the board waits for: the run time [µs] since its first
+    /// step at which the host sends each (a recorder forwarding a commands CSV sends a row's
+    /// speeds once it has read the sample at the row's time). The board steps no further than
+    /// [`COMMAND_SLACK_US`] past a command's time until that command has arrived, at most for
+    /// [`COMMAND_WAIT`] (a host that is gone does not hang it): on a loaded machine the run
+    /// slows down instead of running ahead of its host's commands.
+    pub commands_due_us: Vec<u64>,
 }
+
+/// Run time a [`PtyBoard`] may run past a command's time before it waits for the command: the
+/// host needs the sample at that time (written after its step) before it sends the command.
+pub const COMMAND_SLACK_US: u64 = 20_000;
+
+/// Longest wall time a [`PtyBoard`] waits for a command that is due.
+pub const COMMAND_WAIT: Duration = Duration::from_secs(5);
 
 impl fmt::Debug for PtyHooks {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("PtyHooks")
             .field("before_step", &self.before_step.is_some())
             .field("line", &self.line.is_some())
+            .field("commands_due_us", &self.commands_due_us.len())
             .finish()
     }
 }
 
 pub use crate::serial::{HANG_UP_QUIET, WRITER_STALL};
+
+/// Counts the wheel-rate commands among the bytes a host wrote (the board decodes them itself;
+/// this is the [`PtyBoard`]'s own count, for [`PtyHooks::commands_due_us`]).
+#[derive(Default)]
+struct HostCommands {
+    decoder: model_core::wire::FrameDecoder,
+    wheel_rates: usize,
+}
+
+impl HostCommands {
+    fn feed(&mut self, bytes: &[u8]) {
+        let count = &mut self.wheel_rates;
+        self.decoder.feed(bytes, |frame: Result<HostFrame, _>| {
+            if let Ok(HostFrame {
+                command: Command::SetWheelRates(_),
+                ..
+            }) = frame
+            {
+                *count += 1;
+            }
+        });
+    }
+}
 
 /// What a finished [`PtyBoard`] writer hands back.
 #[derive(Debug)]
@@ -319,6 +358,8 @@ impl PtyTask<PtyRun> {
             let mut done = 0u64;
             let mut from_host = vec![0u8; 256];
             let mut line_bytes = Vec::new();
+            let t0_us = board.now_us();
+            let mut host = HostCommands::default();
             while done < steps && !stop_flag.load(Ordering::Relaxed) {
                 if let Some(due) = pacing.due(board.now_us()) {
                     if let Some(wait) = (start + due).checked_duration_since(Instant::now()) {
@@ -326,13 +367,24 @@ impl PtyTask<PtyRun> {
                     }
                 }
                 // Commands the host wrote reach the board's link before this step, as the
-                // USB interrupt would hand them over.
+                // USB interrupt would hand them over; a command that is due is waited for.
+                let run_us = board.now_us() - t0_us;
+                let due = hooks
+                    .commands_due_us
+                    .iter()
+                    .take_while(|&&t| t.saturating_add(COMMAND_SLACK_US) <= run_us)
+                    .count();
+                let waiting_since = Instant::now();
                 loop {
                     let n = pty.read_from_host(&mut from_host)?;
-                    if n == 0 {
+                    if n > 0 {
+                        host.feed(&from_host[..n]);
+                        board.receive(&from_host[..n]);
+                    } else if host.wheel_rates >= due || waiting_since.elapsed() > COMMAND_WAIT {
                         break;
+                    } else {
+                        std::thread::sleep(Duration::from_micros(200));
                     }
-                    board.receive(&from_host[..n]);
                 }
                 if let Some(before_step) = hooks.before_step.as_mut() {
                     before_step(done, &mut board);
@@ -542,6 +594,49 @@ mod tests {
         );
     }
 
+    /// A board with a command due at run time 0 waits for it: a host that sends it late (here
+    /// after 300 ms, while the board runs as fast as the pty takes its bytes) finds it acked
+    /// within [`COMMAND_SLACK_US`] of run time, not hundreds of samples later.
+    #[test]
+    fn a_due_command_is_waited_for() {
+        use crate::serial::{self, PortReader};
+        use model_core::wire::{self, Command, HostFrame};
+        let hooks = PtyHooks {
+            commands_due_us: vec![0],
+            ..PtyHooks::default()
+        };
+        let board = SimBoard::new(SamplerConfig::BOARD);
+        let period_us = u64::from(SamplerConfig::BOARD.sample_period_us);
+        let pty = PtyBoard::spawn_with(board, 1_000, Pacing::AsFastAsPossible, hooks).expect("pty");
+        let port = serial::open(pty.path(), Duration::from_millis(20)).expect("open");
+        let mut reader = PortReader::new(port);
+        std::thread::sleep(Duration::from_millis(300));
+        let mut frame = [0u8; wire::MAX_FRAME];
+        let command = HostFrame {
+            id: 5,
+            command: Command::SetWheelRates(Sides::new(1.0, 1.0)),
+        };
+        let n = wire::encode(&command, &mut frame).expect("fits");
+        reader.port_mut().write_all(&frame[..n]).expect("write");
+        let mut dec = StreamDecoder::new();
+        let (mut last_seq, mut acked_after) = (None, None);
+        let start = Instant::now();
+        while !reader.vanished() {
+            assert!(start.elapsed() < Duration::from_secs(20), "never hung up");
+            reader.poll(&mut dec, |e| match e {
+                Event::Frame(BoardFrame::Sample(s)) => last_seq = Some(s.seq),
+                Event::Frame(BoardFrame::Ack { id: 5 }) => acked_after = Some(last_seq),
+                _ => {}
+            });
+        }
+        pty.join().expect("writer");
+        let acked_after = acked_after.expect("acked").expect("after a sample");
+        assert!(
+            u64::from(acked_after) <= COMMAND_SLACK_US / period_us + 1,
+            "acked after sample {acked_after}"
+        );
+    }
+
     #[test]
     fn a_bad_pacing_factor_is_refused() {
         for k in [0.0, -1.0, f64::NAN, f64::INFINITY] {
@@ -567,6 +662,7 @@ mod tests {
                     seen.push((k, bytes.len()));
                 }
             })),
+            ..PtyHooks::default()
         };
         let pty = PtyBoard::spawn_with(
             SimBoard::new(SamplerConfig::BOARD),
