@@ -323,11 +323,17 @@ pub fn damage_warnings(path: &Path, losses: &[Loss], dropped_rows: &[DroppedRow]
         } else {
             "damaged"
         };
+        // The reason is the error's text, which starts with the same line: said once.
+        let line = format!("line {}", row.line);
+        let reason = row
+            .reason
+            .strip_prefix(&line)
+            .map_or(row.reason.as_str(), |r| {
+                r.trim_start_matches([':', ',', ' '])
+            });
         format!(
-            "warning: {}: line {} dropped, {why}: {}",
-            path.display(),
-            row.line,
-            row.reason
+            "warning: {}: {line} dropped, {why}: {reason}",
+            path.display()
         )
     });
     let more = match dropped_rows.get(DROPPED_ROWS_SHOWN..) {
@@ -364,7 +370,7 @@ mod tests {
         assert_eq!(warnings.len(), DROPPED_ROWS_SHOWN + 1);
         assert_eq!(
             warnings[0],
-            "warning: bad.csv: line 2 dropped, damaged: line 2, column 2 (left_bus_v): empty cell"
+            "warning: bad.csv: line 2 dropped, damaged: column 2 (left_bus_v): empty cell"
         );
         assert_eq!(
             warnings[DROPPED_ROWS_SHOWN],
