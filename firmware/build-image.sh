@@ -30,7 +30,8 @@ fi
 # llvm-size / llvm-objcopy from the pinned toolchain's llvm-tools component.
 rustup component list --installed 2>/dev/null | grep -q '^llvm-tools' || rustup component add llvm-tools >/dev/null
 LLVM_BIN="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin"
-ELF="target/$TARGET/firmware/firmware"
+# Where cargo put it (CARGO_TARGET_DIR moves the whole target directory).
+ELF="${CARGO_TARGET_DIR:-target}/$TARGET/firmware/firmware"
 
 # Flash holds code, read-only data, the vector table and .data's initial values; static RAM is
 # .data + .bss + .uninit (the stack grows into the rest).
