@@ -74,6 +74,42 @@ impl EffectId {
         }
     }
 
+    /// The effect's signature: the observation only it produces, which the diagnosis must find
+    /// in the data before it names the effect (`diagnose::signature` tests it). Observations
+    /// that need no power model come first where one exists.
+    pub const fn signature(self) -> &'static str {
+        match self {
+            EffectId::InnerDrag => {
+                "the inner side alone draws more between B/2 and R′ than at the neighbouring radii"
+            }
+            EffectId::SinkageBulldozing => {
+                "power rising through the turns below R′ on both sides, more than on straights \
+                 and wide turns"
+            }
+            EffectId::AngularSlip => {
+                "turns timed by yaw slower than the point turns, rising towards R′"
+            }
+            EffectId::SlipTrack => {
+                "every turn's yaw off the calibration's terrain slip by the same fraction (the \
+                 pose track's slip track when positions are logged)"
+            }
+            EffectId::BrakedInner => {
+                "the outer side at R′ draws more than at the neighbouring radii: a step at one \
+                 radius"
+            }
+            EffectId::CurrentOffset => "current at standstill beyond a driver's quiescent draw",
+            EffectId::MotorHeating => "the same manoeuvre drawing more later in a run",
+            EffectId::Slope => "manoeuvres measured off level by the pitch",
+        }
+    }
+
+    /// Whether [`EffectId::signature`] is read off the power model's residuals. The others are
+    /// measured directly (standstill current, yaw, pose, pitch, power within a turn or between
+    /// repeats of one manoeuvre), so they stand when the baseline itself misfits.
+    pub const fn signature_needs_power_model(self) -> bool {
+        matches!(self, EffectId::InnerDrag | EffectId::BrakedInner)
+    }
+
     /// Inverse of [`EffectId::id`].
     pub fn from_id(id: &str) -> Option<EffectId> {
         EffectId::ALL.into_iter().find(|e| e.id() == id)

@@ -25,6 +25,7 @@ pub mod observe;
 pub mod path_table;
 pub mod report;
 mod select;
+pub mod signature;
 pub mod summary;
 pub mod verdict;
 pub mod winding_heat;
@@ -113,6 +114,11 @@ pub struct Diagnosis {
     /// Why the baseline has copper loss the calibration did not choose, when the diagnosed runs
     /// showed it ([`copper_from_runs`]).
     pub copper_from_runs: Option<copper_from_runs::CopperEvidence>,
+    /// Every effect's signature test, catalogue order ([`signature`]).
+    pub signatures: Vec<signature::Signature>,
+    /// The candidate the held-out selection fitted best whose signature is not in the data
+    /// (not named).
+    pub mark_missing: Option<EffectId>,
 }
 
 /// One step of the forward stepwise selection after the named effect.
@@ -200,6 +206,8 @@ impl Diagnosis {
             "where": self.where_,
             "calibration": self.calibration,
             "copper_from_runs": self.copper_from_runs,
+            "signatures": self.signatures,
+            "mark_missing": self.mark_missing.map(|e| e.id()),
             "notes": self.notes,
         })
     }
@@ -251,6 +259,12 @@ pub(crate) fn diagnose_against(
     let gaps = gaps::effective_gaps(&baseline, rows, &verdicts);
     let mut where_ = gaps::analyse(&baseline, rows, &verdicts);
     let significant_gaps = SignificantGaps::of(&gaps);
+    let signatures = signature::test_all(&signature::Evidence::new(
+        rows,
+        calibration,
+        &baseline,
+        &where_,
+    ));
 
     let (primary, secondary) = schemes(rows);
     let before = cv::heldout_residuals(rover, rows, primary, &[], calibration)?
@@ -282,43 +296,46 @@ pub(crate) fn diagnose_against(
         calibration,
         before: &before,
     };
-    let selected = match select::select(&candidates) {
+    // What the held-out selection fits best: the clear winner on the effective power, its
+    // growth or its average; else on the manoeuvres' totals; else where the gap is; else what
+    // explains a run-time trend. Then the physics' signs and the gaps' places.
+    let fitted = match select::select(&candidates).or_else(|| select::clear_in_total(&candidates))
+    {
         Some(e) => Some(e),
-        None if admission.offset_measured && select::measured_offset_helps(&candidates) => {
-            Some(EffectId::CurrentOffset)
+        None if !significant_gaps.regimes.is_empty() => {
+            selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
         }
-        None if select::slip_measured_beyond_terrain(rows, &baseline)
-            && select::wins_the_near_tie(&candidates, EffectId::AngularSlip) =>
-        {
-            Some(EffectId::AngularSlip)
-        }
-        None if select::pitch_measured(rows) && select::measured_pitch_helps(&candidates) => {
-            Some(EffectId::Slope)
-        }
-        None if select::turns_measured_faster(rows, &baseline)
-            && select::wins_the_near_tie(&candidates, EffectId::SlipTrack) =>
-        {
-            Some(EffectId::SlipTrack)
-        }
-        None => match select::clear_in_total(&candidates) {
-            Some(e) => Some(e),
-            None if !significant_gaps.regimes.is_empty() => {
-                selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
-            }
-            None => None,
-        },
+        None => None,
     };
-    let selected = match (selected, where_.run_time.trend.as_ref()) {
+    let fitted = match (fitted, where_.run_time.trend.as_ref()) {
         (None, Some(trend)) if trend.significant => {
             selection.what_explains_the_trend(&candidates, trend.floor_w)?
         }
-        (selected, _) => selected,
+        (fitted, _) => fitted,
     };
-    let selected = match selected {
-        Some(e) if !select::physically_signed(rover, rows, &[e], calibration)? => None,
-        Some(e) if !select::reaches_the_gaps(rover, rows, &baseline, &gaps, e) => None,
+    let signed = |e: EffectId| -> Result<bool, DiagnoseError> {
+        Ok(select::physically_signed(rover, rows, &[e], calibration)?
+            && select::reaches_the_gaps(rover, rows, &baseline, &gaps, e))
+    };
+    let fitted = match fitted {
+        Some(e) if !signed(e)? => None,
         other => other,
     };
+    // An effect is named only with its signature in the data. Against a misfitting baseline
+    // only a signature measured without the power model stands: the misfit is not absorbed.
+    let marked = |e: EffectId| signatures.iter().any(|s| s.effect == e && s.present());
+    let misfit = adequacy.adequate == Some(false);
+    let selected = if misfit {
+        select::standing_on_its_own(&candidates, &marked, |e| {
+            select::physically_signed(rover, rows, &[e], calibration)
+        })?
+    } else {
+        match fitted {
+            Some(e) if marked(e) => Some(e),
+            _ => select::marked_in_near_tie(&candidates, &marked, signed)?,
+        }
+    };
+    let mark_missing = fitted.filter(|e| !marked(*e) && selected != Some(*e));
     let spread = explained_spread(&baseline, rows, &candidates, selected);
     let in_groups = significant_gaps.any || where_.departs_over_run_time();
     let significant = in_groups || spread.is_some();
@@ -330,20 +347,7 @@ pub(crate) fn diagnose_against(
     let verdict = match selected {
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
-        None if adequacy.adequate == Some(false) => {
-            match select::explains_the_calibration_misfit(
-                rover,
-                rows,
-                calibration,
-                &adequacy,
-                &candidates,
-            ) {
-                Some(e) if select::reaches_the_gaps(rover, rows, &baseline, &gaps, e) => {
-                    Verdict::Effect(e)
-                }
-                _ => Verdict::Ambiguous,
-            }
-        }
+        None if misfit => Verdict::BaselineMisfit,
         None => Verdict::Ambiguous,
     };
     // The stepwise selection starts from the selected effect's own score (the selection may
@@ -353,19 +357,32 @@ pub(crate) fn diagnose_against(
         .effect()
         .and_then(|e| candidates.iter().find(|c| c.effect == e))
     {
-        Some(score) => selection.stepwise(score, &allowed)?,
+        Some(score) => selection.stepwise(score, &|e| allowed(e) && marked(e))?,
         None => Vec::new(),
     };
+    if misfit {
+        // Beside a misfitting baseline only what stands on its own is named.
+        secondary_steps.retain(|s| !s.effect.signature_needs_power_model());
+    }
     let model_effects: Vec<EffectId> = verdict
         .effect()
         .into_iter()
         .chain(secondary_steps.iter().map(|s| s.effect))
         .collect();
-    let (effect, adequacy_with_effect) =
-        against_adequate_baseline(rover, rows, calibration, &adequacy, verdict, &model_effects)?;
-    if effect.effect().is_none() {
-        secondary_steps.clear();
-    }
+    let adequacy_with_effect = match verdict.effect() {
+        Some(_) if misfit => {
+            let (baseline, model) = fit_model(rover, rows, &model_effects, calibration)?;
+            Some(calibration_adequacy(
+                rover,
+                rows,
+                calibration,
+                &baseline,
+                &model,
+            ))
+        }
+        _ => None,
+    };
+    let effect = verdict;
     let named = effect.effect();
     if named == Some(EffectId::SinkageBulldozing) {
         notes.extend(sinkage_deficit_note(rover, rows, calibration));
@@ -403,6 +420,8 @@ pub(crate) fn diagnose_against(
         copper_from_runs: None,
         calibration: calibration.note(rows),
         notes,
+        signatures,
+        mark_missing,
     })
 }
 
@@ -472,9 +491,6 @@ fn schemes(rows: &[TurnRow]) -> (Scheme, Scheme) {
 struct Admission {
     heating_identifiable: bool,
     offset_seen: bool,
-    /// A standstill current beyond a driver's quiescent draw was measured (not merely
-    /// unknown): the offset is then observed directly, as in the seed's Fig. 3.3.
-    offset_measured: bool,
 }
 
 impl Admission {
@@ -511,7 +527,6 @@ impl Admission {
         let admission = Self {
             heating_identifiable,
             offset_seen,
-            offset_measured,
         };
         (admission, notes)
     }
@@ -622,44 +637,6 @@ fn offset_measured_at_standstill(rows: &[TurnRow]) -> bool {
     rows.iter().filter_map(|r| r.standstill_current_a).any(|s| {
         s.left.abs() > baseline::QUIESCENT_MAX_A || s.right.abs() > baseline::QUIESCENT_MAX_A
     })
-}
-
-/// The verdict once the baseline's adequacy is known: unchanged when the baseline fits its
-/// calibration manoeuvres (or cannot be tested); when it misfits, `baseline-misfit` unless the
-/// diagnosed model (`model_effects`: the selected effect and its stepwise secondaries), fitted
-/// jointly, makes the calibration manoeuvres fit or removes most of
-/// their lack of fit (then the effect acts on them too, e.g. a current offset, a slope or
-/// sinkage on point turns, and the misfit was mostly the effect's; its own shape need not be
-/// ours exactly).
-fn against_adequate_baseline(
-    rover: &Rover,
-    rows: &[TurnRow],
-    calibration: Calibration<'_>,
-    adequacy: &Adequacy,
-    verdict: Verdict,
-    model_effects: &[EffectId],
-) -> Result<(Verdict, Option<Adequacy>), DiagnoseError> {
-    if adequacy.adequate != Some(false) {
-        return Ok((verdict, None));
-    }
-    if verdict.effect().is_none() {
-        return Ok((Verdict::BaselineMisfit, None));
-    }
-    let (baseline, model) = fit_model(rover, rows, model_effects, calibration)?;
-    let with = calibration_adequacy(rover, rows, calibration, &baseline, &model);
-    let verdict = if explains_misfit(adequacy, &with) {
-        verdict
-    } else {
-        Verdict::BaselineMisfit
-    };
-    Ok((verdict, Some(with)))
-}
-
-/// Whether the model behind `with` makes the calibration manoeuvres fit or removes most of
-/// `base`'s lack of fit.
-fn explains_misfit(base: &Adequacy, with: &Adequacy) -> bool {
-    with.adequate != Some(false)
-        || adequacy::explained_fraction(base, with) >= adequacy::EXPLAINED_BY_EFFECT
 }
 
 /// The calibration manoeuvres' lack-of-fit test of `baseline` with `model`'s terms, fitted

@@ -6,30 +6,13 @@
 use super::effects::{self, Context, FittedEffect, HEATING_TAU_GRID_S};
 use super::features::SideRole;
 use super::{
-    adequacy, calibration_adequacy, cv, explains_misfit, fit_model, gaps, removed_rms_w, Adequacy,
-    DiagnoseError, FittedModel, Gap, Part, StepwiseStep,
+    cv, fit_model, gaps, removed_rms_w, signature, DiagnoseError, FittedModel, Gap, Part,
+    StepwiseStep,
 };
 use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 use model_core::Rover;
-
-/// With the offset measured at standstill, `current-offset` needs no clear margin over the
-/// other candidates: it is named when no other candidate beats it clearly out of sample
-/// (penalised error within [`cv::CLEAR_MARGIN`] of the best) and it closes part of the held-out
-/// error. At one v_c the turns cannot show it apart (G·|V| absorbs a constant per side except
-/// where a side stands still, at R′), but the standstill samples show it directly: a near tie
-/// in the turns is decided by that direct observation.
-pub(super) fn measured_offset_helps(candidates: &[CandidateScore]) -> bool {
-    let Some(best) = candidates.first() else {
-        return false;
-    };
-    candidates.iter().any(|c| {
-        c.effect == EffectId::CurrentOffset
-            && c.shrink_pct > 0.0
-            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
-    })
-}
 
 /// Whether every term of the model `effects`, fitted jointly on all rows, has the sign its
 /// physics allows. A drag, a braked side, a slower turn or a warmer winding can only add power:
@@ -237,115 +220,64 @@ fn stands_out_from_the_neighbouring_radii(
         .any(|m| m * own > 0.0 && m.abs() >= UNREACHED_GAP_FRACTION * own.abs())
 }
 
-/// Smallest measured angular slip beyond the terrain's constant slip, and smallest rise of it
-/// from the point turn, that count as seen in the yaw (the calibration's constant-slip spread).
-const MIN_SLIP_EXCESS: f64 = 0.02;
-
-/// Whether the yaw shows turns slower than the terrain's constant slip (`baseline.turn_slip`)
-/// where the seed's angular slip acts, rising from the point turn (Fig 6.8: 0.27 at R = 0 to
-/// 0.38 at R′ on sand): in some regime with 0 < R ≤ R′ the mean excess slip of the turns
-/// timed by yaw has its 95 % t interval above 0, is at least [`MIN_SLIP_EXCESS`], and exceeds
-/// the point turns' by that much. A slip track constant over the radii does not rise.
-pub(super) fn slip_measured_beyond_terrain(rows: &[TurnRow], baseline: &Baseline) -> bool {
-    let excess = |regime: Regime| excess_slips(rows, baseline, regime);
-    let point = excess(Regime::Point);
-    let point_mean = if point.is_empty() {
-        0.0
-    } else {
-        point.iter().sum::<f64>() / point.len() as f64
-    };
-    [
-        Regime::BelowHalfTrack,
-        Regime::DraggedInner,
-        Regime::AtRPrime,
-    ]
-    .into_iter()
-    .filter_map(|regime| cv::t_interval(&excess(regime)))
-    .any(|(mean, lo, _)| {
-        lo > 0.0 && mean >= MIN_SLIP_EXCESS && mean - point_mean >= MIN_SLIP_EXCESS
-    })
-}
-
-/// The measured angular slip beyond the terrain's constant slip (`baseline.turn_slip`) of each
-/// turn of `regime` timed by yaw.
-fn excess_slips(rows: &[TurnRow], baseline: &Baseline, regime: Regime) -> Vec<f64> {
-    rows.iter()
-        .filter(|r| r.regime == regime && r.turned_from_yaw && !r.is_straight())
-        .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
-        .collect()
-}
-
-/// Whether the yaw shows every turn faster than commanded: in each turn regime with turns
-/// timed by yaw (at least two regimes) the measured angular slip beyond the terrain's constant
-/// slip (`baseline.turn_slip`) has its 95 % t interval below 0 and a mean of at most
-/// −[`MIN_SLIP_EXCESS`]. No slip does that: the yaw rate ω = (V_o − V_i)/B_s exceeds the
-/// command only when the terrain's slip track is narrower than the controller's (Eq 2.2,
-/// Table D.1's soft terrain), which is `slip-track`; `angular-slip` only slows the turns.
-pub(super) fn turns_measured_faster(rows: &[TurnRow], baseline: &Baseline) -> bool {
-    let mut faster = 0;
-    for regime in Regime::ALL {
-        let Some((mean, _, hi)) = cv::t_interval(&excess_slips(rows, baseline, regime)) else {
-            continue;
-        };
-        if !(hi < 0.0 && mean <= -MIN_SLIP_EXCESS) {
-            return false;
-        }
-        faster += 1;
-    }
-    faster >= 2
-}
-
 /// Whether the turns timed by yaw took, on average, at least as long as the baseline's terrain
 /// slip says: then no narrower slip track (a negative `slip-track` term, every turn quicker
 /// than commanded) is what the power shows. `false` without yaw-timed turns.
 fn turns_no_quicker_by_yaw(rows: &[TurnRow], baseline: &Baseline) -> bool {
-    let all: Vec<f64> = Regime::ALL
-        .iter()
-        .flat_map(|&regime| excess_slips(rows, baseline, regime))
-        .collect();
+    let all = signature::excess_slips(rows, baseline, |_| true);
     !all.is_empty() && all.iter().sum::<f64>() >= 0.0
 }
 
-/// Fewest diagnosed manoeuvres off level ground ([`adequacy::is_level`]) for the runs to count as
-/// driven on a slope.
-const MIN_PITCHED_MANOEUVRES: usize = 2;
-
-/// Whether the runs were measurably driven on a slope: at least [`MIN_PITCHED_MANOEUVRES`] of
-/// the manoeuvres have a mean pitch beyond [`adequacy::LEVEL_PITCH_DEG`].
-pub(super) fn pitch_measured(rows: &[TurnRow]) -> bool {
-    rows.iter().filter(|r| !adequacy::is_level(r)).count() >= MIN_PITCHED_MANOEUVRES
-}
-
-/// With the pitch measured ([`pitch_measured`]), `slope` needs neither a clear margin nor
-/// [`cv::MIN_SHRINK_PCT`]: the grade's power, Φ m g v sin θ per track (Eq 1.16), is physics on
-/// a measured regressor, so the question is only whether it is the best explanation. It is
-/// named when it is the best candidate and closes part of the held-out error (the practical
-/// floor of removed RMS is still asked, [`explained_spread`](super::explained_spread)). Motor
-/// losses and the no-regeneration clamp make the grade's electrical power asymmetric (a climb
-/// costs 1/η, a descent returns η or nothing), so the linear term closes only part of it.
-pub(super) fn measured_pitch_helps(candidates: &[CandidateScore]) -> bool {
-    candidates
-        .first()
-        .is_some_and(|best| best.effect == EffectId::Slope && best.shrink_pct > 0.0)
-}
-
-/// Whether `effect` wins a near tie that a direct measurement decides: it closes
-/// [`cv::MIN_SHRINK_PCT`] of the held-out gap and no candidate beats it clearly (penalised
-/// error within [`cv::CLEAR_MARGIN`] of the best). For the two terms that lengthen the turn and
-/// share its power signature (`slip-track` scales every turn's power): the yaw decides, turns
-/// slower than the terrain's slip rising to R′ for `angular-slip`
-/// ([`slip_measured_beyond_terrain`]), every turn faster than commanded for `slip-track`
-/// ([`turns_measured_faster`]), as the standstill current does for `current-offset`
-/// ([`measured_offset_helps`]).
-pub(super) fn wins_the_near_tie(candidates: &[CandidateScore], effect: EffectId) -> bool {
+/// Without a clear winner with its signature: the best candidate (by penalised error) whose
+/// signature is present (`marked`), in a near tie with the best (penalised error within
+/// [`cv::CLEAR_MARGIN`]), that closes part of the held-out error (any part when its signature
+/// is measured without the power model, else [`cv::MIN_SHRINK_PCT`]) and passes `signed` (the
+/// physics' signs and the gaps' places). The direct observation decides a tie the power
+/// cannot: the standstill current, the yaw, the pitch.
+pub(super) fn marked_in_near_tie(
+    candidates: &[CandidateScore],
+    marked: &dyn Fn(EffectId) -> bool,
+    signed: impl Fn(EffectId) -> Result<bool, DiagnoseError>,
+) -> Result<Option<EffectId>, DiagnoseError> {
     let Some(best) = candidates.first() else {
-        return false;
+        return Ok(None);
     };
-    candidates.iter().any(|c| {
-        c.effect == effect
-            && c.shrink_pct >= cv::MIN_SHRINK_PCT
-            && c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse
-    })
+    for c in candidates {
+        if c.penalised_mse >= cv::CLEAR_MARGIN * best.penalised_mse {
+            break;
+        }
+        let closes = if c.effect.signature_needs_power_model() {
+            c.shrink_pct >= cv::MIN_SHRINK_PCT
+        } else {
+            c.shrink_pct > 0.0
+        };
+        if marked(c.effect) && closes && signed(c.effect)? {
+            return Ok(Some(c.effect));
+        }
+    }
+    Ok(None)
+}
+
+/// Against a baseline that misfits its calibration: the best candidate whose signature is
+/// present and measured without the power model (`marked`), physically `signed`, that lowers
+/// the held-out error. Its evidence stands without the baseline; the misfit is reported beside
+/// it. No other candidate is named against a misfit: a term that also acts on the calibration
+/// manoeuvres can absorb a structural misfit without its own mark.
+pub(super) fn standing_on_its_own(
+    candidates: &[CandidateScore],
+    marked: &dyn Fn(EffectId) -> bool,
+    signed: impl Fn(EffectId) -> Result<bool, DiagnoseError>,
+) -> Result<Option<EffectId>, DiagnoseError> {
+    for c in candidates {
+        if marked(c.effect)
+            && !c.effect.signature_needs_power_model()
+            && c.heldout_error_after < c.heldout_error_before
+            && signed(c.effect)?
+        {
+            return Ok(Some(c.effect));
+        }
+    }
+    Ok(None)
 }
 
 /// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
@@ -400,38 +332,6 @@ pub(super) fn clear_in_total(candidates: &[CandidateScore]) -> Option<EffectId> 
     )
     .map(|c| c.effect)
     .filter(|e| effects::is_power_type(*e))
-}
-
-/// With the baseline misfitting its calibration (`adequacy`) and no clear winner out of
-/// sample: the one candidate that, fitted with the baseline, makes the calibration manoeuvres
-/// fit (or removes most of their lack of fit), is physically signed and does no harm out of
-/// sample. The calibration manoeuvres are then the evidence: the effect acts on them too
-/// (sinkage in the point turns, a sensor offset everywhere), and the misfit was its.
-pub(super) fn explains_the_calibration_misfit(
-    rover: &Rover,
-    rows: &[TurnRow],
-    calibration: Calibration<'_>,
-    adequacy: &Adequacy,
-    candidates: &[CandidateScore],
-) -> Option<EffectId> {
-    let explaining: Vec<EffectId> = candidates
-        .iter()
-        .filter(|c| c.heldout_error_after <= c.heldout_error_before)
-        .filter(|c| {
-            // A term that cannot be fitted (no pitch for a slope) explains nothing.
-            let Ok((baseline, model)) = fit_model(rover, rows, &[c.effect], calibration) else {
-                return false;
-            };
-            let with = calibration_adequacy(rover, rows, calibration, &baseline, &model);
-            explains_misfit(adequacy, &with)
-                && terms_physically_signed(rover, rows, &baseline, &model)
-        })
-        .map(|c| c.effect)
-        .collect();
-    match explaining.as_slice() {
-        [e] => Some(*e),
-        _ => None,
-    }
 }
 
 /// What every held-out selection rule reads: the rover and rows, how the baseline is

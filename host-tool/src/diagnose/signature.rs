@@ -1,0 +1,700 @@
+//! Each catalogue effect's signature ([`EffectId::signature`]): the observation only it
+//! produces, tested on the data with its statistic, degrees of freedom and p-value. An effect
+//! is named only when its signature is present; one whose signature needs no power model
+//! ([`EffectId::signature_needs_power_model`]) is also named when the baseline misfits its
+//! calibration, with the misfit reported beside it.
+//!
+//! | effect | observation | test |
+//! |---|---|---|
+//! | `current-offset` | standstill current per run and side | one-sided t of \|mean\| over the quiescent draw (0.25 A), per side, Bonferroni ×2 |
+//! | `angular-slip` | yaw-timed slip of the turns with 0 < R ≤ R′ minus the point turns' | one-sided t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3 |
+//! | `slip-track` | every turn's slip beyond the calibration's terrain slip (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 % |
+//! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
+//! | `motor-heating` | within-manoeuvre-kind trend of power over run time | permutation test (the "where" analysis), rising |
+//! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, both sides | Welch t against straights and wide turns, ≥ 1.5 W, both sides rising |
+//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of the neighbouring regimes, ≥ 1.5 W |
+//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of the neighbouring radii, ≥ 1.5 W |
+
+use super::baseline::{self, Baseline};
+use super::calibration::{Calibration, Source};
+use super::cv::{self, PRACTICAL_FLOOR_W};
+use super::features::{SideRole, TurnRow};
+use super::gaps::WhereAnalysis;
+use crate::effect_id::EffectId;
+use model_core::kinematics::Regime;
+use serde::Serialize;
+
+/// Significance level of every signature test (after its Bonferroni factor).
+pub const ALPHA: f64 = 0.05;
+
+/// Smallest angular slip beyond the reference that counts as seen in the yaw (the spread of a
+/// calibration's constant slip).
+pub const MIN_SLIP_EXCESS: f64 = 0.02;
+
+/// Smallest relative difference of a measured slip track from the terrain's.
+pub const MIN_SLIP_TRACK_DIFFERENCE: f64 = 0.02;
+
+/// Share of level manoeuvres whose mean pitch may read beyond the level threshold (sensor
+/// noise, a bump): the null of the slope signature's binomial test.
+pub const OFF_LEVEL_BY_CHANCE: f64 = 0.05;
+
+/// One effect's signature test.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Signature {
+    /// The effect.
+    pub effect: EffectId,
+    /// What its signature is ([`EffectId::signature`]).
+    pub observation: &'static str,
+    /// Whether the observation is read off the power model's residuals.
+    pub needs_power_model: bool,
+    /// The test, when the data can show the signature at all.
+    pub test: Option<SignatureTest>,
+    /// What was measured, or why the data cannot show it.
+    pub detail: String,
+}
+
+/// A signature's statistical test.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SignatureTest {
+    /// `t`, `Welch t`, `binomial` or `permutation`.
+    pub statistic_name: &'static str,
+    /// The statistic's value.
+    pub statistic: f64,
+    /// Its degrees of freedom (observations for the binomial and permutation tests).
+    pub df: f64,
+    /// Its p-value, multiple-comparison factor applied.
+    pub p: f64,
+    /// p below [`ALPHA`] and the effect size beyond its practical floor.
+    pub present: bool,
+}
+
+impl Signature {
+    /// Whether the data show the signature.
+    pub fn present(&self) -> bool {
+        self.test.is_some_and(|t| t.present)
+    }
+
+    /// One line for the report: the test and what it measured.
+    pub fn describe(&self) -> String {
+        match &self.test {
+            Some(t) => format!(
+                "{}: {} = {:.2}, df {:.0}, p = {} — {}",
+                if t.present { "present" } else { "absent" },
+                t.statistic_name,
+                t.statistic,
+                t.df,
+                format_p(t.p),
+                self.detail
+            ),
+            None => format!("not observable: {}", self.detail),
+        }
+    }
+
+    fn unobservable(effect: EffectId, why: impl Into<String>) -> Self {
+        Self {
+            effect,
+            observation: effect.signature(),
+            needs_power_model: effect.signature_needs_power_model(),
+            test: None,
+            detail: why.into(),
+        }
+    }
+
+    fn tested(effect: EffectId, test: SignatureTest, detail: String) -> Self {
+        Self {
+            effect,
+            observation: effect.signature(),
+            needs_power_model: effect.signature_needs_power_model(),
+            test: Some(test),
+            detail,
+        }
+    }
+}
+
+/// A p-value for the report: 3 significant digits, scientific below 0.001.
+pub fn format_p(p: f64) -> String {
+    if p < 1e-3 {
+        format!("{p:.2e}")
+    } else {
+        format!("{p:.3}")
+    }
+}
+
+/// What the signature tests read.
+#[derive(Debug, Clone, Copy)]
+pub struct Evidence<'a> {
+    /// The diagnosed rows.
+    pub rows: &'a [TurnRow],
+    /// Every row of the calibration runs (empty when the runs calibrate themselves).
+    pub calibration_rows: &'a [TurnRow],
+    /// The baseline on the calibration manoeuvres.
+    pub baseline: &'a Baseline,
+    /// The "where" analysis (its run-time trend).
+    pub where_: &'a WhereAnalysis,
+}
+
+impl<'a> Evidence<'a> {
+    /// The evidence of a diagnosis calibrated as `calibration` says.
+    pub fn new(
+        rows: &'a [TurnRow],
+        calibration: Calibration<'a>,
+        baseline: &'a Baseline,
+        where_: &'a WhereAnalysis,
+    ) -> Self {
+        let calibration_rows = match calibration.source {
+            Source::FromRuns => &[][..],
+            Source::Rows(cal) => cal,
+        };
+        Self {
+            rows,
+            calibration_rows,
+            baseline,
+            where_,
+        }
+    }
+}
+
+/// Every effect's signature test, catalogue order.
+pub fn test_all(evidence: &Evidence<'_>) -> Vec<Signature> {
+    EffectId::ALL.map(|e| test(e, evidence)).to_vec()
+}
+
+/// `effect`'s signature test.
+pub fn test(effect: EffectId, ev: &Evidence<'_>) -> Signature {
+    match effect {
+        EffectId::CurrentOffset => current_offset(ev),
+        EffectId::AngularSlip => angular_slip(ev),
+        EffectId::SlipTrack => slip_track(ev),
+        EffectId::Slope => slope(ev),
+        EffectId::MotorHeating => motor_heating(ev),
+        EffectId::SinkageBulldozing => sinkage(ev),
+        EffectId::InnerDrag => inner_drag(ev),
+        EffectId::BrakedInner => braked_inner(ev),
+    }
+}
+
+/// Mean, standard deviation and count of `values`.
+fn moments(values: &[f64]) -> Option<(f64, f64, usize)> {
+    let n = values.len();
+    if n == 0 {
+        return None;
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let sd = if n > 1 {
+        (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+    } else {
+        f64::NAN
+    };
+    Some((mean, sd, n))
+}
+
+/// Upper-tail probability of Student's t with `df` degrees of freedom (fractional df rounded
+/// down, at least 1).
+fn t_upper(t: f64, df: f64) -> f64 {
+    if t.is_nan() {
+        return 1.0;
+    }
+    if t == f64::INFINITY {
+        return 0.0;
+    }
+    let dof = (df.floor() as usize).max(1);
+    model_core::fit::student_t_cdf(t, dof).map_or(1.0, |c| (1.0 - c).clamp(0.0, 1.0))
+}
+
+/// One-sided one-sample t of `values`' mean above `null`: (t, df, p); `None` under 2 values.
+fn one_sample_upper(values: &[f64], null: f64) -> Option<(f64, f64, f64)> {
+    let (mean, sd, n) = moments(values)?;
+    if n < 2 {
+        return None;
+    }
+    let se = sd / (n as f64).sqrt();
+    let t = if se > 0.0 {
+        (mean - null) / se
+    } else if mean > null {
+        f64::INFINITY
+    } else {
+        f64::NEG_INFINITY
+    };
+    let df = (n - 1) as f64;
+    Some((t, df, t_upper(t, df)))
+}
+
+/// One-sided Welch t of mean(`a`) above mean(`b`): (difference, t, df, p); `None` when either
+/// has fewer than 2 values.
+fn welch_upper(a: &[f64], b: &[f64]) -> Option<(f64, f64, f64, f64)> {
+    let (ma, sa, na) = moments(a)?;
+    let (mb, sb, nb) = moments(b)?;
+    if na < 2 || nb < 2 {
+        return None;
+    }
+    let (va, vb) = (sa * sa / na as f64, sb * sb / nb as f64);
+    let se2 = va + vb;
+    let diff = ma - mb;
+    if se2 <= 0.0 {
+        let t = if diff > 0.0 {
+            f64::INFINITY
+        } else {
+            f64::NEG_INFINITY
+        };
+        return Some((diff, t, (na + nb - 2) as f64, t_upper(t, 1.0)));
+    }
+    let t = diff / se2.sqrt();
+    let df = se2 * se2 / (va * va / (na - 1) as f64 + vb * vb / (nb - 1) as f64);
+    Some((diff, t, df, t_upper(t, df)))
+}
+
+/// The standstill current of each run, per side (left, right), diagnosed and calibration runs.
+fn standstill_currents(ev: &Evidence<'_>) -> [Vec<f64>; 2] {
+    let mut seen: Vec<(bool, usize)> = Vec::new();
+    let mut sides = [Vec::new(), Vec::new()];
+    let all = ev
+        .rows
+        .iter()
+        .map(|r| (false, r))
+        .chain(ev.calibration_rows.iter().map(|r| (true, r)));
+    for (cal, row) in all {
+        let Some(s) = row.standstill_current_a else {
+            continue;
+        };
+        if seen.contains(&(cal, row.run_index)) {
+            continue;
+        }
+        seen.push((cal, row.run_index));
+        sides[0].push(s.left);
+        sides[1].push(s.right);
+    }
+    sides
+}
+
+/// `current-offset`: the standstill current of some side beyond a driver's quiescent draw.
+fn current_offset(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::CurrentOffset;
+    let sides = standstill_currents(ev);
+    if sides[0].is_empty() {
+        return Signature::unobservable(e, "no run stands still long enough");
+    }
+    let q = baseline::QUIESCENT_MAX_A;
+    let mut best: Option<(SignatureTest, String)> = None;
+    for (name, values) in ["left", "right"].into_iter().zip(&sides) {
+        let (mean, _, n) = moments(values).expect("non-empty");
+        let magnitudes: Vec<f64> = values.iter().map(|v| v * mean.signum()).collect();
+        let detail = format!(
+            "{name} side reads {mean:+.3} A at standstill over {n} run(s), a driver's quiescent \
+             draw at most {q} A"
+        );
+        let test = match one_sample_upper(&magnitudes, q) {
+            Some((t, df, p)) => {
+                let p = (2.0 * p).min(1.0);
+                SignatureTest {
+                    statistic_name: "t",
+                    statistic: t,
+                    df,
+                    p,
+                    present: p < ALPHA && mean.abs() > q,
+                }
+            }
+            // One run: no repeat to test the offset against.
+            None => SignatureTest {
+                statistic_name: "t",
+                statistic: f64::NAN,
+                df: 0.0,
+                p: 1.0,
+                present: false,
+            },
+        };
+        if best
+            .as_ref()
+            .is_none_or(|(b, _)| test.p < b.p || (test.present && !b.present))
+        {
+            best = Some((test, detail));
+        }
+    }
+    let (test, detail) = best.expect("two sides");
+    Signature::tested(e, test, detail)
+}
+
+/// The measured angular slip of each yaw-timed turn of `regime` in `rows`, less the terrain's
+/// constant slip the calibration fitted (`baseline.turn_slip`).
+pub(super) fn excess_slips<'r>(
+    rows: impl IntoIterator<Item = &'r TurnRow>,
+    baseline: &Baseline,
+    keep: impl Fn(&TurnRow) -> bool,
+) -> Vec<f64> {
+    rows.into_iter()
+        .filter(|r| r.turned_from_yaw && !r.is_straight() && keep(r))
+        .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
+        .collect()
+}
+
+/// `angular-slip`: the turns between the point turn and R′ slower by yaw than the point turns
+/// (of the runs and of the calibration), by at least [`MIN_SLIP_EXCESS`] (the thesis' Fig 6.8:
+/// 0.27 at R = 0 to 0.38 at R′ on sand). A slip constant over the radii does not rise.
+fn angular_slip(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::AngularSlip;
+    let all = || ev.rows.iter().chain(ev.calibration_rows);
+    let point = excess_slips(all(), ev.baseline, |r| r.regime == Regime::Point);
+    let Some((point_mean, _, _)) = moments(&point) else {
+        return Signature::unobservable(e, "no point turn timed by yaw to compare with");
+    };
+    let regimes = [
+        Regime::BelowHalfTrack,
+        Regime::DraggedInner,
+        Regime::AtRPrime,
+    ];
+    let mut best: Option<(SignatureTest, String)> = None;
+    for regime in regimes {
+        let rise: Vec<f64> = excess_slips(ev.rows, ev.baseline, |r| r.regime == regime)
+            .into_iter()
+            .map(|s| s - point_mean)
+            .collect();
+        let Some((t, df, p)) = one_sample_upper(&rise, 0.0) else {
+            continue;
+        };
+        let (mean, _, n) = moments(&rise).expect("two or more");
+        let p = (p * regimes.len() as f64).min(1.0);
+        let test = SignatureTest {
+            statistic_name: "t",
+            statistic: t,
+            df,
+            p,
+            present: p < ALPHA && mean >= MIN_SLIP_EXCESS,
+        };
+        let detail = format!(
+            "{} turns ({n}) slip {:+.1} % beyond the point turns' {:.1} % (the calibration's \
+             terrain slip {:.1} % taken off both)",
+            regime.id(),
+            100.0 * mean,
+            100.0 * point_mean,
+            100.0 * ev.baseline.turn_slip
+        );
+        if best
+            .as_ref()
+            .is_none_or(|(b, _)| (test.present, -test.p) > (b.present, -b.p))
+        {
+            best = Some((test, detail));
+        }
+    }
+    match best {
+        Some((test, detail)) => Signature::tested(e, test, detail),
+        None => Signature::unobservable(
+            e,
+            "fewer than 2 turns timed by yaw in each regime between the point turn and R′",
+        ),
+    }
+}
+
+/// `slip-track`: with a pose track, the measured slip track off the terrain's (the controller's
+/// B_s widened by the calibration's constant slip) by [`MIN_SLIP_TRACK_DIFFERENCE`]; else
+/// every turn's yaw-timed slip off the calibration's terrain slip by [`MIN_SLIP_EXCESS`], either
+/// way (a narrower track makes turns quicker than commanded).
+fn slip_track(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::SlipTrack;
+    let terrain_m = ev.baseline.slip_track_m / (1.0 - ev.baseline.turn_slip);
+    let measured: Vec<f64> = ev
+        .rows
+        .iter()
+        .filter_map(|r| r.measured.map(|m| m.slip_track_m / terrain_m - 1.0))
+        .filter(|v| v.is_finite())
+        .collect();
+    let (values, floor, what) = if measured.len() >= 2 {
+        (
+            measured,
+            MIN_SLIP_TRACK_DIFFERENCE,
+            format!("the pose track's slip track relative to the terrain's {terrain_m:.3} m"),
+        )
+    } else {
+        (
+            excess_slips(ev.rows, ev.baseline, |_| true),
+            MIN_SLIP_EXCESS,
+            format!(
+                "the turns' slip beyond the calibration's terrain slip {:.1} %",
+                100.0 * ev.baseline.turn_slip
+            ),
+        )
+    };
+    let Some((mean, _, n)) = moments(&values) else {
+        return Signature::unobservable(e, "no turn timed by yaw and no pose track");
+    };
+    let flipped: Vec<f64> = values.iter().map(|v| v * mean.signum()).collect();
+    let Some((t, df, p)) = one_sample_upper(&flipped, 0.0) else {
+        return Signature::unobservable(e, "a single turn timed by yaw");
+    };
+    let p = (2.0 * p).min(1.0);
+    let test = SignatureTest {
+        statistic_name: "t",
+        statistic: t,
+        df,
+        p,
+        present: p < ALPHA && mean.abs() >= floor,
+    };
+    Signature::tested(
+        e,
+        test,
+        format!("{what}: {:+.1} % over {n} turn(s)", 100.0 * mean),
+    )
+}
+
+/// `slope`: more manoeuvres off level than sensor noise explains (binomial tail against
+/// [`OFF_LEVEL_BY_CHANCE`]), and at least two.
+fn slope(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::Slope;
+    let pitched: Vec<f64> = ev.rows.iter().filter_map(|r| r.pitch_deg).collect();
+    if pitched.is_empty() {
+        return Signature::unobservable(e, "no pitch logged");
+    }
+    let n = pitched.len();
+    let k = pitched
+        .iter()
+        .filter(|p| p.abs() > super::adequacy::LEVEL_PITCH_DEG)
+        .count();
+    let p = binomial_upper_tail(k, n, OFF_LEVEL_BY_CHANCE);
+    let test = SignatureTest {
+        statistic_name: "binomial",
+        statistic: k as f64,
+        df: n as f64,
+        p,
+        present: p < ALPHA && k >= 2,
+    };
+    Signature::tested(
+        e,
+        test,
+        format!(
+            "{k} of {n} manoeuvres have a mean pitch beyond ±{}°",
+            super::adequacy::LEVEL_PITCH_DEG
+        ),
+    )
+}
+
+/// P(X ≥ k) for X ~ Binomial(n, p).
+fn binomial_upper_tail(k: usize, n: usize, p: f64) -> f64 {
+    if k == 0 {
+        return 1.0;
+    }
+    // Sum the lower part in log space and take its complement from the pmf directly.
+    let ln_pmf = |i: usize| {
+        ln_choose(n, i) + i as f64 * p.ln() + (n - i) as f64 * (1.0 - p).ln()
+    };
+    (k..=n).map(|i| ln_pmf(i).exp()).sum::<f64>().min(1.0)
+}
+
+fn ln_choose(n: usize, k: usize) -> f64 {
+    (1..=k)
+        .map(|i| ((n - k + i) as f64).ln() - (i as f64).ln())
+        .sum()
+}
+
+/// `motor-heating`: the "where" analysis' run-time trend, significant and rising.
+fn motor_heating(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::MotorHeating;
+    let Some(trend) = ev.where_.run_time.trend.as_ref() else {
+        return Signature::unobservable(
+            e,
+            ev.where_.run_time.note.clone().unwrap_or_else(|| {
+                "run time is not identifiable apart from the turn order".to_owned()
+            }),
+        );
+    };
+    let test = SignatureTest {
+        statistic_name: "permutation",
+        statistic: trend.slope_w_per_min,
+        df: trend.n as f64,
+        p: trend.p_value,
+        present: trend.significant && trend.change_w > 0.0,
+    };
+    Signature::tested(
+        e,
+        test,
+        format!(
+            "the same manoeuvres draw {:+.1} W/min more later in a run ({:+.1} W over a {:.1} min \
+             run; floor {:.1} W)",
+            trend.slope_w_per_min, trend.change_w, trend.run_length_min, trend.floor_w
+        ),
+    )
+}
+
+/// The growth through the turn of both sides of `row`, when both have it.
+fn both_growths(row: &TurnRow) -> Option<[f64; 2]> {
+    Some([row.sides[0].growth_w?, row.sides[1].growth_w?])
+}
+
+/// `sinkage-bulldozing`: the turns below R′ grow through the turn on both sides, by at least
+/// [`PRACTICAL_FLOOR_W`] more than the straights and wide turns (runs and calibration).
+fn sinkage(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::SinkageBulldozing;
+    let tight: Vec<[f64; 2]> = ev
+        .rows
+        .iter()
+        .filter(|r| !r.is_straight() && r.r_over_r_prime < 1.0)
+        .filter_map(both_growths)
+        .collect();
+    let wide: Vec<f64> = ev
+        .rows
+        .iter()
+        .chain(ev.calibration_rows)
+        .filter(|r| r.is_straight() || r.r_over_r_prime > 1.0)
+        .filter_map(both_growths)
+        .map(|g| 0.5 * (g[0] + g[1]))
+        .collect();
+    if tight.len() < 2 {
+        return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
+    }
+    let mean_tight: Vec<f64> = tight.iter().map(|g| 0.5 * (g[0] + g[1])).collect();
+    let side_mean = |s: usize| tight.iter().map(|g| g[s]).sum::<f64>() / tight.len() as f64;
+    let both_rise = side_mean(0) > 0.0 && side_mean(1) > 0.0;
+    let (diff, t, df, p) = if wide.len() >= 2 {
+        match welch_upper(&mean_tight, &wide) {
+            Some(x) => x,
+            None => return Signature::unobservable(e, "growth without spread"),
+        }
+    } else {
+        let (t, df, p) = one_sample_upper(&mean_tight, 0.0).expect("two or more");
+        (moments(&mean_tight).expect("two").0, t, df, p)
+    };
+    let test = SignatureTest {
+        statistic_name: "Welch t",
+        statistic: t,
+        df,
+        p,
+        present: p < ALPHA && diff >= PRACTICAL_FLOOR_W && both_rise,
+    };
+    Signature::tested(
+        e,
+        test,
+        format!(
+            "turns below R′ grow {:+.1} W (inner {:+.1}, outer {:+.1}) through the turn, {diff:+.1} W \
+             beyond {} straight(s) and wide turn(s)",
+            side_mean(0) * 0.5 + side_mean(1) * 0.5,
+            side_mean(0),
+            side_mean(1),
+            wide.len()
+        ),
+    )
+}
+
+/// The residual of the `role` side of each of `rows` matching `keep` [W].
+fn side_residuals(
+    ev: &Evidence<'_>,
+    role: SideRole,
+    keep: impl Fn(&TurnRow) -> bool,
+) -> Vec<f64> {
+    ev.rows
+        .iter()
+        .filter(|r| !r.is_straight() && !r.is_total_only() && keep(r))
+        .flat_map(|r| {
+            let res = ev.baseline.residual_w(r);
+            (0..2)
+                .filter(move |&s| r.sides[s].role == role)
+                .map(move |s| res[s])
+        })
+        .filter(|v| v.is_finite())
+        .collect()
+}
+
+/// A step test of the `role` side's residual: the rows matching `at` against those matching
+/// `around`, by Welch t, at least [`PRACTICAL_FLOOR_W`].
+fn step_test(
+    ev: &Evidence<'_>,
+    effect: EffectId,
+    role: SideRole,
+    at: impl Fn(&TurnRow) -> bool,
+    around: impl Fn(&TurnRow) -> bool,
+    what: &str,
+) -> Signature {
+    let here = side_residuals(ev, role, at);
+    let there = side_residuals(ev, role, around);
+    match welch_upper(&here, &there) {
+        Some((diff, t, df, p)) => Signature::tested(
+            effect,
+            SignatureTest {
+                statistic_name: "Welch t",
+                statistic: t,
+                df,
+                p,
+                present: p < ALPHA && diff >= PRACTICAL_FLOOR_W,
+            },
+            format!(
+                "the {} side {what} draws {diff:+.1} W beyond the model more than around it \
+                 ({} against {} turns)",
+                role.id(),
+                here.len(),
+                there.len()
+            ),
+        ),
+        None => Signature::unobservable(
+            effect,
+            format!("fewer than 2 turns {what} or around it with the {} side", role.id()),
+        ),
+    }
+}
+
+/// `inner-drag`: the inner side in the dragged-inner regime against the inner side of the
+/// regimes beside it (below B/2 and at R′).
+fn inner_drag(ev: &Evidence<'_>) -> Signature {
+    step_test(
+        ev,
+        EffectId::InnerDrag,
+        SideRole::Inner,
+        |r| r.regime == Regime::DraggedInner,
+        |r| matches!(r.regime, Regime::BelowHalfTrack | Regime::AtRPrime),
+        "between B/2 and R′",
+    )
+}
+
+/// `braked-inner`: the outer side at R′ against the outer side at the next commanded radius
+/// below and above.
+fn braked_inner(ev: &Evidence<'_>) -> Signature {
+    let turns = || ev.rows.iter().filter(|r| !r.is_straight());
+    let Some(at) = turns()
+        .find(|r| r.regime == Regime::AtRPrime)
+        .map(cv::radius_group)
+    else {
+        return Signature::unobservable(EffectId::BrakedInner, "no turn at R′");
+    };
+    let below = turns().map(cv::radius_group).filter(|&k| k < at).max();
+    let above = turns().map(cv::radius_group).filter(|&k| k > at).min();
+    step_test(
+        ev,
+        EffectId::BrakedInner,
+        SideRole::Outer,
+        |r| cv::radius_group(r) == at,
+        |r| Some(cv::radius_group(r)) == below || Some(cv::radius_group(r)) == above,
+        "at R′",
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_binomial_tail_matches_closed_forms() {
+        assert_eq!(binomial_upper_tail(0, 10, 0.05), 1.0);
+        // P(X ≥ 1) = 1 − 0.95^10.
+        assert!((binomial_upper_tail(1, 10, 0.05) - (1.0 - 0.95f64.powi(10))).abs() < 1e-12);
+        // P(X = n) = p^n.
+        assert!((binomial_upper_tail(3, 3, 0.05) - 0.05f64.powi(3)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn welch_t_is_the_pooled_t_for_equal_spreads_and_sizes() {
+        let a = [3.0, 4.0, 5.0];
+        let b = [0.0, 1.0, 2.0];
+        let (diff, t, df, p) = welch_upper(&a, &b).expect("two samples");
+        assert_eq!(diff, 3.0);
+        // Pooled sd 1, se = √(2/3).
+        assert!((t - 3.0 / (2.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert!((df - 4.0).abs() < 1e-12);
+        assert!(p < 0.05 && p > 0.0);
+        assert!(welch_upper(&a, &[1.0]).is_none());
+    }
+
+    #[test]
+    fn one_sided_t_rejects_only_above_the_null() {
+        let above = [1.1, 1.2, 1.3, 1.15];
+        let (_, _, p) = one_sample_upper(&above, 1.0).expect("test");
+        assert!(p < 0.01, "{p}");
+        let (_, _, p) = one_sample_upper(&above, 1.5).expect("test");
+        assert!(p > 0.99, "{p}");
+        assert!(one_sample_upper(&[1.0], 0.0).is_none());
+    }
+}
