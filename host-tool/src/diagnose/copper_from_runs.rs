@@ -147,7 +147,7 @@ pub(super) fn reconsider(
 }
 
 /// The held-out comparison of the module docs, when the copper-loss member wins it.
-fn evidence(
+pub(crate) fn evidence(
     rover: &Rover,
     rows: &[TurnRow],
     calibration: Calibration<'_>,

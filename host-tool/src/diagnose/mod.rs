@@ -296,46 +296,48 @@ pub(crate) fn diagnose_against(
         calibration,
         before: &before,
     };
-    // What the held-out selection fits best: the clear winner on the effective power, its
-    // growth or its average; else on the manoeuvres' totals; else where the gap is; else what
-    // explains a run-time trend. Then the physics' signs and the gaps' places.
-    let fitted = match select::select(&candidates).or_else(|| select::clear_in_total(&candidates))
-    {
+    // An effect is named only with its signature in the data ([`signature`]).
+    let marked = |e: EffectId| signatures.iter().any(|s| s.effect == e && s.present());
+    // What the held-out selection chooses: the clear winner on the effective power, its growth
+    // or its average; else a near tie the direct observations decide (the best candidate with
+    // its signature); else the clear winner on the manoeuvres' totals; else where the gap is;
+    // else what explains a run-time trend.
+    let chosen = match select::select(&candidates) {
         Some(e) => Some(e),
-        None if !significant_gaps.regimes.is_empty() => {
-            selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
-        }
-        None => None,
+        None => match select::marked_in_near_tie(&candidates, &marked) {
+            Some(e) => Some(e),
+            None => match select::clear_in_total(&candidates) {
+                Some(e) => Some(e),
+                None if !significant_gaps.regimes.is_empty() => {
+                    selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
+                }
+                None => None,
+            },
+        },
     };
-    let fitted = match (fitted, where_.run_time.trend.as_ref()) {
+    let chosen = match (chosen, where_.run_time.trend.as_ref()) {
         (None, Some(trend)) if trend.significant => {
             selection.what_explains_the_trend(&candidates, trend.floor_w)?
         }
-        (fitted, _) => fitted,
+        (chosen, _) => chosen,
     };
-    let signed = |e: EffectId| -> Result<bool, DiagnoseError> {
-        Ok(select::physically_signed(rover, rows, &[e], calibration)?
-            && select::reaches_the_gaps(rover, rows, &baseline, &gaps, e))
-    };
-    let fitted = match fitted {
-        Some(e) if !signed(e)? => None,
-        other => other,
-    };
-    // An effect is named only with its signature in the data. Against a misfitting baseline
-    // only a signature measured without the power model stands: the misfit is not absorbed.
-    let marked = |e: EffectId| signatures.iter().any(|s| s.effect == e && s.present());
+    // Named: the choice with its signature, physically signed and reaching the gaps. Against a
+    // misfitting baseline only a signature measured without the power model stands: the misfit
+    // is not absorbed.
     let misfit = adequacy.adequate == Some(false);
     let selected = if misfit {
         select::standing_on_its_own(&candidates, &marked, |e| {
             select::physically_signed(rover, rows, &[e], calibration)
         })?
     } else {
-        match fitted {
-            Some(e) if marked(e) => Some(e),
-            _ => select::marked_in_near_tie(&candidates, &marked, signed)?,
+        match chosen {
+            Some(e) if marked(e) => (select::physically_signed(rover, rows, &[e], calibration)?
+                && select::reaches_the_gaps(rover, rows, &baseline, &gaps, e))
+            .then_some(e),
+            _ => None,
         }
     };
-    let mark_missing = fitted.filter(|e| !marked(*e) && selected != Some(*e));
+    let mark_missing = chosen.filter(|e| !marked(*e) && selected != Some(*e));
     let spread = explained_spread(&baseline, rows, &candidates, selected);
     let in_groups = significant_gaps.any || where_.departs_over_run_time();
     let significant = in_groups || spread.is_some();

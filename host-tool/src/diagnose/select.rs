@@ -228,34 +228,28 @@ fn turns_no_quicker_by_yaw(rows: &[TurnRow], baseline: &Baseline) -> bool {
     !all.is_empty() && all.iter().sum::<f64>() >= 0.0
 }
 
-/// Without a clear winner with its signature: the best candidate (by penalised error) whose
-/// signature is present (`marked`), in a near tie with the best (penalised error within
-/// [`cv::CLEAR_MARGIN`]), that closes part of the held-out error (any part when its signature
-/// is measured without the power model, else [`cv::MIN_SHRINK_PCT`]) and passes `signed` (the
-/// physics' signs and the gaps' places). The direct observation decides a tie the power
+/// Without a clear winner: the best candidate (by penalised error) whose signature is present
+/// (`marked`), in a near tie with the best (penalised error within [`cv::CLEAR_MARGIN`]), that
+/// closes part of the held-out error (any part when its signature is measured without the
+/// power model, else [`cv::MIN_SHRINK_PCT`]). The direct observation decides a tie the power
 /// cannot: the standstill current, the yaw, the pitch.
 pub(super) fn marked_in_near_tie(
     candidates: &[CandidateScore],
     marked: &dyn Fn(EffectId) -> bool,
-    signed: impl Fn(EffectId) -> Result<bool, DiagnoseError>,
-) -> Result<Option<EffectId>, DiagnoseError> {
-    let Some(best) = candidates.first() else {
-        return Ok(None);
-    };
-    for c in candidates {
-        if c.penalised_mse >= cv::CLEAR_MARGIN * best.penalised_mse {
-            break;
-        }
-        let closes = if c.effect.signature_needs_power_model() {
-            c.shrink_pct >= cv::MIN_SHRINK_PCT
-        } else {
-            c.shrink_pct > 0.0
-        };
-        if marked(c.effect) && closes && signed(c.effect)? {
-            return Ok(Some(c.effect));
-        }
-    }
-    Ok(None)
+) -> Option<EffectId> {
+    let best = candidates.first()?;
+    candidates
+        .iter()
+        .take_while(|c| c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse)
+        .find(|c| {
+            let closes = if c.effect.signature_needs_power_model() {
+                c.shrink_pct >= cv::MIN_SHRINK_PCT
+            } else {
+                c.shrink_pct > 0.0
+            };
+            marked(c.effect) && closes
+        })
+        .map(|c| c.effect)
 }
 
 /// Against a baseline that misfits its calibration: the best candidate whose signature is

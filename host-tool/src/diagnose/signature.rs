@@ -327,12 +327,16 @@ pub(super) fn excess_slips<'r>(
 }
 
 /// `angular-slip`: the turns between the point turn and R′ slower by yaw than the point turns
-/// (of the runs and of the calibration), by at least [`MIN_SLIP_EXCESS`] (the thesis' Fig 6.8:
+/// (the runs', else the calibration's), by at least [`MIN_SLIP_EXCESS`] (the thesis' Fig 6.8:
 /// 0.27 at R = 0 to 0.38 at R′ on sand). A slip constant over the radii does not rise.
 fn angular_slip(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::AngularSlip;
-    let all = || ev.rows.iter().chain(ev.calibration_rows);
-    let point = excess_slips(all(), ev.baseline, |r| r.regime == Regime::Point);
+    // The runs' own point turns, on the same terrain; the calibration's when they have none.
+    let is_point = |r: &TurnRow| r.regime == Regime::Point;
+    let mut point = excess_slips(ev.rows, ev.baseline, is_point);
+    if point.is_empty() {
+        point = excess_slips(ev.calibration_rows, ev.baseline, is_point);
+    }
     let Some((point_mean, _, _)) = moments(&point) else {
         return Signature::unobservable(e, "no point turn timed by yaw to compare with");
     };
@@ -471,9 +475,7 @@ fn binomial_upper_tail(k: usize, n: usize, p: f64) -> f64 {
         return 1.0;
     }
     // Sum the lower part in log space and take its complement from the pmf directly.
-    let ln_pmf = |i: usize| {
-        ln_choose(n, i) + i as f64 * p.ln() + (n - i) as f64 * (1.0 - p).ln()
-    };
+    let ln_pmf = |i: usize| ln_choose(n, i) + i as f64 * p.ln() + (n - i) as f64 * (1.0 - p).ln();
     (k..=n).map(|i| ln_pmf(i).exp()).sum::<f64>().min(1.0)
 }
 
@@ -572,11 +574,7 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
 }
 
 /// The residual of the `role` side of each of `rows` matching `keep` [W].
-fn side_residuals(
-    ev: &Evidence<'_>,
-    role: SideRole,
-    keep: impl Fn(&TurnRow) -> bool,
-) -> Vec<f64> {
+fn side_residuals(ev: &Evidence<'_>, role: SideRole, keep: impl Fn(&TurnRow) -> bool) -> Vec<f64> {
     ev.rows
         .iter()
         .filter(|r| !r.is_straight() && !r.is_total_only() && keep(r))
@@ -622,7 +620,10 @@ fn step_test(
         ),
         None => Signature::unobservable(
             effect,
-            format!("fewer than 2 turns {what} or around it with the {} side", role.id()),
+            format!(
+                "fewer than 2 turns {what} or around it with the {} side",
+                role.id()
+            ),
         ),
     }
 }
@@ -691,8 +692,10 @@ mod tests {
     #[test]
     fn one_sided_t_rejects_only_above_the_null() {
         let above = [1.1, 1.2, 1.3, 1.15];
-        let (_, _, p) = one_sample_upper(&above, 1.0).expect("test");
-        assert!(p < 0.01, "{p}");
+        let (t, df, p) = one_sample_upper(&above, 1.0).expect("test");
+        // mean 1.1875, sd 0.0854, n 4: t = 4.39 on 3 df, one-sided p ≈ 0.011.
+        assert!((t - 4.392).abs() < 0.01 && df == 3.0, "{t} {df}");
+        assert!((0.010..0.012).contains(&p), "{p}");
         let (_, _, p) = one_sample_upper(&above, 1.5).expect("test");
         assert!(p > 0.99, "{p}");
         assert!(one_sample_upper(&[1.0], 0.0).is_none());

@@ -235,12 +235,18 @@ fn summary(d: &super::Diagnosis) -> String {
             )
         })
         .collect();
+    let marks: Vec<String> = d
+        .signatures
+        .iter()
+        .map(|s| format!("{}: {}", s.effect, s.describe()))
+        .collect();
     format!(
-        "{} @ {} sig={} | {}",
+        "{} @ {} sig={} | {} | signatures: {}",
         d.effect,
         d.regime,
         d.significant,
-        c.join(", ")
+        c.join(", "),
+        marks.join("; ")
     )
 }
 

@@ -67,10 +67,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// The goals: accuracy on effect datasets [%].
-pub const GOAL_ACCURACY_PCT: f64 = 90.0;
-/// Median held-out shrink of the true effect over all rows [%].
-pub const GOAL_SHRINK_PCT: f64 = 70.0;
+/// Goal: datasets on which a wrong effect is named (another effect than the true one, or any on
+/// a dataset without one), at most this share of all datasets [%].
+pub const GOAL_WRONG_PCT: f64 = 2.0;
+/// A twin ceiling at least this (a perfect model of the effect closes this share of the
+/// held-out error) makes an effect one the data can show [%].
+pub const SHOWN_CEILING_PCT: f64 = 50.0;
+/// Goal: effects the data can show ([`SHOWN_CEILING_PCT`]) named right, at least this share [%].
+pub const GOAL_SHOWN_NAMED_PCT: f64 = 80.0;
 /// Diagnosis time per dataset [ms].
 pub const GOAL_DIAGNOSE_MS: f64 = 20.0;
 /// Goal: one diagnosis of a one-hour log, features included [s].
