@@ -12,8 +12,8 @@
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time | permutation test (the "where" analysis), rising |
 //! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, both sides | Welch t against straights and wide turns, ≥ 1.5 W, both sides rising |
-//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of the neighbouring regimes, ≥ 1.5 W |
-//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of the neighbouring radii, ≥ 1.5 W |
+//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both |
+//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both |
 
 use super::baseline::{self, Baseline};
 use super::calibration::{Calibration, Source};
@@ -588,61 +588,76 @@ fn side_residuals(ev: &Evidence<'_>, role: SideRole, keep: impl Fn(&TurnRow) -> 
         .collect()
 }
 
-/// A step test of the `role` side's residual: the rows matching `at` against those matching
-/// `around`, by Welch t, at least [`PRACTICAL_FLOOR_W`].
+/// A step test of the `role` side's residual: the rows matching `at` against each group of
+/// `around` that has rows (the neighbours below and above), by Welch t, at least
+/// [`PRACTICAL_FLOOR_W`] above each. An effect confined to some radii is a plateau with an
+/// edge on both sides; a misfit smooth in the radius (copper loss, the split) rises towards
+/// it from a neighbour. The statistic is the weakest edge's, its p doubled.
 fn step_test(
     ev: &Evidence<'_>,
     effect: EffectId,
     role: SideRole,
     at: impl Fn(&TurnRow) -> bool,
-    around: impl Fn(&TurnRow) -> bool,
+    around: [&dyn Fn(&TurnRow) -> bool; 2],
     what: &str,
 ) -> Signature {
     let here = side_residuals(ev, role, at);
-    let there = side_residuals(ev, role, around);
-    match welch_upper(&here, &there) {
-        Some((diff, t, df, p)) => Signature::tested(
-            effect,
-            SignatureTest {
-                statistic_name: "Welch t",
-                statistic: t,
-                df,
-                p,
-                present: p < ALPHA && diff >= PRACTICAL_FLOOR_W,
-            },
-            format!(
-                "the {} side {what} draws {diff:+.1} W beyond the model more than around it \
-                 ({} against {} turns)",
-                role.id(),
-                here.len(),
-                there.len()
-            ),
-        ),
-        None => Signature::unobservable(
+    let edges: Vec<(f64, f64, f64, f64, usize)> = around
+        .iter()
+        .map(|keep| side_residuals(ev, role, keep))
+        .filter(|there| !there.is_empty())
+        .filter_map(|there| {
+            welch_upper(&here, &there).map(|(d, t, df, p)| (d, t, df, p, there.len()))
+        })
+        .collect();
+    let Some(&(diff, t, df, p, n)) = edges.iter().max_by(|a, b| a.3.total_cmp(&b.3)) else {
+        return Signature::unobservable(
             effect,
             format!(
-                "fewer than 2 turns {what} or around it with the {} side",
+                "fewer than 2 turns {what} or beside it with the {} side",
                 role.id()
             ),
+        );
+    };
+    let p = (p * edges.len() as f64).min(1.0);
+    let smallest_step = edges.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
+    Signature::tested(
+        effect,
+        SignatureTest {
+            statistic_name: "Welch t",
+            statistic: t,
+            df,
+            p,
+            present: p < ALPHA && smallest_step >= PRACTICAL_FLOOR_W,
+        },
+        format!(
+            "the {} side {what} draws {diff:+.1} W beyond the model more than at its weaker edge \
+             ({} against {n} turns; {} edge(s) tested)",
+            role.id(),
+            here.len(),
+            edges.len()
         ),
-    }
+    )
 }
 
-/// `inner-drag`: the inner side in the dragged-inner regime against the inner side of the
-/// regimes beside it (below B/2 and at R′).
+/// `inner-drag`: the inner side in the dragged-inner regime against the inner side of each
+/// regime beside it (below B/2, at R′).
 fn inner_drag(ev: &Evidence<'_>) -> Signature {
     step_test(
         ev,
         EffectId::InnerDrag,
         SideRole::Inner,
         |r| r.regime == Regime::DraggedInner,
-        |r| matches!(r.regime, Regime::BelowHalfTrack | Regime::AtRPrime),
+        [
+            &|r: &TurnRow| r.regime == Regime::BelowHalfTrack,
+            &|r: &TurnRow| r.regime == Regime::AtRPrime,
+        ],
         "between B/2 and R′",
     )
 }
 
 /// `braked-inner`: the outer side at R′ against the outer side at the next commanded radius
-/// below and above.
+/// below and at the next above.
 fn braked_inner(ev: &Evidence<'_>) -> Signature {
     let turns = || ev.rows.iter().filter(|r| !r.is_straight());
     let Some(at) = turns()
@@ -658,7 +673,10 @@ fn braked_inner(ev: &Evidence<'_>) -> Signature {
         EffectId::BrakedInner,
         SideRole::Outer,
         |r| cv::radius_group(r) == at,
-        |r| Some(cv::radius_group(r)) == below || Some(cv::radius_group(r)) == above,
+        [
+            &|r: &TurnRow| Some(cv::radius_group(r)) == below,
+            &|r: &TurnRow| Some(cv::radius_group(r)) == above,
+        ],
         "at R′",
     )
 }
