@@ -119,6 +119,9 @@ pub struct Diagnosis {
     /// The candidate the held-out selection fitted best whose signature is not in the data
     /// (not named).
     pub mark_missing: Option<EffectId>,
+    /// Each ranked candidate's sign check, fitted alone with the baseline on all rows
+    /// ([`select::physically_signed`]): `None` when it cannot be fitted there.
+    pub sign_checks: Vec<(EffectId, Option<bool>)>,
 }
 
 /// One step of the forward stepwise selection after the named effect.
@@ -166,6 +169,8 @@ impl Diagnosis {
                 "heldout_error_before": c.heldout_error_before,
                 "heldout_error_after": c.heldout_error_after,
                 "shrink_pct": c.shrink_pct,
+                "signature_present": self.signature(c.effect).is_some_and(|s| s.present()),
+                "physically_signed": self.sign_check(c.effect),
             })).collect::<Vec<_>>(),
             "not_testable_out_of_sample": self.not_testable.iter().filter_map(|c| {
                 let why = c.not_testable?;
@@ -337,6 +342,13 @@ pub(crate) fn diagnose_against(
             _ => None,
         }
     };
+    let sign_checks = candidates
+        .iter()
+        .map(|c| {
+            let signed = select::physically_signed(rover, rows, &[c.effect], calibration).ok();
+            (c.effect, signed)
+        })
+        .collect();
     let mark_missing = chosen.filter(|e| !marked(*e) && selected != Some(*e));
     let spread = explained_spread(&baseline, rows, &candidates, selected);
     let in_groups = significant_gaps.any || where_.departs_over_run_time();
@@ -424,6 +436,7 @@ pub(crate) fn diagnose_against(
         notes,
         signatures,
         mark_missing,
+        sign_checks,
     })
 }
 
@@ -739,6 +752,19 @@ pub fn extra_power_w(
 }
 
 impl Diagnosis {
+    /// `effect`'s signature test.
+    pub fn signature(&self, effect: EffectId) -> Option<&signature::Signature> {
+        self.signatures.iter().find(|s| s.effect == effect)
+    }
+
+    /// `effect`'s sign check, if it was ranked and could be fitted on all rows.
+    pub fn sign_check(&self, effect: EffectId) -> Option<bool> {
+        self.sign_checks
+            .iter()
+            .find(|(e, _)| *e == effect)
+            .and_then(|(_, s)| *s)
+    }
+
     /// `calibration` (the diagnosis' input) with the baseline family members this diagnosis'
     /// baseline came from: the copper-loss members when the diagnosed runs decided copper loss
     /// ([`copper_from_runs`]). What its figures and model file must be fitted with.

@@ -112,6 +112,17 @@ fn markdown_table(rows: &[Vec<String>]) -> String {
 /// secondary effects, where the model departs (the "where" analysis) and the data's caveats.
 pub fn findings(d: &Diagnosis) -> Vec<String> {
     let mut out = Vec::new();
+    if let Some(s) = named_effect(d).and_then(|e| d.signature(e)) {
+        out.push(format!("signature of {}: {}", s.effect, s.describe()));
+    }
+    if let Some(s) = d.mark_missing.and_then(|e| d.signature(e)) {
+        out.push(format!(
+            "{} fitted best out of sample but its signature is missing ({}): {}; not named",
+            s.effect,
+            s.observation,
+            s.describe()
+        ));
+    }
     if let Some(h) = d.heldout.iter().find(|h| h.regime == super::Scope::Gap) {
         let regimes: Vec<&str> = d.gap_regimes.iter().map(|r| r.id()).collect();
         out.push(format!(
@@ -202,13 +213,20 @@ pub fn conclusion(d: &Diagnosis) -> String {
         });
         format!(
             "diagnosis: baseline-misfit: the hard-ground model does not fit its own calibration \
-             manoeuvres beyond their repeat noise ({}), so no effect can be named against it{best}",
+             manoeuvres beyond their repeat noise ({}), and no effect's signature stands without \
+             it, so none is named{best}",
             adequacy_summary(&d.adequacy)
         )
     } else if let Some(effect) = named_effect(d) {
         let h = all.map_or_else(|| d.scheme.id().to_owned(), heldout);
+        let misfit = if d.adequacy.adequate == Some(false) {
+            "; named beside a baseline that misfits its calibration (its signature needs no \
+             power model; see adequacy)"
+        } else {
+            ""
+        };
         format!(
-            "diagnosis: {effect} @ {} (significant gap); {h}{}",
+            "diagnosis: {effect} @ {} (significant gap, its signature in the data); {h}{misfit}{}",
             d.regime,
             untested(d)
         )
@@ -442,6 +460,8 @@ fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
         "shrink of totals".to_owned(),
     ];
     head.extend(other.map(|(s, _)| format!("shrink {}", s.id())));
+    head.push("signature".to_owned());
+    head.push("sign".to_owned());
     head.push(String::new());
     let mut rows = vec![head];
     let named = named_effect(d);
@@ -461,6 +481,22 @@ fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
                 None => "-".to_owned(),
             },
         ));
+        row.push(match d.signature(c.effect).and_then(|s| s.test) {
+            Some(t) => format!(
+                "{} (p {})",
+                if t.present { "present" } else { "absent" },
+                super::signature::format_p(t.p)
+            ),
+            None => "not observable".to_owned(),
+        });
+        row.push(
+            match d.sign_check(c.effect) {
+                Some(true) => "ok",
+                Some(false) => "against physics",
+                None => "-",
+            }
+            .to_owned(),
+        );
         row.push(
             if Some(c.effect) == named {
                 "<- named"
@@ -470,6 +506,38 @@ fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
             .to_owned(),
         );
         rows.push(row);
+    }
+    rows
+}
+
+/// The signature table: per effect, its observation and its test.
+fn signature_rows(d: &Diagnosis) -> Vec<Vec<String>> {
+    let mut rows = vec![["effect", "signature", "test", "what was measured"]
+        .map(String::from)
+        .to_vec()];
+    for s in &d.signatures {
+        let test = match s.test {
+            Some(t) => format!(
+                "{}: {} = {:.2}, df {:.0}, p = {}",
+                if t.present { "present" } else { "absent" },
+                t.statistic_name,
+                t.statistic,
+                t.df,
+                super::signature::format_p(t.p)
+            ),
+            None => "not observable".to_owned(),
+        };
+        let model = if s.needs_power_model {
+            " (on the model's residuals)"
+        } else {
+            ""
+        };
+        rows.push(vec![
+            s.effect.id().to_owned(),
+            format!("{}{model}", s.observation),
+            test,
+            s.detail.clone(),
+        ]);
     }
     rows
 }
@@ -549,6 +617,16 @@ pub fn table(d: &Diagnosis) -> String {
             let _ = writeln!(out, "  {line}");
         }
     }
+    let _ = writeln!(
+        out,
+        "\nsignatures (an effect is named only with its own in the data; against a misfitting \
+         baseline only one measured without the power model; present: p < {} and the size \
+         above its floor):",
+        super::signature::ALPHA
+    );
+    for sig in &d.signatures {
+        let _ = writeln!(out, "  {:<19} {}", sig.effect.id(), sig.describe());
+    }
     if let Some(effect) = added_effect(d) {
         let _ = writeln!(out, "\nheld-out error per regime with {effect}:");
         out.push_str(&columns(&regime_rows(d)));
@@ -600,6 +678,16 @@ pub fn markdown(
         d.scheme.id()
     );
     out.push_str(&markdown_table(&candidate_rows(d)));
+    let _ = writeln!(out, "\n## Signatures: each effect's own mark in the data\n");
+    let _ = writeln!(
+        out,
+        "An effect is named only when its signature is in the data and it wins out of sample; \
+         against a baseline that misfits its calibration, only a signature measured without \
+         the power model stands (standstill current, yaw, pitch, power within a turn or between \
+         repeats). `present`: p below {} and the effect's size above its practical floor.\n",
+        super::signature::ALPHA
+    );
+    out.push_str(&markdown_table(&signature_rows(d)));
     let untested = not_testable_lines(d);
     if !untested.is_empty() {
         let _ = writeln!(out, "\nLeft out of the ranking:\n");

@@ -717,7 +717,9 @@ fn one_run_reports_an_extrapolating_candidate_instead_of_ranking_it() {
             "after [W]",
             "shrink",
             "penalised [W²]",
-            "shrink of totals"
+            "shrink of totals",
+            "signature",
+            "sign"
         ],
         "{ranking}"
     );
