@@ -10,7 +10,7 @@
 //! | `angular-slip` | yaw-timed slip of the turns with 0 < R ≤ R′ minus the point turns' | one-sided t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3 |
 //! | `slip-track` | every turn's slip beyond the calibration's terrain slip (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 % |
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
-//! | `motor-heating` | within-manoeuvre-kind trend of power over run time | permutation test (the "where" analysis), rising |
+//! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
 //! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, both sides | Welch t against straights and wide turns, ≥ 1.5 W, both sides rising |
 //! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both |
 //! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both |
@@ -485,9 +485,30 @@ fn ln_choose(n: usize, k: usize) -> f64 {
         .sum()
 }
 
-/// `motor-heating`: the "where" analysis' run-time trend, significant and rising.
+/// Whether some run drives the same commanded radius twice, at run times at least
+/// [`MIN_TREND_SPREAD_S`](super::gaps::MIN_TREND_SPREAD_S) apart.
+fn repeats_within_a_run(rows: &[TurnRow]) -> bool {
+    rows.iter().enumerate().any(|(i, a)| {
+        rows[i + 1..].iter().any(|b| {
+            a.run_index == b.run_index
+                && cv::radius_group(a) == cv::radius_group(b)
+                && (a.t_start_s - b.t_start_s).abs() >= super::gaps::MIN_TREND_SPREAD_S
+        })
+    })
+}
+
+/// `motor-heating`: the same manoeuvre drawing more later in a run: some run repeats a
+/// manoeuvre, and the "where" analysis' run-time trend is significant and rising. Without a
+/// repeat within a run, a trend over the runs' shuffled orders compares different runs, whose
+/// own variation a winding's slow rise cannot be told from.
 fn motor_heating(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::MotorHeating;
+    if !repeats_within_a_run(ev.rows) {
+        return Signature::unobservable(
+            e,
+            "no run drives a manoeuvre twice (repeat manoeuvres within longer runs to see it)",
+        );
+    }
     let Some(trend) = ev.where_.run_time.trend.as_ref() else {
         return Signature::unobservable(
             e,
