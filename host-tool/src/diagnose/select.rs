@@ -4,7 +4,6 @@
 //! forward stepwise secondaries.
 
 use super::effects::{self, Context, FittedEffect, HEATING_TAU_GRID_S};
-use super::features::SideRole;
 use super::{
     cv, fit_model, gaps, removed_rms_w, signature, DiagnoseError, FittedModel, Gap, Part,
     StepwiseStep,
@@ -107,9 +106,9 @@ const UNREACHED_GAP_FRACTION: f64 = 0.5;
 /// [`UNREACHED_GAP_FRACTION`] of the largest significant gap where it acts. A term confined to
 /// some regimes (an inner drag past B/2, a braked inner side at R′) that matches the largest
 /// gap while an equal gap sits where it cannot act is a shape that fits one part of a wider
-/// misfit (e.g. copper loss at every slow, high-force inner side), not the effect. A term that
-/// acts at one radius only must also stand out from the neighbouring radii
-/// ([`stands_out_from_the_neighbouring_radii`]).
+/// misfit (e.g. copper loss at every slow, high-force inner side), not the effect. (That a
+/// term acting at one radius stands out from the neighbouring radii is its signature's test,
+/// [`signature`].)
 pub(super) fn reaches_the_gaps(
     rover: &Rover,
     rows: &[TurnRow],
@@ -132,9 +131,6 @@ pub(super) fn reaches_the_gaps(
                 })
         })
     };
-    if !stands_out_from_the_neighbouring_radii(rows, baseline, &ctx, effect) {
-        return false;
-    }
     // Any extra force on a side held at stall shows there as copper loss alone, which no
     // term's power models: with copper loss in the baseline, its gap is not one the term
     // could be asked to reach, nor one it is credited with.
@@ -153,71 +149,6 @@ pub(super) fn reaches_the_gaps(
             && g.mean_w.abs() >= UNREACHED_GAP_FRACTION * largest.mean_w.abs()
             && !acts(g)
     })
-}
-
-/// For a term that acts at one commanded radius only (a braked inner side: held at R′, where
-/// the inner side is commanded to stand still): whether its gap stands out from the
-/// neighbouring commanded radii, below and above, on the sides where it acts. The held wheels
-/// are a step in the inner side's command through 0; a split or skid-force misfit is smooth
-/// in the radius. So a mean residual at a neighbouring radius of the same sign and at least
-/// [`UNREACHED_GAP_FRACTION`] of the term's own radius' means the gap is one part of a wider
-/// misfit. The regimes cannot tell: a regime pools radii (the Argo's 0.8R′ with R′/3 and
-/// 2R′/3), and three repeats of one radius are seldom significant alone. True for other terms.
-fn stands_out_from_the_neighbouring_radii(
-    rows: &[TurnRow],
-    baseline: &Baseline,
-    ctx: &Context<'_>,
-    effect: EffectId,
-) -> bool {
-    let acts_on = |r: &TurnRow, s: usize| {
-        effects::regressors(effect, r, s, ctx).is_some_and(|x| x.iter().any(|v| *v != 0.0))
-    };
-    let turns = || rows.iter().filter(|r| !r.is_straight());
-    // The commanded radii (leave-one-radius-out's groups) where the term acts.
-    let mut acting: Vec<i64> = turns()
-        .filter(|r| (0..r.sides.len()).any(|s| acts_on(r, s)))
-        .map(cv::radius_group)
-        .collect();
-    acting.sort_unstable();
-    acting.dedup();
-    let [radius] = acting[..] else {
-        return true;
-    };
-    let at = |k: i64| turns().filter(move |r| cv::radius_group(r) == k);
-    if at(radius).any(|r| !(0..r.sides.len()).any(|s| acts_on(r, s))) {
-        return true;
-    }
-    let roles: Vec<SideRole> = at(radius)
-        .flat_map(|r| {
-            (0..r.sides.len())
-                .filter(|&s| acts_on(r, s))
-                .map(|s| r.sides[s].role)
-        })
-        .collect();
-    // Mean residual of the sides where the term acts, over the turns at radius `k`.
-    let mean_at = |k: i64| {
-        let res: Vec<f64> = at(k)
-            .flat_map(|r| {
-                let res = baseline.residual_w(r);
-                (0..r.sides.len())
-                    .filter(|&s| roles.contains(&r.sides[s].role))
-                    .map(move |s| res[s])
-            })
-            .filter(|v| v.is_finite())
-            .collect();
-        (!res.is_empty()).then(|| res.iter().sum::<f64>() / res.len() as f64)
-    };
-    let Some(own) = mean_at(radius) else {
-        return true;
-    };
-    let radii = || turns().map(cv::radius_group);
-    let below = radii().filter(|&k| k < radius).max();
-    let above = radii().filter(|&k| k > radius).min();
-    ![below, above]
-        .into_iter()
-        .flatten()
-        .filter_map(mean_at)
-        .any(|m| m * own > 0.0 && m.abs() >= UNREACHED_GAP_FRACTION * own.abs())
 }
 
 /// Whether the turns timed by yaw took, on average, at least as long as the baseline's terrain
