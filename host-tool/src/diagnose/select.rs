@@ -159,20 +159,21 @@ fn turns_no_quicker_by_yaw(rows: &[TurnRow], baseline: &Baseline) -> bool {
     !all.is_empty() && all.iter().sum::<f64>() >= 0.0
 }
 
-/// Without a clear winner: the best candidate (by penalised error) whose signature is present
-/// (`marked`), in a near tie with the best (penalised error within [`cv::CLEAR_MARGIN`]), that
-/// closes part of the held-out error (any part when its signature is measured without the
-/// power model, else [`cv::MIN_SHRINK_PCT`]). The direct observation decides a tie the power
-/// cannot: the standstill current, the yaw, the pitch.
+/// Without a clear winner: the one candidate in a near tie with the best (penalised error
+/// within [`cv::CLEAR_MARGIN`]) whose signature is present (`marked`) and that closes part of
+/// the held-out error (any part when its signature is measured without the power model, else
+/// [`cv::MIN_SHRINK_PCT`]). The direct observation decides a tie the power cannot (the
+/// standstill current, the yaw, the pitch); when two candidates in the tie show their
+/// signatures, the data do not decide between them and none is chosen.
 pub(super) fn marked_in_near_tie(
     candidates: &[CandidateScore],
     marked: &dyn Fn(EffectId) -> bool,
 ) -> Option<EffectId> {
     let best = candidates.first()?;
-    candidates
+    let shown: Vec<EffectId> = candidates
         .iter()
         .take_while(|c| c.penalised_mse < cv::CLEAR_MARGIN * best.penalised_mse)
-        .find(|c| {
+        .filter(|c| {
             let closes = if c.effect.signature_needs_power_model() {
                 c.shrink_pct >= cv::MIN_SHRINK_PCT
             } else {
@@ -181,6 +182,11 @@ pub(super) fn marked_in_near_tie(
             marked(c.effect) && closes
         })
         .map(|c| c.effect)
+        .collect();
+    match shown[..] {
+        [e] => Some(e),
+        _ => None,
+    }
 }
 
 /// Against a baseline that misfits its calibration: the best candidate whose signature is

@@ -8,10 +8,10 @@
 //! |---|---|---|
 //! | `current-offset` | standstill current per run and side | one-sided t of \|mean\| over the quiescent draw (0.25 A), per side, Bonferroni ×2 |
 //! | `angular-slip` | yaw-timed slip of the turns with 0 < R ≤ R′ minus the point turns' | one-sided t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3 |
-//! | `slip-track` | every turn's slip beyond the calibration's terrain slip (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 % |
+//! | `slip-track` | every turn's slip beyond the calibration's terrain slip, not rising towards R′ (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 %, angular slip's rise absent |
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
-//! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, both sides | Welch t against straights and wide turns, ≥ 1.5 W, both sides rising |
+//! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, each side | Welch t per side against straights and wide turns, ≥ 1.5 W on both, the weaker side's p ×2 |
 //! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both |
 //! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both |
 
@@ -390,7 +390,8 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
 /// `slip-track`: with a pose track, the measured slip track off the terrain's (the controller's
 /// B_s widened by the calibration's constant slip) by [`MIN_SLIP_TRACK_DIFFERENCE`]; else
 /// every turn's yaw-timed slip off the calibration's terrain slip by [`MIN_SLIP_EXCESS`], either
-/// way (a narrower track makes turns quicker than commanded).
+/// way (a narrower track makes turns quicker than commanded), and the same on every turn: not
+/// rising from the point turn towards R′ as angular slip does.
 fn slip_track(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::SlipTrack;
     let terrain_m = ev.baseline.slip_track_m / (1.0 - ev.baseline.turn_slip);
@@ -419,6 +420,9 @@ fn slip_track(ev: &Evidence<'_>) -> Signature {
     let Some((mean, _, n)) = moments(&values) else {
         return Signature::unobservable(e, "no turn timed by yaw and no pose track");
     };
+    // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
+    // same fraction on every turn.
+    let rises = floor == MIN_SLIP_EXCESS && angular_slip(ev).present();
     let flipped: Vec<f64> = values.iter().map(|v| v * mean.signum()).collect();
     let Some((t, df, p)) = one_sample_upper(&flipped, 0.0) else {
         return Signature::unobservable(e, "a single turn timed by yaw");
@@ -429,12 +433,17 @@ fn slip_track(ev: &Evidence<'_>) -> Signature {
         statistic: t,
         df,
         p,
-        present: p < ALPHA && mean.abs() >= floor,
+        present: p < ALPHA && mean.abs() >= floor && !rises,
+    };
+    let shape = if rises {
+        "; but it rises from the point turn towards R′ (angular slip), not the same on every turn"
+    } else {
+        ""
     };
     Signature::tested(
         e,
         test,
-        format!("{what}: {:+.1} % over {n} turn(s)", 100.0 * mean),
+        format!("{what}: {:+.1} % over {n} turn(s){shape}", 100.0 * mean),
     )
 }
 
@@ -540,8 +549,10 @@ fn both_growths(row: &TurnRow) -> Option<[f64; 2]> {
     Some([row.sides[0].growth_w?, row.sides[1].growth_w?])
 }
 
-/// `sinkage-bulldozing`: the turns below R′ grow through the turn on both sides, by at least
-/// [`PRACTICAL_FLOOR_W`] more than the straights and wide turns (runs and calibration).
+/// `sinkage-bulldozing`: the turns below R′ grow through the turn on **each** side by at least
+/// [`PRACTICAL_FLOOR_W`] more than the straights and wide turns do (runs and calibration), by
+/// Welch t per side; the weaker side's test, its p doubled. A drag of the inner side alone
+/// (which also grows) does not pass on the outer side.
 fn sinkage(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::SinkageBulldozing;
     let tight: Vec<[f64; 2]> = ev
@@ -550,7 +561,10 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
         .filter(|r| !r.is_straight() && r.r_over_r_prime < 1.0)
         .filter_map(both_growths)
         .collect();
-    let wide: Vec<f64> = ev
+    if tight.len() < 2 {
+        return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
+    }
+    let mut wide: Vec<f64> = ev
         .rows
         .iter()
         .chain(ev.calibration_rows)
@@ -558,37 +572,35 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
         .filter_map(both_growths)
         .map(|g| 0.5 * (g[0] + g[1]))
         .collect();
-    if tight.len() < 2 {
-        return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
+    if wide.len() < 2 {
+        // Nothing to compare with: against no growth at all.
+        wide = vec![0.0, 0.0];
     }
-    let mean_tight: Vec<f64> = tight.iter().map(|g| 0.5 * (g[0] + g[1])).collect();
-    let side_mean = |s: usize| tight.iter().map(|g| g[s]).sum::<f64>() / tight.len() as f64;
-    let both_rise = side_mean(0) > 0.0 && side_mean(1) > 0.0;
-    let (diff, t, df, p) = if wide.len() >= 2 {
-        match welch_upper(&mean_tight, &wide) {
-            Some(x) => x,
-            None => return Signature::unobservable(e, "growth without spread"),
-        }
-    } else {
-        let (t, df, p) = one_sample_upper(&mean_tight, 0.0).expect("two or more");
-        (moments(&mean_tight).expect("two").0, t, df, p)
+    let side = |s: usize| -> Option<(f64, f64, f64, f64)> {
+        let growth: Vec<f64> = tight.iter().map(|g| g[s]).collect();
+        welch_upper(&growth, &wide)
     };
+    let (Some(inner), Some(outer)) = (side(0), side(1)) else {
+        return Signature::unobservable(e, "growth without spread");
+    };
+    let weaker = if inner.3 >= outer.3 { inner } else { outer };
+    let (_, t, df, p) = weaker;
+    let p = (2.0 * p).min(1.0);
     let test = SignatureTest {
         statistic_name: "Welch t",
         statistic: t,
         df,
         p,
-        present: p < ALPHA && diff >= PRACTICAL_FLOOR_W && both_rise,
+        present: p < ALPHA && inner.0.min(outer.0) >= PRACTICAL_FLOOR_W,
     };
     Signature::tested(
         e,
         test,
         format!(
-            "turns below R′ grow {:+.1} W (inner {:+.1}, outer {:+.1}) through the turn, {diff:+.1} W \
-             beyond {} straight(s) and wide turn(s)",
-            side_mean(0) * 0.5 + side_mean(1) * 0.5,
-            side_mean(0),
-            side_mean(1),
+            "turns below R′ grow {:+.1} W on the inner side and {:+.1} W on the outer side \
+             through the turn beyond {} straight(s) and wide turn(s)",
+            inner.0,
+            outer.0,
             wide.len()
         ),
     )
