@@ -40,6 +40,7 @@ def true_class(r):
 def tally(datasets):
     t = dict(n=0, wrong=0, control_named=0, structure_named=0, effects=0, right=0, shown=0,
              shown_right=0, errors=0)
+    wrong = {}
     for r in datasets:
         cls, got = true_class(r), r["diagnosed"]
         t["n"] += 1
@@ -51,17 +52,21 @@ def tally(datasets):
             right = got == cls
             t["right"] += right
             t["wrong"] += named and not right
+            if named and not right:
+                wrong[f"{cls} → {got}"] = wrong.get(f"{cls} → {got}", 0) + 1
             ceiling = r.get("ceiling_shrink_pct")
             if ceiling is not None and ceiling >= SHOWN_CEILING_PCT:
                 t["shown"] += 1
                 t["shown_right"] += right
         else:
             t["wrong"] += named
+            if named:
+                wrong[f"{cls} → {got}"] = wrong.get(f"{cls} → {got}", 0) + 1
             if cls == "none":
                 t["control_named"] += named
             else:
                 t["structure_named"] += named
-    return t
+    return t, wrong
 
 
 def pct(a, b):
@@ -76,6 +81,7 @@ def main():
     ap.add_argument("--json", help="write every seed's per-part tallies here")
     args = ap.parse_args()
     parts = {}
+    wrong_pairs = {}
     per_seed = []
     for seed in seeds_of(args.seeds):
         out = subprocess.run(
@@ -89,16 +95,21 @@ def main():
             ds = [r for r in report["datasets"] if r["spec"]["part"] == part]
             if not ds:
                 continue
-            t = tally(ds)
-            per_seed.append(dict(seed=seed, part=part, **t))
+            t, wrong = tally(ds)
+            per_seed.append(dict(seed=seed, part=part, wrong_names=wrong, **t))
             acc = parts.setdefault(part, dict.fromkeys(t, 0))
             for k, v in t.items():
                 acc[k] += v
+            pairs = wrong_pairs.setdefault(part, {})
+            for k, v in wrong.items():
+                pairs[k] = pairs.get(k, 0) + v
         print(f"seed {seed} done", file=sys.stderr)
     for part, t in parts.items():
         print(f"{part} part, seeds {args.seeds}: {t['n']} datasets"
               + (f", {t['errors']} errors" if t["errors"] else ""))
-        print(f"  wrong names: {t['wrong']} = {pct(t['wrong'], t['n'])} (bar ≤ 2 %)")
+        pairs = ", ".join(f"{k} {v}" for k, v in sorted(wrong_pairs.get(part, {}).items()))
+        print(f"  wrong names: {t['wrong']} = {pct(t['wrong'], t['n'])} (bar ≤ 2 %)"
+              + (f": {pairs}" if pairs else ""))
         print(f"  effects named on controls: {t['control_named']}; on structure-only: "
               f"{t['structure_named']} (bar 0)")
         print(f"  effects the data can show (twin ceiling ≥ {SHOWN_CEILING_PCT:.0f} %) named right: "
