@@ -130,9 +130,11 @@ pub enum Command {
     Decode(decode::DecodeArgs),
     /// Diagnose the gap between the hard-ground model and the runs: where it departs (gaps per
     /// regime and side, significant beyond the repeat noise), which catalogued unmodelled effect
-    /// explains it (grouped cross-validation, penalised), and how much of the held-out gap it
-    /// closes. Table on the terminal; JSON with --json; report, figures and a `plan --model`
-    /// file with --out.
+    /// explains it (grouped cross-validation, penalised; named only when its own signature is in
+    /// the data, e.g. the standstill current for a sensor offset, and against a baseline that
+    /// misfits its calibration only when that signature needs no power model), and how much of
+    /// the held-out gap it closes. Table on the terminal; JSON with --json; report, figures and a
+    /// `plan --model` file with --out.
     #[command(after_help = CONVENTIONS)]
     Diagnose(diagnose::DiagnoseArgs),
     /// Checks `diagnose` on simulated datasets whose effect and structure it is not told, drawn
