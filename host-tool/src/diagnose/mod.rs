@@ -2,11 +2,13 @@
 //! departs from measured power, which catalogued unmodelled effect explains it, and how much of
 //! the held-out gap it closes. Design notes and measured figures: `NOTES.md` in this directory.
 //!
-//! Pipeline: [`features::rows`] (per-turn inner/outer rows from `validate`) →
-//! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → gaps per regime and side
-//! with bootstrap significance ([`cv::bootstrap_mean`]) → every [`effects`] term scored by
-//! grouped cross-validation ([`cv::score_all`]) → [`diagnose`]'s selection (`select.rs`) → the
-//! same against copper loss when the diagnosed runs show it ([`copper_from_runs`]).
+//! Pipeline, read forward: [`features::rows`] (per-turn inner/outer rows from `validate`) →
+//! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → [`adequacy`] (does it fit
+//! them?) → gaps per regime and side ([`gaps`]) → [`signature`] (each effect's own mark in the
+//! data, tested) → every [`effects`] term scored by grouped cross-validation
+//! ([`cv::score_all`]) → the verdict ([`diagnose_against`]: an effect only with its signature;
+//! against a misfitting baseline only with one that needs no power model) → the same against
+//! copper loss when the diagnosed runs show it ([`copper_from_runs`]) → [`report`].
 
 pub mod adequacy;
 pub mod baseline;
