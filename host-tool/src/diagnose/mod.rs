@@ -306,9 +306,9 @@ pub(crate) fn diagnose_against(
     // An effect is named only with its signature in the data ([`signature`]).
     let marked = |e: EffectId| signatures.iter().any(|s| s.effect == e && s.present());
     // What the held-out selection chooses: the clear winner on the effective power, its growth
-    // or its average; else a near tie the direct observations decide (the best candidate with
-    // its signature); else the clear winner on the manoeuvres' totals; else where the gap is;
-    // else what explains a run-time trend.
+    // or its average; else a near tie the direct observations decide (the one candidate in it
+    // with its signature); else the clear winner on the manoeuvres' totals; else where the gap
+    // is; else what explains a run-time trend.
     let chosen = match select::select(&candidates) {
         Some(e) => Some(e),
         None => match select::marked_in_near_tie(&candidates, &marked) {
