@@ -89,7 +89,9 @@ fn diagnose_names_inner_drag_and_writes_json_report_figures_and_a_plan_model() {
     let stdout = ok(&diagnose(&args));
     eprintln!("{stdout}");
     assert!(
-        stdout.contains("diagnosis: inner-drag @ dragged-inner (significant gap)"),
+        stdout.contains(
+            "diagnosis: inner-drag @ dragged-inner (significant gap, its signature in the data)"
+        ),
         "{stdout}"
     );
     assert!(
