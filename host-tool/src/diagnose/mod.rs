@@ -328,28 +328,36 @@ pub(crate) fn diagnose_against(
         }
         (chosen, _) => chosen,
     };
+    // Each ranked candidate's sign check, fitted once: the selection asks it, the report shows
+    // it. Every choice above is a ranked candidate.
+    let signs: Vec<(EffectId, Result<bool, DiagnoseError>)> = candidates
+        .iter()
+        .map(|c| {
+            let signed = select::physically_signed(rover, rows, &[c.effect], calibration);
+            (c.effect, signed)
+        })
+        .collect();
+    let signed_alone = |e: EffectId| match signs.iter().find(|(x, _)| *x == e) {
+        Some((_, signed)) => signed.clone(),
+        None => select::physically_signed(rover, rows, &[e], calibration),
+    };
     // Named: the choice with its signature, physically signed and reaching the gaps. Against a
     // misfitting baseline only a signature measured without the power model stands: the misfit
     // is not absorbed.
     let misfit = adequacy.adequate == Some(false);
     let selected = if misfit {
-        select::standing_on_its_own(&candidates, &marked, |e| {
-            select::physically_signed(rover, rows, &[e], calibration)
-        })?
+        select::standing_on_its_own(&candidates, &marked, signed_alone)?
     } else {
         match chosen {
-            Some(e) if marked(e) => (select::physically_signed(rover, rows, &[e], calibration)?
+            Some(e) if marked(e) => (signed_alone(e)?
                 && select::reaches_the_gaps(rover, rows, &baseline, &gaps, e))
             .then_some(e),
             _ => None,
         }
     };
-    let sign_checks = candidates
+    let sign_checks = signs
         .iter()
-        .map(|c| {
-            let signed = select::physically_signed(rover, rows, &[c.effect], calibration).ok();
-            (c.effect, signed)
-        })
+        .map(|(e, signed)| (*e, signed.as_ref().ok().copied()))
         .collect();
     let mark_missing = chosen.filter(|e| !marked(*e) && selected != Some(*e));
     let spread = explained_spread(&baseline, rows, &candidates, selected);

@@ -516,17 +516,6 @@ fn signature_rows(d: &Diagnosis) -> Vec<Vec<String>> {
         .map(String::from)
         .to_vec()];
     for s in &d.signatures {
-        let test = match s.test {
-            Some(t) => format!(
-                "{}: {} = {:.2}, df {:.0}, p = {}",
-                if t.present { "present" } else { "absent" },
-                t.statistic_name,
-                t.statistic,
-                t.df,
-                super::signature::format_p(t.p)
-            ),
-            None => "not observable".to_owned(),
-        };
         let model = if s.needs_power_model {
             " (on the model's residuals)"
         } else {
@@ -535,7 +524,7 @@ fn signature_rows(d: &Diagnosis) -> Vec<Vec<String>> {
         rows.push(vec![
             s.effect.id().to_owned(),
             format!("{}{model}", s.observation),
-            test,
+            s.outcome(),
             s.detail.clone(),
         ]);
     }

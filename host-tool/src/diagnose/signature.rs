@@ -74,18 +74,26 @@ impl Signature {
         self.test.is_some_and(|t| t.present)
     }
 
-    /// One line for the report: the test and what it measured.
-    pub fn describe(&self) -> String {
+    /// The test's outcome for the report: `present: t = 4.39, df 3, p = 0.011`, or
+    /// `not observable`.
+    pub fn outcome(&self) -> String {
         match &self.test {
             Some(t) => format!(
-                "{}: {} = {:.2}, df {:.0}, p = {} — {}",
+                "{}: {} = {:.2}, df {:.0}, p = {}",
                 if t.present { "present" } else { "absent" },
                 t.statistic_name,
                 t.statistic,
                 t.df,
-                format_p(t.p),
-                self.detail
+                format_p(t.p)
             ),
+            None => "not observable".to_owned(),
+        }
+    }
+
+    /// One line for the report: the test and what it measured.
+    pub fn describe(&self) -> String {
+        match &self.test {
+            Some(_) => format!("{} — {}", self.outcome(), self.detail),
             None => format!("not observable: {}", self.detail),
         }
     }
@@ -155,22 +163,21 @@ impl<'a> Evidence<'a> {
 }
 
 /// Every effect's signature test, catalogue order.
-pub fn test_all(evidence: &Evidence<'_>) -> Vec<Signature> {
-    EffectId::ALL.map(|e| test(e, evidence)).to_vec()
-}
-
-/// `effect`'s signature test.
-pub fn test(effect: EffectId, ev: &Evidence<'_>) -> Signature {
-    match effect {
-        EffectId::CurrentOffset => current_offset(ev),
-        EffectId::AngularSlip => angular_slip(ev),
-        EffectId::SlipTrack => slip_track(ev),
-        EffectId::Slope => slope(ev),
-        EffectId::MotorHeating => motor_heating(ev),
-        EffectId::SinkageBulldozing => sinkage(ev),
-        EffectId::InnerDrag => inner_drag(ev),
-        EffectId::BrakedInner => braked_inner(ev),
-    }
+pub fn test_all(ev: &Evidence<'_>) -> Vec<Signature> {
+    // Angular slip's rise towards R′ is also what a slip track's yaw must not show.
+    let angular = angular_slip(ev);
+    EffectId::ALL
+        .map(|e| match e {
+            EffectId::CurrentOffset => current_offset(ev),
+            EffectId::AngularSlip => angular.clone(),
+            EffectId::SlipTrack => slip_track(ev, angular.present()),
+            EffectId::Slope => slope(ev),
+            EffectId::MotorHeating => motor_heating(ev),
+            EffectId::SinkageBulldozing => sinkage(ev),
+            EffectId::InnerDrag => inner_drag(ev),
+            EffectId::BrakedInner => braked_inner(ev),
+        })
+        .to_vec()
 }
 
 /// Mean, standard deviation and count of `values`.
@@ -391,8 +398,8 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
 /// B_s widened by the calibration's constant slip) by [`MIN_SLIP_TRACK_DIFFERENCE`]; else
 /// every turn's yaw-timed slip off the calibration's terrain slip by [`MIN_SLIP_EXCESS`], either
 /// way (a narrower track makes turns quicker than commanded), and the same on every turn: not
-/// rising from the point turn towards R′ as angular slip does.
-fn slip_track(ev: &Evidence<'_>) -> Signature {
+/// rising from the point turn towards R′ as angular slip does (`slip_rises`, its signature).
+fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     let e = EffectId::SlipTrack;
     let terrain_m = ev.baseline.slip_track_m / (1.0 - ev.baseline.turn_slip);
     let measured: Vec<f64> = ev
@@ -422,7 +429,7 @@ fn slip_track(ev: &Evidence<'_>) -> Signature {
     };
     // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
     // same fraction on every turn.
-    let rises = floor == MIN_SLIP_EXCESS && angular_slip(ev).present();
+    let rises = floor == MIN_SLIP_EXCESS && slip_rises;
     let flipped: Vec<f64> = values.iter().map(|v| v * mean.signum()).collect();
     let Some((t, df, p)) = one_sample_upper(&flipped, 0.0) else {
         return Signature::unobservable(e, "a single turn timed by yaw");
