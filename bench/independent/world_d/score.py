@@ -22,9 +22,10 @@ import subprocess
 import sys
 import time
 
-EFFECTS = ["inner-drag", "sinkage-bulldozing", "angular-slip", "slip-track", "braked-inner",
-           "current-offset", "motor-heating", "slope"]
-CLASSES = ["control"] + EFFECTS
+# The catalogue's classes, as the generator writes them into truth.json (control first).
+from gen import CLASSES  # noqa: E402 (gen.py sits beside this script)
+
+EFFECTS = CLASSES[1:]
 
 
 def run_one(tool, d, timeout):

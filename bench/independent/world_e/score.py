@@ -26,17 +26,8 @@ import os
 import subprocess
 import sys
 
-EFFECTS = [
-    "inner-drag",
-    "sinkage-bulldozing",
-    "angular-slip",
-    "slip-track",
-    "braked-inner",
-    "current-offset",
-    "motor-heating",
-    "slope",
-]
-CLASSES = ["control"] + EFFECTS
+# The catalogue's ids and classes, as the generator writes them into truth.json.
+from gen import CLASSES, EFFECTS  # noqa: E402 (gen.py sits beside this script)
 
 
 def run_tool(tool, d):
