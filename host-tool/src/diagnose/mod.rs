@@ -6,7 +6,8 @@
 //! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → [`adequacy`] (does it fit
 //! them?) → gaps per regime and side ([`gaps`]) → [`signature`] (each effect's own mark in the
 //! data, tested) → every [`effects`] term scored by grouped cross-validation
-//! ([`cv::score_all`]) → the verdict ([`diagnose_against`]: an effect only with its signature;
+//! ([`cv::score_all`]) → each candidate's marks, one table (`select::Marks`: its signature
+//! and its sign check) → the verdict (`Selection::decide`: an effect only with its signature;
 //! against a misfitting baseline only with one that needs no power model) → the same against
 //! copper loss when the diagnosed runs show it ([`copper_from_runs`]) → [`report`].
 
@@ -303,63 +304,25 @@ pub(crate) fn diagnose_against(
         calibration,
         before: &before,
     };
-    // An effect is named only with its signature in the data ([`signature`]).
-    let marked = |e: EffectId| signatures.iter().any(|s| s.effect == e && s.present());
-    // What the held-out selection chooses: the clear winner on the effective power, its growth
-    // or its average; else a near tie the direct observations decide (the one candidate in it
-    // with its signature); else the clear winner on the manoeuvres' totals; else where the gap
-    // is; else what explains a run-time trend.
-    let chosen = match select::select(&candidates) {
-        Some(e) => Some(e),
-        None => match select::marked_in_near_tie(&candidates, &marked) {
-            Some(e) => Some(e),
-            None => match select::clear_in_total(&candidates) {
-                Some(e) => Some(e),
-                None if !significant_gaps.regimes.is_empty() => {
-                    selection.where_the_gap_is(&candidates, &significant_gaps.regimes)?
-                }
-                None => None,
-            },
-        },
-    };
-    let chosen = match (chosen, where_.run_time.trend.as_ref()) {
-        (None, Some(trend)) if trend.significant => {
-            selection.what_explains_the_trend(&candidates, trend.floor_w)?
-        }
-        (chosen, _) => chosen,
-    };
-    // Each ranked candidate's sign check, fitted once: the selection asks it, the report shows
-    // it. Every choice above is a ranked candidate.
-    let signs: Vec<(EffectId, Result<bool, DiagnoseError>)> = candidates
-        .iter()
-        .map(|c| {
-            let signed = select::physically_signed(rover, rows, &[c.effect], calibration);
-            (c.effect, signed)
-        })
-        .collect();
-    let signed_alone = |e: EffectId| match signs.iter().find(|(x, _)| *x == e) {
-        Some((_, signed)) => signed.clone(),
-        None => select::physically_signed(rover, rows, &[e], calibration),
-    };
-    // Named: the choice with its signature, physically signed and reaching the gaps. Against a
-    // misfitting baseline only a signature measured without the power model stands: the misfit
-    // is not absorbed.
+    // Each ranked candidate's evidence beside its fit, one plain table: its own signature and
+    // whether its term has the sign its physics allows (fitted once; the selection reads what
+    // the report shows).
+    let marks = select::Marks::of(&candidates, &signatures, |e| {
+        select::physically_signed(rover, rows, &[e], calibration)
+    });
     let misfit = adequacy.adequate == Some(false);
-    let selected = if misfit {
-        select::standing_on_its_own(&candidates, &marked, signed_alone)?
-    } else {
-        match chosen {
-            Some(e) if marked(e) => (signed_alone(e)?
-                && select::reaches_the_gaps(rover, rows, &baseline, &gaps, e))
-            .then_some(e),
-            _ => None,
-        }
-    };
-    let sign_checks = signs
-        .iter()
-        .map(|(e, signed)| (*e, signed.as_ref().ok().copied()))
-        .collect();
-    let mark_missing = chosen.filter(|e| !marked(*e) && selected != Some(*e));
+    let select::Decision {
+        selected,
+        mark_missing,
+    } = selection.decide(select::Facts {
+        candidates: &candidates,
+        marks: &marks,
+        misfit,
+        gap_regimes: &significant_gaps.regimes,
+        trend: where_.run_time.trend.as_ref(),
+        reaches_the_gaps: &|e| select::reaches_the_gaps(rover, rows, &baseline, &gaps, e),
+    })?;
+    let marked = |e: EffectId| marks.present(e);
     let spread = explained_spread(&baseline, rows, &candidates, selected);
     let in_groups = significant_gaps.any || where_.departs_over_run_time();
     let significant = in_groups || spread.is_some();
@@ -446,7 +409,7 @@ pub(crate) fn diagnose_against(
         notes,
         signatures,
         mark_missing,
-        sign_checks,
+        sign_checks: marks.sign_checks(),
     })
 }
 

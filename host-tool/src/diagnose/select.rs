@@ -1,6 +1,8 @@
-//! Which catalogue term to name: the clear winner of the held-out selection and the rules that
-//! decide near ties (the standstill current, the yaw, the manoeuvres' total power), the
-//! regimes of the gap, the run-time trend, the physics' signs and the gaps' places, and the
+//! The verdict stage: which catalogue term to name. It reads plain values ([`Facts`]: the
+//! ranked candidates, their [`Marks`], the adequacy, where the departure is) and hands back a
+//! [`Decision`]. Inside: the clear winner of the held-out selection and the rules that decide
+//! near ties (the one candidate in it with its signature, the manoeuvres' total power), the
+//! regimes of the gap, the run-time trend, the physics' signs and the gaps' places; and the
 //! forward stepwise secondaries.
 
 use super::effects::{self, Context, FittedEffect, HEATING_TAU_GRID_S};
@@ -12,6 +14,84 @@ use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 use model_core::Rover;
+
+/// What each ranked candidate shows besides its held-out fit.
+#[derive(Debug, Clone)]
+pub(super) struct Marks(Vec<Mark>);
+
+#[derive(Debug, Clone, Copy)]
+struct Mark {
+    effect: EffectId,
+    /// Its own signature is in the data ([`signature`]).
+    present: bool,
+    /// Its signature is measured without the power model.
+    model_free: bool,
+    /// Its term, fitted alone on all rows, has the sign its physics allows; `None` when the
+    /// fit failed.
+    signed: Option<bool>,
+}
+
+impl Marks {
+    /// The marks of `candidates`, with `signed` asked once per candidate.
+    pub fn of(
+        candidates: &[CandidateScore],
+        signatures: &[signature::Signature],
+        signed: impl Fn(EffectId) -> Result<bool, DiagnoseError>,
+    ) -> Marks {
+        Marks(
+            candidates
+                .iter()
+                .map(|c| Mark {
+                    effect: c.effect,
+                    present: signatures
+                        .iter()
+                        .any(|s| s.effect == c.effect && s.present()),
+                    model_free: !c.effect.signature_needs_power_model(),
+                    signed: signed(c.effect).ok(),
+                })
+                .collect(),
+        )
+    }
+
+    fn get(&self, e: EffectId) -> Option<&Mark> {
+        self.0.iter().find(|m| m.effect == e)
+    }
+
+    /// Whether `e`'s own signature is in the data.
+    pub fn present(&self, e: EffectId) -> bool {
+        self.get(e).is_some_and(|m| m.present)
+    }
+
+    /// Whether `e`'s term has its physical sign (`false` when unknown).
+    fn signed(&self, e: EffectId) -> bool {
+        self.get(e).and_then(|m| m.signed) == Some(true)
+    }
+
+    /// Each ranked candidate's sign check, for the report.
+    pub fn sign_checks(&self) -> Vec<(EffectId, Option<bool>)> {
+        self.0.iter().map(|m| (m.effect, m.signed)).collect()
+    }
+}
+
+/// What the verdict stage reads: the ranked candidates with their marks, whether the baseline
+/// misfits its calibration, and where the departure is.
+pub(super) struct Facts<'a> {
+    pub candidates: &'a [CandidateScore],
+    pub marks: &'a Marks,
+    pub misfit: bool,
+    pub gap_regimes: &'a [Regime],
+    pub trend: Option<&'a gaps::Trend>,
+    /// Whether a candidate's term, fitted alone, lowers the significant gaps.
+    pub reaches_the_gaps: &'a dyn Fn(EffectId) -> bool,
+}
+
+/// The verdict stage's answer.
+pub(super) struct Decision {
+    /// The effect named (its signature in the data, physically signed, reaching the gaps).
+    pub selected: Option<EffectId>,
+    /// The held-out choice when it was not named because its signature is missing.
+    pub mark_missing: Option<EffectId>,
+}
 
 /// Whether every term of the model `effects`, fitted jointly on all rows, has the sign its
 /// physics allows. A drag, a braked side, a slower turn or a warmer winding can only add power:
@@ -196,19 +276,18 @@ pub(super) fn marked_in_near_tie(
 /// manoeuvres can absorb a structural misfit without its own mark.
 pub(super) fn standing_on_its_own(
     candidates: &[CandidateScore],
-    marked: &dyn Fn(EffectId) -> bool,
-    signed: impl Fn(EffectId) -> Result<bool, DiagnoseError>,
-) -> Result<Option<EffectId>, DiagnoseError> {
-    for c in candidates {
-        if marked(c.effect)
-            && !c.effect.signature_needs_power_model()
-            && c.heldout_error_after < c.heldout_error_before
-            && signed(c.effect)?
-        {
-            return Ok(Some(c.effect));
-        }
-    }
-    Ok(None)
+    marks: &Marks,
+) -> Option<EffectId> {
+    candidates
+        .iter()
+        .find(|c| {
+            marks
+                .get(c.effect)
+                .is_some_and(|m| m.present && m.model_free)
+                && c.heldout_error_after < c.heldout_error_before
+                && marks.signed(c.effect)
+        })
+        .map(|c| c.effect)
 }
 
 /// The clear winner of `candidates` (sorted by `penalised_mse`): the best on the effective
@@ -277,6 +356,48 @@ pub(super) struct Selection<'a> {
 }
 
 impl Selection<'_> {
+    /// The verdict stage. What the held-out selection chooses: the clear winner on the effective
+    /// power, its growth or its average; else a near tie the direct observations decide (the
+    /// one candidate in it with its signature); else the clear winner on the manoeuvres'
+    /// totals; else where the gap is; else what explains a run-time trend. It is named only
+    /// with its signature in the data, physically signed and reaching the gaps. Against a
+    /// misfitting baseline only a signature measured without the power model stands
+    /// ([`standing_on_its_own`]): the misfit is not absorbed.
+    pub fn decide(&self, facts: Facts<'_>) -> Result<Decision, DiagnoseError> {
+        let Facts {
+            candidates, marks, ..
+        } = facts;
+        let marked = |e: EffectId| marks.present(e);
+        let chosen = match select(candidates) {
+            Some(e) => Some(e),
+            None => match marked_in_near_tie(candidates, &marked) {
+                Some(e) => Some(e),
+                None => match clear_in_total(candidates) {
+                    Some(e) => Some(e),
+                    None if !facts.gap_regimes.is_empty() => {
+                        self.where_the_gap_is(candidates, facts.gap_regimes)?
+                    }
+                    None => None,
+                },
+            },
+        };
+        let chosen = match (chosen, facts.trend) {
+            (None, Some(trend)) if trend.significant => {
+                self.what_explains_the_trend(candidates, trend.floor_w)?
+            }
+            (chosen, _) => chosen,
+        };
+        let selected = if facts.misfit {
+            standing_on_its_own(candidates, marks)
+        } else {
+            chosen.filter(|&e| marked(e) && marks.signed(e) && (facts.reaches_the_gaps)(e))
+        };
+        Ok(Decision {
+            selected,
+            mark_missing: chosen.filter(|&e| !marked(e) && selected != Some(e)),
+        })
+    }
+
     /// The clear winner on the rows where the gap is (the regimes of `gap_regimes`), for effects
     /// confined to a few regimes: over all rows their improvement is diluted by the baseline's
     /// mismatch elsewhere, which no catalogue term should explain. The best candidate by FPE over

@@ -12,8 +12,9 @@
 //!
 //! Parsimony by the one-standard-error rule: the member with the fewest parameters whose CV
 //! mean squared error is within one standard error of the best is chosen, so the plain model
-//! (the paper's) wins whenever it fits. The returning member's fraction is chosen on a grid
-//! inside each training fold (it is a parameter of that member, not of the selection).
+//! (the paper's) wins whenever it fits. The returning member's fraction is a continuous
+//! parameter, fitted inside each training fold (least squares over [0, 1]), and tried only when
+//! the training manoeuvres have a generating side to identify it (an inner side beyond R′).
 
 use super::{Baseline, BaselineError, Split, Structure};
 use crate::diagnose::adequacy;
@@ -36,59 +37,121 @@ pub enum Members {
     CopperLoss,
 }
 
-/// Fractions of generated power a regenerating driver returns (η² for η ≈ 0.55–0.95).
-const RETURNED_GRID: [f64; 4] = [0.3, 0.5, 0.7, 0.85];
+/// A member of the family: a fixed structure, or the returning split whose fraction is a
+/// continuous parameter fitted on the training manoeuvres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Member {
+    /// A structure with nothing beyond a, G (and c) to fit.
+    Fixed(Structure),
+    /// [`Split::Returning`] with the fraction fitted in [0, 1] (least training RSS).
+    Returning {
+        /// Whether copper loss is modelled too.
+        copper_loss: bool,
+    },
+}
+
+impl Member {
+    fn parameters(self) -> usize {
+        match self {
+            Member::Fixed(s) => s.parameters(),
+            Member::Returning { copper_loss } => 3 + usize::from(copper_loss),
+        }
+    }
+
+    fn with_copper_loss(self) -> Member {
+        match self {
+            Member::Fixed(s) => Member::Fixed(Structure {
+                copper_loss: true,
+                ..s
+            }),
+            Member::Returning { .. } => Member::Returning { copper_loss: true },
+        }
+    }
+}
 
 /// The family in parsimony order (fewest parameters first; ties: listed order).
-fn copper_free() -> Vec<Vec<Structure>> {
-    let regen = [Structure::PLAIN];
-    let clamp = [Structure {
-        split: Split::Returning { fraction: 0.0 },
-        copper_loss: false,
-    }];
-    let returning: Vec<Structure> = RETURNED_GRID
-        .iter()
-        .map(|&fraction| Structure {
-            split: Split::Returning { fraction },
-            copper_loss: false,
-        })
-        .collect();
+fn copper_free() -> Vec<Member> {
     // Copper loss (`Structure::copper_loss`) is not an ordinary member (`copper_members` is
     // tried only when these all misfit): as a member it absorbed part of a current offset and
     // of point-turn sinkage (our unit tests' current-offset and sand worlds turned `ambiguous`;
     // the independent generator's dev seeds fell from 39/48 to 35/48 effects right). The
     // returning member carries most of the regeneration-efficiency misfit that copper loss +
     // efficiency make.
-    let mut out = vec![regen.to_vec(), clamp.to_vec(), returning];
-    out.sort_by_key(|m| m[0].parameters());
+    let mut out = vec![
+        Member::Fixed(Structure::PLAIN),
+        Member::Fixed(Structure {
+            split: Split::Returning { fraction: 0.0 },
+            copper_loss: false,
+        }),
+        Member::Returning { copper_loss: false },
+    ];
+    out.sort_by_key(|m| m.parameters());
     out
 }
 
 /// The family's members with copper loss added: tried only when every member of [`copper_free`]
 /// misfits its calibration (see [`choose_uncached`]), or when [`Members::CopperLoss`] asks.
-fn copper_members() -> Vec<Vec<Structure>> {
+fn copper_members() -> Vec<Member> {
     copper_free()
         .into_iter()
-        .map(|m| {
-            m.into_iter()
-                .map(|s| Structure {
-                    copper_loss: true,
-                    ..s
-                })
-                .collect()
-        })
+        .map(Member::with_copper_loss)
         .collect()
 }
 
-/// The best-fitting (least training RSS) variant of one member on `train`; `None` if none fits.
-fn fit_best(rover: &Rover, train: &[&TurnRow], variants: &[Structure]) -> Option<Baseline> {
-    variants
-        .iter()
-        .filter_map(|s| Baseline::fit_member(rover, train, *s).ok())
-        .map(|b| (rss(&b, train), b))
-        .filter(|(r, _)| r.is_finite())
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, b)| b)
+/// Golden-section steps of the returned fraction: the bracket [0, 1] shrinks to 0.618^n, under
+/// 0.003 (a driver's efficiency is not known better than that).
+const FRACTION_STEPS: usize = 12;
+
+/// `member` fitted on `train` (the returning member's fraction by least training RSS); `None`
+/// if it cannot be fitted, or when no training side generates: then the fraction is not
+/// identified by these manoeuvres and the member is not tried.
+fn fit_best(rover: &Rover, train: &[&TurnRow], member: Member) -> Option<Baseline> {
+    let fit = |s: Structure| {
+        Baseline::fit_member(rover, train, s)
+            .ok()
+            .map(|b| (rss(&b, train), b))
+            .filter(|(r, _)| r.is_finite())
+    };
+    let copper_loss = match member {
+        Member::Fixed(s) => return fit(s).map(|(_, b)| b),
+        Member::Returning { copper_loss } => copper_loss,
+    };
+    let at = |fraction: f64| {
+        fit(Structure {
+            split: Split::Returning { fraction },
+            copper_loss,
+        })
+    };
+    if !generates(&at(1.0)?.1, train) {
+        return None;
+    }
+    let score = |f: f64| at(f).map_or(f64::INFINITY, |(r, _)| r);
+    let inv_phi = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut lo, mut hi) = (0.0, 1.0);
+    let mut x1 = hi - inv_phi * (hi - lo);
+    let mut x2 = lo + inv_phi * (hi - lo);
+    let (mut f1, mut f2) = (score(x1), score(x2));
+    for _ in 0..FRACTION_STEPS {
+        if f1 <= f2 {
+            hi = x2;
+            (x2, f2) = (x1, f1);
+            x1 = hi - inv_phi * (hi - lo);
+            f1 = score(x1);
+        } else {
+            lo = x1;
+            (x1, f1) = (x2, f2);
+            x2 = lo + inv_phi * (hi - lo);
+            f2 = score(x2);
+        }
+    }
+    at(if f1 <= f2 { x1 } else { x2 }).map(|(_, b)| b)
+}
+
+/// Whether some side of `rows` draws negative motor power under `b` (a regenerating fit): only
+/// then do the manoeuvres say what a driver returns.
+fn generates(b: &Baseline, rows: &[&TurnRow]) -> bool {
+    rows.iter()
+        .any(|r| (0..2).any(|s| b.motor_power_w(r, s) < 0.0))
 }
 
 fn squared_errors<'a>(b: &'a Baseline, rows: &'a [&TurnRow]) -> impl Iterator<Item = f64> + 'a {
@@ -113,7 +176,7 @@ fn cv_errors(
     rover: &Rover,
     calibration: &[&TurnRow],
     runs: &[usize],
-    m: &[Structure],
+    m: Member,
 ) -> Option<Vec<f64>> {
     let mut errors = Vec::new();
     for &run in runs {
@@ -237,13 +300,13 @@ fn pick(
     rover: &Rover,
     calibration: &[&TurnRow],
     runs: &[usize],
-    family: Vec<Vec<Structure>>,
+    family: Vec<Member>,
     turn_slip: f64,
 ) -> Result<Option<Baseline>, BaselineError> {
-    let scored: Vec<(Vec<Structure>, f64, f64)> = family
+    let scored: Vec<(Member, f64, f64)> = family
         .into_iter()
         .filter_map(|m| {
-            let e = cv_errors(rover, calibration, runs, &m)?;
+            let e = cv_errors(rover, calibration, runs, m)?;
             let (mean, se) = mean_and_se(&e)?;
             Some((m, mean, se))
         })
@@ -256,7 +319,7 @@ fn pick(
         .iter()
         .find(|(_, mse, _)| *mse <= bar)
         .unwrap_or(best);
-    let mut b = fit_best(rover, calibration, &chosen.0)
+    let mut b = fit_best(rover, calibration, chosen.0)
         .map_or_else(|| Baseline::fit_plain(rover, calibration), Ok)?;
     b.cv_rmse_w = Some(chosen.1.sqrt());
     b.turn_slip = turn_slip;
