@@ -15,6 +15,7 @@
 //! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both |
 //! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both |
 
+use super::baseline::family::MAX_SLIP_SPREAD;
 use super::baseline::{self, Baseline};
 use super::calibration::{Calibration, Source};
 use super::cv::{self, PRACTICAL_FLOOR_W};
@@ -409,7 +410,8 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
 /// B_s widened by the calibration's constant slip) by [`MIN_SLIP_TRACK_DIFFERENCE`]; else
 /// every turn's yaw-timed slip off the calibration's terrain slip by [`MIN_SLIP_EXCESS`], either
 /// way (a narrower track makes turns quicker than commanded), and the same on every turn: not
-/// rising from the point turn towards R′ as angular slip does (`slip_rises`, its signature).
+/// rising from the point turn towards R′ as angular slip does (`slip_rises`, its signature),
+/// and each radius' mean within [`MAX_SLIP_SPREAD`] of the common mean.
 fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     let e = EffectId::SlipTrack;
     let terrain_m = ev.baseline.slip_track_m / (1.0 - ev.baseline.turn_slip);
@@ -440,7 +442,14 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     };
     // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
     // same fraction on every turn.
-    let rises = floor == MIN_SLIP_EXCESS && slip_rises;
+    let by_yaw = floor == MIN_SLIP_EXCESS;
+    let rises = by_yaw && slip_rises;
+    // A slip track rescales every turn's yaw rate by the same B_s,ctrl/B_s (Eq 2.2): by yaw, a
+    // slip that differs between the radii (anything that resists the turn more at some radii,
+    // such as sand piling up at the point turn) is not it. The same spread the baseline allows
+    // a constant calibration slip.
+    let spread = if by_yaw { regime_spread(ev, mean) } else { 0.0 };
+    let uneven = spread > MAX_SLIP_SPREAD;
     let flipped: Vec<f64> = values.iter().map(|v| v * mean.signum()).collect();
     let Some((t, df, p)) = one_sample_upper(&flipped, 0.0) else {
         return Signature::unobservable(e, "a single turn timed by yaw");
@@ -451,18 +460,39 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
         statistic: t,
         df,
         p,
-        present: p < ALPHA && mean.abs() >= floor && !rises,
+        present: p < ALPHA && mean.abs() >= floor && !rises && !uneven,
     };
     let shape = if rises {
         "; but it rises from the point turn towards R′ (angular slip), not the same on every turn"
+            .to_string()
+    } else if uneven {
+        format!(
+            "; but a radius' mean differs from it by {:.1} %, not the same on every turn",
+            100.0 * spread
+        )
     } else {
-        ""
+        String::new()
     };
     Signature::tested(
         e,
         test,
         format!("{what}: {:+.1} % over {n} turn(s){shape}", 100.0 * mean),
     )
+}
+
+/// Largest distance of a radius' mean excess slip (regimes with 2 or more yaw-timed turns) from
+/// `mean`, the turns' common mean.
+fn regime_spread(ev: &Evidence<'_>, mean: f64) -> f64 {
+    let mut regimes: Vec<Regime> = ev.rows.iter().map(|r| r.regime).collect();
+    regimes.sort_by_key(|r| r.id());
+    regimes.dedup();
+    regimes
+        .into_iter()
+        .filter_map(|regime| {
+            let at = excess_slips(ev.rows, ev.baseline, |r| r.regime == regime);
+            (at.len() >= 2).then(|| (at.iter().sum::<f64>() / at.len() as f64 - mean).abs())
+        })
+        .fold(0.0, f64::max)
 }
 
 /// `slope`: more manoeuvres off level than sensor noise explains (binomial tail against

@@ -681,6 +681,48 @@ fn on_a_slope_the_yaw_timing_is_no_slips_mark() {
     assert!(slip.test.is_some(), "level ground tests the slip: {slip:?}");
 }
 
+/// A slip track rescales every turn's yaw rate alike (Eq 2.2), so its signature by yaw is the
+/// same slip at every radius: present in the simulator's slip-track world, and absent once the
+/// point turns alone slip 15 % more (as sand piling up at the point turn slows it), with the
+/// report saying why.
+#[test]
+fn a_slip_track_slows_every_turn_alike() {
+    let world = WorldConfig::hard_ground().with_effect(EffectId::SlipTrack, true);
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run(&world, &scenario(), 10 + k))
+        .collect();
+    let rows = rows_of(&runs);
+    let cal: Vec<Vec<RunSample>> = (0..2)
+        .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 50 + k))
+        .collect();
+    let cal_rows = rows_of(&cal);
+    let slip_track = |rows: &[TurnRow]| {
+        let d = super::diagnose_with(&HUSKY, rows, super::Calibration::rows(&cal_rows))
+            .expect("diagnoses");
+        d.signatures
+            .into_iter()
+            .find(|s| s.effect == EffectId::SlipTrack)
+            .expect("tested")
+    };
+    let even = slip_track(&rows);
+    assert!(even.present(), "{even:?}");
+    let uneven_rows: Vec<TurnRow> = rows
+        .iter()
+        .cloned()
+        .map(|mut r| {
+            if r.regime == Regime::Point {
+                r.angular_slip = r.angular_slip.map(|s| s + 0.15);
+            }
+            r
+        })
+        .collect();
+    let uneven = slip_track(&uneven_rows);
+    assert!(
+        !uneven.present() && uneven.detail.contains("not the same on every turn"),
+        "{uneven:?}"
+    );
+}
+
 /// A power-type term is fitted net of what the baseline absorbed of it, measured on the rows the
 /// baseline was fitted on. With calibration runs those are the calibration runs' manoeuvres,
 /// not the diagnosed runs' point turns and straights: heat that builds up over long test runs

@@ -373,7 +373,7 @@ const MIN_TURN_SLIP: f64 = 0.01;
 
 /// Largest spread of the calibration radii's mean slips around their common mean for the slip
 /// to count as constant (a radius-dependent slip is the `angular-slip` effect).
-const MAX_SLIP_SPREAD: f64 = 0.02;
+pub(crate) const MAX_SLIP_SPREAD: f64 = 0.02;
 
 /// The calibration turns' common angular slip (Eq 6.3) when it is significant (95 % t interval
 /// above 0), at least [`MIN_TURN_SLIP`], and the same at every calibration radius within
