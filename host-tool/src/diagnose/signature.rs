@@ -421,7 +421,8 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
         .filter_map(|r| r.measured.map(|m| m.slip_track_m / terrain_m - 1.0))
         .filter(|v| v.is_finite())
         .collect();
-    let (values, floor, what) = if measured.len() >= 2 {
+    let by_yaw = measured.len() < 2;
+    let (values, floor, what) = if !by_yaw {
         (
             measured,
             MIN_SLIP_TRACK_DIFFERENCE,
@@ -441,8 +442,7 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
         return Signature::unobservable(e, "no turn timed by yaw and no pose track");
     };
     // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
-    // same fraction on every turn.
-    let by_yaw = floor == MIN_SLIP_EXCESS;
+    // same fraction on every turn. (A pose track measures the slip track itself.)
     let rises = by_yaw && slip_rises;
     // A slip track rescales every turn's yaw rate by the same B_s,ctrl/B_s (Eq 2.2): by yaw, a
     // slip that differs between the radii (anything that resists the turn more at some radii,
