@@ -65,6 +65,15 @@ fn a_control_whose_baseline_misfits_is_not_named_an_effect() {
     ] {
         assert!(!present(&d, e), "{e}: {}", signature(&d, e));
     }
+    // The misfit's suggestions (copper loss, no regeneration) are structure the baseline
+    // family tries: it did, and says that the best member with copper loss misfits too.
+    let refused = &d["baseline"]["copper_refused"];
+    assert_eq!(refused["structure"]["copper_loss"], true, "{refused}");
+    let lack_of_fit = refused["lack_of_fit_rms_w"].as_f64().expect("a number");
+    let repeat_sigma = d["adequacy"]["per_side"]["repeat_sigma_w"]
+        .as_f64()
+        .expect("a number");
+    assert!(lack_of_fit > 10.0 * repeat_sigma, "{refused}");
 }
 
 /// +0.59 A on both sensors: the standstill current shows it without any power model, so it is

@@ -79,6 +79,20 @@ pub struct Baseline {
     /// Covariance of (a, G) from the fit [N²]; zero when given, not fitted.
     #[serde(skip)]
     pub covariance: [[f64; 2]; 2],
+    /// The copper-loss member the family tried because every copper-free member misfit the
+    /// calibration, and refused because it misfits too; `None` when not tried or taken.
+    pub copper_refused: Option<Refused>,
+}
+
+/// A member the baseline family tried and refused.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Refused {
+    /// The member, fitted on all calibration manoeuvres.
+    pub structure: Structure,
+    /// Its leave-one-run-out RMS error on the calibration manoeuvres [W].
+    pub cv_rmse_w: Option<f64>,
+    /// Its lack of fit on them, per side when tested so, else total [W RMS].
+    pub lack_of_fit_rms_w: f64,
 }
 
 /// How the skid power is split per side (the baseline family's split members).
@@ -392,6 +406,7 @@ impl Baseline {
             cv_rmse_w: None,
             calibration_grade_n: 0.0,
             covariance: [[0.0; 2]; 2],
+            copper_refused: None,
         }
     }
 

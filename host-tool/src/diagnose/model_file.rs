@@ -459,6 +459,7 @@ mod tests {
             cv_rmse_w: None,
             calibration_grade_n: 0.0,
             covariance: [[0.0; 2]; 2],
+            copper_refused: None,
         };
         let at = Conditions {
             v_c_mps: 0.3,

@@ -401,6 +401,17 @@ fn baseline_line(d: &Diagnosis) -> String {
         Some(cv) => format!("chosen by leave-one-run-out CV, RMS {cv:.2} W"),
         None => "plain (fewer than 2 calibration runs to choose by CV)".to_string(),
     };
+    // The family's members are what the misfit suggestions name: say that the largest was
+    // tried, so the suggestions are read as the structure still missing.
+    let chosen = match &b.copper_refused {
+        Some(r) => format!(
+            "{chosen}; copper loss was tried on top of the copper-free members: the best with \
+             it ({}) still misfits by {:.1} W RMS, so it is not taken",
+            r.structure.label(),
+            r.lack_of_fit_rms_w
+        ),
+        None => chosen,
+    };
     // A constant yaw-rate loss is what a terrain slip track wider than the controller's gives
     // (ω = ΔV/B_s, Appendix D): say both readings, since yaw and power cannot tell them apart.
     let slip = if b.turn_slip > 0.0 {

@@ -197,10 +197,11 @@ pub fn choose(
 ) -> Result<Baseline, BaselineError> {
     let key = key_of(rover, calibration, members);
     let memo = CHOSEN.with(|c| c.borrow().iter().find(|(k, _)| *k == key).map(|(_, v)| *v));
-    if let Some((structure, cv_rmse_w, turn_slip)) = memo {
+    if let Some((structure, cv_rmse_w, turn_slip, copper_refused)) = memo {
         let mut b = Baseline::fit_member(rover, calibration, structure)?;
         b.cv_rmse_w = cv_rmse_w;
         b.turn_slip = turn_slip;
+        b.copper_refused = copper_refused;
         return Ok(b);
     }
     let b = choose_uncached(rover, calibration, members)?;
@@ -209,7 +210,10 @@ pub fn choose(
         if c.len() >= MEMO_CAPACITY {
             c.remove(0);
         }
-        c.push((key, (b.structure, b.cv_rmse_w, b.turn_slip)));
+        c.push((
+            key,
+            (b.structure, b.cv_rmse_w, b.turn_slip, b.copper_refused),
+        ));
     });
     Ok(b)
 }
@@ -240,8 +244,9 @@ fn key_of(rover: &Rover, calibration: &[&TurnRow], members: Members) -> Key {
     key
 }
 
-/// A remembered choice: the member, its CV RMS error [W] and the turn slip.
-type Choice = (Structure, Option<f64>, f64);
+/// A remembered choice: the member, its CV RMS error [W], the turn slip and the copper-loss
+/// member refused.
+type Choice = (Structure, Option<f64>, f64, Option<super::Refused>);
 
 /// Calibration sets remembered per thread.
 const MEMO_CAPACITY: usize = 16;
@@ -281,6 +286,7 @@ fn choose_uncached(
     let Some(plain) = pick(rover, calibration, &runs, copper_free(), turn_slip)? else {
         return Baseline::fit_plain(rover, calibration);
     };
+    let mut plain = plain;
     if misfits(&plain, calibration) {
         // Escalation: copper loss is admitted only when the simpler family cannot fit the
         // calibration manoeuvres at all. As an ordinary member it absorbed current offsets and
@@ -289,6 +295,12 @@ fn choose_uncached(
             if fits_testably(&copper, calibration) {
                 return Ok(copper);
             }
+            // Refused: the report says it was tried, so a user does not try it again.
+            plain.copper_refused = Some(super::Refused {
+                structure: copper.structure,
+                cv_rmse_w: copper.cv_rmse_w,
+                lack_of_fit_rms_w: lack_of_fit_rms_w(&copper, calibration),
+            });
         }
     }
     Ok(plain)
@@ -340,6 +352,15 @@ fn fits_testably(b: &Baseline, calibration: &[&TurnRow]) -> bool {
         .filter_map(|t| t.p_value)
         .collect();
     !p_values.is_empty() && p_values.iter().all(|&p| p >= adequacy::ALPHA)
+}
+
+/// `b`'s lack of fit on its own `calibration` manoeuvres: per side when tested so, else total
+/// [W RMS].
+fn lack_of_fit_rms_w(b: &Baseline, calibration: &[&TurnRow]) -> f64 {
+    let a = adequacy::test(calibration, b.structure.parameters(), |r, s| {
+        b.calibration_side_power_w(r, s)
+    });
+    a.per_side.as_ref().unwrap_or(&a.total).lack_of_fit_rms_w
 }
 
 /// Whether `b` fails the lack-of-fit test on its own `calibration` manoeuvres.
