@@ -166,7 +166,7 @@ impl<'a> Evidence<'a> {
 /// Every effect's signature test, catalogue order.
 pub fn test_all(ev: &Evidence<'_>) -> Vec<Signature> {
     // On a slope the downhill pull turns the rover too: the yaw's timing is then no longer
-    // a mark only a slip produces, so the slips' signatures are read on level runs alone.
+    // a mark only a slip produces, so the slips' signatures are not read there.
     let slope = slope(ev);
     let on_slope = |e: EffectId| {
         Signature::unobservable(
