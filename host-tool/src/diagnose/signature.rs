@@ -490,7 +490,8 @@ fn regime_spread(ev: &Evidence<'_>, mean: f64) -> f64 {
         .into_iter()
         .filter_map(|regime| {
             let at = excess_slips(ev.rows, ev.baseline, |r| r.regime == regime);
-            (at.len() >= 2).then(|| (at.iter().sum::<f64>() / at.len() as f64 - mean).abs())
+            let (at_mean, _, n) = moments(&at)?;
+            (n >= 2).then(|| (at_mean - mean).abs())
         })
         .fold(0.0, f64::max)
 }

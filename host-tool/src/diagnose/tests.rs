@@ -154,14 +154,19 @@ fn diagnose_world(world: &WorldConfig) -> super::Diagnosis {
         // baseline's constant turn slip (`slip_track_on_the_calibration_is_the_terrains`): the
         // effect is a slip track other than the calibration terrain's, so calibrate on the
         // control world.
-        let cal: Vec<Vec<RunSample>> = (0..2)
-            .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 50 + k))
-            .collect();
-        let cal_rows = rows_of(&cal);
+        let cal_rows = control_calibration_rows();
         return super::diagnose_with(&HUSKY, &rows, super::Calibration::rows(&cal_rows))
             .expect("diagnoses");
     }
     super::diagnose(&HUSKY, &rows).expect("diagnoses")
+}
+
+/// The rows of two calibration runs driven in the control world (hard ground, no effect).
+fn control_calibration_rows() -> Vec<TurnRow> {
+    let cal: Vec<Vec<RunSample>> = (0..2)
+        .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 50 + k))
+        .collect();
+    rows_of(&cal)
 }
 
 /// The simulator's `slip-track` effect (terrain slip track 1.29 m against the controller's
@@ -692,10 +697,7 @@ fn a_slip_track_slows_every_turn_alike() {
         .map(|k| simulate_run(&world, &scenario(), 10 + k))
         .collect();
     let rows = rows_of(&runs);
-    let cal: Vec<Vec<RunSample>> = (0..2)
-        .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 50 + k))
-        .collect();
-    let cal_rows = rows_of(&cal);
+    let cal_rows = control_calibration_rows();
     let slip_track = |rows: &[TurnRow]| {
         let d = super::diagnose_with(&HUSKY, rows, super::Calibration::rows(&cal_rows))
             .expect("diagnoses");

@@ -20,6 +20,7 @@ use super::{Baseline, BaselineError, Split, Structure};
 use crate::diagnose::adequacy;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::observe;
+use model_core::search::golden_section_min;
 use model_core::Rover;
 use serde::Serialize;
 use std::cell::RefCell;
@@ -98,7 +99,7 @@ fn copper_members() -> Vec<Member> {
         .collect()
 }
 
-/// Golden-section steps of the returned fraction: the bracket [0, 1] shrinks to 0.618^n, under
+/// Golden-section steps of the returned fraction: the bracket [0, 1] shrinks to 0.618^n, about
 /// 0.003 (a driver's efficiency is not known better than that).
 const FRACTION_STEPS: usize = 12;
 
@@ -126,25 +127,8 @@ fn fit_best(rover: &Rover, train: &[&TurnRow], member: Member) -> Option<Baselin
         return None;
     }
     let score = |f: f64| at(f).map_or(f64::INFINITY, |(r, _)| r);
-    let inv_phi = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut lo, mut hi) = (0.0, 1.0);
-    let mut x1 = hi - inv_phi * (hi - lo);
-    let mut x2 = lo + inv_phi * (hi - lo);
-    let (mut f1, mut f2) = (score(x1), score(x2));
-    for _ in 0..FRACTION_STEPS {
-        if f1 <= f2 {
-            hi = x2;
-            (x2, f2) = (x1, f1);
-            x1 = hi - inv_phi * (hi - lo);
-            f1 = score(x1);
-        } else {
-            lo = x1;
-            (x1, f1) = (x2, f2);
-            x2 = lo + inv_phi * (hi - lo);
-            f2 = score(x2);
-        }
-    }
-    at(if f1 <= f2 { x1 } else { x2 }).map(|(_, b)| b)
+    let (fraction, _) = golden_section_min(score, 0.0, 1.0, 0.0, FRACTION_STEPS);
+    at(fraction).map(|(_, b)| b)
 }
 
 /// Whether some side of `rows` draws negative motor power under `b` (a regenerating fit): only
@@ -292,14 +276,19 @@ fn choose_uncached(
         // calibration manoeuvres at all. As an ordinary member it absorbed current offsets and
         // point-turn sinkage in worlds the plain family fits (see `members`).
         if let Some(copper) = pick(rover, calibration, &runs, copper_members(), turn_slip)? {
-            if fits_testably(&copper, calibration) {
+            let fit = adequacy_of(&copper, calibration);
+            if fits_testably(&fit) {
                 return Ok(copper);
             }
             // Refused: the report says it was tried, so a user does not try it again.
             plain.copper_refused = Some(super::Refused {
                 structure: copper.structure,
                 cv_rmse_w: copper.cv_rmse_w,
-                lack_of_fit_rms_w: lack_of_fit_rms_w(&copper, calibration),
+                lack_of_fit_rms_w: fit
+                    .per_side
+                    .as_ref()
+                    .unwrap_or(&fit.total)
+                    .lack_of_fit_rms_w,
             });
         }
     }
@@ -338,14 +327,20 @@ fn pick(
     Ok(Some(b))
 }
 
-/// Whether `b` fits its own `calibration` manoeuvres statistically: at least one lack-of-fit
-/// test (total, per side) has degrees of freedom to spare, and none rejects at [`adequacy::ALPHA`]
-/// (the practical floor's leniency is not given: escalating to a larger member must be earned by
-/// the data, or it bends a and c around an effect such as point-turn sinkage).
-fn fits_testably(b: &Baseline, calibration: &[&TurnRow]) -> bool {
-    let a = adequacy::test(calibration, b.structure.parameters(), |r, s| {
+/// `b`'s lack-of-fit tests on its own `calibration` manoeuvres, as fitted (with the
+/// calibration's slope nuisance).
+fn adequacy_of(b: &Baseline, calibration: &[&TurnRow]) -> adequacy::Adequacy {
+    adequacy::test(calibration, b.structure.parameters(), |r, s| {
         b.calibration_side_power_w(r, s)
-    });
+    })
+}
+
+/// Whether a member fits its own calibration manoeuvres statistically (`a`, its
+/// [`adequacy_of`]): at least one lack-of-fit test (total, per side) has degrees of freedom to
+/// spare, and none rejects at [`adequacy::ALPHA`] (the practical floor's leniency is not given:
+/// escalating to a larger member must be earned by the data, or it bends a and c around an
+/// effect such as point-turn sinkage).
+fn fits_testably(a: &adequacy::Adequacy) -> bool {
     let p_values: Vec<f64> = [Some(&a.total), a.per_side.as_ref()]
         .into_iter()
         .flatten()
@@ -354,20 +349,9 @@ fn fits_testably(b: &Baseline, calibration: &[&TurnRow]) -> bool {
     !p_values.is_empty() && p_values.iter().all(|&p| p >= adequacy::ALPHA)
 }
 
-/// `b`'s lack of fit on its own `calibration` manoeuvres: per side when tested so, else total
-/// [W RMS].
-fn lack_of_fit_rms_w(b: &Baseline, calibration: &[&TurnRow]) -> f64 {
-    let a = adequacy::test(calibration, b.structure.parameters(), |r, s| {
-        b.calibration_side_power_w(r, s)
-    });
-    a.per_side.as_ref().unwrap_or(&a.total).lack_of_fit_rms_w
-}
-
 /// Whether `b` fails the lack-of-fit test on its own `calibration` manoeuvres.
 fn misfits(b: &Baseline, calibration: &[&TurnRow]) -> bool {
-    let params = b.structure.parameters();
-    adequacy::test(calibration, params, |r, s| b.calibration_side_power_w(r, s)).adequate
-        == Some(false)
+    adequacy_of(b, calibration).adequate == Some(false)
 }
 
 /// Whether the calibration turns' constant slip `slip` is what their pose track measured: a
