@@ -7,7 +7,10 @@ For each seed it runs `diagnose-bench --seed S --part P --json -` (100 datasets 
 prints, per part: datasets, wrong names (an effect other than the true one, or any on a dataset
 without one; bar ≤ 2 %), effects named on controls and on structure-only datasets (bar 0),
 effects the data can show (the twin ceiling ≥ 50 %) named right (bar ≥ 80 %), and all effects
-named right. Python standard library only.
+named right; and the closed loop (issue 36): of the open verdicts on effects the data can
+show, how many the suggested manoeuvres settled right, wrong (bar 0), as none, or left open, with
+the extra manoeuvres; and effects named after the loop on controls and structure-only datasets
+(bar 0). Python standard library only.
 """
 
 import argparse
@@ -69,6 +72,11 @@ def tally(datasets):
     return t, wrong
 
 
+LOOP_KEYS = ("open_shown", "open_shown_driven", "settled_right", "settled_wrong", "settled_none",
+             "still_open", "extra_manoeuvres", "open_without_effect", "became_effect",
+             "new_wrong_names")
+
+
 def pct(a, b):
     return f"{100.0 * a / b:.1f} %" if b else "–"
 
@@ -96,6 +104,8 @@ def main():
             if not ds:
                 continue
             t, wrong = tally(ds)
+            loop = next(p["closed_loop"] for p in report["parts"] if p["part"] == part)
+            t.update({f"loop_{k}": loop[k] for k in LOOP_KEYS})
             per_seed.append(dict(seed=seed, part=part, wrong_names=wrong, **t))
             acc = parts.setdefault(part, dict.fromkeys(t, 0))
             for k, v in t.items():
@@ -116,6 +126,14 @@ def main():
               f"{t['shown_right']}/{t['shown']} = {pct(t['shown_right'], t['shown'])} (bar ≥ 80 %)")
         print(f"  all effects named right: {t['right']}/{t['effects']} = "
               f"{pct(t['right'], t['effects'])}")
+        print(f"  closed loop: {t['loop_open_shown']} open verdicts on effects the data can show, "
+              f"{t['loop_open_shown_driven']} with something to drive; settled right "
+              f"{t['loop_settled_right']} = {pct(t['loop_settled_right'], t['loop_open_shown'])} "
+              f"(bar ≥ 60 %), wrong {t['loop_settled_wrong']} (bar 0), as none "
+              f"{t['loop_settled_none']}, still open {t['loop_still_open']}; "
+              f"{t['loop_extra_manoeuvres']} extra manoeuvres; controls and structure-only: "
+              f"{t['loop_open_without_effect']} open, {t['loop_became_effect']} became an effect "
+              f"(bar 0); new wrong names {t['loop_new_wrong_names']}")
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:
             json.dump(dict(parts=parts, per_seed=per_seed), f, indent=1)

@@ -11,6 +11,7 @@
 //! hard-ground model fitted to the same runs ([`crate::plan`]).
 
 use crate::diagnose::calibration::Calibration;
+use crate::diagnose::features::TurnRow;
 use crate::diagnose::report::{self as diagnosis_report, ReportError, MODEL_FILE};
 use crate::diagnose::{self, DiagnoseError, Diagnosis};
 use crate::effect_id::EffectId;
@@ -180,6 +181,17 @@ pub struct DemoOutcome {
     pub runs: Vec<DemoRun>,
     /// The validation of all runs.
     pub report: ValidationReport,
+    /// The diagnosis and the plans with its model, or why the runs alone cannot be diagnosed
+    /// (e.g. a scenario of `diagnose --next-runs`, which adds to runs driven before and has
+    /// no calibration manoeuvres of its own).
+    pub diagnosed: Result<Diagnosed, DiagnoseError>,
+    /// Every file written (logs, reports, figures).
+    pub files: Vec<PathBuf>,
+}
+
+/// The diagnosis of the demo's runs and the plans with the diagnosed model.
+#[derive(Debug, Clone)]
+pub struct Diagnosed {
     /// The diagnosis of all runs.
     pub diagnosis: Diagnosis,
     /// [`PLAN_PATH`] under the hard-ground model fitted to the runs (no effects).
@@ -189,8 +201,6 @@ pub struct DemoOutcome {
     /// The diagnosed model's ΔE against R/R' on thesis Table 6.1's path, with the table's
     /// measured slices beside its own.
     pub sweep_diagnosed: SweepReport,
-    /// Every file written (logs, reports, figures).
-    pub files: Vec<PathBuf>,
 }
 
 /// The world in a few words: terrain and the effects switched on.
@@ -286,13 +296,35 @@ pub fn run(
     let slices: Vec<&[crate::log::run_csv::RunSample]> =
         logs.iter().map(|l| l.samples.as_slice()).collect();
     let rows = diagnose::features::rows(&report, &slices);
-    let diagnosis = diagnose::diagnose(&rover, &rows)?;
+    let diagnosed = match diagnose::diagnose(&rover, &rows) {
+        Ok(diagnosis) => Ok(diagnose_and_plan(
+            &rover, &rows, diagnosis, out, &mut files,
+        )?),
+        Err(e) => Err(e),
+    };
+    Ok(DemoOutcome {
+        runs,
+        report,
+        diagnosed,
+        files,
+    })
+}
+
+/// Writes `diagnosis`' report, figures and model file under `out`/diagnosis and plans with its
+/// model; the files written go to `files`.
+fn diagnose_and_plan(
+    rover: &model_core::Rover,
+    rows: &[TurnRow],
+    diagnosis: Diagnosis,
+    out: &Path,
+    files: &mut Vec<PathBuf>,
+) -> Result<Diagnosed, DemoError> {
     let dir = out.join("diagnosis");
     files.extend(diagnosis_report::write_out_dir(
         &dir,
-        &rover,
+        rover,
         &diagnosis,
-        &rows,
+        rows,
         Calibration::FROM_RUNS,
     )?);
     let json = dir.join("diagnosis.json");
@@ -315,14 +347,11 @@ pub fn run(
     let plan_hard_ground = plan::plan(&hard_ground, &source, start_deg, end_deg, distance_m)?;
     let (a, c, d) = TABLE_6_1_PATH;
     let sweep_diagnosed = plan::sweep::sweep(&diagnosed, &source, a, c, d, SweepGrid::default())?;
-    Ok(DemoOutcome {
-        runs,
-        report,
+    Ok(Diagnosed {
         diagnosis,
         plan_hard_ground,
         plan_diagnosed,
         sweep_diagnosed,
-        files,
     })
 }
 

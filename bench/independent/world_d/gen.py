@@ -170,11 +170,18 @@ class Sim:
         # belong to the test patch: the calibration runs are driven on the reference patch.
         return True if name in ("current-offset", "motor-heating") else test
 
-    def run(self, name, test):
+    def run(self, name, test, drive=None):
+        """Simulates one CSV: the turn set (shuffled), or `drive`, a list of manoeuvres
+        (r_mult or None for a straight, turn_deg, v_c, straight_s, direction) driven in order
+        on the test patch (a scenario file, see drive_scenario)."""
         s, rv, e = self.s, self.rv, self.e
         rng_run = random.Random(f"{self.key}:order:{name}")   # same in the twin
-        turns = list(TEST_SET if test else CAL_SET)
-        rng_run.shuffle(turns)
+        if drive is None:
+            turns = list(TEST_SET if test else CAL_SET)
+            rng_run.shuffle(turns)
+            drive = [dict(r_mult=r, turn_deg=s["turn_deg"], v_c=s["v_c"],
+                          straight_s=s["straight_s"], direction=s["direction"]) for r in turns]
+        turns = [m["r_mult"] for m in drive]
         gaps = [u(rng_run, 2.5, 3.5)] + [u(rng_run, 1.5, 2.2) for _ in turns]
         psi_up = u(rng_run, -math.pi, math.pi)
         V0 = s["V_oc"] + u(rng_run, -0.3, 0.3)
@@ -209,10 +216,11 @@ class Sim:
             rep_mu = 1.0 + nz.gauss(0.0, s["sigma_rep"])
             rep_G = 1.0 + nz.gauss(0.0, s["sigma_rep"])
             if kind == "move":
-                cmd = side_commands(s["v_c"], r_mult, self.r_prime, s["direction"])
+                man = drive[seg_i // 2]
+                cmd = side_commands(man["v_c"], r_mult, self.r_prime, man["direction"])
                 yaw0 = yaw
-                target = math.radians(s["turn_deg"]) if r_mult is not None else None
-                t_max = 60.0 if target is not None else s["straight_s"]
+                target = math.radians(man["turn_deg"]) if r_mult is not None else None
+                t_max = 60.0 if target is not None else man["straight_s"]
                 start = len(rows)
             else:
                 cmd = (0.0, 0.0)
@@ -471,13 +479,76 @@ def generate(seed, out, count, rover_mode):
     return made
 
 
+def read_scenario(path):
+    """The manoeuvres of a scenario file (`host-tool diagnose --next-runs`): turns
+    (r_over_r_prime, angle_deg, v_c_mps, direction) and straights (distance_m, speed_mps),
+    each as often as listed, the list `repeats` times."""
+    import tomllib
+    with open(path, "rb") as f:
+        sc = tomllib.load(f)
+    out = []
+    for m in sc["manoeuvres"]:
+        if m["kind"] == "turn":
+            out.append(dict(r_mult=float(m["r_over_r_prime"]), turn_deg=float(m.get("angle_deg", 90.0)),
+                            v_c=float(m.get("v_c_mps", 0.3)), straight_s=None,
+                            direction=1 if m.get("direction", "left") == "left" else -1))
+        elif m["kind"] == "straight":
+            v = float(m.get("speed_mps", 0.3))
+            out.append(dict(r_mult=None, turn_deg=None, v_c=v,
+                            straight_s=float(m["distance_m"]) / v, direction=1))
+        else:
+            sys.exit(f"{path}: world D drives turns and straights, not {m['kind']!r}")
+    return out * int(sc.get("repeats", 1))
+
+
+def drive_scenario(dataset, scenario, rover_mode="mixed"):
+    """Drives `scenario` in the world of `dataset` (a directory written by generate) as one
+    more test run, after the runs already there (the windings carry their history), and
+    writes it as the next run_<n>.csv. Returns its path."""
+    cls, seed, k = os.path.basename(os.path.normpath(dataset)).rsplit("-", 2)
+    key = f"wd:{seed}:{cls}:{k}"
+    srng = random.Random(key + ":structure")
+    rover_name = rover_mode if rover_mode != "mixed" else \
+        ("argo" if srng.random() < 0.25 else "husky")
+    s = draw_structure(srng, rover_name)
+    e = draw_effect(random.Random(key + ":effect"), cls, rover_name)
+    sim = Sim(key, s, cls, e, True)
+    for i in range(2):
+        sim.run(f"cal_{i}", False)
+    n = 0
+    while os.path.exists(os.path.join(dataset, f"run_{n}.csv")):
+        if n < 3:
+            sim.run(f"run_{n}", True)
+        else:
+            sim.run(f"run_{n}", True, drive=read_scenario(os.path.join(dataset, f"next_{n}.toml")))
+        n += 1
+    path = os.path.join(dataset, f"run_{n}.csv")
+    drive = read_scenario(scenario)
+    # Keep the scenario beside its run: a later drive replays it for the windings' history.
+    with open(scenario, "rb") as src, open(os.path.join(dataset, f"next_{n}.toml"), "wb") as dst:
+        dst.write(src.read())
+    rows, _ = sim.run(f"run_{n}", True, drive=drive)
+    write_csv(path, rows)
+    return path
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seed", type=int, required=True)
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--seed", type=int)
+    ap.add_argument("--out")
+    ap.add_argument("--drive", metavar="SCENARIO.toml",
+                    help="drive this scenario file in the world of --dataset as one more run")
+    ap.add_argument("--dataset", metavar="DIR", help="with --drive: a dataset directory")
     ap.add_argument("--count-per-class", type=int, default=1)
     ap.add_argument("--rover", choices=["husky", "argo", "mixed"], default="mixed")
     a = ap.parse_args()
+    if a.drive:
+        if not a.dataset:
+            ap.error("--drive needs --dataset")
+        print(drive_scenario(a.dataset, a.drive, a.rover))
+        return
+    if a.seed is None or a.out is None:
+        ap.error("--seed and --out are required (or --drive with --dataset)")
     t0 = time.time()
     made = generate(a.seed, a.out, a.count_per_class, a.rover)
     for name, tr in made:

@@ -680,8 +680,12 @@ def simulate_run(world, effect, plan, dstate):
     standstill(plan["initial_s"])
     for idx, mspec in enumerate(plan["manoeuvres"]):
         ratio = mspec["ratio"]
-        v_in, v_out = side_speeds(vc, ratio, r_prime)
-        if left:
+        # A driven scenario (drive_scenario) sets these per manoeuvre; the turn sets do not.
+        m_vc = mspec.get("v_c", vc)
+        m_turn_rad = math.radians(mspec["turn_deg"]) if "turn_deg" in mspec else turn_rad
+        m_straight_s = mspec.get("straight_s", world["straight_s"])
+        v_in, v_out = side_speeds(m_vc, ratio, r_prime)
+        if mspec.get("left", left):
             vl_c, vr_c = v_in, v_out
             inner = 0
         else:
@@ -690,9 +694,9 @@ def simulate_run(world, effect, plan, dstate):
         cmd_vec = (vl_c, vr_c)
         w_cmd = (vr_c - vl_c) / rv["Bs"]
         if ratio is None:
-            t_nom = world["straight_s"]
+            t_nom = m_straight_s
         else:
-            t_nom = turn_rad / abs(w_cmd)
+            t_nom = m_turn_rad / abs(w_cmd)
         man = {"mu_mult": mspec["mu_mult"], "drag_c": None, "drag_b": None,
                "e": [0.0, 0.0], "t_on": 0.0, "inner_side": inner,
                "inner_drag": terrain_eff == "inner-drag" and ratio is not None,
@@ -732,7 +736,7 @@ def simulate_run(world, effect, plan, dstate):
         yaw0 = yaw
         i0 = len(rows)
         n_max = int(max(5.0 * t_nom, 10.0) / dt)
-        n_straight = int(round(world["straight_s"] / dt))
+        n_straight = int(round(m_straight_s / dt))
         n = 0
         next_solve = 0.2
         while True:
@@ -740,7 +744,7 @@ def simulate_run(world, effect, plan, dstate):
                 if n >= n_straight:
                     break
             else:
-                if abs(yaw - yaw0) >= turn_rad or n >= n_max:
+                if abs(yaw - yaw0) >= m_turn_rad or n >= n_max:
                     break
             emit(vl_c, vr_c, man)
             n += 1
@@ -913,12 +917,75 @@ def generate(seed, out, count):
     return summary
 
 
+def scenario_plan(seed, cls, k, world, name, path):
+    """A plan driving the scenario file `path` (`host-tool diagnose --next-runs`) on the test
+    terrain: its turns (r_over_r_prime, angle_deg, v_c_mps, direction) and straights
+    (distance_m, speed_mps) in order, the list `repeats` times."""
+    import tomllib
+    with open(path, "rb") as f:
+        sc = tomllib.load(f)
+    rp = random.Random("worldE|%s|%s|%s|plan|%s" % (seed, cls, k, name))
+    man = []
+    for m in sc["manoeuvres"] * int(sc.get("repeats", 1)):
+        spec = {"mu_mult": max(0.85, 1.0 + world["mu_sigma"] * rp.gauss(0.0, 1.0)),
+                "pause_s": round(rp.uniform(1.5, 2.3), 2)}
+        if m["kind"] == "turn":
+            spec.update(ratio=float(m["r_over_r_prime"]), v_c=float(m.get("v_c_mps", 0.3)),
+                        turn_deg=float(m.get("angle_deg", 90.0)),
+                        left=m.get("direction", "left") == "left")
+        elif m["kind"] == "straight":
+            v = float(m.get("speed_mps", 0.3))
+            spec.update(ratio=None, v_c=v, straight_s=float(m["distance_m"]) / v)
+        else:
+            sys.exit("%s: world E drives turns and straights, not %r" % (path, m["kind"]))
+        man.append(spec)
+    return {"name": name, "test": True, "initial_s": round(rp.uniform(3.0, 3.8), 2),
+            "manoeuvres": man,
+            "noise_seed": "worldE|%s|%s|%s|noise|%s" % (seed, cls, k, name)}
+
+
+def drive_scenario(dataset, scenario):
+    """Drives `scenario` in the world of `dataset` (a directory written by generate) as one
+    more test run after the runs already there (the windings and the soil carry their history),
+    and writes it as the next run_<n>.csv. Returns its path."""
+    cls, seed, k = os.path.basename(os.path.normpath(dataset)).rsplit("-", 2)
+    k = int(k)
+    world = draw_world(seed, cls, k)
+    effect = draw_effect(seed, cls, k, world)
+    plans = draw_plans(seed, cls, k, world, effect)
+    n = 3
+    while os.path.exists(os.path.join(dataset, "run_%d.csv" % n)):
+        plans.append(scenario_plan(seed, cls, k, world, "run_%d" % n,
+                                   os.path.join(dataset, "next_%d.toml" % n)))
+        n += 1
+    name = "run_%d" % n
+    with open(scenario, "rb") as src, open(os.path.join(dataset, "next_%d.toml" % n), "wb") as dst:
+        dst.write(src.read())
+    plans.append(scenario_plan(seed, cls, k, world, name, scenario))
+    rows = simulate_dataset(world, effect, plans)[name][0]
+    path = os.path.join(dataset, name + ".csv")
+    with open(path, "w") as f:
+        f.write(HEADER)
+        f.write("".join(rows))
+    return path
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seed", type=int, required=True)
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--seed", type=int)
+    ap.add_argument("--out")
     ap.add_argument("--count-per-class", type=int, default=1)
+    ap.add_argument("--drive", metavar="SCENARIO.toml",
+                    help="drive this scenario file in the world of --dataset as one more run")
+    ap.add_argument("--dataset", metavar="DIR", help="with --drive: a dataset directory")
     args = ap.parse_args()
+    if args.drive:
+        if not args.dataset:
+            ap.error("--drive needs --dataset")
+        print(drive_scenario(args.dataset, args.drive))
+        return
+    if args.seed is None or args.out is None:
+        ap.error("--seed and --out are required (or --drive with --dataset)")
     generate(args.seed, args.out, args.count_per_class)
 
 

@@ -170,7 +170,34 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
          turns and 2R′ turns; every catalogued effect fitted on training runs and scored on the \
          withheld run"
     );
-    let _ = write!(text, "{}", report::table(&outcome.diagnosis));
+    match &outcome.diagnosed {
+        Ok(d) => diagnosed_printout(&mut text, d, out),
+        Err(e) => {
+            let _ = writeln!(
+                text,
+                "not made: {e} (the runs alone cannot be diagnosed; a scenario of `diagnose \
+                 --next-runs` adds to runs driven before: diagnose them together, e.g. \
+                 `host-tool diagnose --rover rovers/husky-a200.toml --runs OLD.csv… {}/run-1.csv`)",
+                out.display()
+            );
+        }
+    }
+    let _ = writeln!(text);
+    let _ = writeln!(
+        text,
+        "{} files in {} ({elapsed_s:.1} s):",
+        outcome.files.len(),
+        out.display(),
+    );
+    for file in &outcome.files {
+        let _ = writeln!(text, "  {}", file.display());
+    }
+    text
+}
+
+/// The diagnosis table and the plans with the diagnosed model.
+fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
+    let _ = write!(text, "{}", report::table(&d.diagnosis));
     let _ = writeln!(text);
     let (start_deg, end_deg, distance_m) = demo::PLAN_PATH;
     let _ = writeln!(
@@ -179,16 +206,16 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
          model file {}/diagnosis/model.toml)",
         out.display()
     );
-    let effects = outcome.diagnosis.model_effects();
+    let effects = d.diagnosis.model_effects();
     let effects: Vec<&str> = effects.iter().map(|e| e.id()).collect();
     for (what, p) in [
         (
             "hard-ground model fitted to the runs".to_owned(),
-            &outcome.plan_hard_ground,
+            &d.plan_hard_ground,
         ),
         (
             format!("+ diagnosed {}", effects.join(" + ")),
-            &outcome.plan_diagnosed,
+            &d.plan_diagnosed,
         ),
     ] {
         let _ = writeln!(
@@ -205,7 +232,7 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
         );
     }
     // Issue 18: the diagnosed model's ΔE curve beside thesis Table 6.1 (45° – 10 m – 45°).
-    let sweep = &outcome.sweep_diagnosed;
+    let sweep = &d.sweep_diagnosed;
     let _ = writeln!(
         text,
         "  diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
@@ -226,15 +253,4 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             sl.lo, sl.hi, sl.model_delta_e_pct
         );
     }
-    let _ = writeln!(text);
-    let _ = writeln!(
-        text,
-        "{} files in {} ({elapsed_s:.1} s):",
-        outcome.files.len(),
-        out.display(),
-    );
-    for file in &outcome.files {
-        let _ = writeln!(text, "  {}", file.display());
-    }
-    text
 }

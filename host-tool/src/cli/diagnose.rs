@@ -11,6 +11,7 @@ use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use host_tool::rover::load_rover_file;
 use host_tool::validate::ValidateOptions;
 use model_core::Rover;
+use std::io::Write as _;
 use std::path::PathBuf;
 
 /// `diagnose --rover R.toml [--calibration CAL…] --runs FILES… [...]`.
@@ -41,6 +42,10 @@ pub struct DiagnoseArgs {
     /// Exit with code 3 when the model departs significantly from the runs (scripted checks).
     #[arg(long)]
     fail_on_departure: bool,
+    /// Write what to drive next as a scenario file (`demo --scenario` drives it as is); none is
+    /// written when the verdict is settled.
+    #[arg(long, value_name = "FILE.toml")]
+    next_runs: Option<PathBuf>,
 }
 
 /// The diagnosis rows of `paths`: run logs through `validate` (run CSVs' readings within
@@ -100,6 +105,14 @@ impl DiagnoseArgs {
     /// Diagnoses the runs; prints the table (or writes JSON) and writes --out.
     pub fn run(self) -> Result<()> {
         self.json.check(self.force)?;
+        if let Some(path) = &self.next_runs {
+            if !self.force && path.exists() {
+                bail!(
+                    "{}: the file exists (pass --force to overwrite it)",
+                    path.display()
+                );
+            }
+        }
         if let Some(dir) = &self.out {
             if !self.force && !is_missing_or_empty(dir) {
                 bail!(
@@ -141,6 +154,21 @@ impl DiagnoseArgs {
             })?,
             None => Vec::new(),
         };
+        let next_runs_note = match &self.next_runs {
+            Some(path) if !diagnosis.next.runs.is_empty() => {
+                host_tool::log::write_atomically(path, |w| {
+                    w.write_all(diagnosis.next.scenario_toml().as_bytes())
+                })
+                .with_context(|| format!("writing {}", path.display()))?;
+                Some(format!("{}\n", path.display()))
+            }
+            Some(path) => Some(format!(
+                "{}: not written, nothing to drive next (the verdict is settled or no \
+                 manoeuvre within the limits separates its rivals)\n",
+                path.display()
+            )),
+            None => None,
+        };
         if !self
             .json
             .emit(&diagnosis.to_json(), "diagnosis", self.force)?
@@ -152,6 +180,7 @@ impl DiagnoseArgs {
             for file in files {
                 text += &format!("{}\n", file.display());
             }
+            text += next_runs_note.as_deref().unwrap_or("");
             output::print(text)?;
         }
         if self.fail_on_departure && diagnosis.significant {

@@ -37,6 +37,11 @@ pub struct DiagnoseBenchArgs {
     /// turns by their measured R_ACT and sees a measured slip track.
     #[arg(long)]
     poses: bool,
+    /// Rounds of the closed loop: while a verdict is open, drive what the diagnosis suggests
+    /// next (`diagnose --next-runs`) as one more run in the same world and diagnose again.
+    /// 0 turns it off.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=5))]
+    rounds: u32,
     /// Instead of running the bench, write each dataset (or only `--only`'s) to
     /// DIR/<part>-<index>/ as run CSVs, rover.toml and dataset.json (spec, truth and the
     /// `diagnose` command the bench runs), to read a miss with the ordinary commands. DIR is
@@ -76,6 +81,7 @@ impl DiagnoseBenchArgs {
                 BenchPartArg::Both => PartChoice::Both,
             },
             poses: self.poses,
+            rounds: self.rounds,
         };
         if let Some(dir) = &self.dump {
             return output::print(dump(&options, dir, self.only, self.force)?);
@@ -183,6 +189,7 @@ mod tests {
             threads: 1,
             part: PartChoice::Tuning,
             poses: false,
+            rounds: 0,
         };
         let refused = dump(&options, &dir, None, false).expect_err("not empty, no --force");
         assert!(refused.to_string().contains("--force"), "{refused:#}");

@@ -188,7 +188,7 @@ fn is_graded(calibration: &[&TurnRow]) -> bool {
 /// meets no rolling resistance. A side the clamp puts to 0 has no copper loss either: its
 /// power is negative only "if the applied torque is 0 and the wheel rotates due to the torque
 /// applied by the other side motor" (Section 1.1.3).
-fn copper_regressor(b: &Baseline, row: &TurnRow, side: usize) -> f64 {
+pub(crate) fn copper_regressor(b: &Baseline, row: &TurnRow, side: usize) -> f64 {
     let v = row.sides[side].cmd_mps.abs();
     if v > MIN_FORCE_SPEED_MPS {
         let shaft_w = b.shaft_power_w(plain_regressors(row, side));

@@ -134,6 +134,8 @@ pub struct TurnRow {
     /// The turn as measured by a pose track; `None` without one (the regime is then the
     /// command's).
     pub measured: Option<MeasuredRadius>,
+    /// Side of the turn; `None` for straights and when not known (per-turn tables).
+    pub direction: Option<TurnDirection>,
 }
 
 /// A turn's radius as a pose track measured it (`validate`'s R_ACT, Section 5.1).
@@ -447,6 +449,7 @@ pub fn rows_from_facts(report: &ValidationReport, facts: &[RunSampleFacts]) -> V
             observed: Observed::Sides,
             copper_heat_a4,
             measured: measured.filter(|_| !straight),
+            direction: if straight { None } else { m.direction },
         });
     }
     out

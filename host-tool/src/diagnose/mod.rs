@@ -23,6 +23,7 @@ pub mod figures;
 pub mod gaps;
 pub mod loo;
 pub mod model_file;
+pub mod next_runs;
 pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
 pub mod path_table;
@@ -125,6 +126,8 @@ pub struct Diagnosis {
     /// Each ranked candidate's sign check, fitted alone with the baseline on all rows
     /// ([`select::physically_signed`]): `None` when it cannot be fitted there.
     pub sign_checks: Vec<(EffectId, Option<bool>)>,
+    /// Which rivals the runs separate and what to drive next ([`next_runs`]).
+    pub next: next_runs::NextRuns,
 }
 
 /// One step of the forward stepwise selection after the named effect.
@@ -216,6 +219,10 @@ impl Diagnosis {
             "copper_from_runs": self.copper_from_runs,
             "signatures": self.signatures,
             "mark_missing": self.mark_missing.map(|e| e.id()),
+            "identifiability": self.next.identifiability,
+            "in_play": self.next.in_play,
+            "next_runs": self.next.runs,
+            "next_runs_unresolved": self.next.unresolved,
             "notes": self.notes,
         })
     }
@@ -244,9 +251,11 @@ pub fn diagnose_with(
         return Err(DiagnoseError::NoRows);
     }
     let first = diagnose_against(rover, rows, calibration)?;
-    copper_from_runs::reconsider(rover, rows, calibration, first, |c| {
+    let mut d = copper_from_runs::reconsider(rover, rows, calibration, first, |c| {
         diagnose_against(rover, rows, c)
-    })
+    })?;
+    d.next = next_runs::plan(rover, rows, d.fitted_with(calibration), &d);
+    Ok(d)
 }
 
 /// [`diagnose_with`] against the baseline `calibration` chooses, as it is.
@@ -410,6 +419,7 @@ pub(crate) fn diagnose_against(
         signatures,
         mark_missing,
         sign_checks: marks.sign_checks(),
+        next: next_runs::NextRuns::default(),
     })
 }
 

@@ -192,6 +192,7 @@ pub fn synthetic_row(
         observed: Observed::Sides,
         copper_heat_a4: None,
         measured: None,
+        direction: (!straight).then_some(TurnDirection::Left),
     };
     for k in 0..2 {
         let p = baseline.side_power_w(&row, k);

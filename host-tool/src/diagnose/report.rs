@@ -631,6 +631,76 @@ pub fn table(d: &Diagnosis) -> String {
         let _ = writeln!(out, "\nheld-out error per regime with {effect}:");
         out.push_str(&columns(&regime_rows(d)));
     }
+    let _ = writeln!(out, "\nwhat to drive next:");
+    for line in next_runs_lines(d) {
+        let _ = writeln!(out, "  {line}");
+    }
+    out
+}
+
+/// What to drive next, as lines: the rivals in play, each suggested manoeuvre with what it
+/// separates, the pairs no drivable manoeuvre separates, and what the runs cannot tell apart.
+pub fn next_runs_lines(d: &Diagnosis) -> Vec<String> {
+    let n = &d.next;
+    let id = &n.identifiability;
+    let mut out = Vec::new();
+    if !n.open() {
+        out.push(match d.effect {
+            super::Verdict::None => "nothing: the runs show no significant departure".to_owned(),
+            v => format!(
+                "nothing: the verdict `{v}` is settled (no rival within the selection's margin \
+                 that the runs do not already separate from it)"
+            ),
+        });
+    } else {
+        out.push(format!(
+            "in play: {} (separations in σ = {:.2} W per side: {}; {}σ settles a pair)",
+            n.in_play
+                .iter()
+                .map(|r| r.label())
+                .collect::<Vec<_>>()
+                .join(", "),
+            id.noise_sigma_w,
+            id.noise_from,
+            super::next_runs::TARGET_SIGMA
+        ));
+        for r in &n.runs {
+            out.push(format!("drive {}", r.describe()));
+        }
+        if !n.unresolved.is_empty() {
+            let pairs: Vec<String> = n
+                .unresolved
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{} / {} ({:.1}σ)",
+                        p.rivals[0].label(),
+                        p.rivals[1].label(),
+                        p.sigma
+                    )
+                })
+                .collect();
+            out.push(format!(
+                "{} separates: {}",
+                if n.runs.is_empty() {
+                    "no manoeuvre within the rover's limits (≤ 10 drives)"
+                } else {
+                    "nothing more within the limits"
+                },
+                pairs.join(", ")
+            ));
+        } else if n.runs.is_empty() {
+            out.push(format!(
+                "the runs already separate every pair in play by ≥ {}σ: the verdict is open \
+                 because none of them has its mark or fits clearly better, which more of \
+                 these manoeuvres would not change",
+                super::next_runs::TARGET_SIGMA
+            ));
+        }
+    }
+    for s in &id.statements {
+        out.push(format!("cannot tell apart: {s}"));
+    }
     out
 }
 
@@ -701,6 +771,16 @@ pub fn markdown(
             "\n## How far it shrinks: held-out error per regime with `{effect}`\n"
         );
         out.push_str(&markdown_table(&regime_rows(d)));
+    }
+    let _ = writeln!(out, "\n## What to drive next\n");
+    let _ = writeln!(
+        out,
+        "The manoeuvres that would separate the explanations still in play, chosen where their \
+         fitted models differ most against the runs' repeat noise (model discrimination, Box \
+         and Hill 1967). `diagnose --next-runs FILE.toml` writes them as a scenario.\n"
+    );
+    for line in next_runs_lines(d) {
+        let _ = writeln!(out, "- {line}");
     }
     if !figures.is_empty() {
         let _ = writeln!(out, "\n## Figures\n");

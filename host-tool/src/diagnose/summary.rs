@@ -336,6 +336,7 @@ pub fn summary_rows(rover: &Rover, rows: &[SummaryRow], run: &str) -> Vec<TurnRo
                 },
                 copper_heat_a4: None,
                 measured: None,
+                direction: None,
             }
         })
         .collect()

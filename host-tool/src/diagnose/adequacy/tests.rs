@@ -77,6 +77,7 @@ fn row(
         observed: Observed::Sides,
         copper_heat_a4: None,
         measured: None,
+        direction: None,
     }
 }
 

@@ -57,7 +57,8 @@ pub mod truth;
 
 pub use family::{generate, scale_effect, DatasetClass, DatasetSpec, Part, RoverKind};
 pub use run::{
-    rows_for, rows_of, run_dataset, run_dataset_with, sample_run, simulate, DatasetResult,
+    rows_for, rows_of, run_dataset, run_dataset_closing, run_dataset_with, sample_run, simulate,
+    DatasetResult, NextRound,
 };
 pub use table::{tabulate, BenchReport, PartFigures};
 pub use truth::{truth_of, Truth};
@@ -127,6 +128,9 @@ pub struct BenchOptions {
     /// Whether the runs keep the tracker's position fixes (R_ACT and the measured slip track
     /// reach the diagnosis); off, the runs are power, commands and yaw only.
     pub poses: bool,
+    /// Rounds of the closed loop: an open verdict's suggested manoeuvres driven in the same
+    /// world and the dataset diagnosed again (0: off).
+    pub rounds: u32,
 }
 
 impl Default for BenchOptions {
@@ -138,6 +142,7 @@ impl Default for BenchOptions {
             threads: 2,
             part: PartChoice::Both,
             poses: false,
+            rounds: 2,
         }
     }
 }
@@ -163,7 +168,7 @@ pub fn run_bench(opts: &BenchOptions) -> BenchReport {
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(spec) = specs.get(i) else { break };
-                let result = run_dataset_with(spec, opts.poses);
+                let result = run_dataset_closing(spec, opts.poses, opts.rounds);
                 // A poisoned lock only means another worker panicked; its slot stays empty.
                 let mut slots = slots.lock().unwrap_or_else(|p| p.into_inner());
                 slots[i] = Some(result);

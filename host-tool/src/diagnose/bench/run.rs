@@ -190,13 +190,60 @@ pub struct DatasetResult {
     pub ceiling_shrink_pct: Option<f64>,
     /// The error, if any.
     pub error: Option<String>,
+    /// Whether the first verdict was open (rivals in play, [`next_runs`]).
+    pub opened: bool,
+    /// Each round of driving what the diagnosis suggested and diagnosing again.
+    pub next_rounds: Vec<NextRound>,
     /// Simulation, sampling and validation time [s].
     pub simulate_s: f64,
     /// Diagnosis time [s].
     pub diagnose_s: f64,
 }
 
+/// One round of the closed loop: the suggestions driven as a new run in the same world.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NextRound {
+    /// Manoeuvres driven (repeats counted).
+    pub manoeuvres: u32,
+    /// The verdict after them.
+    pub diagnosed: String,
+    /// Whether it is still open.
+    pub open: bool,
+}
+
 impl DatasetResult {
+    /// The verdict after the closed loop (the first one without rounds).
+    pub fn settled_label(&self) -> &str {
+        self.next_rounds
+            .last()
+            .map_or(&self.diagnosed, |r| &r.diagnosed)
+    }
+
+    /// Whether the verdict is still open after the loop.
+    pub fn still_open(&self) -> bool {
+        self.next_rounds.last().map_or(self.opened, |r| r.open)
+    }
+
+    /// Extra manoeuvres the loop drove.
+    pub fn extra_manoeuvres(&self) -> u32 {
+        self.next_rounds.iter().map(|r| r.manoeuvres).sum()
+    }
+
+    /// Whether `label` is the right answer for this dataset (see [`DatasetResult::right`]).
+    pub fn right_label(&self, label: &str) -> bool {
+        match self.spec.class {
+            DatasetClass::Effect(e) => label == e.id(),
+            DatasetClass::Control => label == "none",
+            DatasetClass::StructureOnly => label == "none" || label == BASELINE_MISFIT,
+        }
+    }
+
+    /// Whether `label` names a wrong effect: another than the true one, or any on a dataset
+    /// without one.
+    pub fn wrong_label(&self, label: &str) -> bool {
+        EffectId::from_id(label).is_some() && !self.right_label(label)
+    }
+
     /// The true class label (`none` for controls, `structure-only`).
     pub fn true_label(&self) -> &'static str {
         self.spec.class.label()
@@ -210,13 +257,7 @@ impl DatasetResult {
     /// Whether the answer is right: the effect for effect datasets, `none` for controls,
     /// `none` or `baseline-misfit` for structure-only datasets.
     pub fn right(&self) -> bool {
-        match self.spec.class {
-            DatasetClass::Effect(e) => self.diagnosed == e.id(),
-            DatasetClass::Control => self.diagnosed == "none",
-            DatasetClass::StructureOnly => {
-                self.diagnosed == "none" || self.diagnosed == BASELINE_MISFIT
-            }
-        }
+        self.right_label(&self.diagnosed)
     }
 
     /// Whether the true effect was named.
@@ -279,6 +320,13 @@ pub fn run_dataset(spec: &DatasetSpec) -> DatasetResult {
 /// Simulates and diagnoses one dataset; with `poses`, the runs keep the world tracker's
 /// position fixes, so `validate` measures R_ACT and the slip track and the diagnosis uses them.
 pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
+    run_dataset_closing(spec, poses, 0)
+}
+
+/// [`run_dataset_with`], then up to `rounds` times while the verdict is open: the suggested
+/// manoeuvres ([`next_runs`](crate::diagnose::next_runs)) driven as one more test run in the
+/// same world, and the dataset diagnosed again.
+pub fn run_dataset_closing(spec: &DatasetSpec, poses: bool, rounds: u32) -> DatasetResult {
     let t0 = Instant::now();
     let mut result = DatasetResult {
         spec: spec.clone(),
@@ -292,15 +340,20 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
         true_regime_shrink_pct: None,
         ceiling_shrink_pct: None,
         error: None,
+        opened: false,
+        next_rounds: Vec::new(),
         simulate_s: 0.0,
         diagnose_s: 0.0,
     };
     let rover = spec.rover.rover();
     let offset = poses.then(|| spec.world().tracker.offset_m);
+    let mut data = None;
     let rows = simulate(spec).and_then(|d| {
         // The truth is kept even when validation fails.
         result.truth = Some(d.truth.clone());
-        Ok(d.rows(&rover, offset)?)
+        let rows = d.rows(&rover, offset)?;
+        data = Some(d);
+        Ok(rows)
     });
     result.simulate_s = t0.elapsed().as_secs_f64();
     let (cal_rows, rows) = match rows {
@@ -317,11 +370,79 @@ pub fn run_dataset_with(spec: &DatasetSpec, poses: bool) -> DatasetResult {
         result.ceiling_shrink_pct = ceiling_shrink_pct(spec, &rover, offset, d);
     }
     match diagnosis {
-        Ok(d) => score(&mut result, &d),
+        Ok(d) => {
+            score(&mut result, &d);
+            result.opened = d.next.open();
+            if let Some(data) = data.as_mut() {
+                result.next_rounds = close_the_loop(spec, offset, data, &cal_rows, d, rounds);
+            }
+        }
         Err(e) => result.error = Some(DatasetError::from(e).to_string()),
     }
     result
 }
+
+/// Up to `rounds` rounds of driving `d`'s suggestions in `spec`'s world as one more test run of
+/// `data` and diagnosing again, while the verdict is open and something is suggested. A round
+/// that fails (the world refuses the scenario, validation or the diagnosis fails) ends the loop
+/// and is recorded as `error`.
+fn close_the_loop(
+    spec: &DatasetSpec,
+    tracker_offset_m: Option<f64>,
+    data: &mut SimulatedDataset,
+    cal_rows: &[TurnRow],
+    mut d: Diagnosis,
+    rounds: u32,
+) -> Vec<NextRound> {
+    let rover = spec.rover.rover();
+    let world = spec.world();
+    let mut out = Vec::new();
+    for round in 1..=rounds {
+        if !d.next.open() || (d.next.runs.is_empty() && std::env::var("NR_EXPERIMENT").is_err()) {
+            break;
+        }
+        let manoeuvres = d.next.manoeuvres();
+        let seed = spec
+            .seed
+            .wrapping_add(NEXT_RUN_SEED_OFFSET + u64::from(round));
+        let scenario = if std::env::var("NR_EXPERIMENT").is_ok() {
+            spec.test_scenarios()[0].clone()
+        } else {
+            d.next.scenario()
+        };
+        let next = world
+            .simulate(&scenario, seed)
+            .map_err(DatasetError::from)
+            .and_then(|t| {
+                data.runs.push(sample_run(&t, spec.sample_hz));
+                Ok(rows_for(&rover, &data.runs, "run", tracker_offset_m)?)
+            })
+            .and_then(|rows| Ok(diagnose_rows(&rover, cal_rows, &rows)?));
+        match next {
+            Ok(again) => {
+                out.push(NextRound {
+                    manoeuvres,
+                    diagnosed: verdict_label(&again),
+                    open: again.next.open(),
+                });
+                d = again;
+            }
+            Err(_) => {
+                out.push(NextRound {
+                    manoeuvres,
+                    diagnosed: "error".into(),
+                    open: false,
+                });
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// Seeds of the closed loop's runs: the dataset's seed plus this plus the round (clear of the
+/// calibration and test runs' seeds).
+const NEXT_RUN_SEED_OFFSET: u64 = 10_000;
 
 /// [`DatasetResult::ceiling_shrink_pct`] of `spec`, whose diagnosis is `d`; `None` without an
 /// effect or when the twin cannot be simulated or diagnosed.

@@ -206,6 +206,81 @@ pub struct PartFigures {
     pub per_structure: Vec<StructureFigures>,
     /// Per switch value (`split=clamp`, …, `rover=argo-j5`, `turns=right`).
     pub per_switch: Vec<StructureFigures>,
+    /// The closed loop: open verdicts after driving what the diagnosis suggested.
+    pub closed_loop: LoopFigures,
+}
+
+/// What the closed loop did to a part's open verdicts ([`DatasetResult::opened`]).
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct LoopFigures {
+    /// Rounds run at most.
+    pub rounds: u32,
+    /// Open first verdicts on effect datasets the data can show (twin ceiling ≥
+    /// [`SHOWN_CEILING_PCT`]).
+    pub open_shown: usize,
+    /// Of those, something was suggested to drive.
+    pub open_shown_driven: usize,
+    /// Of those, settled on the true effect.
+    pub settled_right: usize,
+    /// Settled on a wrong effect (goal 0).
+    pub settled_wrong: usize,
+    /// Settled as `none` (a miss, not a wrong name).
+    pub settled_none: usize,
+    /// Still open after the rounds.
+    pub still_open: usize,
+    /// Extra manoeuvres driven over those datasets.
+    pub extra_manoeuvres: u32,
+    /// Most extra manoeuvres one dataset took.
+    pub max_extra_manoeuvres: u32,
+    /// Open first verdicts on controls and structure-only datasets.
+    pub open_without_effect: usize,
+    /// Of those, an effect named after the loop (goal 0).
+    pub became_effect: usize,
+    /// Every dataset of the part: an effect named after the loop that the first verdict did not
+    /// name wrong, and is wrong (goal 0).
+    pub new_wrong_names: usize,
+}
+
+impl LoopFigures {
+    fn of(of: &[&DatasetResult], rounds: u32) -> Self {
+        let mut f = LoopFigures {
+            rounds,
+            ..LoopFigures::default()
+        };
+        for r in of {
+            let last = r.settled_label();
+            if r.wrong_label(last) && !r.wrong_label(&r.diagnosed) {
+                f.new_wrong_names += 1;
+            }
+            if !r.opened {
+                continue;
+            }
+            if r.spec.effect().is_none() {
+                f.open_without_effect += 1;
+                f.became_effect += usize::from(EffectId::from_id(last).is_some());
+                continue;
+            }
+            if !r.ceiling_shrink_pct.is_some_and(|c| c >= SHOWN_CEILING_PCT) {
+                continue;
+            }
+            f.open_shown += 1;
+            f.open_shown_driven += usize::from(!r.next_rounds.is_empty());
+            f.extra_manoeuvres += r.extra_manoeuvres();
+            f.max_extra_manoeuvres = f.max_extra_manoeuvres.max(r.extra_manoeuvres());
+            if r.still_open() {
+                f.still_open += 1;
+            } else if r.right_label(last) {
+                f.settled_right += 1;
+            } else if r.wrong_label(last) {
+                f.settled_wrong += 1;
+            } else if last == "none" {
+                f.settled_none += 1;
+            } else {
+                f.still_open += 1;
+            }
+        }
+        f
+    }
 }
 
 /// Diagnosis and simulation times.
@@ -431,7 +506,7 @@ fn summary(results: &[&DatasetResult]) -> BenchSummary {
 }
 
 /// The figures of `part` over its datasets in `results`.
-pub fn part_figures(part: Part, results: &[DatasetResult]) -> PartFigures {
+pub fn part_figures(part: Part, results: &[DatasetResult], rounds: u32) -> PartFigures {
     let of: Vec<&DatasetResult> = results.iter().filter(|r| r.spec.part == part).collect();
     let confusion = ConfusionMatrix::of(&of);
     let per_class = confusion
@@ -453,6 +528,7 @@ pub fn part_figures(part: Part, results: &[DatasetResult]) -> PartFigures {
         per_class,
         per_structure: structure_figures(&of, |r| vec![r.spec.structure_label.clone()]),
         per_switch: structure_figures(&of, switch_values),
+        closed_loop: LoopFigures::of(&of, rounds),
     }
 }
 
@@ -467,7 +543,7 @@ pub fn tabulate(
         .part
         .parts()
         .iter()
-        .map(|&p| part_figures(p, &datasets))
+        .map(|&p| part_figures(p, &datasets, options.rounds))
         .collect();
     let ok = |f: &dyn Fn(&DatasetResult) -> bool| -> Vec<f64> {
         datasets
@@ -669,6 +745,30 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
     )?;
     if s.errors > 0 {
         writeln!(f, "errors: {}", s.errors)?;
+    }
+    let l = &p.closed_loop;
+    if l.rounds > 0 {
+        writeln!(
+            f,
+            "closed loop (≤ {} rounds of what `diagnose --next-runs` suggests, driven in the same \
+             world): of {} open verdicts on effects the data can show, {} had something to \
+             drive; settled right {} = {}, wrong {} (goal 0), as none {}, still open {}; {} extra \
+             manoeuvres (most {} on one dataset); controls and structure-only: {} open, {} \
+             became an effect (goal 0); new wrong names over the part {}",
+            l.rounds,
+            l.open_shown,
+            l.open_shown_driven,
+            l.settled_right,
+            opt(pct(l.settled_right, l.open_shown), " %"),
+            l.settled_wrong,
+            l.settled_none,
+            l.still_open,
+            l.extra_manoeuvres,
+            l.max_extra_manoeuvres,
+            l.open_without_effect,
+            l.became_effect,
+            l.new_wrong_names
+        )?;
     }
     writeln!(f, "confusion matrix (rows: true class; columns: diagnosed)")?;
     write!(f, "{:<20}", "")?;
