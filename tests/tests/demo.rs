@@ -135,7 +135,10 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
     // prices the same path differently from the hard-ground model fitted to the same runs,
     // which plans its arcs at R' (paper Eq 26's kink). Where the diagnosed model moves the arc
     // on the demo's own runs is checked in host_tool::diagnose::model_file's tests.
-    let diagnosed = outcome.diagnosed.as_ref().expect("the demo's runs are diagnosed");
+    let diagnosed = outcome
+        .diagnosed
+        .as_ref()
+        .expect("the demo's runs are diagnosed");
     let d = &diagnosed.diagnosis;
     assert!(d.significant, "{}", d.effect);
     let named = host_tool::diagnose::named_effect(d).expect("an effect is named");

@@ -398,20 +398,15 @@ fn close_the_loop(
     let world = spec.world();
     let mut out = Vec::new();
     for round in 1..=rounds {
-        if !d.next.open() || (d.next.runs.is_empty() && std::env::var("NR_EXPERIMENT").is_err()) {
+        if !d.next.open() || d.next.runs.is_empty() {
             break;
         }
         let manoeuvres = d.next.manoeuvres();
         let seed = spec
             .seed
             .wrapping_add(NEXT_RUN_SEED_OFFSET + u64::from(round));
-        let scenario = if std::env::var("NR_EXPERIMENT").is_ok() {
-            spec.test_scenarios()[0].clone()
-        } else {
-            d.next.scenario()
-        };
         let next = world
-            .simulate(&scenario, seed)
+            .simulate(&d.next.scenario(), seed)
             .map_err(DatasetError::from)
             .and_then(|t| {
                 data.runs.push(sample_run(&t, spec.sample_hz));
