@@ -55,17 +55,13 @@ fn an_open_verdict_writes_a_scenario_the_demo_drives() {
         .filter_map(|r| r.as_str())
         .collect();
     for r in runs {
-        for key in [
-            "radius_m",
-            "v_c_mps",
-            "turn_deg",
-            "direction",
-            "repeats",
-            "when",
-        ] {
+        for key in ["v_c_mps", "turn_deg", "direction", "repeats", "when"] {
             assert!(!r[key].is_null(), "{key}: {r}");
         }
-        assert!(r.get("r_over_r_prime").is_some(), "{r}");
+        // A straight: no radius, a length; a turn: both radii.
+        let straight = r["r_over_r_prime"].is_null();
+        assert_eq!(r["radius_m"].is_null(), straight, "{r}");
+        assert_eq!(r["distance_m"].is_null(), !straight, "{r}");
         assert!(r["expected_sigma"].as_f64().expect("σ") >= 3.0, "{r}");
         for rival in r["separates"].as_array().expect("separates") {
             assert!(in_play.contains(&rival.as_str().expect("a label")), "{r}");

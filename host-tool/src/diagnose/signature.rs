@@ -12,8 +12,8 @@
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
 //! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, each side | Welch t per side against straights and wide turns, ≥ 1.5 W on both, the weaker side's p ×2 |
-//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both |
-//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both |
+//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both and beyond the largest step between neighbouring radii elsewhere on that side (the baseline's structure) |
+//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both and beyond the largest step elsewhere, as for `inner-drag` |
 
 use super::baseline::family::MAX_SLIP_SPREAD;
 use super::baseline::{self, Baseline};
@@ -683,7 +683,7 @@ fn step_test(
     around: [&dyn Fn(&TurnRow) -> bool; 2],
     what: &str,
 ) -> Signature {
-    let here = side_residuals(ev, role, at);
+    let here = side_residuals(ev, role, &at);
     let edges: Vec<(f64, f64, f64, f64, usize)> = around
         .iter()
         .map(|keep| side_residuals(ev, role, keep))
@@ -703,6 +703,9 @@ fn step_test(
     };
     let p = (p * edges.len() as f64).min(1.0);
     let smallest_step = edges.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
+    // A step is this effect's own only where the model's residual does not step as far between
+    // radii where no such effect acts: there the step is the baseline's structure.
+    let elsewhere = largest_step_elsewhere(ev, role, &at);
     Signature::tested(
         effect,
         SignatureTest {
@@ -710,16 +713,49 @@ fn step_test(
             statistic: t,
             df,
             p,
-            present: p < ALPHA && smallest_step >= PRACTICAL_FLOOR_W,
+            present: p < ALPHA && smallest_step >= PRACTICAL_FLOOR_W.max(elsewhere),
         },
         format!(
             "the {} side {what} draws {diff:+.1} W beyond the model more than at its weaker edge \
-             ({} against {n} turns; {} edge(s) tested)",
+             ({} against {n} turns; {} edge(s) tested); the largest step between neighbouring \
+             radii elsewhere on that side is {elsewhere:.1} W",
             role.id(),
             here.len(),
             edges.len()
         ),
     )
+}
+
+/// The largest |difference| of the `role` side's mean residual between neighbouring radii of
+/// the turns, over the pairs where neither radius matches `at` [W] (0 without such a pair).
+fn largest_step_elsewhere(
+    ev: &Evidence<'_>,
+    role: SideRole,
+    at: &impl Fn(&TurnRow) -> bool,
+) -> f64 {
+    let mut groups: Vec<i64> = ev
+        .rows
+        .iter()
+        .filter(|r| !r.is_straight() && !r.is_total_only())
+        .map(cv::radius_group)
+        .collect();
+    groups.sort_unstable();
+    groups.dedup();
+    let means: Vec<(bool, f64)> = groups
+        .into_iter()
+        .filter_map(|g| {
+            let in_group = |r: &TurnRow| cv::radius_group(r) == g;
+            let values = side_residuals(ev, role, in_group);
+            let (mean, _, _) = moments(&values)?;
+            let is_at = ev.rows.iter().any(|r| in_group(r) && at(r));
+            Some((is_at, mean))
+        })
+        .collect();
+    means
+        .windows(2)
+        .filter(|w| !w[0].0 && !w[1].0)
+        .map(|w| (w[1].1 - w[0].1).abs())
+        .fold(0.0, f64::max)
 }
 
 /// `inner-drag`: the inner side in the dragged-inner regime against the inner side of each

@@ -922,3 +922,21 @@ fn the_closed_loop_settles_an_open_verdict_with_what_it_suggests() {
     // Without rounds nothing is driven.
     assert!(run_dataset_closing(&spec, false, 0).next_rounds.is_empty());
 }
+
+/// A step at one radius no larger than the model's steps between other neighbouring radii on
+/// that side is the baseline's structure, not an effect's mark (bench seed 27, tuning 31: inner
+/// drag on lossy motors, once named `braked-inner` from R′'s outer side stepping +1.7 W at
+/// p = 0.041 where that side steps 4.7 W between other radii). Inner drag's own step (+6.8 W)
+/// stands beyond them.
+#[test]
+fn a_step_no_larger_than_the_steps_elsewhere_is_not_a_mark() {
+    let spec = generate(Part::Tuning, 100, 27).remove(31);
+    assert_eq!(spec.class, DatasetClass::Effect(EffectId::InnerDrag));
+    let (_, d) = run::explain(&spec, false).expect("diagnosed");
+    assert_ne!(d.effect.label(), "braked-inner");
+    let braked = d.signature(EffectId::BrakedInner).expect("tested");
+    assert!(!braked.present(), "{}", braked.describe());
+    assert!(braked.detail.contains("elsewhere"), "{}", braked.describe());
+    let drag = d.signature(EffectId::InnerDrag).expect("tested");
+    assert!(drag.present(), "{}", drag.describe());
+}
