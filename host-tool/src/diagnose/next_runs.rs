@@ -490,7 +490,7 @@ impl Pair {
 }
 
 /// The noise a separation is measured against: the repeat noise, and the misfit the best
-/// rival leaves (held-out), which is the same on every repeat of a manoeuvre.
+/// model leaves (held-out), which is the same on every repeat of a manoeuvre.
 #[derive(Debug, Clone, Copy)]
 struct Noise {
     repeat_w: f64,
@@ -499,14 +499,19 @@ struct Noise {
 
 impl Noise {
     /// The repeat noise `repeat_w` and the misfit of `d`'s best model: the held-out RMS error
-    /// of its best candidate (or of the baseline alone when that is lower) beyond the repeat
-    /// noise.
+    /// of its best candidate, of the baseline alone or of the diagnosed model with its stepwise
+    /// steps, whichever is lowest, beyond the repeat noise.
     fn of(repeat_w: f64, d: &Diagnosis) -> Self {
+        // The diagnosed model with its stepwise steps, when it has them, leaves the least.
+        let stepwise = d.secondary.last().map(|s| s.heldout_error_after);
         let best = d
             .candidates
             .first()
             .map(|c| c.heldout_error_after.min(c.heldout_error_before))
+            .into_iter()
+            .chain(stepwise)
             .filter(|e| e.is_finite())
+            .reduce(f64::min)
             .unwrap_or(repeat_w);
         Self {
             repeat_w,
@@ -708,9 +713,12 @@ fn in_play(d: &Diagnosis) -> Vec<Rival> {
             std::iter::once(Rival::Effect(e)).chain(close).collect()
         }
     };
+    // The diagnosed model's further effects (its stepwise steps) act beside the named one: not
+    // its rivals.
+    let in_model = |r: &Rival| d.secondary.iter().any(|s| Rival::Effect(s.effect) == *r);
     let mut seen = Vec::new();
     v.retain(|r| {
-        let new = !seen.contains(r);
+        let new = !seen.contains(r) && !in_model(r);
         seen.push(*r);
         new
     });
@@ -885,7 +893,7 @@ pub fn plan(
     let noise = Noise::of(repeat_w, d);
     let noise_w = noise.sigma_w();
     let noise_from = format!(
-        "repeat noise {repeat_w:.2} W ({repeat_from}) and {:.2} W the best rival leaves \
+        "repeat noise {repeat_w:.2} W ({repeat_from}) and {:.2} W the best model leaves \
          unexplained out of sample, the same on every repeat",
         noise.misfit_w
     );
