@@ -43,7 +43,8 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     fail_on_departure: bool,
     /// Write what to drive next as a scenario file (`demo --scenario` drives it as is); none is
-    /// written when the verdict is settled.
+    /// written when there is nothing to drive (the verdict is settled, or no manoeuvre within
+    /// the rover's limits separates its rivals).
     #[arg(long, value_name = "FILE.toml")]
     next_runs: Option<PathBuf>,
 }
