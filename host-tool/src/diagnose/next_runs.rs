@@ -5,15 +5,17 @@
 //! the baseline alone (`none`), the copper-loss structure, each catalogue effect — is fitted to
 //! the runs as the diagnosis fits it. Rival a is told apart from rival b on a set of manoeuvres
 //! when b, with the baseline's skid force and rolling resistance free to move too, cannot
-//! reproduce a's predicted extra power there: the residual sum of squares of that fit over the
-//! repeat noise σ² is the non-centrality of the test that rejects b when a is true, and its
-//! root is the separation in σ. A pair is separated when that reaches [`TARGET_SIGMA`] both
+//! reproduce a's predicted extra power there: the residual sum of squares of that fit over σ²
+//! is the non-centrality of the test that rejects b when a is true, and its root is the
+//! separation in σ. σ is what a new manoeuvre meets: the repeat noise and the misfit the best
+//! model leaves out of sample, which repeats do not average away ([`Noise`]). A pair is separated when that reaches [`TARGET_SIGMA`] both
 //! ways (one way against the baseline alone, which every rival nests).
 //!
 //! The manoeuvres are chosen greedily from what the rover can drive: 90° and 180° turns at
 //! the thesis' turn set (R/R′ ∈ [`RADII`]) and straights, at the lowest and highest v_c of the
-//! runs, in the runs' turn direction, early in a run or (when a warming winding is in play)
-//! late, each repeated at most [`MAX_REPEATS`] times and at most [`MAX_MANOEUVRES`] in all.
+//! runs, in the runs' turn direction, or (when a warming winding is in play) one repeated in a
+//! row so that the later repeats meet a warm winding; each repeated at most [`MAX_REPEATS`]
+//! times and at most [`MAX_MANOEUVRES`] in all.
 //! Each step takes the manoeuvre that separates the most open pairs per repeat. A manoeuvre
 //! counts for a pair only where the rivals differ there by at least the diagnosis' practical
 //! floor: a smaller difference would not move a signature test, however often repeated.
@@ -35,7 +37,7 @@ use model_core::Rover;
 use serde::{Serialize, Serializer};
 use std::fmt::Write as _;
 
-/// Separation a pair needs, in σ of the repeat noise.
+/// Separation a pair needs [σ].
 pub const TARGET_SIGMA: f64 = 3.0;
 /// Most extra manoeuvres one round suggests (repeats counted).
 pub const MAX_MANOEUVRES: u32 = 10;
