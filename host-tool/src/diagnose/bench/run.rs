@@ -190,7 +190,7 @@ pub struct DatasetResult {
     pub ceiling_shrink_pct: Option<f64>,
     /// The error, if any.
     pub error: Option<String>,
-    /// Whether the first verdict was open (rivals in play, [`next_runs`]).
+    /// Whether the first verdict was open (rivals in play, [`crate::diagnose::next_runs`]).
     pub opened: bool,
     /// Each round of driving what the diagnosis suggested and diagnosing again.
     pub next_rounds: Vec<NextRound>,
