@@ -8,8 +8,9 @@
 //! reproduce a's predicted extra power there: the residual sum of squares of that fit over σ²
 //! is the non-centrality of the test that rejects b when a is true, and its root is the
 //! separation in σ. σ is what a new manoeuvre meets: the repeat noise and the misfit the best
-//! model leaves out of sample, which repeats do not average away. A pair is separated when that reaches [`TARGET_SIGMA`] both
-//! ways (one way against the baseline alone, which every rival nests).
+//! model leaves out of sample, which repeats do not average away. A pair is separated when
+//! that reaches [`TARGET_SIGMA`] both ways (one way against the baseline alone, which every
+//! rival nests).
 //!
 //! The manoeuvres are chosen greedily from what the rover can drive: 90° and 180° turns at
 //! the thesis' turn set (R/R′ ∈ [`RADII`]) and straights, at the lowest and highest v_c of the
