@@ -115,3 +115,25 @@ fn nothing_to_drive_writes_no_scenario() {
     assert_eq!(std::fs::read_to_string(&next).expect("kept"), "mine");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A path table (thesis Table 6.1) has no manoeuvres to suggest more of: refused, no file.
+#[test]
+fn a_path_table_refuses_next_runs() {
+    let dir = temp_dir("next-runs-path-table");
+    let next = dir.join("next.toml");
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = host_tool()
+        .arg("diagnose")
+        .arg("--rover")
+        .arg(root.join("rovers/husky-a200.toml"))
+        .arg("--runs")
+        .arg(root.join("examples/husky-sand-table-6.1.csv"))
+        .arg("--next-runs")
+        .arg(&next)
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--next-runs do not apply"));
+    assert!(!next.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -208,10 +208,10 @@ impl DiagnoseArgs {
                 p.display()
             );
         }
-        if !self.calibration.is_empty() || self.out.is_some() {
+        if !self.calibration.is_empty() || self.out.is_some() || self.next_runs.is_some() {
             bail!(
                 "a path table is judged against paper Table 2's hard-ground model carried over to \
-                 the rover: --calibration and --out do not apply"
+                 the rover: --calibration, --out and --next-runs do not apply"
             );
         }
         let model = path_table::hard_ground_for(rover);
