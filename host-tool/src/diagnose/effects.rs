@@ -244,7 +244,7 @@ pub fn regressors(
 
 /// The baseline's features of side `side` of `row`, the columns a power-type term is projected
 /// off: [skid, |V|] (see [`is_power_type`]).
-fn baseline_features(row: &TurnRow, side: usize) -> [f64; 2] {
+pub(crate) fn baseline_features(row: &TurnRow, side: usize) -> [f64; 2] {
     [
         super::baseline::skid_feature_mps(row, side),
         row.sides[side].cmd_mps.abs(),

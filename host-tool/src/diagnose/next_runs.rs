@@ -324,6 +324,17 @@ enum Prediction {
     Effect(FittedModel),
 }
 
+impl Prediction {
+    /// How many regressors of its own the rival has (the baseline's two come after them).
+    fn own_columns(&self) -> usize {
+        match self {
+            Prediction::Nothing => 0,
+            Prediction::Copper(_) => 1,
+            Prediction::Effect(m) => effects::param_count(m.effects[0].effect),
+        }
+    }
+}
+
 /// Columns of a mimicking fit: a rival's own regressors (≤ 2) and the baseline's two.
 const MIMIC_COLUMNS: usize = effects::MAX_PARAMS + 2;
 
@@ -357,34 +368,26 @@ impl Setting<'_> {
     /// `f`'s own regressors on side `side` of `row`, then the baseline's features.
     fn columns(&self, f: &Fitted, row: &TurnRow, side: usize) -> ([f64; MIMIC_COLUMNS], usize) {
         let mut x = [0.0; MIMIC_COLUMNS];
-        let own = match &f.prediction {
-            Prediction::Nothing => 0,
-            Prediction::Copper(_) => {
-                x[0] = baseline::copper_regressor(self.baseline, row, side);
-                1
-            }
+        let own = f.prediction.own_columns();
+        match &f.prediction {
+            Prediction::Nothing => {}
+            Prediction::Copper(_) => x[0] = baseline::copper_regressor(self.baseline, row, side),
             Prediction::Effect(m) => {
-                let e = m.effects[0].effect;
-                let k = effects::param_count(e);
-                let r = effects::regressors(e, row, side, &self.ctx(m.heating_tau_s))
-                    .unwrap_or([0.0; effects::MAX_PARAMS]);
-                x[..k].copy_from_slice(&r[..k]);
-                k
+                let r =
+                    effects::regressors(m.effects[0].effect, row, side, &self.ctx(m.heating_tau_s))
+                        .unwrap_or([0.0; effects::MAX_PARAMS]);
+                x[..own].copy_from_slice(&r[..own]);
             }
-        };
-        x[own] = baseline::skid_feature_mps(row, side);
-        x[own + 1] = row.sides[side].cmd_mps.abs();
+        }
+        x[own..own + 2].copy_from_slice(&effects::baseline_features(row, side));
         (x, own + 2)
     }
 }
 
 /// [F², skid, |V|] of side `side` of `row`.
 fn copper_columns(b: &Baseline, row: &TurnRow, side: usize) -> [f64; 3] {
-    [
-        baseline::copper_regressor(b, row, side),
-        baseline::skid_feature_mps(row, side),
-        row.sides[side].cmd_mps.abs(),
-    ]
+    let [skid, v] = effects::baseline_features(row, side);
+    [baseline::copper_regressor(b, row, side), skid, v]
 }
 
 /// One ordered mimicking fit: `mimic`'s columns fitted to `target`'s predictions.
@@ -440,11 +443,7 @@ struct Pair {
 
 impl Pair {
     fn new(fitted: &[Fitted], a: usize, b: usize) -> Self {
-        let columns = |i: usize| match &fitted[i].prediction {
-            Prediction::Nothing => 2,
-            Prediction::Copper(_) => 3,
-            Prediction::Effect(m) => effects::param_count(m.effects[0].effect) + 2,
-        };
+        let columns = |i: usize| fitted[i].prediction.own_columns() + 2;
         // Every rival nests the baseline alone: only the other one must fail to mimic it.
         let fits = match (&fitted[a].prediction, &fitted[b].prediction) {
             (Prediction::Nothing, _) => vec![Mimic::new(b, a, columns(a))],
@@ -458,9 +457,15 @@ impl Pair {
     }
 
     /// Adds the drives `rows`, each weighted by `weight`.
-    fn add(&mut self, s: &Setting<'_>, fitted: &[Fitted], rows: &[TurnRow], weight: f64) {
+    fn add<'r>(
+        &mut self,
+        s: &Setting<'_>,
+        fitted: &[Fitted],
+        rows: impl IntoIterator<Item = &'r TurnRow> + Clone,
+        weight: f64,
+    ) {
         for f in &mut self.fits {
-            for row in rows {
+            for row in rows.clone() {
                 f.add(s, fitted, row, weight);
             }
         }
@@ -906,11 +911,7 @@ pub fn plan(
     for a in 0..fitted.len() {
         for b in a + 1..fitted.len() {
             let mut p = Pair::new(&fitted, a, b);
-            for row in &train {
-                for f in &mut p.fits {
-                    f.add(&s, &fitted, row, 1.0);
-                }
-            }
+            p.add(&s, &fitted, train.iter().copied(), 1.0);
             pairs.push(p);
         }
     }
