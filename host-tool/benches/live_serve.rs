@@ -98,7 +98,7 @@ fn main() {
     std::thread::sleep(Duration::from_millis(200));
     let elapsed = wall.elapsed();
     let after = cpu_by_thread_name();
-    let summary = server.finish(Duration::from_secs(5));
+    let summary = server.finish(Duration::from_secs(5), "bench done");
     let delivered: Vec<u64> = viewers
         .into_iter()
         .map(|v| v.join().unwrap_or_default())
@@ -199,7 +199,7 @@ fn spawn_viewer(addr: SocketAddr) -> JoinHandle<u64> {
                         }
                     }
                     Incoming::Op(_) => {}
-                    Incoming::Closed => break,
+                    Incoming::Closed(_) => break,
                 }
             }
             got

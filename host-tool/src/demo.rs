@@ -45,6 +45,9 @@ pub const PLAN_PATH: (f64, f64, f64) = (90.0, 90.0, 10.0);
 
 /// Tracker rate of the simulated pose in the commands file [Hz].
 pub const TRACKER_HZ: f64 = 20.0;
+/// The pause between two runs on the logs' timeline [ns] (the runs themselves are driven
+/// without one; at real time the next run's own start is later anyway).
+const PAUSE_NS: u64 = 1_000_000_000;
 
 /// What the demo runs.
 #[derive(Debug, Clone)]
@@ -242,8 +245,11 @@ pub fn run(
     })?;
     let mut runs = Vec::new();
     let mut files = Vec::new();
+    // The runs may be driven faster than real time; their logs lay them end to end in real
+    // time, so that Foxglove shows each on its own timeline.
+    let mut start_unix_ns = 0;
     for k in 0..options.runs {
-        let run = record_run(options, k, &mut |duration_s, status| {
+        let run = record_run(options, k, &mut start_unix_ns, &mut |duration_s, status| {
             on_status(k, duration_s, status)
         })?;
         files.extend([run.mcap.clone(), run.csv.clone(), run.commands.clone()]);
@@ -356,10 +362,13 @@ fn diagnose_and_plan(
 }
 
 /// Simulates run `k`, streams it through a pty into the recorder, checks the recording against
-/// the board's own totals, and writes its MCAP, run CSV and commands files.
+/// the board's own totals, and writes its MCAP, run CSV and commands files. Its first sample is
+/// at Unix time `start_unix_ns` or now, whichever is later; `start_unix_ns` moves on past the
+/// run and a pause, for the next one.
 fn record_run(
     options: &DemoOptions,
     k: u32,
+    start_unix_ns: &mut u64,
     on_status: &mut dyn FnMut(f64, &RecordStatus),
 ) -> Result<DemoRun, DemoError> {
     let out = &options.out_dir;
@@ -402,6 +411,9 @@ fn record_run(
     record_options.rover = options.world.rover;
     record_options.max_samples = Some(steps);
     record_options.sample_period_us = Some(config.sample_period_us);
+    let start = (*start_unix_ns).max(crate::live::unix_now_ns());
+    record_options.first_sample_not_before_unix_ns = Some(start);
+    *start_unix_ns = start.saturating_add((timeline.duration_s() * 1e9) as u64 + PAUSE_NS);
     // The board hangs up after its last step; anything longer than a few periods is a fault.
     record_options.reconnect_timeout = Duration::from_secs(2);
     let mut open = record::serial_opener(record_options.read_timeout);

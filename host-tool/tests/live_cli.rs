@@ -119,7 +119,8 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
     // Every message until the server closes: binary frames `0x01 | u32 LE | u64 LE | JSON`.
     let mut received = Vec::new();
     let mut last_timestamp = 0u64;
-    loop {
+    let mut goodbye = None;
+    let close_code = loop {
         match ws.read() {
             Ok(Message::Binary(bytes)) => {
                 assert!(bytes.len() > 13);
@@ -132,12 +133,27 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
                 let json: Value = serde_json::from_slice(&bytes[13..]).expect("JSON payload");
                 received.push(json);
             }
-            Ok(Message::Text(t)) => panic!("unexpected op {t}"),
-            Ok(Message::Close(_)) | Err(tungstenite::Error::ConnectionClosed) => break,
+            // The end of the stream is said before the close, once.
+            Ok(Message::Text(t)) => {
+                assert!(goodbye.is_none(), "a second op {t}");
+                goodbye = Some(serde_json::from_str::<Value>(t.as_str()).expect("JSON op"));
+            }
+            Ok(Message::Close(frame)) => break frame.map(|f| u16::from(f.code)),
+            Err(tungstenite::Error::ConnectionClosed) => break None,
             Ok(_) => {}
             Err(e) => panic!("after {} messages: {e}", received.len()),
         }
-    }
+    };
+    // A finished replay ends normally (1000), not with "no status" (1005), which a viewer takes
+    // for a dropped connection and retries; the status says why it ended.
+    assert_eq!(close_code, Some(1000));
+    let goodbye = goodbye.expect("a status op before the close");
+    assert_eq!(goodbye["op"], "status");
+    assert_eq!(goodbye["level"], 0, "info");
+    assert_eq!(
+        goodbye["message"],
+        "rover-power: the replay has ended (the whole log was sent)"
+    );
     assert!(received.len() >= 100, "{} frames", received.len());
     eprintln!("{} samples served and decoded in order", received.len());
     // In order, none missing: the i-th message is the log's i-th sample.
@@ -242,7 +258,7 @@ fn record_serve_shows_the_recording_live_and_the_log_is_whole() {
                 energies.push(json["total_energy_j"].as_f64().expect("energy"));
             }
             Incoming::Op(_) => {}
-            Incoming::Closed => break,
+            Incoming::Closed(_) => break,
         }
     }
     assert!(energies.len() >= 10, "{energies:?}");

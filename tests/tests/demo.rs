@@ -4,6 +4,7 @@
 use host_tool::demo::{self, DemoOptions};
 use host_tool::log::load::load_run;
 use host_tool::log::run_csv::read_run_csv;
+use host_tool::log::run_log::LogEvent;
 use host_tool::sim::world::{parse_scenario, WorldConfig};
 use model_core::kinematics::Regime;
 use std::path::PathBuf;
@@ -104,6 +105,24 @@ fn demo_records_every_sample_through_the_pty_and_validates_the_runs() {
         assert!(csv.iter().any(|r| r.cmd_mps.left != r.cmd_mps.right));
         assert!(csv.iter().all(|r| r.yaw_rad.is_some()));
     }
+
+    // Driven at 50x one after another, the runs are logged end to end in real time: the second
+    // starts on the wall clock after the first has ended, so Foxglove shows them side by side.
+    let wall_clock = |run: &demo::DemoRun| -> (u64, f64) {
+        let log = load_run(&run.mcap).expect("mcap");
+        let anchor = log.events.iter().find_map(|(t_s, e)| match e {
+            LogEvent::WallClock { unix_ns } => Some(*unix_ns - (t_s * 1e9) as u64),
+            _ => None,
+        });
+        let last_s = log.samples.last().expect("samples").t_s;
+        (anchor.expect("a wall clock"), last_s)
+    };
+    let (first_zero, first_last_s) = wall_clock(&outcome.runs[0]);
+    let (second_zero, _) = wall_clock(&outcome.runs[1]);
+    assert!(
+        second_zero > first_zero + (first_last_s * 1e9) as u64,
+        "run 2 starts at {second_zero} ns, before run 1 ends ({first_zero} + {first_last_s} s)"
+    );
 
     let report = &outcome.report;
     // 3 turns, 1 straight and a point turn per run.

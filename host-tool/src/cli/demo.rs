@@ -125,7 +125,10 @@ impl DemoArgs {
         });
         // The options' handle is gone with the runs: the server is ours again to stop.
         drop(options);
-        super::serve::finish(live.and_then(Arc::into_inner));
+        super::serve::finish(
+            live.and_then(Arc::into_inner),
+            "rover-power: the demo has ended (every run was sent)",
+        );
         let outcome = outcome?;
         output::print(printout(
             &outcome,

@@ -137,7 +137,7 @@ impl RecordArgs {
         );
         let result =
             record::record_on(&options, board, &mut open, &mut sink, &stop, &mut on_status);
-        super::serve::finish(live_server);
+        super::serve::finish(live_server, "rover-power: the recording has stopped");
         if live {
             eprintln_best_effort!();
         }

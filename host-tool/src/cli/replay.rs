@@ -156,7 +156,7 @@ impl ReplayArgs {
         output::print(format_args!("ws://{}\n", server.local_addr()))?;
         eprintln_best_effort!("waiting for a viewer to subscribe (Ctrl-C to stop)");
         if !server.wait_for_subscriber(None, &stop) {
-            super::serve::finish(Some(server));
+            super::serve::finish(Some(server), "rover-power: the replay was stopped");
             return Ok(());
         }
         let stats = serve_run(&server, run, rover, self.speed, &stop);
@@ -166,7 +166,11 @@ impl ReplayArgs {
             stats.run_s,
             if stats.stopped { ", stopped" } else { "" }
         );
-        super::serve::finish(Some(server));
+        let note = match stats.stopped {
+            true => "rover-power: the replay was stopped",
+            false => "rover-power: the replay has ended (the whole log was sent)",
+        };
+        super::serve::finish(Some(server), note);
         Ok(())
     }
 }

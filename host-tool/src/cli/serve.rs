@@ -38,10 +38,11 @@ impl ServeArgs {
     }
 }
 
-/// Stops the server after its viewers' queues drain (≤ 1 s) and prints what they got.
-pub fn finish(server: Option<LiveServer>) {
+/// Stops the server after its viewers' queues drain (≤ 1 s), tells them `note` (why the
+/// stream ended) and prints what they got.
+pub fn finish(server: Option<LiveServer>, note: &str) {
     if let Some(server) = server {
-        let summary: LiveSummary = server.finish(Duration::from_secs(1));
+        let summary: LiveSummary = server.finish(Duration::from_secs(1), note);
         eprintln_best_effort!("{summary}");
     }
 }

@@ -28,8 +28,8 @@ pub enum Incoming {
     Data(Received),
     /// A text op.
     Op(ServerOp),
-    /// The server closed the connection.
-    Closed,
+    /// The server closed the connection, with this close code if its close frame had one.
+    Closed(Option<u16>),
 }
 
 /// A connected viewer.
@@ -136,7 +136,7 @@ impl LiveClient {
             let message = match self.ws.read() {
                 Ok(m) => m,
                 Err(tungstenite::Error::ConnectionClosed | tungstenite::Error::AlreadyClosed) => {
-                    return Ok(Incoming::Closed)
+                    return Ok(Incoming::Closed(None))
                 }
                 Err(tungstenite::Error::Io(e)) => return Err(LiveError::Client(e)),
                 Err(e) => return Err(LiveError::Protocol(e.to_string())),
@@ -158,7 +158,7 @@ impl LiveClient {
                 Message::Text(text) => serde_json::from_str(text.as_str())
                     .map(Incoming::Op)
                     .map_err(|e| LiveError::Protocol(format!("op {text}: {e}"))),
-                Message::Close(_) => Ok(Incoming::Closed),
+                Message::Close(frame) => Ok(Incoming::Closed(frame.map(|f| u16::from(f.code)))),
                 _ => continue,
             };
         }

@@ -29,6 +29,7 @@ mod viewer;
 pub use channels::LiveChannel;
 pub use hub::ViewerReport;
 pub use replay::{serve_run, LiveReplayStats};
+pub(crate) use server::unix_now_ns;
 pub use server::{resolve_addr, LiveServer, LiveSummary};
 pub use sink::{LiveClock, LiveSink, LiveTee};
 

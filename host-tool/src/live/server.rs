@@ -9,7 +9,7 @@ use std::fmt;
 use std::io;
 use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -21,6 +21,8 @@ pub struct LiveServer {
     addr: SocketAddr,
     hub: Arc<Hub>,
     stop: Arc<AtomicBool>,
+    /// What the viewers are told when the server finishes.
+    ended: Arc<OnceLock<String>>,
     accept: Option<JoinHandle<()>>,
 }
 
@@ -96,9 +98,11 @@ impl LiveServer {
             .map_err(|source| LiveError::Bind { addr, source })?;
         let hub = Arc::new(Hub::default());
         let stop = Arc::new(AtomicBool::new(false));
+        let ended = Arc::new(OnceLock::new());
         let cx = ViewerContext {
             hub: hub.clone(),
             stop: stop.clone(),
+            ended: ended.clone(),
             options,
             session_id: format!("{}-{}", std::process::id(), unix_now_ns()),
         };
@@ -110,6 +114,7 @@ impl LiveServer {
             addr,
             hub,
             stop,
+            ended,
             accept: Some(accept),
         })
     }
@@ -173,9 +178,11 @@ impl LiveServer {
         self.hub.reports()
     }
 
-    /// Stops after the viewers' queues have drained (at most `drain`), closes every
-    /// connection and reports.
-    pub fn finish(mut self, drain: Duration) -> LiveSummary {
+    /// Stops after the viewers' queues have drained (at most `drain`), tells every viewer
+    /// `note` (an info status: why the stream ended), closes each connection normally (1000)
+    /// and reports.
+    pub fn finish(mut self, drain: Duration, note: &str) -> LiveSummary {
+        let _ = self.ended.set(note.to_owned());
         let start = Instant::now();
         while !self.hub.queues_empty() && start.elapsed() < drain {
             std::thread::sleep(ACCEPT_POLL);
@@ -243,7 +250,7 @@ fn accept_loop(listener: &TcpListener, cx: ViewerContext) {
 }
 
 /// The host's clock [ns since the Unix epoch].
-pub(super) fn unix_now_ns() -> u64 {
+pub(crate) fn unix_now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))

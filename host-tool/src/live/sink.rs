@@ -112,7 +112,7 @@ impl RunLogSink for LiveSink {
             }
             BoardFrame::Status(status) => {
                 self.publish(LiveChannel::Status, t_s, || {
-                    json(&StatusMsg { t_s, status })
+                    json(&StatusMsg::of(t_s, status))
                 });
             }
             _ => {}

@@ -43,7 +43,7 @@ fn data(client: &mut LiveClient) -> Received {
         match client.read().expect("a frame") {
             Incoming::Data(d) => return d,
             Incoming::Op(_) => continue,
-            Incoming::Closed => panic!("closed"),
+            Incoming::Closed(code) => panic!("closed ({code:?})"),
         }
     }
 }
@@ -121,7 +121,7 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
     assert_eq!(json["t_s"].as_f64(), Some(11.0));
     assert_eq!(json["running"], true);
 
-    let summary = server.finish(Duration::from_secs(1));
+    let summary = server.finish(Duration::from_secs(1), "done");
     assert_eq!(summary.viewers.len(), 1);
     assert_eq!(summary.viewers[0].sent, 301);
     assert_eq!(summary.dropped(), 0);
@@ -258,7 +258,7 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
         assert_eq!(a.current_a, b.current_a);
     }
 
-    let live = server.finish(Duration::ZERO);
+    let live = server.finish(Duration::ZERO, "done");
     eprintln!("{live}");
     let stalled_report = live
         .viewers

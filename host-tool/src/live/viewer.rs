@@ -14,12 +14,13 @@ use std::io;
 use std::net::{SocketAddr, TcpStream};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 use tungstenite::handshake::server::{ErrorResponse, Request, Response};
 use tungstenite::handshake::HandshakeError;
 use tungstenite::http::{HeaderValue, StatusCode};
-use tungstenite::protocol::WebSocketConfig;
+use tungstenite::protocol::frame::coding::CloseCode;
+use tungstenite::protocol::{CloseFrame, WebSocketConfig};
 use tungstenite::{Message, WebSocket};
 
 /// Longest wait for a new message before the viewer's ops are read again.
@@ -39,6 +40,8 @@ pub(super) struct ViewerContext {
     pub(super) stop: Arc<AtomicBool>,
     pub(super) options: LiveOptions,
     pub(super) session_id: String,
+    /// What the viewers are told when the server finishes (set by [`super::LiveServer::finish`]).
+    pub(super) ended: Arc<OnceLock<String>>,
 }
 
 /// Serves one viewer until it leaves, stalls past [`LiveOptions::stall_timeout`] or the server
@@ -55,8 +58,7 @@ pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
                 unflushed: false,
             }
             .run(&queue, cx);
-            let _ = ws.close(None);
-            let _ = ws.flush();
+            say_goodbye(&mut ws, cx, &why);
             why
         }
         Err(why) => {
@@ -67,6 +69,48 @@ pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
         }
     };
     cx.hub.leave(&counters, why);
+}
+
+/// Why [`Connection::run`] ends when the server finishes.
+const SERVER_STOPPED: &str = "server stopped";
+/// Longest wait for the goodbye to leave the socket.
+const GOODBYE_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// Ends the connection: after a finished stream, an info status saying so and a normal close
+/// (1000), so that a viewer does not take the end for a dropped connection; otherwise a
+/// "going away" close (1001) with the reason.
+fn say_goodbye(ws: &mut WebSocket<TcpStream>, cx: &ViewerContext, why: &str) {
+    // The goodbye is written whole or given up after GOODBYE_TIMEOUT.
+    let blocking = ws.get_ref().set_nonblocking(false).is_ok()
+        && ws
+            .get_ref()
+            .set_write_timeout(Some(GOODBYE_TIMEOUT))
+            .is_ok();
+    let (code, reason) = match cx.ended.get() {
+        Some(note) if why == SERVER_STOPPED => {
+            let op = ServerOp::Status {
+                level: status_level::INFO,
+                message: note.clone(),
+            };
+            if let Ok(text) = serde_json::to_string(&op) {
+                let _ = ws.write(Message::text(text));
+            }
+            (CloseCode::Normal, "stream ended")
+        }
+        _ => (CloseCode::Away, why),
+    };
+    // A close frame's reason holds at most 123 bytes.
+    let mut end = reason.len().min(123);
+    while !reason.is_char_boundary(end) {
+        end -= 1;
+    }
+    let _ = ws.close(Some(CloseFrame {
+        code,
+        reason: reason[..end].to_owned().into(),
+    }));
+    if blocking {
+        let _ = ws.flush();
+    }
 }
 
 fn handshake(stream: TcpStream, cx: &ViewerContext) -> Result<WebSocket<TcpStream>, String> {
@@ -155,7 +199,7 @@ impl Connection<'_> {
         let mut blocked_since: Option<Instant> = None;
         loop {
             if cx.stop.load(Ordering::Relaxed) {
-                return "server stopped".into();
+                return SERVER_STOPPED.into();
             }
             if let Err(why) = self.read_ops() {
                 return why;
@@ -181,7 +225,7 @@ impl Connection<'_> {
             let first = match queue.recv_timeout(POLL) {
                 Ok(m) => m,
                 Err(RecvTimeoutError::Timeout) => continue,
-                Err(RecvTimeoutError::Disconnected) => return "server stopped".into(),
+                Err(RecvTimeoutError::Disconnected) => return SERVER_STOPPED.into(),
             };
             match self.write_batch(first, queue) {
                 Ok(true) => std::thread::sleep(COALESCE),

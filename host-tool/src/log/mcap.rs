@@ -4,7 +4,8 @@
 //!
 //! # Layout
 //!
-//! Channels (message encoding `json`, schema encoding `jsonschema`, as Foxglove expects):
+//! Channels (message encoding `json` with `jsonschema` schemas in the subset Foxglove Studio
+//! reads, but the frames in protobuf):
 //!
 //! | topic | schema | what |
 //! |---|---|---|
@@ -13,7 +14,7 @@
 //! | `/rover_power/status` | `rover_power.Status` | the board's status frame (health counters) |
 //! | `/rover_power/command` | `rover_power.Command` | commanded side speeds and tracked pose |
 //! | `/rover_power/event` | `foxglove.Log` | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
-//! | `/rover_power/frame` | none | every wire frame exactly as the board encoded it (message encoding `rover-power-wire-v<PROTOCOL_VERSION>`, now v3: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`) |
+//! | `/rover_power/frame` | `rover_power.Frame` (protobuf) | every wire frame exactly as the board encoded it, in the `bytes wire = 1` field of a protobuf message (Foxglove decodes it from the schema in the file); the bytes are `rover-power-wire-v<PROTOCOL_VERSION>` (channel metadata `wire_encoding`), now v3: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`. Files written before held the bare frame under that message encoding; both read |
 //!
 //! `publish_time` is the run time in ns; `log_time` is Unix time in ns, the host's clock: the
 //! [`LogEvent::WallClock`] anchor (when the first sample's bytes were read) plus the run time
@@ -48,11 +49,13 @@
 //! Each skipped stretch is a [`Loss`] in [`McapRun::losses`]: bytes, the run times around it and
 //! the samples lost (counted from the chunk's message index when it survived, else estimated).
 
+mod frame_proto;
 mod read;
 #[cfg(test)]
 mod salvage_tests;
 mod sample_json;
 mod sink;
+pub mod studio;
 #[cfg(test)]
 pub(crate) mod tests;
 mod walk;
@@ -131,7 +134,8 @@ pub const EVENT_CHANNEL: JsonChannel = JsonChannel {
 /// Target size of a chunk before it is written even without a flush [bytes].
 pub const CHUNK_BYTES: u64 = 256 * 1024;
 
-/// Message encoding of the frame channel: the wire format of this protocol version.
+/// The wire format of this protocol version: what the frame channel's messages hold (its
+/// `wire_encoding`; the message encoding itself in files written before the protobuf wrapping).
 pub fn frame_encoding() -> String {
     format!("rover-power-wire-v{PROTOCOL_VERSION}")
 }
@@ -384,12 +388,15 @@ fn describe_event(event: &LogEvent) -> (u8, String) {
         LogEvent::Stopped { reason } => (INFO, format!("recording stopped: {reason}")),
         LogEvent::WallClock { unix_ns } => (
             INFO,
-            format!("this sample arrived at Unix time {unix_ns} ns (host clock)"),
+            format!("wall clock: this sample is at Unix time {unix_ns} ns"),
         ),
     }
 }
 
-/// JSON schemas of the channels (draft 2020-12 subset Foxglove understands).
+/// JSON schemas of the channels, in the subset Foxglove Studio's reader (`parseJsonSchema`)
+/// takes: every field has one `"type"` string, nested objects are written inline (no `$ref`),
+/// and a value that is not known is an absent field, never `null` (no type arrays).
+/// `studio_rules` in the tests holds every schema and message to these rules.
 mod schema {
     pub(super) const SAMPLE: &str = r##"{
   "title": "rover_power.Sample",
@@ -397,17 +404,9 @@ mod schema {
   "type": "object",
   "properties": {
     "t_s": {"type": "number", "description": "run time [s]"},
-    "left": {"$ref": "#/$defs/side"},
-    "right": {"$ref": "#/$defs/side"},
-    "yaw_rad": {"type": "number", "description": "yaw [rad], counter-clockwise positive"},
-    "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive"},
-    "x_m": {"type": "number", "description": "tracked point x in the fixed frame [m], when a fix landed on this sample"},
-    "y_m": {"type": "number", "description": "tracked point y in the fixed frame [m], with x_m"}
-  },
-  "required": ["t_s", "left", "right"],
-  "$defs": {
-    "side": {
+    "left": {
       "type": "object",
+      "description": "left motor driver",
       "properties": {
         "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
         "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
@@ -415,8 +414,24 @@ mod schema {
         "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
       },
       "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
-    }
-  }
+    },
+    "right": {
+      "type": "object",
+      "description": "right motor driver",
+      "properties": {
+        "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
+        "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
+        "power_w": {"type": "number", "description": "bus_v x current_a [W]"},
+        "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
+      },
+      "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
+    },
+    "yaw_rad": {"type": "number", "description": "yaw [rad], counter-clockwise positive; absent when not measured"},
+    "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive; absent when not measured"},
+    "x_m": {"type": "number", "description": "tracked point x in the fixed frame [m]; present only when a fix landed on this sample"},
+    "y_m": {"type": "number", "description": "tracked point y in the fixed frame [m], with x_m"}
+  },
+  "required": ["t_s", "left", "right"]
 }"##;
 
     pub(super) const MODEL: &str = r##"{
@@ -427,22 +442,29 @@ mod schema {
     "t_s": {"type": "number", "description": "run time the frame arrived [s]"},
     "board_t_us": {"type": "integer", "description": "board time of the sample [us since boot]"},
     "seq": {"type": "integer", "description": "sample number"},
-    "left": {"$ref": "#/$defs/side"},
-    "right": {"$ref": "#/$defs/side"},
+    "left": {
+      "type": "object",
+      "description": "left side",
+      "properties": {
+        "power_w": {"type": "number", "description": "latest power [W]; absent when the chip gave no reading"},
+        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
+        "tau_w_per_rad_s": {"type": "number", "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]; absent when the wheel stands still or power is unknown"}
+      },
+      "required": ["energy_j"]
+    },
+    "right": {
+      "type": "object",
+      "description": "right side",
+      "properties": {
+        "power_w": {"type": "number", "description": "latest power [W]; absent when the chip gave no reading"},
+        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
+        "tau_w_per_rad_s": {"type": "number", "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]; absent when the wheel stands still or power is unknown"}
+      },
+      "required": ["energy_j"]
+    },
     "total_energy_j": {"type": "number", "description": "energy of both sides [J]"}
   },
-  "required": ["t_s", "board_t_us", "seq", "left", "right", "total_energy_j"],
-  "$defs": {
-    "side": {
-      "type": "object",
-      "properties": {
-        "power_w": {"type": ["number", "null"], "description": "latest power [W]"},
-        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
-        "tau_w_per_rad_s": {"type": ["number", "null"], "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]"}
-      },
-      "required": ["power_w", "energy_j", "tau_w_per_rad_s"]
-    }
-  }
+  "required": ["t_s", "board_t_us", "seq", "left", "right", "total_energy_j"]
 }"##;
 
     pub(super) const STATUS: &str = r##"{
@@ -454,12 +476,25 @@ mod schema {
     "uptime_us": {"type": "integer"},
     "samples": {"type": "integer", "description": "samples taken since boot"},
     "running": {"type": "boolean"},
-    "i2c_errors": {"$ref": "#/$defs/counts"},
-    "reinits": {"$ref": "#/$defs/counts"},
-    "skipped_results": {"$ref": "#/$defs/counts", "description": "chip results no read returned"},
+    "i2c_errors": {
+      "type": "object",
+      "description": "I2C transactions that failed, per chip",
+      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
+    },
+    "reinits": {
+      "type": "object",
+      "description": "re-initialisations after a chip reset or a recovered fault, per chip",
+      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
+    },
+    "skipped_results": {
+      "type": "object",
+      "description": "chip results no read returned",
+      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
+    },
     "last_fault": {
       "type": "object",
-      "properties": {"left": {"type": ["string", "null"]}, "right": {"type": ["string", "null"]}}
+      "description": "the latest fault per chip; a side is absent while its chip reads fine",
+      "properties": {"left": {"type": "string"}, "right": {"type": "string"}}
     },
     "queue_drops": {"type": "integer"},
     "rx_errors": {"type": "integer"},
@@ -473,17 +508,12 @@ mod schema {
     },
     "sample_period_us": {"type": "integer"},
     "wheel_rates_rad_s": {
-      "type": ["object", "null"],
+      "type": "object",
+      "description": "commanded wheel rates the board uses for tau [rad/s]; absent until the host sends them",
       "properties": {"left": {"type": "number"}, "right": {"type": "number"}}
     }
   },
-  "required": ["t_s", "uptime_us", "samples", "running"],
-  "$defs": {
-    "counts": {
-      "type": "object",
-      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
-    }
-  }
+  "required": ["t_s", "uptime_us", "samples", "running"]
 }"##;
 
     pub(super) const COMMAND: &str = r##"{
@@ -520,7 +550,21 @@ mod schema {
     "file": {"type": "string"},
     "line": {"type": "integer", "minimum": 0},
     "t_s": {"type": "number", "description": "run time [s]"},
-    "event": {"type": "object", "properties": {"kind": {"type": "string"}}, "required": ["kind"]}
+    "event": {
+      "type": "object",
+      "description": "the structured event; which fields it has depends on its kind",
+      "properties": {
+        "kind": {"type": "string", "description": "started, device-vanished, reconnected, samples-lost, bad-frames, board-reset, stopped or wall-clock"},
+        "port": {"type": "string", "description": "the serial port (started, device-vanished, reconnected)"},
+        "offline_s": {"type": "number", "description": "time the device was gone [s] (reconnected)"},
+        "after_seq": {"type": "integer", "description": "the last sample before the gap (samples-lost)"},
+        "missing": {"type": "integer", "description": "samples lost (samples-lost)"},
+        "count": {"type": "integer", "description": "frames that failed to decode (bad-frames)"},
+        "reason": {"type": "string", "description": "why the recording stopped (stopped)"},
+        "unix_ns": {"type": "integer", "description": "host clock when the first sample arrived [Unix ns] (wall-clock)"}
+      },
+      "required": ["kind"]
+    }
   },
   "required": ["timestamp", "level", "message", "name", "file", "line", "t_s", "event"]
 }"##;

@@ -149,6 +149,10 @@ pub struct RecordOptions {
     pub status_every: Duration,
     /// The sampling period to configure the board to [µs] (`--rate-hz`); `None`: the board's.
     pub sample_period_us: Option<u32>,
+    /// The earliest Unix time [ns] the first sample is anchored at (the host's clock when its
+    /// bytes were read, if later): the demo lays its faster-than-real-time runs end to end,
+    /// each on its own real-time timeline, so that Foxglove shows them one after another.
+    pub first_sample_not_before_unix_ns: Option<u64>,
 }
 
 impl RecordOptions {
@@ -168,6 +172,7 @@ impl RecordOptions {
             flush_every: Duration::from_millis(200),
             status_every: Duration::from_millis(500),
             sample_period_us: None,
+            first_sample_not_before_unix_ns: None,
         }
     }
 

@@ -361,12 +361,13 @@ impl<'a, 'o> Recorder<'a, 'o> {
         self.rate.sample(sample.seq, sample.t_us);
         self.samples += 1;
         if self.samples == 1 {
-            // Where run time meets wall time: when the first sample's bytes were read.
+            // Where run time meets wall time: when the first sample's bytes were read (or
+            // later, where the caller lays the run).
             let read = std::time::SystemTime::now()
                 .checked_sub(self.read_at.elapsed())
-                .and_then(|at| at.duration_since(std::time::UNIX_EPOCH).ok());
-            if let Some(unix) = read {
-                let unix_ns = u64::try_from(unix.as_nanos()).unwrap_or(u64::MAX);
+                .and_then(|at| at.duration_since(std::time::UNIX_EPOCH).ok())
+                .map(|unix| u64::try_from(unix.as_nanos()).unwrap_or(u64::MAX));
+            if let Some(unix_ns) = read.max(self.options.first_sample_not_before_unix_ns) {
                 self.sink
                     .event(t_s, &LogEvent::WallClock { unix_ns })
                     .map_err(RecordError::Sink)?;

@@ -581,34 +581,3 @@ fn replay_then_record_gives_back_every_column_of_the_run() {
     };
     assert_eq!(times(&again), times(&recorded));
 }
-
-#[test]
-fn zz_scratch_mcap_compare() {
-    let a = crate::log::load::load(Path::new("/work/main/demo-out/run-1.mcap"))
-        .expect("a")
-        .run;
-    let b = crate::log::load::load(Path::new("/tmp/me/rt/rt.mcap"))
-        .expect("b")
-        .run;
-    eprintln!("commands {} vs {}", a.commands.len(), b.commands.len());
-    for (x, y) in a.commands.iter().zip(&b.commands) {
-        if x != y {
-            eprintln!("DIFF {x:?}\n     {y:?}");
-        }
-    }
-    eprintln!(
-        "events a {:?}",
-        a.events
-            .iter()
-            .map(|(t, e)| (t, e.short_name()))
-            .collect::<Vec<_>>()
-    );
-    eprintln!(
-        "events b {:?}",
-        b.events
-            .iter()
-            .map(|(t, e)| (t, e.short_name()))
-            .collect::<Vec<_>>()
-    );
-    eprintln!("samples equal: {}", a.samples == b.samples);
-}

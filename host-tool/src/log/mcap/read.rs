@@ -9,8 +9,8 @@
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use super::{
-    frame_encoding, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND, TOPIC_EVENT,
-    TOPIC_FRAME, TOPIC_SAMPLE,
+    frame_encoding, frame_proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
+    TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
 };
 use crate::log::run_csv::{RigRange, BUS_V_MAX, CURRENT_A_MAX};
 use crate::log::run_log::{RunLog, RunLogSink};
@@ -425,7 +425,10 @@ enum Topic {
     Sample,
     Command,
     Event,
+    /// Wire frames wrapped in `rover_power.Frame` protobuf messages.
     Frame,
+    /// Bare wire frames (files written before the protobuf wrapping).
+    BareFrame,
     /// Ours but derived (model, status), or someone else's: skipped.
     Skipped,
 }
@@ -611,14 +614,30 @@ impl<'s> State<'s> {
     }
 
     fn channel(&mut self, channel: ::mcap::records::Channel, offset: u64) -> Result<(), McapError> {
-        let (topic, expected) = match channel.topic.as_str() {
-            TOPIC_SAMPLE => (Topic::Sample, "json".to_owned()),
-            TOPIC_COMMAND => (Topic::Command, "json".to_owned()),
-            TOPIC_EVENT => (Topic::Event, "json".to_owned()),
-            TOPIC_FRAME => (Topic::Frame, frame_encoding()),
-            t if t.starts_with("/rover_power/") => {
-                (Topic::Skipped, channel.message_encoding.clone())
+        let (topic, expected, found) = match channel.topic.as_str() {
+            TOPIC_SAMPLE => (Topic::Sample, "json".to_owned(), &channel.message_encoding),
+            TOPIC_COMMAND => (Topic::Command, "json".to_owned(), &channel.message_encoding),
+            TOPIC_EVENT => (Topic::Event, "json".to_owned(), &channel.message_encoding),
+            // The frames' wire format is the channel's `wire_encoding` under protobuf, else the
+            // message encoding itself.
+            TOPIC_FRAME if channel.message_encoding == frame_proto::ENCODING => {
+                let wire = channel.metadata.get("wire_encoding");
+                (
+                    Topic::Frame,
+                    frame_encoding(),
+                    wire.unwrap_or(&channel.message_encoding),
+                )
             }
+            TOPIC_FRAME => (
+                Topic::BareFrame,
+                frame_encoding(),
+                &channel.message_encoding,
+            ),
+            t if t.starts_with("/rover_power/") => (
+                Topic::Skipped,
+                channel.message_encoding.clone(),
+                &channel.message_encoding,
+            ),
             t => {
                 self.foreign_topics.insert(t.to_owned());
                 self.channels
@@ -626,18 +645,17 @@ impl<'s> State<'s> {
                 return Ok(());
             }
         };
-        if channel.message_encoding != expected {
-            let detail = if topic == Topic::Frame {
+        if *found != expected {
+            let detail = if matches!(topic, Topic::Frame | Topic::BareFrame) {
                 format!(
-                    "{TOPIC_FRAME} holds {:?} frames; this tool reads {expected:?} (protocol \
+                    "{TOPIC_FRAME} holds {found:?} frames; this tool reads {expected:?} (protocol \
                      version {})",
-                    channel.message_encoding,
                     wire::PROTOCOL_VERSION
                 )
             } else {
                 format!(
-                    "{} has message encoding {:?}, expected {expected:?}",
-                    channel.topic, channel.message_encoding
+                    "{} has message encoding {found:?}, expected {expected:?}",
+                    channel.topic
                 )
             };
             return Err(McapError::Foreign {
@@ -716,7 +734,11 @@ impl<'s> State<'s> {
                     .event(msg.t_s, &msg.event)
                     .map_err(|e| self.sink_err(e))?;
             }
-            Topic::Frame => {
+            Topic::Frame | Topic::BareFrame => {
+                let data = match topic {
+                    Topic::Frame => frame_proto::decode(data).map_err(|e| bad(self, e))?,
+                    _ => data,
+                };
                 let Some((&0, body)) = data.split_last() else {
                     return Err(bad(
                         self,

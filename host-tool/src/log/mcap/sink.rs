@@ -1,16 +1,20 @@
 //! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
 
 use super::{
-    frame_encoding, CommandMsg, EventMsg, JsonChannel, McapError, SampleMsg, CHUNK_BYTES,
-    COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL, TOPIC_FRAME,
+    frame_encoding, frame_proto, CommandMsg, EventMsg, JsonChannel, McapError, SampleMsg,
+    CHUNK_BYTES, COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL,
+    TOPIC_FRAME,
 };
 use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::{LogEvent, RunLogSink};
 use ::mcap::records::{MessageHeader, Metadata};
 use ::mcap::{Compression, WriteOptions, Writer};
+use model_core::ina226::AdcConfig;
 use model_core::ina226::Scale;
-use model_core::wire::{self, BoardFrame, Hello, Model, Status, MAX_FRAME, PROTOCOL_VERSION};
+use model_core::wire::{
+    self, BoardFrame, ChipFault, Hello, Model, Status, MAX_FRAME, PROTOCOL_VERSION,
+};
 use model_core::Sides;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -37,8 +41,12 @@ pub(super) enum Ch {
 /// times ≥ 0 [s].
 pub struct McapSink<W: Write + Seek> {
     pub(super) writer: Writer<W>,
-    /// MCAP channel id of each [`Ch`].
-    ids: [u16; 6],
+    /// MCAP channel id of each [`Ch`], once its first message declared it. Declared lazily
+    /// so that a channel record always shares its chunk with a message: a chunk of channel
+    /// records alone has no message index and a start time of 0, and Foxglove Studio then
+    /// shows nothing of the file ("Chunks without message indexes are not currently
+    /// supported", a time range from 1970).
+    ids: [Option<u16>; 6],
     /// Next sequence number of each [`Ch`].
     sequence: [u32; 6],
     /// The latest hello's scale (the board's until one arrives), for the model channel.
@@ -87,8 +95,8 @@ impl<W: Write + Seek> fmt::Debug for McapSink<W> {
 }
 
 impl McapSink<BufWriter<File>> {
-    /// Creates (or truncates) `path` and writes the file header, schemas, channels and the
-    /// `rover_power` metadata record.
+    /// Creates (or truncates) `path` and writes the file header and the `rover_power` metadata
+    /// record.
     pub fn create(path: &Path, overwrite: bool) -> Result<Self, McapError> {
         let mut options = OpenOptions::new();
         options.read(true).write(true);
@@ -102,16 +110,16 @@ impl McapSink<BufWriter<File>> {
             source,
         })?;
         let mut sink = Self::new(BufWriter::new(file))?;
-        // The header and channels reach the file at once: even a run killed before its first
-        // flush leaves a file the reader recognises.
+        // The header and the `rover_power` metadata reach the file at once: even a run killed
+        // before its first flush leaves a file the reader recognises.
         sink.flush_records()?;
         Ok(sink)
     }
 }
 
 impl<W: Write + Seek> McapSink<W> {
-    /// Starts an MCAP file in `out` (header, schemas, channels, `rover_power` metadata) with
-    /// zstd-compressed chunks.
+    /// Starts an MCAP file in `out` (header, `rover_power` metadata; each channel is declared
+    /// with its first message) with zstd-compressed chunks.
     pub fn new(out: W) -> Result<Self, McapError> {
         Self::with_compression(out, Some(Compression::Zstd))
     }
@@ -136,27 +144,6 @@ impl<W: Write + Seek> McapSink<W> {
             // half-written chunk whose header still has placeholder lengths.
             .disable_seeking(true);
         let mut writer = Writer::with_options(out, options)?;
-        let no_metadata = BTreeMap::new();
-        let mut json_channel = |c: JsonChannel| -> Result<u16, McapError> {
-            let schema_id = writer.add_schema(c.schema_name, "jsonschema", c.schema.as_bytes())?;
-            Ok(writer.add_channel(schema_id, c.topic, "json", &no_metadata)?)
-        };
-        let sample = json_channel(SAMPLE_CHANNEL)?;
-        let model = json_channel(MODEL_CHANNEL)?;
-        let status = json_channel(STATUS_CHANNEL)?;
-        let command = json_channel(COMMAND_CHANNEL)?;
-        let event = json_channel(EVENT_CHANNEL)?;
-        let frame_metadata = BTreeMap::from([
-            (
-                "format".to_owned(),
-                "COBS(version byte | postcard(BoardFrame) | CRC-32/ISO-HDLC little-endian) \
-                 followed by a 0x00 delimiter; one frame per message, exactly as the board sent \
-                 it (model_core::wire)"
-                    .to_owned(),
-            ),
-            ("protocol_version".to_owned(), PROTOCOL_VERSION.to_string()),
-        ]);
-        let frame = writer.add_channel(0, TOPIC_FRAME, &frame_encoding(), &frame_metadata)?;
         writer.write_metadata(&Metadata {
             name: "rover_power".into(),
             metadata: BTreeMap::from([
@@ -177,7 +164,7 @@ impl<W: Write + Seek> McapSink<W> {
         })?;
         Ok(McapSink {
             writer,
-            ids: [sample, model, status, command, event, frame],
+            ids: [None; 6],
             sequence: [0; 6],
             scale: Scale::BOARD,
             last_sample_t_s: None,
@@ -241,12 +228,13 @@ impl<W: Write + Seek> McapSink<W> {
             }
             None => data,
         };
+        let channel_id = self.channel_id(channel).map_err(into_io)?;
         let sequence = self.sequence[channel as usize];
         self.sequence[channel as usize] = sequence.wrapping_add(1);
         self.writer
             .write_to_known_channel(
                 &MessageHeader {
-                    channel_id: self.ids[channel as usize],
+                    channel_id,
                     sequence,
                     log_time,
                     publish_time: run_ns,
@@ -254,6 +242,59 @@ impl<W: Write + Seek> McapSink<W> {
                 data,
             )
             .map_err(into_io)
+    }
+
+    /// The MCAP channel of `channel`, declared (schema and channel records) on first use.
+    fn channel_id(&mut self, channel: Ch) -> Result<u16, ::mcap::McapError> {
+        if let Some(id) = self.ids[channel as usize] {
+            return Ok(id);
+        }
+        let json = |c: JsonChannel| {
+            (
+                c.topic,
+                c.schema_name,
+                "json",
+                "jsonschema",
+                c.schema.as_bytes().to_vec(),
+            )
+        };
+        let (topic, schema_name, message_encoding, schema_encoding, schema) = match channel {
+            Ch::Sample => json(SAMPLE_CHANNEL),
+            Ch::Model => json(MODEL_CHANNEL),
+            Ch::Status => json(STATUS_CHANNEL),
+            Ch::Command => json(COMMAND_CHANNEL),
+            Ch::Event => json(EVENT_CHANNEL),
+            Ch::Frame => (
+                TOPIC_FRAME,
+                frame_proto::SCHEMA_NAME,
+                frame_proto::ENCODING,
+                frame_proto::ENCODING,
+                frame_proto::descriptor_set(),
+            ),
+        };
+        let metadata = match channel {
+            Ch::Frame => BTreeMap::from([
+                (
+                    "format".to_owned(),
+                    "rover_power.Frame { bytes wire = 1; }: wire = COBS(version byte | \
+                     postcard(BoardFrame) | CRC-32/ISO-HDLC little-endian) followed by a 0x00 \
+                     delimiter; one frame per message, exactly as the board sent it \
+                     (model_core::wire)"
+                        .to_owned(),
+                ),
+                ("protocol_version".to_owned(), PROTOCOL_VERSION.to_string()),
+                ("wire_encoding".to_owned(), frame_encoding()),
+            ]),
+            _ => BTreeMap::new(),
+        };
+        let schema_id = self
+            .writer
+            .add_schema(schema_name, schema_encoding, &schema)?;
+        let id = self
+            .writer
+            .add_channel(schema_id, topic, message_encoding, &metadata)?;
+        self.ids[channel as usize] = Some(id);
+        Ok(id)
     }
 
     /// Leaves [`LogClock::Waiting`] for `clock` and writes the held messages on it.
@@ -344,10 +385,14 @@ pub(crate) struct ModelMsg {
     total_energy_j: f64,
 }
 
+/// One side of a [`ModelMsg`]; an unknown value is left out (Foxglove's schema reader takes no
+/// `null`).
 #[derive(serde::Serialize)]
 struct ModelSide {
+    #[serde(skip_serializing_if = "Option::is_none")]
     power_w: Option<f64>,
     energy_j: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
     tau_w_per_rad_s: Option<f32>,
 }
 
@@ -378,12 +423,71 @@ impl ModelMsg {
     }
 }
 
-/// A `/rover_power/status` message.
+/// A `/rover_power/status` message: the status frame's fields, with a side's fault and the
+/// wheel rates left out while there are none (Foxglove's schema reader takes no `null`).
 #[derive(serde::Serialize)]
 pub(crate) struct StatusMsg<'a> {
-    pub(crate) t_s: f64,
-    #[serde(flatten)]
-    pub(crate) status: &'a Status,
+    t_s: f64,
+    uptime_us: u64,
+    samples: u32,
+    running: bool,
+    i2c_errors: Sides<u32>,
+    reinits: Sides<u32>,
+    skipped_results: Sides<u32>,
+    last_fault: Faults,
+    queue_drops: u32,
+    rx_errors: u32,
+    adc: &'a AdcConfig,
+    sample_period_us: u32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    wheel_rates_rad_s: Option<Sides<f32>>,
+}
+
+/// The latest fault per side, a side without one left out.
+#[derive(serde::Serialize)]
+struct Faults {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    left: Option<ChipFault>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    right: Option<ChipFault>,
+}
+
+impl<'a> StatusMsg<'a> {
+    pub(crate) fn of(t_s: f64, status: &'a Status) -> Self {
+        // Destructured so that a field added to the frame cannot be left out here unnoticed.
+        let Status {
+            uptime_us,
+            samples,
+            running,
+            i2c_errors,
+            reinits,
+            skipped_results,
+            last_fault,
+            queue_drops,
+            rx_errors,
+            adc,
+            sample_period_us,
+            wheel_rates_rad_s,
+        } = status;
+        StatusMsg {
+            t_s,
+            uptime_us: *uptime_us,
+            samples: *samples,
+            running: *running,
+            i2c_errors: *i2c_errors,
+            reinits: *reinits,
+            skipped_results: *skipped_results,
+            last_fault: Faults {
+                left: last_fault.left,
+                right: last_fault.right,
+            },
+            queue_drops: *queue_drops,
+            rx_errors: *rx_errors,
+            adc,
+            sample_period_us: *sample_period_us,
+            wheel_rates_rad_s: *wheel_rates_rad_s,
+        }
+    }
 }
 
 impl<W: Write + Seek> RunLogSink for McapSink<W> {
@@ -391,7 +495,9 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
         let mut buf = [0u8; MAX_FRAME];
         let n = wire::encode(frame, &mut buf)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-        self.write(Ch::Frame, t_s, &buf[..n])?;
+        let mut message = Vec::with_capacity(n + 3);
+        frame_proto::encode(&buf[..n], &mut message);
+        self.write(Ch::Frame, t_s, &message)?;
         match frame {
             BoardFrame::Hello(hello) => self.hello(t_s, hello)?,
             BoardFrame::Model(model) => {
@@ -399,7 +505,7 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 self.write_json(Ch::Model, t_s, &msg)?;
             }
             BoardFrame::Status(status) => {
-                self.write_json(Ch::Status, t_s, &StatusMsg { t_s, status })?;
+                self.write_json(Ch::Status, t_s, &StatusMsg::of(t_s, status))?;
             }
             _ => {}
         }

@@ -7,6 +7,7 @@ use firmware::sampler::SamplerConfig;
 use model_core::ina226::Scale;
 use model_core::wire::BoardFrame;
 use proptest::prelude::*;
+use std::collections::BTreeMap;
 use std::io::Cursor;
 use std::path::Path;
 
@@ -262,7 +263,7 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
         .expect("valid")
         .expect("summary present");
     let stats = summary.stats.as_ref().expect("statistics");
-    let topics: std::collections::BTreeMap<&str, (&str, Option<&str>)> = summary
+    let topics: BTreeMap<&str, (&str, Option<&str>)> = summary
         .channels
         .values()
         .map(|c| {
@@ -280,8 +281,7 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
     assert_eq!(topics[TOPIC_STATUS], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_COMMAND], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_EVENT], ("json", Some("jsonschema")));
-    let wire = format!("rover-power-wire-v{}", model_core::wire::PROTOCOL_VERSION);
-    assert_eq!(topics[TOPIC_FRAME], (wire.as_str(), None));
+    assert_eq!(topics[TOPIC_FRAME], ("protobuf", Some("protobuf")));
     assert!(!summary.chunk_indexes.is_empty());
     assert_eq!(summary.metadata_indexes.len(), 2, "rover_power + one hello");
 
@@ -310,8 +310,12 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
         .filter(|(_, f)| matches!(f, BoardFrame::Model(_)))
         .count();
     assert_eq!(models, frame_models);
-    // Schemas are valid JSON.
-    for schema in summary.schemas.values() {
+    // The JSON schemas are valid JSON.
+    for schema in summary
+        .schemas
+        .values()
+        .filter(|s| s.encoding == "jsonschema")
+    {
         serde_json::from_slice::<serde_json::Value>(&schema.data).expect("JSON schema");
     }
 }
@@ -425,7 +429,7 @@ fn not_mcap_foreign_and_other_versions_are_clear_errors() {
 
     // A finished MCAP file of someone else's topics.
     let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
-    let no_metadata = std::collections::BTreeMap::new();
+    let no_metadata = BTreeMap::new();
     let odom = writer
         .add_channel(0, "/odom", "json", &no_metadata)
         .expect("channel");
@@ -451,22 +455,26 @@ fn not_mcap_foreign_and_other_versions_are_clear_errors() {
         "test.mcap: an MCAP file without rover-power channels (its topics: /odom, /tf)"
     );
 
-    // Frames of another protocol version.
-    let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
-    writer
-        .add_channel(0, TOPIC_FRAME, "rover-power-wire-v9", &no_metadata)
-        .expect("channel");
-    writer.finish().expect("finish");
-    let bytes = writer.into_inner().into_inner();
-    let e = read(&bytes).expect_err("v9");
-    assert!(matches!(e, McapError::Foreign { .. }), "{e}");
-    assert!(
-        e.to_string().contains(&format!(
-            "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v{}\"",
-            model_core::wire::PROTOCOL_VERSION
-        )),
-        "{e}"
-    );
+    // Frames of another protocol version, bare (as files before the protobuf wrapping) or
+    // wrapped.
+    let v9 = BTreeMap::from([("wire_encoding".to_owned(), "rover-power-wire-v9".to_owned())]);
+    for (encoding, metadata) in [("rover-power-wire-v9", &no_metadata), ("protobuf", &v9)] {
+        let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
+        writer
+            .add_channel(0, TOPIC_FRAME, encoding, metadata)
+            .expect("channel");
+        writer.finish().expect("finish");
+        let bytes = writer.into_inner().into_inner();
+        let e = read(&bytes).expect_err("v9");
+        assert!(matches!(e, McapError::Foreign { .. }), "{e}");
+        assert!(
+            e.to_string().contains(&format!(
+                "holds \"rover-power-wire-v9\" frames; this tool reads \"rover-power-wire-v{}\"",
+                model_core::wire::PROTOCOL_VERSION
+            )),
+            "{e}"
+        );
+    }
 }
 
 #[test]
@@ -506,7 +514,9 @@ fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
     let (run, _) = sim_run(10);
     let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
     // Bypass the encoders: a frame message that is not a frame, a sample that is not JSON.
-    sink.write(sink::Ch::Frame, 0.001, b"\x05garbage\x00")
+    let mut not_a_frame = Vec::new();
+    frame_proto::encode(b"\x05garbage\x00", &mut not_a_frame);
+    sink.write(sink::Ch::Frame, 0.001, &not_a_frame)
         .expect("written");
     for (i, s) in run.samples.iter().enumerate() {
         if i == 4 {
@@ -540,7 +550,7 @@ fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
 fn merged_with_other_topics_reads_only_ours() {
     let (run, _) = sim_run(10);
     let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
-    let no_metadata = std::collections::BTreeMap::new();
+    let no_metadata = BTreeMap::new();
     let tf = sink
         .writer
         .add_channel(0, "/tf", "cdr", &no_metadata)
@@ -605,4 +615,118 @@ proptest! {
         }
         let _ = read(&bytes);
     }
+}
+
+/// Files written before the protobuf wrapping hold each frame bare under the message encoding
+/// `rover-power-wire-v<N>`: they still read, frame for frame.
+#[test]
+fn bare_frames_of_earlier_files_still_read() {
+    let (run, _) = sim_run(60);
+    let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
+    let channel = writer
+        .add_channel(0, TOPIC_FRAME, &frame_encoding(), &BTreeMap::new())
+        .expect("channel");
+    for (sequence, (t_s, frame)) in run.frames.iter().enumerate() {
+        let mut buf = [0u8; model_core::wire::MAX_FRAME];
+        let n = model_core::wire::encode(frame, &mut buf).expect("encodes");
+        let time = sink::run_time_ns(*t_s).expect("time");
+        writer
+            .write_to_known_channel(
+                &::mcap::records::MessageHeader {
+                    channel_id: channel,
+                    sequence: sequence as u32,
+                    log_time: time,
+                    publish_time: time,
+                },
+                &buf[..n],
+            )
+            .expect("message");
+    }
+    writer.finish().expect("finish");
+    let bytes = writer.into_inner().into_inner();
+    assert_eq!(read(&bytes).expect("readable").run.frames, run.frames);
+}
+
+/// Every channel and message passes Foxglove Studio's reader rules, with the values that are
+/// sometimes unknown (a side without power or τ, a chip fault, no wheel rates) among them.
+#[test]
+fn every_channel_and_message_is_one_studio_reads() {
+    let (mut run, _) = sim_run(200);
+    let mut faulted = None;
+    for (_, frame) in &mut run.frames {
+        match frame {
+            BoardFrame::Model(m) if faulted.is_none() => {
+                m.snapshot.power_lsb.left = None;
+                m.snapshot.torque_proportional.right = None;
+                faulted = Some(());
+            }
+            BoardFrame::Status(s) => {
+                s.last_fault.left = None;
+                s.last_fault.right = Some(model_core::wire::ChipFault::AddressNack);
+                s.wheel_rates_rad_s = None;
+            }
+            _ => {}
+        }
+    }
+    let bytes = to_bytes(&run);
+    assert_eq!(
+        studio::problems(&bytes).expect("MCAP"),
+        Vec::<String>::new()
+    );
+    // The unknown values are absent, not null.
+    let mut seen = (false, false);
+    for message in ::mcap::MessageStream::new(&bytes).expect("stream") {
+        let message = message.expect("message");
+        let text = String::from_utf8_lossy(&message.data).into_owned();
+        assert!(!text.contains("null"), "{}: {text}", message.channel.topic);
+        seen.0 |= message.channel.topic == TOPIC_MODEL && !text.contains("\"left\":{\"power_w\"");
+        seen.1 |= message.channel.topic == TOPIC_STATUS
+            && text.contains("\"last_fault\":{\"right\":\"AddressNack\"}");
+    }
+    assert_eq!(seen, (true, true));
+    // A file of today's schemas before this change is refused by the same rules.
+    let mut writer = ::mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
+    let schema = br##"{"type": "object", "properties": {"left": {"$ref": "#/$defs/side"}}}"##;
+    let id = writer
+        .add_schema("old.Sample", "jsonschema", schema)
+        .expect("schema");
+    let json = writer
+        .add_channel(id, "/old", "json", &BTreeMap::new())
+        .expect("channel");
+    let bare = writer
+        .add_channel(0, "/bare", "rover-power-wire-v3", &BTreeMap::new())
+        .expect("channel");
+    // Channel records closed in a chunk of their own, as the sink declared them before.
+    writer
+        .write_metadata(&::mcap::records::Metadata {
+            name: "m".into(),
+            metadata: BTreeMap::new(),
+        })
+        .expect("metadata");
+    for channel_id in [json, bare] {
+        let header = ::mcap::records::MessageHeader {
+            channel_id,
+            sequence: 0,
+            log_time: 0,
+            publish_time: 0,
+        };
+        writer
+            .write_to_known_channel(&header, b"{}")
+            .expect("message");
+    }
+    writer.finish().expect("finish");
+    let problems = studio::problems(&writer.into_inner().into_inner()).expect("MCAP");
+    assert_eq!(problems.len(), 3, "{problems:?}");
+    assert!(
+        problems[0].contains("Chunks without message indexes"),
+        "{problems:?}"
+    );
+    assert!(
+        problems[1].contains("Unsupported type null for old.Sample.left"),
+        "{problems:?}"
+    );
+    assert_eq!(
+        problems[2],
+        "/bare: Unsupported encoding rover-power-wire-v3"
+    );
 }
