@@ -1,5 +1,5 @@
-//! MCAP run logs (<https://mcap.dev>): one file per run, readable by Foxglove and the ROS 2
-//! `mcap` tooling, written as the run happens by [`McapSink`] and read back by
+//! MCAP run logs (<https://mcap.dev>): one file per run, readable by Foxglove Studio and the `mcap`
+//! tools, written as the run happens by [`McapSink`] and read back by
 //! [`read_mcap_run`].
 //!
 //! # Layout
