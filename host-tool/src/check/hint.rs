@@ -268,7 +268,7 @@ impl fmt::Display for Hint {
             Hint::StandstillCurrent { side } => write!(
                 f,
                 "the {side} side draws current at standstill: stop the motors (drivers idle) and \
-                 re-run; if it stays, it is an offset like the seed's Fig. 3.3 (0.59 A on the \
+                 re-run; if it stays, it is an offset like the thesis' Fig. 3.3 (0.59 A on the \
                  Husky's built-in sensing): connect VIN+ and VIN− by separate Kelvin traces at \
                  the shunt's pads, VIN+ on the battery side"
             ),

@@ -27,7 +27,7 @@ pub struct CheckArgs {
     /// Seconds to wait for the board's hello after DTR.
     #[arg(long = "hello-timeout-s", default_value_t = 3.0, value_parser = positive_seconds)]
     hello_timeout_s: f64,
-    /// Largest mean current per side at standstill [A] (the seed's Fig. 3.3 offset: 0.59 A).
+    /// Largest mean current per side at standstill [A] (the thesis' Fig. 3.3 offset: 0.59 A).
     #[arg(long = "standstill-max-a", default_value_t = 0.25, value_parser = positive_seconds)]
     standstill_max_a: f64,
     /// Largest difference between the chips' bus voltages [V] (both measure one battery).

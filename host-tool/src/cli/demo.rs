@@ -31,7 +31,7 @@ pub struct DemoArgs {
     /// World TOML (default: the built-in sand world, as in worlds/husky-sand.toml).
     #[arg(long)]
     world: Option<PathBuf>,
-    /// Scenario TOML (default: the seed's turn set once per run).
+    /// Scenario TOML (default: the thesis' turn set once per run).
     #[arg(long)]
     scenario: Option<PathBuf>,
     /// Number of runs.

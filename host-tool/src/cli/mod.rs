@@ -79,10 +79,10 @@ pub struct Cli {
 /// The commands.
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// The main job, no hardware needed: a simulated Husky A200 drives the seed's turn set in
+    /// The main job, no hardware needed: a simulated Husky A200 drives the thesis' turn set in
     /// loose sand; the firmware's own code samples it through simulated INA226 chips into a
     /// pseudo-terminal; the recorder reads it like /dev/ttyACM0; the runs are validated against
-    /// the seed's power models, diagnosed and planned with. Tables on the terminal; logs,
+    /// the power models of the thesis and its paper, diagnosed and planned with. Tables on the terminal; logs,
     /// reports and figures in --out.
     #[command(after_help = CONVENTIONS)]
     Demo(demo::DemoArgs),
@@ -102,7 +102,7 @@ pub enum Command {
     /// when it closes).
     #[command(after_help = CONVENTIONS)]
     Record(record::RecordArgs),
-    /// Validate runs against the seed's power models: cut them into manoeuvres from the
+    /// Validate runs against the power models of the thesis and its paper: cut them into manoeuvres from the
     /// commanded speeds, print a per-turn table (R_cmd, R/R', regime, duration vs expected,
     /// angular slip, power, energy, τ ∝ P/ω), fit the ICR model (c1, c2, c3 with pitch) with
     /// 95 % bounds and r², flag where measured power departs from it, and cross-check the

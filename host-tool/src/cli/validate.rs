@@ -52,7 +52,7 @@ pub struct ValidateArgs {
     departure_pct: f64,
     /// Hard-ground reference model as `MU,G_N,BS_M` (friction coefficient, rolling
     /// resistance [N], the terrain's slip track [m]; geometry and mass from the rover).
-    /// Default: the seed's Husky values (paper Table 2) for the Husky, none otherwise.
+    /// Default: the paper's Husky values (its Table 2) for the Husky, none otherwise.
     #[arg(long, value_name = "MU,G_N,BS_M", value_parser = parse_hard_ground, conflicts_with = "no_hard_ground")]
     hard_ground: Option<[f64; 3]>,
     /// No hard-ground reference column.

@@ -440,7 +440,7 @@ fn sinkage_deficit_note(
             "sinkage-bulldozing is a deficit here ({w:+.1} W per diagnosed side): G·|V| takes \
              the sand's resistance on every manoeuvre, straights included, and beyond it the \
              turns draw less, as when a turn's side compaction keeps the wheels' sinkage below \
-             a straight's (the seed's 2D slip-sinkage model, Eq 5.27)"
+             a straight's (the thesis' 2D slip-sinkage model, Eq 5.27)"
         )
     })
 }

@@ -8,7 +8,7 @@
 //! |---|---|---|
 //! | `radius_m` | yes | commanded turning radius R ≥ 0 [m]; `inf`, `infinity` or `straight` for a straight line (an empty cell is an error: it is more often a slip than a straight) |
 //! | `avg_power_w` | yes | total average power of both sides [W] |
-//! | `v_c_mps` | no | constant total absolute speed v_c (Eq 2.6) > 0 [m/s]; empty or absent: 0.3 m/s (the seed's experiments), with a note |
+//! | `v_c_mps` | no | constant total absolute speed v_c (Eq 2.6) > 0 [m/s]; empty or absent: 0.3 m/s (the thesis' experiments), with a note |
 //! | `pitch_deg` | no | mean pitch, nose-up positive, \|θ\| < 90 [deg]; empty or absent: unknown |
 //!
 //! An unknown column is an error (a typo must not leave a value out). The commanded side speeds
@@ -248,7 +248,7 @@ pub fn summary_notes(rows: &[SummaryRow]) -> Vec<String> {
         .collect();
     if !assumed.is_empty() {
         notes.push(format!(
-            "v_c_mps not given: {DEFAULT_V_C_MPS} m/s assumed (the seed's experiments) on line(s) {}",
+            "v_c_mps not given: {DEFAULT_V_C_MPS} m/s assumed (the thesis' experiments) on line(s) {}",
             assumed.join(", ")
         ));
     }
