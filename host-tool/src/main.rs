@@ -10,7 +10,7 @@ use std::process::ExitCode;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     host_tool::progress::set_quiet(cli.quiet);
-    cli::set_salvage(cli.salvage);
+    cli::set_salvage(cli.command.salvage());
     let result = match cli.command {
         Command::Demo(args) => args.run(),
         Command::Ports(args) => args.run(),

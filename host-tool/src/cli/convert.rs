@@ -11,6 +11,8 @@ use std::path::PathBuf;
 /// `convert IN OUT [--force]`.
 #[derive(clap::Args, Debug)]
 pub struct ConvertArgs {
+    #[command(flatten)]
+    pub salvage: super::SalvageArg,
     /// The run log to read (.mcap or .csv).
     input: PathBuf,
     /// The file to write (.mcap or .csv); written whole or not at all.

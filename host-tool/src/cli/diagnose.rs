@@ -17,6 +17,8 @@ use std::path::PathBuf;
 /// `diagnose --rover R.toml [--calibration CAL…] --runs FILES… [...]`.
 #[derive(clap::Args, Debug)]
 pub struct DiagnoseArgs {
+    #[command(flatten)]
+    pub salvage: super::SalvageArg,
     /// Rover TOML (e.g. rovers/husky-a200.toml).
     #[arg(long)]
     rover: PathBuf,

@@ -13,6 +13,8 @@ use std::path::PathBuf;
 /// `plot --rover R.toml --runs FILES… [--out DIR] [--format png|svg|both] [--force]`.
 #[derive(clap::Args, Debug)]
 pub struct PlotArgs {
+    #[command(flatten)]
+    pub salvage: super::SalvageArg,
     /// Rover TOML (e.g. rovers/husky-a200.toml).
     #[arg(long)]
     rover: PathBuf,

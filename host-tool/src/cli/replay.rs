@@ -21,6 +21,8 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("target").required(true).args(["to_pty", "to", "serve"])))]
 pub struct ReplayArgs {
+    #[command(flatten)]
+    pub salvage: super::SalvageArg,
     /// The run log (.mcap: its frames byte for byte, plus the board's report of each commanded
     /// speed after its ack; .csv: frames synthesised from samples and commanded speeds).
     log: PathBuf,

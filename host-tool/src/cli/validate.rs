@@ -15,6 +15,8 @@ use std::path::PathBuf;
 /// `validate --rover R.toml --runs FILES… [...]`.
 #[derive(clap::Args, Debug)]
 pub struct ValidateArgs {
+    #[command(flatten)]
+    pub salvage: super::SalvageArg,
     /// Rover TOML (e.g. rovers/husky-a200.toml).
     #[arg(long)]
     rover: PathBuf,
