@@ -576,7 +576,7 @@ mod tests {
 
     #[test]
     fn every_drawn_part_is_in_the_readmes_bill_of_materials() {
-        let readme = std::fs::read_to_string(repo_file("README.md")).expect("README");
+        let readme = std::fs::read_to_string(repo_file("docs/board.md")).expect("docs/board.md");
         let drawing = svg();
         for part in PARTS {
             assert!(
@@ -589,7 +589,7 @@ mod tests {
             });
             assert!(
                 row.is_some(),
-                "README's bill of materials lacks {} {}",
+                "docs/board.md's bill of materials lacks {} {}",
                 part.designator,
                 part.part_number
             );

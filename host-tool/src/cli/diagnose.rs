@@ -8,7 +8,6 @@ use host_tool::diagnose::features::{RunSampleScan, TurnRow};
 use host_tool::diagnose::{self, calibration::Calibration, report};
 use host_tool::log::run_csv::RigRange;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
-use host_tool::rover::load_rover_file;
 use host_tool::validate::ValidateOptions;
 use model_core::Rover;
 use std::io::Write as _;
@@ -19,9 +18,8 @@ use std::path::PathBuf;
 pub struct DiagnoseArgs {
     #[command(flatten)]
     pub salvage: super::SalvageArg,
-    /// Rover TOML (e.g. rovers/husky-a200.toml).
-    #[arg(long)]
-    rover: PathBuf,
+    #[command(flatten)]
+    rover: super::RoverArg,
     /// Calibration runs, .csv or .mcap: their straights, point turns and turns with R ≥ 2R′ fit
     /// the hard-ground baseline and are not scored (default: those manoeuvres of --runs).
     #[arg(long, num_args = 1..)]
@@ -124,7 +122,7 @@ impl DiagnoseArgs {
                 );
             }
         }
-        let rover_file = load_rover_file(&self.rover)?;
+        let rover_file = self.rover.load()?;
         let (rover, offset) = (rover_file.rover, rover_file.tracker_offset_m);
         // Path-level summaries (thesis Table 6.1) have their own judgement.
         if self

@@ -49,6 +49,28 @@ impl Command {
     }
 }
 
+/// `--rover`, the same on every command that needs the rover.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RoverArg {
+    /// Rover TOML (see rovers/; default: the Husky A200, exactly rovers/husky-a200.toml).
+    #[arg(long, value_name = "ROVER.toml")]
+    pub rover: Option<std::path::PathBuf>,
+}
+
+impl RoverArg {
+    /// The rover file given, or the Husky A200's.
+    pub fn load(&self) -> anyhow::Result<host_tool::rover::RoverFile> {
+        Ok(match &self.rover {
+            Some(path) => host_tool::rover::load_rover_file(path)?,
+            None => host_tool::rover::parse_rover_file(HUSKY_A200_TOML)?,
+        })
+    }
+}
+
+/// The default rover: the repository's Husky A200 file, so that `--rover rovers/husky-a200.toml`
+/// and no `--rover` are the same.
+const HUSKY_A200_TOML: &str = include_str!("../../../rovers/husky-a200.toml");
+
 /// Records `--salvage` for the commands.
 pub fn set_salvage(salvage: bool) {
     SALVAGE.store(salvage, Ordering::Relaxed);

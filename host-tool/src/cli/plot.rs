@@ -6,7 +6,6 @@ use anyhow::Result;
 use host_tool::figures::write_figures_with;
 use host_tool::out_dir::write_dir_whole;
 use host_tool::plot::Format;
-use host_tool::rover::load_rover;
 use host_tool::validate::ValidateOptions;
 use std::path::PathBuf;
 
@@ -15,9 +14,8 @@ use std::path::PathBuf;
 pub struct PlotArgs {
     #[command(flatten)]
     pub salvage: super::SalvageArg,
-    /// Rover TOML (e.g. rovers/husky-a200.toml).
-    #[arg(long)]
-    rover: PathBuf,
+    #[command(flatten)]
+    rover: super::RoverArg,
     /// Run logs, .csv or .mcap.
     #[arg(long, num_args = 1.., required = true)]
     runs: Vec<PathBuf>,
@@ -66,8 +64,11 @@ impl PlotArgs {
                 self.out.display()
             );
         }
-        let rover = load_rover(&self.rover)?;
-        let options = ValidateOptions::for_rover(&rover);
+        let rover_file = self.rover.load()?;
+        let rover = rover_file.rover;
+        // As `validate` does: the tracker's point from the rover file.
+        let mut options = ValidateOptions::for_rover(&rover);
+        options.tracker_offset_m = rover_file.tracker_offset_m;
         let (runs, report) = load_and_validate(&rover, &self.runs, self.rig_range.range, &options)?;
         let samples = runs.samples();
         let files = write_dir_whole(&self.out, self.force, |staging| {

@@ -6,7 +6,6 @@ use host_tool::eprintln_best_effort;
 use host_tool::live::{LiveServer, LiveTee};
 use host_tool::log::commands::read_commands_csv;
 use host_tool::record::{self, RecordError, RecordOptions, RecordStatus};
-use host_tool::rover::load_rover;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -39,9 +38,9 @@ pub struct RecordArgs {
     /// replay's pty, with the file `replay --commands-out` wrote.
     #[arg(long, value_name = "FILE", conflicts_with = "commands")]
     merge_commands: Option<PathBuf>,
-    /// Rover TOML for the wheel radius (default: the Husky A200).
-    #[arg(long)]
-    rover: Option<PathBuf>,
+    /// The rover, for its wheel radius.
+    #[command(flatten)]
+    rover: super::RoverArg,
     /// Seconds to wait for a vanished device before stopping (a pty is not waited for).
     #[arg(
         long = "reconnect-timeout-s",
@@ -95,9 +94,7 @@ impl RecordArgs {
             options.commands = read_commands_csv(path)?;
             options.forward_commands = false;
         }
-        if let Some(path) = &self.rover {
-            options.rover = load_rover(path)?;
-        }
+        options.rover = self.rover.load()?.rover;
         let commands_file = self.commands.as_ref().or(self.merge_commands.as_ref());
         options.validate().map_err(|e| match (&e, commands_file) {
             (RecordError::Command { .. }, Some(path)) => output::naming(path, e),

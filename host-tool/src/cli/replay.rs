@@ -11,7 +11,6 @@ use host_tool::log::run_log::RunLog;
 use host_tool::log::write_atomically;
 use host_tool::record::stop_signal;
 use host_tool::replay::{ReplayPacing, ReplayPty, ReplaySource};
-use host_tool::rover::load_rover;
 use host_tool::runs::{damage_warnings, truncation_warning};
 use model_core::Rover;
 use std::path::{Path, PathBuf};
@@ -48,10 +47,10 @@ pub struct ReplayArgs {
     /// viewers see time pass).
     #[arg(long, conflicts_with = "serve")]
     as_fast_as_possible: bool,
-    /// Rover TOML whose wheel radius turns commanded speeds into the reported wheel rates
-    /// (default: the Husky A200, as `record`'s; give both the same rover).
-    #[arg(long)]
-    rover: Option<PathBuf>,
+    /// The rover whose wheel radius turns commanded speeds into the reported wheel rates (give
+    /// `record` the same).
+    #[command(flatten)]
+    rover: super::RoverArg,
     // --serve: the log's messages to Foxglove at real time (or --speed K), stamped as
     // happening now; starts when the first viewer subscribes (`replay LOG --serve`, the log
     // first: `--serve LOG` would read LOG as the address).
@@ -83,10 +82,7 @@ pub fn positive_factor(text: &str) -> Result<f64, String> {
 impl ReplayArgs {
     /// Replays the log.
     pub fn run(self) -> Result<()> {
-        let rover = match &self.rover {
-            Some(path) => load_rover(path)?,
-            None => Rover::HUSKY_A200,
-        };
+        let rover = self.rover.load()?.rover;
         for out in [&self.to, &self.commands_out].into_iter().flatten() {
             if same_file(&self.log, out) {
                 bail!("{}: the output is the input file", out.display());

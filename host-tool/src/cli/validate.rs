@@ -6,7 +6,6 @@ use anyhow::Result;
 use host_tool::eprintln_best_effort;
 use host_tool::log::mcap::Truncation;
 use host_tool::log::run_csv::RigRange;
-use host_tool::rover::load_rover_file;
 use host_tool::runs::{truncation_warning, Runs, StreamedRuns, StreamedRunsError};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
 use model_core::power::IcrHardGround;
@@ -17,9 +16,8 @@ use std::path::PathBuf;
 pub struct ValidateArgs {
     #[command(flatten)]
     pub salvage: super::SalvageArg,
-    /// Rover TOML (e.g. rovers/husky-a200.toml).
-    #[arg(long)]
-    rover: PathBuf,
+    #[command(flatten)]
+    rover: super::RoverArg,
     /// Run logs, .csv or .mcap (each is validated as an independent run).
     #[arg(long, num_args = 1.., required = true)]
     runs: Vec<PathBuf>,
@@ -156,7 +154,7 @@ impl ValidateArgs {
         if let Some(path) = &self.csv {
             output::check_new_file(path, self.force)?;
         }
-        let rover_file = load_rover_file(&self.rover)?;
+        let rover_file = self.rover.load()?;
         let rover = rover_file.rover;
         let mut options = ValidateOptions::for_rover(&rover);
         options.tracker_offset_m = rover_file.tracker_offset_m;

@@ -499,9 +499,9 @@ fn doubled_quotes_inside_a_quoted_extra_cell() {
     assert_eq!(read_all(text.as_bytes()).expect("valid").len(), 1);
 }
 
-/// The fenced block of `lang` in the README.
+/// The fenced block of `lang` in the guide's file-formats page.
 fn readme_block(lang: &str) -> &'static str {
-    let readme = include_str!("../../../../README.md");
+    let readme = include_str!("../../../../docs/formats.md");
     let start = readme
         .find(&format!("```{lang}\n"))
         .map(|i| i + lang.len() + 4)
@@ -512,11 +512,11 @@ fn readme_block(lang: &str) -> &'static str {
 
 #[test]
 fn readme_examples_are_valid() {
-    let samples = read_all(readme_block("csv").as_bytes()).expect("README CSV");
+    let samples = read_all(readme_block("csv").as_bytes()).expect("docs/formats.md CSV");
     assert_eq!(samples.len(), 3);
     assert_eq!(samples[2].yaw_rad, None);
     assert_eq!(samples[1].current_a, Sides::new(1.18, 5.91));
-    let rover = crate::rover::parse_rover(readme_block("toml")).expect("README TOML");
+    let rover = crate::rover::parse_rover(readme_block("toml")).expect("docs/formats.md TOML");
     assert_eq!(rover, model_core::Rover::HUSKY_A200);
 }
 
