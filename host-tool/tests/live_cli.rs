@@ -3,7 +3,7 @@
 //! borrowed from the server's code): serverInfo, advertise, subscribe, binary message data.
 
 mod common;
-use common::{host_tool, temp_dir};
+use common::{demo_once, host_tool, temp_dir};
 
 use host_tool::live::client::{Incoming, LiveClient};
 use host_tool::log::mcap::read_mcap_run;
@@ -36,17 +36,7 @@ fn text_op(ws: &mut tungstenite::WebSocket<TcpStream>) -> Value {
 #[test]
 fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
     let dir = temp_dir("live-cli");
-    let demo = dir.join("demo");
-    let made = host_tool()
-        .args(["demo", "--runs", "1", "--out"])
-        .arg(&demo)
-        .output()
-        .expect("demo runs");
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    let demo = demo_once(&dir);
     let log = demo.join("run-1.mcap");
     let expected = read_mcap_run(&log).expect("demo log").run.samples;
     assert!(expected.len() >= 1000, "{} samples", expected.len());

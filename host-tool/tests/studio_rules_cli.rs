@@ -4,7 +4,7 @@
 //! message. `foxglove/check/run.sh` opens the demo's log in the real Studio.
 
 mod common;
-use common::{host_tool, temp_dir};
+use common::{demo_once, host_tool, temp_dir};
 
 use host_tool::log::mcap::studio;
 use std::path::Path;
@@ -17,17 +17,7 @@ fn problems(path: &Path) -> Vec<String> {
 #[test]
 fn the_demo_record_and_convert_write_logs_studio_reads() {
     let dir = temp_dir("studio-rules");
-    let demo = dir.join("demo");
-    let made = host_tool()
-        .args(["demo", "--runs", "1", "--out"])
-        .arg(&demo)
-        .output()
-        .expect("demo runs");
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    let demo = demo_once(&dir);
     let recorded = demo.join("run-1.mcap");
     assert_eq!(problems(&recorded), Vec::<String>::new(), "demo (recorder)");
 

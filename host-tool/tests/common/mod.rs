@@ -20,6 +20,23 @@ pub fn host_tool() -> Command {
     c
 }
 
+/// Runs `host-tool demo --runs 1 --out DIR/demo` and returns that directory (the test fails with
+/// the demo's stderr if it fails).
+pub fn demo_once(dir: &Path) -> PathBuf {
+    let demo = dir.join("demo");
+    let made = host_tool()
+        .args(["demo", "--runs", "1", "--out"])
+        .arg(&demo)
+        .output()
+        .expect("demo runs");
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    demo
+}
+
 /// `rovers/husky-a200.toml`.
 pub fn rover_toml() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../rovers/husky-a200.toml")
