@@ -138,8 +138,9 @@ impl DemoArgs {
     }
 }
 
-/// What the demo prints after its runs: per run the end-to-end check, the validation report,
-/// the diagnosis table, the plans, the files.
+/// What the demo prints after its runs, the answer first in a screenful: per run the end-to-end
+/// check, the validation and the diagnosis in a few lines each (their full tables are in
+/// `report.txt` and `diagnosis/diagnosis.md`), the plans, where the files are.
 fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
     let mut text = String::new();
     for run in &outcome.runs {
@@ -164,14 +165,52 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             j(energy[1]),
         );
     }
-    let _ = writeln!(text);
-    let _ = write!(text, "{}", outcome.report);
-    let _ = writeln!(text);
+    let report = &outcome.report;
     let _ = writeln!(
         text,
-        "== diagnosis: the hard-ground model (Eq 21 per side) fitted on the runs' straights, point \
-         turns and 2R′ turns; every catalogued effect fitted on training runs and scored on the \
-         withheld run"
+        "\n== validation (every table: {}/report.txt)",
+        out.display()
+    );
+    let fit = report
+        .fit
+        .as_ref()
+        .and_then(|f| f.r_squared)
+        .map_or("not made".to_owned(), |r2| format!("r² = {r2:.3}"));
+    // The regimes that depart, each once, in the order met.
+    let mut departing: Vec<String> = Vec::new();
+    for regime in report
+        .flagged()
+        .filter_map(|m| serde_json::to_value(m.regime).ok())
+        .filter_map(|v| v.as_str().map(str::to_owned))
+    {
+        if !departing.contains(&regime) {
+            departing.push(regime);
+        }
+    }
+    let (frames, agree) = report
+        .runs
+        .iter()
+        .filter_map(|r| r.cross_check.as_ref())
+        .fold((0, true), |(n, all), c| {
+            (n + c.model_frames, all && c.agrees())
+        });
+    let _ = writeln!(
+        text,
+        "  {} manoeuvres; ICR fit (Eq 2.12) {fit}; {} depart from it{}; the board's {frames} model \
+         frames {} the host's recomputation",
+        report.manoeuvres.len(),
+        report.flagged().count(),
+        if departing.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", departing.join(", "))
+        },
+        if agree { "equal" } else { "DIFFER from" },
+    );
+    let _ = writeln!(
+        text,
+        "\n== diagnosis (gaps, candidates, signatures: {}/diagnosis/diagnosis.md)",
+        out.display()
     );
     match &outcome.diagnosed {
         Ok(d) => diagnosed_printout(&mut text, d, out),
@@ -185,22 +224,23 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             );
         }
     }
-    let _ = writeln!(text);
     let _ = writeln!(
         text,
-        "{} files in {} ({elapsed_s:.1} s):",
+        "\n{} files in {} ({elapsed_s:.1} s): the runs (run-N.mcap, .csv, .commands.csv), \
+         report.txt/.json, turns.csv, figures (.png, .svg), diagnosis/ (diagnosis.md, .json, \
+         model.toml for `plan --model`, figures)",
         outcome.files.len(),
         out.display(),
     );
-    for file in &outcome.files {
-        let _ = writeln!(text, "  {}", file.display());
-    }
     text
 }
 
-/// The diagnosis table and the plans with the diagnosed model.
+/// The diagnosis' conclusion, what to drive next, and the plans with the diagnosed model.
 fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
-    let _ = write!(text, "{}", report::table(&d.diagnosis));
+    let _ = writeln!(text, "{}", report::conclusion(&d.diagnosis));
+    for line in report::next_runs_lines(&d.diagnosis) {
+        let _ = writeln!(text, "  next: {line}");
+    }
     let _ = writeln!(text);
     let (start_deg, end_deg, distance_m) = demo::PLAN_PATH;
     let _ = writeln!(

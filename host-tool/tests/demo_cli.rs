@@ -1,0 +1,50 @@
+//! `demo`'s terminal output leads with the answer in a screenful: each run's end-to-end check,
+//! the validation and the diagnosis in a few lines, the plan, where the files are; the full
+//! tables are in the files it names.
+
+mod common;
+use common::{host_tool, temp_dir};
+
+#[test]
+fn the_demo_prints_its_answer_in_a_screenful_and_names_the_files_with_the_tables() {
+    let dir = temp_dir("demo-cli");
+    let out = dir.join("demo");
+    let made = host_tool()
+        .args(["demo", "--runs", "2", "--out"])
+        .arg(&out)
+        .output()
+        .expect("demo runs");
+    let stdout = String::from_utf8_lossy(&made.stdout);
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert!(lines.len() <= 40, "{} lines:\n{stdout}", lines.len());
+    assert!(lines[0].starts_with("demo: "), "{stdout}");
+    assert!(lines[1].starts_with("run-1.mcap: ") && lines[2].starts_with("run-2.mcap: "));
+    assert!(
+        lines[1].contains("the board's own total, bit for bit"),
+        "{stdout}"
+    );
+    // The sections in order, each naming the file with its full tables, which exists.
+    let at = |what: &str| {
+        lines
+            .iter()
+            .position(|l| l.starts_with(what))
+            .unwrap_or_else(|| panic!("no {what}:\n{stdout}"))
+    };
+    assert!(at("== validation") < at("== diagnosis"));
+    assert!(at("== diagnosis") < at("== plan") || stdout.contains("not made"));
+    for file in ["report.txt", "diagnosis/diagnosis.md"] {
+        assert!(
+            stdout.contains(&format!("{}/{file}", out.display())),
+            "{stdout}"
+        );
+        assert!(out.join(file).is_file(), "{file}");
+    }
+    // The statistics stay in the files.
+    assert!(!stdout.contains("F(1,"), "{stdout}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
