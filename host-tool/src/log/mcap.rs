@@ -396,45 +396,74 @@ fn describe_event(event: &LogEvent) -> (u8, String) {
 /// JSON schemas of the channels, in the subset Foxglove Studio's reader (`parseJsonSchema`)
 /// takes: every field has one `"type"` string, nested objects are written inline (no `$ref`),
 /// and a value that is not known is an absent field, never `null` (no type arrays).
-/// `studio_rules` in the tests holds every schema and message to these rules.
+/// [`super::studio`] holds every schema and message to these rules (tests).
 mod schema {
-    pub(super) const SAMPLE: &str = r##"{
+    /// One motor driver of a sample (`left` or `right`): written once for both sides, as
+    /// Studio's reader takes no `$ref`.
+    macro_rules! sample_side {
+        ($side:literal) => {
+            concat!(
+                r##"{
+      "type": "object",
+      "description": ""##,
+                $side,
+                r##" motor driver",
+      "properties": {
+        "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
+        "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
+        "power_w": {"type": "number", "description": "bus_v x current_a [W]"},
+        "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
+      },
+      "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
+    }"##
+            )
+        };
+    }
+
+    /// One side of a model frame, written once for both sides.
+    macro_rules! model_side {
+        ($side:literal) => {
+            concat!(
+                r##"{
+      "type": "object",
+      "description": ""##,
+                $side,
+                r##" side",
+      "properties": {
+        "power_w": {"type": "number", "description": "latest power [W]; absent when the chip gave no reading"},
+        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
+        "tau_w_per_rad_s": {"type": "number", "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]; absent when the wheel stands still or power is unknown"}
+      },
+      "required": ["energy_j"]
+    }"##
+            )
+        };
+    }
+
+    pub(super) const SAMPLE: &str = concat!(
+        r##"{
   "title": "rover_power.Sample",
   "description": "Physical sample of the two motor drivers (run CSV row)",
   "type": "object",
   "properties": {
     "t_s": {"type": "number", "description": "run time [s]"},
-    "left": {
-      "type": "object",
-      "description": "left motor driver",
-      "properties": {
-        "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
-        "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
-        "power_w": {"type": "number", "description": "bus_v x current_a [W]"},
-        "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
-      },
-      "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
-    },
-    "right": {
-      "type": "object",
-      "description": "right motor driver",
-      "properties": {
-        "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
-        "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
-        "power_w": {"type": "number", "description": "bus_v x current_a [W]"},
-        "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
-      },
-      "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
-    },
+    "left": "##,
+        sample_side!("left"),
+        r##",
+    "right": "##,
+        sample_side!("right"),
+        r##",
     "yaw_rad": {"type": "number", "description": "yaw [rad], counter-clockwise positive; absent when not measured"},
     "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive; absent when not measured"},
     "x_m": {"type": "number", "description": "tracked point x in the fixed frame [m]; present only when a fix landed on this sample"},
     "y_m": {"type": "number", "description": "tracked point y in the fixed frame [m], with x_m"}
   },
   "required": ["t_s", "left", "right"]
-}"##;
+}"##
+    );
 
-    pub(super) const MODEL: &str = r##"{
+    pub(super) const MODEL: &str = concat!(
+        r##"{
   "title": "rover_power.Model",
   "description": "The board's running measurements (model frame) in SI units at the board's scale",
   "type": "object",
@@ -442,30 +471,17 @@ mod schema {
     "t_s": {"type": "number", "description": "run time the frame arrived [s]"},
     "board_t_us": {"type": "integer", "description": "board time of the sample [us since boot]"},
     "seq": {"type": "integer", "description": "sample number"},
-    "left": {
-      "type": "object",
-      "description": "left side",
-      "properties": {
-        "power_w": {"type": "number", "description": "latest power [W]; absent when the chip gave no reading"},
-        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
-        "tau_w_per_rad_s": {"type": "number", "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]; absent when the wheel stands still or power is unknown"}
-      },
-      "required": ["energy_j"]
-    },
-    "right": {
-      "type": "object",
-      "description": "right side",
-      "properties": {
-        "power_w": {"type": "number", "description": "latest power [W]; absent when the chip gave no reading"},
-        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
-        "tau_w_per_rad_s": {"type": "number", "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]; absent when the wheel stands still or power is unknown"}
-      },
-      "required": ["energy_j"]
-    },
+    "left": "##,
+        model_side!("left"),
+        r##",
+    "right": "##,
+        model_side!("right"),
+        r##",
     "total_energy_j": {"type": "number", "description": "energy of both sides [J]"}
   },
   "required": ["t_s", "board_t_us", "seq", "left", "right", "total_energy_j"]
-}"##;
+}"##
+    );
 
     pub(super) const STATUS: &str = r##"{
   "title": "rover_power.Status",
