@@ -181,14 +181,14 @@ pub enum Command {
     /// board's model frames against the host's recomputation.
     #[command(after_help = examples!(
         "host-tool validate --rover rovers/husky-a200.toml --runs run-1.mcap run-2.mcap",
-        "host-tool validate --rover rovers/husky-a200.toml --runs demo-out/run-*.csv --json report.json",
+        "host-tool validate --rover rovers/husky-a200.toml --runs demo-out/run-?.csv --json report.json",
     ))]
     Validate(validate::ValidateArgs),
     /// Draw the validation figures of runs: power vs time per turn (one file per run), average
     /// and maximum power vs R/R' with the model curves, τ ∝ P/ω per side, residuals.
     #[command(after_help = examples!(
         "host-tool plot --rover rovers/husky-a200.toml --runs run-1.mcap --out figures",
-        "host-tool plot --rover rovers/husky-a200.toml --runs demo-out/run-*.csv --out figures --format svg",
+        "host-tool plot --rover rovers/husky-a200.toml --runs demo-out/run-?.csv --out figures --format svg",
     ))]
     Plot(plot::PlotArgs),
     /// Convert a run log between MCAP (.mcap) and the run CSV (.csv), or normalise one (same
@@ -226,8 +226,8 @@ pub enum Command {
     /// `plan --model` file with --out.
     #[command(after_help = examples!(
         "host-tool diagnose --rover rovers/husky-a200.toml --runs run-1.csv run-2.csv",
-        "host-tool diagnose --rover rovers/husky-a200.toml --calibration hard-1.csv --runs sand-1.csv --out diagnosis",
-        "host-tool diagnose --rover rovers/husky-a200.toml --runs demo-out/run-*.csv --next-runs next.toml",
+        "host-tool diagnose --calibration hard-1.csv --runs sand-1.csv --out diagnosis",
+        "host-tool diagnose --rover rovers/husky-a200.toml --runs demo-out/run-?.csv --next-runs next.toml",
     ))]
     Diagnose(diagnose::DiagnoseArgs),
     /// Checks `diagnose` on simulated datasets whose effect and structure it is not told, drawn
@@ -239,7 +239,7 @@ pub enum Command {
     #[command(after_help = examples!(
         "host-tool diagnose-bench --datasets 100 --seed 1",
         "host-tool diagnose-bench --part held-out --json bench.json",
-        "host-tool diagnose-bench --explain 17",
+        "host-tool diagnose-bench --part held-out --explain 17",
     ))]
     DiagnoseBench(diagnose_bench::DiagnoseBenchArgs),
     /// Energy of the optimal CLC path (arc – line – arc) against the PLP path (point turn –
@@ -379,6 +379,11 @@ mod examples_tests {
             for line in block.lines().take_while(|l| !l.is_empty()) {
                 // A trailing `# note` is the example's comment.
                 let line = line.split(" #").next().unwrap_or(line);
+                // Wider, and `--help` would wrap it onto a line a user cannot copy.
+                assert!(
+                    line.chars().count() <= 100,
+                    "{line}: too long to stay on one line"
+                );
                 let words: Vec<&str> = line.split_whitespace().collect();
                 assert_eq!(words.get(1), Some(&command.get_name()), "{line}");
                 if let Err(e) = Cli::try_parse_from(&words) {
