@@ -69,21 +69,45 @@ SYNOPSIS = re.compile(r"[\[<…]|\b[A-Z]{3,}\b|\bR\.toml\b")
 
 
 def commands_of_page(path):
-    """The page's commands in order: sh blocks (continuations joined, comments cut) and inline
-    `host-tool ...` spans outside blocks."""
-    found, block, in_block, lang = [], [], False, ""
+    """The page's commands in order, as (line, command, shown output): sh blocks (continuations
+    joined, comments cut) and inline `host-tool ...` spans outside blocks. The `text` blocks after
+    an sh block, up to the next one or the next heading, are the output of its last command."""
+    found, block, in_block, lang, last = [], [], False, "", None
     for number, line in enumerate(path.read_text().splitlines(), 1):
         fence = re.match(r"^\s*```(\w*)", line)
         if fence:
             if in_block and lang == "sh":
-                found += [(number, c) for c in logical_lines(block)]
+                found += [(number, c, []) for c in logical_lines(block)]
+                last = found[-1] if found else None
+            elif in_block and lang == "text" and last is not None:
+                last[2].append(block)
             in_block, lang, block = not in_block, fence.group(1), []
             continue
         if in_block:
             block.append(line)
+        elif line.startswith("#"):
+            last = None  # output shown under another heading is not this command's
         else:
-            found += [(number, m) for m in re.findall(r"`(host-tool [^`]*)`", line)]
+            found += [(number, m, []) for m in re.findall(r"`(host-tool [^`]*)`", line)]
     return found
+
+
+def missing_output(shown, out):
+    """The first line of a shown output block that the command's output lacks, else None. The
+    lines must come in order; `…` in a line stands for any text, a line of `…` alone for any
+    lines."""
+    at = 0
+    lines = out.splitlines()
+    for want in shown:
+        if want.strip() == "…":
+            continue
+        pattern = re.compile(".*?".join(re.escape(part) for part in want.split("…")) + "$")
+        while at < len(lines) and not pattern.match(lines[at]):
+            at += 1
+        if at == len(lines):
+            return want
+        at += 1
+    return None
 
 
 def logical_lines(lines):
@@ -112,7 +136,7 @@ def examples_of_cli_reference():
         elif in_examples:
             if not line.startswith("  host-tool "):
                 sys.exit(f"docs/cli.md:{number}: an example wrapped onto a second line: {line!r}")
-            found.append((number, re.sub(r"\s+#.*$", "", line).strip()))
+            found.append((number, re.sub(r"\s+#.*$", "", line).strip(), []))
     return found
 
 
@@ -274,7 +298,7 @@ def send_text(sock, text):
     sock.sendall(head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(data)))
 
 
-def run_command(command, workdir, fixture, bin_dir, host_tool):
+def run_command(command, shown, workdir, fixture, bin_dir, host_tool):
     """Runs one command in workdir; returns None when it did what the page says, else why not."""
     tokens = shlex.split(command)
     shell = command
@@ -317,7 +341,12 @@ def run_command(command, workdir, fixture, bin_dir, host_tool):
     if proc.returncode != expected and not interrupted:
         return (f"exit {proc.returncode}, expected {expected}\n--- stdout\n{out[-3000:]}"
                 f"\n--- stderr\n{err[-3000:]}")
+    for block in shown:
+        missing = missing_output(block, out)
+        if missing is not None:
+            return f"the page shows a line its output lacks:\n{missing}\n--- stdout\n{out[-3000:]}"
     note = f" (viewer: {viewer.messages} messages)" if viewer else ""
+    note += f" (output as shown: {sum(map(len, shown))} lines)" if shown else ""
     print(f"  ok {seconds:6.1f} s  {command}{note}")
     return None
 
@@ -371,7 +400,8 @@ def main():
     fixture = Fixture(host_tool, demo_out, scratch)
 
     sessions = [(p.relative_to(ROOT), commands_of_page(p)) for p in PAGES]
-    sessions += [(f"{CLI_REFERENCE.relative_to(ROOT)}:{n}", [(n, c)]) for n, c in examples_of_cli_reference()]
+    sessions += [(f"{CLI_REFERENCE.relative_to(ROOT)}:{n}", [(n, c, [])])
+                 for n, c, _ in examples_of_cli_reference()]
     failures, seen, ran, skipped = [], set(), 0, 0
     for index, (where, commands) in enumerate(sessions):
         if not commands:
@@ -379,7 +409,7 @@ def main():
         print(f"{where}")
         workdir = scratch / f"session-{index}"
         workdir.mkdir()
-        for number, command in commands:
+        for number, command, shown in commands:
             command = normalised(command)
             seen.add(command)
             if command in NOT_HERE:
@@ -391,7 +421,7 @@ def main():
                 skipped += 1
                 continue
             ran += 1
-            why = run_command(command, workdir, fixture, bin_dir, host_tool)
+            why = run_command(command, shown, workdir, fixture, bin_dir, host_tool)
             if why:
                 failures.append(f"{where}:{number}: {command}\n{why}")
                 print(f"  FAILED {command}")
