@@ -176,6 +176,12 @@ class Fixture:
         run([host_tool, "demo", "--quiet", "--world", ROOT / "worlds/husky-hard-ground.toml",
              "--runs", "1", "--out", hard])
         self.files["hard-1.csv"] = hard / "run-1.csv"
+        # A drive with the robot's own bag (`demo --robot-bag`), for the ROS 2 page.
+        robot = self.dir / "robot"
+        run([host_tool, "demo", "--quiet", "--robot-bag", "--robot-clock-offset-s", "7.3",
+             "--runs", "1", "--out", robot])
+        self.files["runs/drive-1.mcap"] = robot / "run-1.mcap"
+        self.files["rosbag2_drive"] = robot / "run-1.bag"
         self.run_1 = runs[0]
 
     def put_inputs(self, tokens, workdir):

@@ -70,6 +70,9 @@ pub struct DemoOptions {
     pub sampler: SamplerConfig,
     /// The live view the recordings are also served to (`demo --serve`).
     pub live: Option<Arc<LiveServer>>,
+    /// `demo --robot-bag`: also write each run's robot bag (`run-N.bag/`, the commanded twist,
+    /// IMU and tracker pose), its clock this many seconds ahead of the board log's.
+    pub robot_bag_clock_offset_s: Option<f64>,
 }
 
 impl DemoOptions {
@@ -86,6 +89,7 @@ impl DemoOptions {
             speed: 25.0,
             sampler: SamplerConfig::BOARD,
             live: None,
+            robot_bag_clock_offset_s: None,
         }
     }
 }
@@ -260,6 +264,11 @@ pub fn run(
         .iter()
         .map(|r| load_run(&r.mcap))
         .collect::<Result<Vec<RunLog>, _>>()?;
+    if let Some(offset_s) = options.robot_bag_clock_offset_s {
+        for (run, log) in runs.iter().zip(&logs) {
+            files.push(write_robot_bag(run, log, &options.world.rover, offset_s)?);
+        }
+    }
     let inputs: Vec<RunInput<'_>> = runs
         .iter()
         .zip(&logs)
@@ -480,6 +489,40 @@ fn record_run(
         summary,
         truth: timeline.manoeuvres().to_vec(),
     })
+}
+
+/// Writes `run`'s robot bag beside its logs, `run-N.bag/`: what the robot computer sent and
+/// measured (its commands file), stamped with its own clock.
+fn write_robot_bag(
+    run: &DemoRun,
+    log: &RunLog,
+    rover: &model_core::Rover,
+    clock_offset_s: f64,
+) -> Result<PathBuf, DemoError> {
+    let dir = run.mcap.with_extension("bag");
+    let Some((t_anchor, unix_anchor)) = log.events.iter().find_map(|(t, e)| match e {
+        crate::log::run_log::LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
+        _ => None,
+    }) else {
+        return Err(DemoError::Check {
+            run: run.name.clone(),
+            what: "the recording has no wall-clock anchor for its robot bag".into(),
+        });
+    };
+    let unix_ns_at =
+        |t_s: f64| unix_anchor.saturating_add_signed(((t_s - t_anchor) * 1e9).round() as i64);
+    // The robot's side of the run: every row of its commands file (the tracker's rate).
+    let rows =
+        crate::log::commands::read_commands_csv(&run.commands).map_err(|e| DemoError::Io {
+            what: format!("reading {}", run.commands.display()),
+            source: io::Error::other(e.to_string()),
+        })?;
+    crate::ros2::robot_bag::write_robot_bag(&dir, true, &rows, rover, unix_ns_at, clock_offset_s)
+        .map_err(|e| DemoError::Io {
+        what: format!("writing {}", dir.display()),
+        source: io::Error::other(e.to_string()),
+    })?;
+    Ok(dir)
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<PathBuf, DemoError> {

@@ -19,6 +19,7 @@ fn main() -> ExitCode {
         Command::Validate(args) => args.run(),
         Command::Plot(args) => args.run(),
         Command::Convert(args) => args.run(),
+        Command::Merge(args) => args.run(),
         Command::Replay(args) => args.run(),
         Command::Decode(args) => args.run(),
         Command::Diagnose(args) => args.run(),

@@ -53,6 +53,20 @@ pub struct DemoArgs {
     /// allows; default: the board's 200 Hz.
     #[arg(long = "rate-hz", value_parser = super::record::parse_rate_hz, value_name = "HZ")]
     rate_hz: Option<u32>,
+    /// Also write each run's robot bag, `run-N.bag/` (ROS 2, MCAP storage): the commanded twist
+    /// on /cmd_vel, the IMU on /imu/data, the tracker's pose on /tracker/pose, for `merge`.
+    #[arg(long)]
+    robot_bag: bool,
+    /// With --robot-bag: the robot computer's clock runs this many seconds ahead of the board
+    /// log's (`merge` measures it back).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "S",
+        requires = "robot_bag",
+        allow_hyphen_values = true
+    )]
+    robot_clock_offset_s: f64,
 }
 
 impl DemoArgs {
@@ -73,6 +87,15 @@ impl DemoArgs {
             options.scenario = load_scenario(path)?;
         }
         options.runs = self.runs;
+        if self.robot_bag {
+            if !self.robot_clock_offset_s.is_finite() || self.robot_clock_offset_s.abs() > 3600.0 {
+                bail!(
+                    "--robot-clock-offset-s {} must be within ±3600",
+                    self.robot_clock_offset_s
+                );
+            }
+            options.robot_bag_clock_offset_s = Some(self.robot_clock_offset_s);
+        }
         options.seed = self.seed;
         if let Some(period_us) = self.rate_hz {
             options.sampler = SamplerConfig::with_period(period_us).ok_or_else(|| {

@@ -7,6 +7,7 @@ pub mod decode;
 pub mod demo;
 pub mod diagnose;
 pub mod diagnose_bench;
+pub mod merge;
 pub mod output;
 pub mod plan;
 pub mod plot;
@@ -199,8 +200,19 @@ pub enum Command {
         "host-tool convert run-1.mcap run-1.csv",
         "host-tool convert run-1.csv run-1.mcap",
         "host-tool convert old.mcap new.mcap          # rewrite an older log for Foxglove Studio",
+        "host-tool convert run-1.mcap run-1-bag --to ros2-bag",
     ))]
     Convert(convert::ConvertArgs),
+    /// Merge a board log with the robot's ROS 2 bag of the same drive into one run log: the
+    /// bag's commanded twist (side speeds), IMU yaw and pitch, and optionally the tracked pose
+    /// land on the board's samples. The two are lined up by wall clock; the offset between the
+    /// computers' clocks is measured from the data (the board's power against the power the
+    /// commands predict) and reported. Then validate, plot and diagnose read the result.
+    #[command(after_help = examples!(
+        "host-tool merge --board run-1.mcap --bag rosbag2_drive --out run-1.merged.mcap",
+        "host-tool merge --board run-1.csv --bag drive_0.mcap --pose-topic /tracker/pose --out merged.csv",
+    ))]
+    Merge(merge::MergeArgs),
     /// Replay a run log (.mcap or .csv) as the board's byte stream: into a pseudo-terminal that
     /// other tools open like /dev/ttyACM0, or into a capture file for `decode`. The commanded
     /// speeds travel as the board's status reports, so `record` on the pty logs them.

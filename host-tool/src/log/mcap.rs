@@ -366,7 +366,7 @@ impl EventMsg {
 }
 
 /// foxglove.Log level and text of an event.
-fn describe_event(event: &LogEvent) -> (u8, String) {
+pub(crate) fn describe_event(event: &LogEvent) -> (u8, String) {
     const INFO: u8 = 2;
     const WARNING: u8 = 3;
     match event {

@@ -1,0 +1,523 @@
+//! `merge`: a board log and the robot's ROS 2 bag of the same drive, made one run log. The bag's
+//! commanded twists become side speeds (Eq 2.4 inverted with the rover's controller slip track),
+//! its IMU orientation yaw and pitch, its pose topic the tracked position; they land on the
+//! board's samples as `record --merge-commands` lands a commands file on them.
+//!
+//! Lining up: both logs carry wall-clock time (the board log its anchor, the bag its `log_time`),
+//! but two computers' clocks may disagree by seconds. The offset is measured from the data: the
+//! board's power is constant between the commands' steps (a start, a stop, a turn), whatever its
+//! level. At each lag within `max_offset_s`, on the sample grid and then to 0.25 ms around the
+//! best, one free level per interval is fitted to the samples (each the chips' average over their
+//! window); the offset is the lag that leaves the least misfit. No power model sets the levels,
+//! so a terrain the model gets wrong lines up as well; the hard-ground model (paper Eq 21) only
+//! says which command changes are steps.
+
+use crate::log::commands::CommandRow;
+use crate::log::run_log::{LogEvent, RunLog};
+use crate::record::CommandTimeline;
+use crate::ros2::msgs::yaw_pitch_of;
+use crate::ros2::read::RobotBag;
+use model_core::power::IcrHardGround;
+use model_core::wire::BoardFrame;
+use model_core::{Rover, Sides};
+use thiserror::Error;
+
+/// Why two logs could not be merged.
+#[derive(Debug, Error, PartialEq)]
+pub enum MergeError {
+    #[error("the board log has no wall-clock anchor (a `clock` event; logs recorded before the recorder wrote one cannot be lined up with a bag)")]
+    NoWallClock,
+    #[error("the bag's commands change the power {0} time(s): at least 2 steps (starts, stops, turns) are needed to line up the clocks")]
+    NoSteps(usize),
+    #[error("the board log has too few samples ({0}) to line up")]
+    TooFewSamples(usize),
+    #[error("the logs do not overlap: the board ran {board}, the bag's commands span {bag} (Unix time), more than the {max_offset_s} s offset searched apart (--max-offset-s)")]
+    NoOverlap {
+        board: String,
+        bag: String,
+        max_offset_s: f64,
+    },
+    #[error("the board's power does not step where the bag's commands do at any offset within ±{max_offset_s} s (best R² {r2:.2} at {offset_s:+.3} s): wrong bag, wrong --cmd-topic, or clocks further apart")]
+    NoMatch {
+        r2: f64,
+        offset_s: f64,
+        max_offset_s: f64,
+    },
+}
+
+/// How the bag was lined up with the board log.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Alignment {
+    /// The bag's clock minus the board log's [s]: a bag time minus this is board wall time.
+    pub offset_s: f64,
+    /// R² of the step fit there: the share of the power's variance the commands' steps explain.
+    pub r2: f64,
+    /// Steps of the commanded power that lined the logs up.
+    pub steps: usize,
+    /// The best offset more than 0.5 s away from it with its R² (a repeated drive's echo).
+    pub runner_up: Option<(f64, f64)>,
+    /// Seconds of the board run the bag's commands cover.
+    pub overlap_s: f64,
+    /// The board run's duration [s].
+    pub board_s: f64,
+}
+
+/// What was merged.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    pub log: RunLog,
+    pub alignment: Alignment,
+    /// Samples given a commanded speed, a yaw and a position fix from the bag.
+    pub samples_with_cmd: usize,
+    pub samples_with_yaw: usize,
+    pub fixes: usize,
+}
+
+/// The board log's first wall-clock anchor: (run time [s], Unix time [ns]).
+fn anchor(log: &RunLog) -> Option<(f64, u64)> {
+    log.events.iter().find_map(|(t, e)| match e {
+        LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
+        _ => None,
+    })
+}
+
+/// The hard-ground model of `rover` (paper Table 2's μ and G; the rover's geometry).
+fn predictor(rover: &Rover) -> IcrHardGround {
+    IcrHardGround {
+        length_m: f64::from(rover.length_m),
+        width_m: f64::from(rover.track_width_m),
+        mass_kg: f64::from(rover.mass_kg),
+        slip_track_m: f64::from(rover.slip_track_m),
+        ..IcrHardGround::HUSKY_HARD_GROUND
+    }
+}
+
+/// Side speeds of a twist with the controller's slip track (Eq 2.4 inverted).
+pub fn side_speeds(rover: &Rover, linear_x: f64, angular_z: f64) -> Sides<f64> {
+    let half = f64::from(rover.slip_track_m) / 2.0;
+    Sides::new(linear_x - angular_z * half, linear_x + angular_z * half)
+}
+
+/// A change of the commanded power smaller than this is no step [W].
+const STEP_W: f64 = 5.0;
+
+/// How well "power is constant between the commands' steps" fits the board's samples when the
+/// steps are `lag` later on the board's clock: the least-squares fit of one free level per
+/// interval between `steps`, each sample the mean over the chips' averaging `window` that ended
+/// half a window before it (so a sample across a step mixes two levels). Returns the mean
+/// squared residual and the samples' variance, over the samples within `span`; `None` when
+/// fewer than `min_n` are.
+fn step_fit(
+    t: &[f64],
+    y: &[f64],
+    steps: &[f64],
+    span: (f64, f64),
+    lag: f64,
+    window: f64,
+    min_n: usize,
+) -> Option<(f64, f64)> {
+    let m = steps.len() + 1;
+    // The normal equations of the levels are tridiagonal: a sample touches two at most.
+    let (mut diag, mut upper, mut rhs) = (vec![0.0; m], vec![0.0; m], vec![0.0; m]);
+    let (mut n, mut sy, mut syy) = (0usize, 0.0, 0.0);
+    let (mut ja, mut jb) = (0, 0);
+    for (&ti, &yi) in t.iter().zip(y) {
+        let end = ti + lag - window / 2.0;
+        let start = end - window;
+        if start < span.0 || end > span.1 {
+            continue;
+        }
+        while ja < steps.len() && steps[ja] <= start {
+            ja += 1;
+        }
+        while jb < steps.len() && steps[jb] <= end {
+            jb += 1;
+        }
+        // Commands faster than the window: the sample mixes its two end intervals only.
+        let f = if ja == jb {
+            1.0
+        } else {
+            (steps[ja] - start) / window
+        };
+        diag[ja] += f * f;
+        rhs[ja] += f * yi;
+        if ja != jb {
+            upper[ja] += f * (1.0 - f);
+            diag[jb] += (1.0 - f) * (1.0 - f);
+            rhs[jb] += (1.0 - f) * yi;
+        }
+        n += 1;
+        sy += yi;
+        syy += yi * yi;
+    }
+    if n < min_n.max(2) {
+        return None;
+    }
+    // Thomas algorithm; an interval without samples keeps level 0 (it adds nothing).
+    let mut c = vec![0.0; m];
+    let mut d = vec![0.0; m];
+    for j in 0..m {
+        let below = if j > 0 { upper[j - 1] } else { 0.0 };
+        let pivot = diag[j] + 1e-12 - below * if j > 0 { c[j - 1] } else { 0.0 };
+        c[j] = upper[j] / pivot;
+        d[j] = (rhs[j] - below * if j > 0 { d[j - 1] } else { 0.0 }) / pivot;
+    }
+    let mut level = vec![0.0; m];
+    for j in (0..m).rev() {
+        level[j] = d[j] - if j + 1 < m { c[j] * level[j + 1] } else { 0.0 };
+    }
+    let explained: f64 = level.iter().zip(&rhs).map(|(l, b)| l * b).sum();
+    let n = n as f64;
+    Some(((syy - explained).max(0.0) / n, (syy - sy * sy / n) / n))
+}
+
+/// Lines up `bag` with `log`: the offset within ±`max_offset_s` where the board's power best
+/// follows the power predicted for the bag's commands.
+pub fn align(
+    log: &RunLog,
+    bag: &RobotBag,
+    rover: &Rover,
+    max_offset_s: f64,
+) -> Result<Alignment, MergeError> {
+    let (t_anchor, unix_anchor) = anchor(log).ok_or(MergeError::NoWallClock)?;
+    let n = log.samples.len();
+    if n < 20 {
+        return Err(MergeError::TooFewSamples(n));
+    }
+    // Times in seconds from the board's anchor, on both clocks.
+    let t: Vec<f64> = log.samples.iter().map(|s| s.t_s - t_anchor).collect();
+    let power: Vec<f64> = log
+        .samples
+        .iter()
+        .map(|s| s.bus_v.left * s.current_a.left + s.bus_v.right * s.current_a.right)
+        .collect();
+    let model = predictor(rover);
+    let since_anchor = |ns: u64| (ns as i128 - unix_anchor as i128) as f64 * 1e-9;
+    // Where the commanded power steps (the model only says where, not how far: the levels are
+    // fitted), in seconds from the board's anchor on the bag's clock.
+    let mut steps = Vec::new();
+    let mut last_w: Option<f64> = None;
+    for (ns, m) in &bag.cmd {
+        let s = side_speeds(rover, m.linear_x, m.angular_z);
+        let w = model.power_w(s.left, s.right);
+        if last_w.is_some_and(|l| (w - l).abs() >= STEP_W) {
+            steps.push(since_anchor(*ns));
+        }
+        if last_w.is_none_or(|l| (w - l).abs() >= STEP_W) {
+            last_w = Some(w);
+        }
+    }
+    let board_s = t[n - 1] - t[0];
+    let period = board_s / (n - 1) as f64;
+    // Each sample is the chips' latest result: the mean over their averaging window (the
+    // board's hello says how long; else a sample period), finished on average half a window
+    // before the read (the chips convert freely; the board reads on its own clock).
+    let window = log
+        .frames
+        .iter()
+        .find_map(|(_, f)| match f {
+            BoardFrame::Hello(h) => Some(f64::from(h.adc.update_period_us()) * 1e-6),
+            _ => None,
+        })
+        .filter(|w| *w > 0.0)
+        .unwrap_or(period);
+    let min_n = n / 2;
+    let (bag_first, bag_last) = (
+        since_anchor(bag.cmd[0].0),
+        since_anchor(bag.cmd[bag.cmd.len() - 1].0),
+    );
+    let span = (bag_first, bag_last);
+    let say = |a: f64, b: f64| format!("{a:+.1} … {b:+.1} s from the board's anchor");
+    if steps.len() < 2 {
+        return Err(MergeError::NoSteps(steps.len()));
+    }
+
+    let lags = (max_offset_s / period).ceil() as i64;
+    let fit = |lag: f64| step_fit(&t, &power, &steps, span, lag, window, min_n);
+    let scores: Vec<(f64, f64)> = (-lags..=lags)
+        .filter_map(|k| {
+            let lag = k as f64 * period;
+            fit(lag).map(|(mse, _)| (lag, mse))
+        })
+        .collect();
+    let Some(&(coarse, _)) = scores.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
+        return Err(MergeError::NoOverlap {
+            board: say(t[0], t[n - 1]),
+            bag: say(bag_first, bag_last),
+            max_offset_s,
+        });
+    };
+    // To 0.25 ms within a sample period either side.
+    let fine_step = 0.25e-3;
+    let fine = (period / fine_step).ceil() as i64;
+    let (offset_s, mse, variance) = (-fine..=fine)
+        .filter_map(|k| {
+            let lag = coarse + k as f64 * fine_step;
+            fit(lag).map(|(mse, var)| (lag, mse, var))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((coarse, f64::INFINITY, 0.0));
+    let r2 = 1.0 - mse / variance;
+    let mut others: Vec<f64> = scores.iter().map(|s| s.1).collect();
+    others.sort_by(f64::total_cmp);
+    let typical = others[others.len() / 2];
+    // The steps must explain the power, and far better than at a typical offset.
+    if !(r2 >= 0.5 && mse <= 0.5 * typical) {
+        return Err(MergeError::NoMatch {
+            r2,
+            offset_s,
+            max_offset_s,
+        });
+    }
+    // The best fit more than 0.5 s away, as a fraction of the misfit it leaves.
+    let runner_up = scores
+        .iter()
+        .filter(|(lag, _)| (lag - offset_s).abs() > 0.5)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|&(lag, other)| (lag, 1.0 - other / variance));
+    let overlap_s = (t[n - 1].min(bag_last - offset_s) - t[0].max(bag_first - offset_s)).max(0.0);
+    Ok(Alignment {
+        offset_s,
+        r2,
+        steps: steps.len(),
+        runner_up,
+        overlap_s,
+        board_s,
+    })
+}
+
+/// The board's run time [s] of a bag time [Unix ns], the bag's clock `offset_s` ahead.
+fn run_time_of(log: &RunLog, offset_s: f64) -> Result<impl Fn(u64) -> f64, MergeError> {
+    let (t_anchor, unix_anchor) = anchor(log).ok_or(MergeError::NoWallClock)?;
+    let offset_ns = (offset_s * 1e9).round() as i128;
+    Ok(move |ns: u64| t_anchor + (ns as i128 - offset_ns - unix_anchor as i128) as f64 * 1e-9)
+}
+
+/// The bag's commands, yaw, pitch and fixes as commands rows on the board's run time.
+pub fn command_rows(
+    log: &RunLog,
+    bag: &RobotBag,
+    rover: &Rover,
+    offset_s: f64,
+) -> Result<Vec<CommandRow>, MergeError> {
+    let run_time = run_time_of(log, offset_s)?;
+    // Every message a row, in time order; rows at the same instant are one row.
+    let mut rows: Vec<CommandRow> = Vec::new();
+    let mut events: Vec<(u64, u8, usize)> = Vec::new();
+    events.extend((0..bag.cmd.len()).map(|i| (bag.cmd[i].0, 0, i)));
+    events.extend((0..bag.imu.len()).map(|i| (bag.imu[i].0, 1, i)));
+    events.extend((0..bag.pose.len()).map(|i| (bag.pose[i].0, 2, i)));
+    events.sort();
+    let mut cmd = Sides::new(0.0, 0.0);
+    for (ns, kind, i) in events {
+        let t_s = run_time(ns);
+        if rows.last().is_none_or(|r| r.t_s < t_s) {
+            rows.push(CommandRow::new(t_s, cmd));
+        }
+        let row = rows.last_mut().expect("pushed");
+        match kind {
+            0 => {
+                let m = bag.cmd[i].1;
+                cmd = side_speeds(rover, m.linear_x, m.angular_z);
+                row.cmd_mps = cmd;
+            }
+            1 => {
+                let (yaw, pitch) = yaw_pitch_of(bag.imu[i].1.orientation);
+                row.yaw_rad = Some(yaw);
+                row.pitch_deg = Some(pitch);
+            }
+            _ => {
+                let p = bag.pose[i].1;
+                row.x_m = Some(p.x_m);
+                row.y_m = Some(p.y_m);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Merges `bag` into `log`: lines them up, then gives every sample the bag's commanded side
+/// speeds, yaw, pitch and position fixes (the board's own values where the bag says nothing).
+pub fn merge(
+    mut log: RunLog,
+    bag: &RobotBag,
+    rover: &Rover,
+    max_offset_s: f64,
+) -> Result<Merged, MergeError> {
+    let alignment = align(&log, bag, rover, max_offset_s)?;
+    let rows = command_rows(&log, bag, rover, alignment.offset_s)?;
+    let run_time = run_time_of(&log, alignment.offset_s)?;
+    // Commands hold from the first on (as a controller holds the last twist); yaw and pitch
+    // are known from the first IMU message to one message period past the last.
+    let first_cmd = bag.cmd.first().map(|m| run_time(m.0));
+    let imu_span = match (bag.imu.first(), bag.imu.last()) {
+        (Some(a), Some(b)) => {
+            let (a, b) = (run_time(a.0), run_time(b.0));
+            let period = (b - a) / (bag.imu.len().max(2) - 1) as f64;
+            Some((a, b + period))
+        }
+        _ => None,
+    };
+    let timeline = CommandTimeline::new(rows.clone());
+    let (mut with_cmd, mut with_yaw, mut fixes) = (0, 0, 0);
+    for s in &mut log.samples {
+        if first_cmd.is_some_and(|t0| s.t_s >= t0) {
+            s.cmd_mps = timeline.cmd_mps(s.t_s);
+            with_cmd += 1;
+        }
+        let in_imu = imu_span.is_some_and(|(a, b)| (a..=b).contains(&s.t_s));
+        let yaw = timeline.yaw_rad(s.t_s).filter(|_| in_imu);
+        if yaw.is_some() {
+            s.yaw_rad = yaw;
+            s.pitch_deg = timeline.pitch_deg(s.t_s);
+            with_yaw += 1;
+        }
+        if let Some((x, y)) = timeline.fix_m(s.t_s) {
+            s.x_m = Some(x);
+            s.y_m = Some(y);
+            fixes += 1;
+        }
+    }
+    log.commands = rows;
+    Ok(Merged {
+        log,
+        alignment,
+        samples_with_cmd: with_cmd,
+        samples_with_yaw: with_yaw,
+        fixes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log::run_csv::RunSample;
+    use crate::ros2::msgs::TwistMsg;
+    use model_core::rng::SplitMix64;
+
+    /// A world apart from the simulator's: a rover whose power is 40 W + 600 W per rad/s of
+    /// commanded yaw rate + 90 W per m/s (not the predictor's coefficients), measured by chips
+    /// that average 4.48 ms and are read at a random age every 5 ms, with 3 W of noise; the
+    /// robot's clock `offset_s` ahead.
+    fn drive(offset_s: f64, seed: u64) -> (RunLog, RobotBag) {
+        let mut rng = SplitMix64::new(seed);
+        let unix0: u64 = 1_764_000_000_000_000_000;
+        // A twist every 50 ms: stops, straights and turns of 1–4 s each, in a random order
+        // (a drive repeated at a steady rhythm fits several offsets: see `runner_up`).
+        let kinds = [
+            (0.0, 0.0),
+            (0.3, 0.0),
+            (0.0, 0.6),
+            (0.3, 0.27),
+            (0.2, -0.4),
+            (0.1, 0.5),
+        ];
+        // Segment ends in 50 ms ticks: the drives act on the twists received.
+        let mut segments = Vec::new();
+        let mut end = 0u64;
+        while end < 820 {
+            end += 20 + rng.next_u64() % 60;
+            segments.push((end, kinds[(rng.next_u64() % kinds.len() as u64) as usize]));
+        }
+        let twist_of_tick = |tick: u64| {
+            segments
+                .iter()
+                .find(|(e, _)| tick < *e)
+                .map_or((0.0, 0.0), |s| s.1)
+        };
+        let power_at = |t: f64| {
+            let tick = (t / 0.05).floor().max(0.0) as u64;
+            let (v, w): (f64, f64) = twist_of_tick(tick);
+            40.0 + 600.0 * w.abs() + 90.0 * v.abs()
+        };
+        let cmd = (0..800u64)
+            .map(|tick| {
+                let (v, w) = twist_of_tick(tick);
+                let ns = unix0 + tick * 50_000_000;
+                let twist = TwistMsg {
+                    stamp_ns: None,
+                    linear_x: v,
+                    angular_z: w,
+                };
+                (ns.saturating_add_signed((offset_s * 1e9) as i64), twist)
+            })
+            .collect();
+        let (window, period) = (4.48e-3, 5e-3);
+        let samples = (0..8000)
+            .map(|k| {
+                let t = k as f64 * period;
+                let age = rng.uniform() * window;
+                let mean = (0..16)
+                    .map(|j| power_at(t - age - window * (j as f64 + 0.5) / 16.0))
+                    .sum::<f64>()
+                    / 16.0;
+                let p = mean + 3.0 * rng.normal();
+                RunSample::new(
+                    t,
+                    Sides::new(24.0, 24.0),
+                    Sides::new(p / 48.0, p / 48.0),
+                    Sides::new(0.0, 0.0),
+                )
+            })
+            .collect();
+        let log = RunLog {
+            samples,
+            frames: Vec::new(),
+            commands: Vec::new(),
+            events: vec![(0.0, LogEvent::WallClock { unix_ns: unix0 })],
+        };
+        (
+            log,
+            RobotBag {
+                cmd,
+                ..RobotBag::default()
+            },
+        )
+    }
+
+    #[test]
+    fn the_clock_offset_is_measured_to_a_few_ms_in_a_world_of_its_own() {
+        for (offset_s, seed) in [(0.0, 1), (7.3, 2), (-9.61, 3), (13.0, 4)] {
+            let (log, bag) = drive(offset_s, seed);
+            let a = align(&log, &bag, &Rover::HUSKY_A200, 30.0).expect("aligns");
+            assert!(
+                (a.offset_s - offset_s).abs() < 0.004,
+                "seed {seed}: {} vs {offset_s}",
+                a.offset_s
+            );
+            assert!(a.r2 > 0.9, "{}", a.r2);
+        }
+    }
+
+    #[test]
+    fn a_bag_beyond_the_searched_offset_is_refused() {
+        let (log, bag) = drive(100.0, 5);
+        assert!(matches!(
+            align(&log, &bag, &Rover::HUSKY_A200, 30.0),
+            Err(MergeError::NoOverlap { .. } | MergeError::NoMatch { .. })
+        ));
+        let (log, _) = drive(0.0, 6);
+        assert_eq!(
+            align(
+                &RunLog {
+                    events: Vec::new(),
+                    ..log
+                },
+                &bag,
+                &Rover::HUSKY_A200,
+                30.0
+            ),
+            Err(MergeError::NoWallClock)
+        );
+    }
+
+    #[test]
+    fn twists_become_side_speeds_with_the_controllers_slip_track() {
+        let s = side_speeds(&Rover::HUSKY_A200, 0.3, 0.5);
+        // B_s = 1.1 m: V = 0.3 ∓ 0.5 · 0.55.
+        assert!(
+            (s.left - 0.025).abs() < 1e-6 && (s.right - 0.575).abs() < 1e-6,
+            "{s:?}"
+        );
+    }
+}
