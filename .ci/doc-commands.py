@@ -181,7 +181,7 @@ class Fixture:
         run([host_tool, "demo", "--quiet", "--robot-bag", "--robot-clock-offset-s", "7.3",
              "--runs", "1", "--out", robot])
         self.files["runs/drive-1.mcap"] = robot / "run-1.mcap"
-        self.files["rosbag2_drive"] = robot / "run-1.bag"
+        self.files["rosbag2_drive"] = robot / "run-1-robot"
         self.run_1 = runs[0]
 
     def put_inputs(self, tokens, workdir):

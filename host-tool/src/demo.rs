@@ -70,7 +70,7 @@ pub struct DemoOptions {
     pub sampler: SamplerConfig,
     /// The live view the recordings are also served to (`demo --serve`).
     pub live: Option<Arc<LiveServer>>,
-    /// `demo --robot-bag`: also write each run's robot bag (`run-N.bag/`, the commanded twist,
+    /// `demo --robot-bag`: also write each run's robot bag (`run-N-robot/`, the commanded twist,
     /// IMU and tracker pose), its clock this many seconds ahead of the board log's.
     pub robot_bag_clock_offset_s: Option<f64>,
 }
@@ -491,7 +491,7 @@ fn record_run(
     })
 }
 
-/// Writes `run`'s robot bag beside its logs, `run-N.bag/`: what the robot computer sent and
+/// Writes `run`'s robot bag beside its logs, `run-N-robot/`: what the robot computer sent and
 /// measured (its commands file), stamped with its own clock.
 fn write_robot_bag(
     run: &DemoRun,
@@ -499,7 +499,11 @@ fn write_robot_bag(
     rover: &model_core::Rover,
     clock_offset_s: f64,
 ) -> Result<PathBuf, DemoError> {
-    let dir = run.mcap.with_extension("bag");
+    // Not `.bag`: readers take that for a ROS 1 bag file.
+    let dir = run.mcap.with_file_name(format!(
+        "{}-robot",
+        run.mcap.file_stem().unwrap_or_default().to_string_lossy()
+    ));
     let Some((t_anchor, unix_anchor)) = log.events.iter().find_map(|(t, e)| match e {
         crate::log::run_log::LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
         _ => None,

@@ -195,7 +195,7 @@ fn sweep_of_the_preset_has_its_minimum_at_r_prime() {
     );
     assert!((number(&v, "/plp_energy_j") - 1004.38).abs() < 0.1, "{v}");
     assert_eq!(v["points"].as_array().map(Vec::len), Some(61));
-    assert_eq!(number(&v, "/slices/1/seed_delta_e_pct"), 14.38);
+    assert_eq!(number(&v, "/slices/1/thesis_delta_e_pct"), 14.38);
     let dir = temp_dir("sweep-figure");
     let figure = dir.join("fig-6.3.svg");
     let out = plan(&[&args[..], &["--figure", figure.to_str().expect("utf-8")]].concat());

@@ -53,7 +53,7 @@ pub struct DemoArgs {
     /// allows; default: the board's 200 Hz.
     #[arg(long = "rate-hz", value_parser = super::record::parse_rate_hz, value_name = "HZ")]
     rate_hz: Option<u32>,
-    /// Also write each run's robot bag, `run-N.bag/` (ROS 2, MCAP storage): the commanded twist
+    /// Also write each run's robot bag, `run-N-robot/` (ROS 2, MCAP storage): the commanded twist
     /// on /cmd_vel, the IMU on /imu/data, the tracker's pose on /tracker/pose, for `merge`.
     #[arg(long)]
     robot_bag: bool,
@@ -311,7 +311,7 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
     );
     for sl in &sweep.slices {
         let seed = sl
-            .seed_delta_e_pct
+            .thesis_delta_e_pct
             .map_or("-".to_owned(), |d| format!("{d:+.2} %"));
         let _ = writeln!(
             text,

@@ -105,7 +105,7 @@ pub struct SliceMean {
     /// The model's mean ΔE over the slice [%].
     pub model_delta_e_pct: f64,
     /// Thesis Table 6.1's measured ΔE [%] (only for its path).
-    pub seed_delta_e_pct: Option<f64>,
+    pub thesis_delta_e_pct: Option<f64>,
 }
 
 /// `plan --sweep`'s result.
@@ -233,7 +233,7 @@ pub fn sweep(
                 lo: s.lo,
                 hi: s.hi,
                 model_delta_e_pct: m,
-                seed_delta_e_pct: seed.then_some(s.delta_e_pct),
+                thesis_delta_e_pct: seed.then_some(s.delta_e_pct),
             })
         })
         .collect();
@@ -282,7 +282,7 @@ impl SweepReport {
         let seed: Vec<(f64, f64)> = self
             .slices
             .iter()
-            .filter_map(|s| s.seed_delta_e_pct.map(|d| (0.5 * (s.lo + s.hi), d)))
+            .filter_map(|s| s.thesis_delta_e_pct.map(|d| (0.5 * (s.lo + s.hi), d)))
             .collect();
         if !seed.is_empty() {
             chart.series.push(Series::new(
@@ -338,7 +338,7 @@ impl fmt::Display for SweepReport {
             writeln!(f, "slice of R/R'   model ΔE %   thesis Table 6.1 ΔE %")?;
             for s in &self.slices {
                 let seed = s
-                    .seed_delta_e_pct
+                    .thesis_delta_e_pct
                     .map_or("-".to_owned(), |d| format!("{d:+.2}"));
                 writeln!(
                     f,
@@ -395,7 +395,7 @@ mod tests {
         assert!(at(0.5) > at(1.0) && at(1.5) > at(1.0) && at(3.0) > at(2.0));
         // Slices: the path is Table 6.1's, so the seed's values are beside the model's.
         assert_eq!(r.slices.len(), 5);
-        assert_eq!(r.slices[1].seed_delta_e_pct, Some(14.38));
+        assert_eq!(r.slices[1].thesis_delta_e_pct, Some(14.38));
         // Hard ground predicts the biggest saving in the slice around R' (−3.0 %), the sand
         // measured a 14 % loss there.
         let m: Vec<f64> = r.slices.iter().map(|s| s.model_delta_e_pct).collect();
@@ -441,7 +441,7 @@ mod tests {
         assert!(sweep(&p.model(), &source, 45.0, 45.0, 10.0, bad).is_err());
         assert!(sweep(&p.model(), &source, 45.0, -45.0, 10.0, SweepGrid::default()).is_err());
         let r = sweep(&p.model(), &source, 60.0, 30.0, 8.0, SweepGrid::default()).expect("sweeps");
-        assert!(r.slices.iter().all(|s| s.seed_delta_e_pct.is_none()));
+        assert!(r.slices.iter().all(|s| s.thesis_delta_e_pct.is_none()));
         assert!((r.optimum.r_over_r_prime - 1.0).abs() < 1e-6);
         // Arcs too wide for a short path are left out, not errors.
         let r = sweep(&p.model(), &source, 90.0, 90.0, 1.0, SweepGrid::default()).expect("sweeps");

@@ -30,9 +30,9 @@ pub fn write_robot_bag(
     clock_offset_s: f64,
 ) -> Result<RobotBagCounts, OutDirError<BagWriteError>> {
     let offset_ns = (clock_offset_s * 1e9).round() as i64;
-    let stem = dir.file_name().map_or("robot".into(), |n| {
-        n.to_string_lossy().trim_end_matches(".bag").to_owned()
-    });
+    let stem = dir
+        .file_name()
+        .map_or("robot".into(), |n| n.to_string_lossy().into_owned());
     write_dir_whole(dir, replace, |staging| {
         let mut bag = BagWriter::create(staging, &stem)?;
         let cmd = bag.topic(
