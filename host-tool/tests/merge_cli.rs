@@ -28,6 +28,50 @@ fn board_only(log: &Path, out: &Path) {
     save_run(out, &run).expect("board-only log written");
 }
 
+/// `demo --robot-bag` into DIR/demo with the robot's clock `offset_s` ahead (`extra` options
+/// added); returns the demo's directory.
+fn robot_demo(dir: &Path, offset_s: f64, extra: &[&str]) -> PathBuf {
+    let demo = dir.join("demo");
+    let made = host_tool()
+        .args(["demo", "--quiet", "--robot-bag", "--robot-clock-offset-s"])
+        .arg(offset_s.to_string())
+        .args(extra)
+        .arg("--out")
+        .arg(&demo)
+        .output()
+        .expect("demo runs");
+    let stderr = String::from_utf8_lossy(&made.stderr);
+    assert!(made.status.success(), "{stderr}");
+    demo
+}
+
+/// `merge --board BOARD --bag BAG --out OUT` (`extra` options added): its exit code, stdout and
+/// stderr.
+fn merge(board: &Path, bag: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
+    let done = host_tool()
+        .args(["merge", "--board"])
+        .arg(board)
+        .arg("--bag")
+        .arg(bag)
+        .args(extra)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .expect("merge runs");
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (done.status.code(), text(&done.stdout), text(&done.stderr))
+}
+
+/// The offset `merge` reports: "the bag's clock is +7.298 s ahead".
+fn reported_offset_s(stdout: &str) -> f64 {
+    stdout
+        .split("clock is ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no offset in {stdout}"))
+}
+
 fn json_of(args: &[&str], dir: &Path) -> Value {
     let out = host_tool()
         .args(args)
@@ -45,19 +89,7 @@ fn json_of(args: &[&str], dir: &Path) -> Value {
 #[test]
 fn merged_board_logs_and_robot_bags_diagnose_as_the_demos_own_runs() {
     let dir = temp_dir("merge-cli");
-    let demo = dir.join("demo");
-    let made = host_tool()
-        .args(["demo", "--quiet", "--robot-bag", "--robot-clock-offset-s"])
-        .arg(CLOCK_OFFSET_S.to_string())
-        .arg("--out")
-        .arg(&demo)
-        .output()
-        .expect("demo runs");
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    let demo = robot_demo(&dir, CLOCK_OFFSET_S, &[]);
 
     let mut merged: Vec<PathBuf> = Vec::new();
     let mut own: Vec<PathBuf> = Vec::new();
@@ -65,28 +97,11 @@ fn merged_board_logs_and_robot_bags_diagnose_as_the_demos_own_runs() {
         let board = dir.join(format!("board-{k}.mcap"));
         board_only(&demo.join(format!("run-{k}.mcap")), &board);
         let out = dir.join(format!("merged-{k}.csv"));
-        let done = host_tool()
-            .args(["merge", "--board"])
-            .arg(&board)
-            .arg("--bag")
-            .arg(demo.join(format!("run-{k}-robot")))
-            .args(["--pose-topic", "/tracker/pose", "--out"])
-            .arg(&out)
-            .output()
-            .expect("merge runs");
-        let stdout = String::from_utf8_lossy(&done.stdout);
-        assert!(
-            done.status.success(),
-            "{stdout}{}",
-            String::from_utf8_lossy(&done.stderr)
-        );
-        // "the bag's clock is +7.300 s ahead": found to within 5 ms.
-        let offset: f64 = stdout
-            .split("clock is ")
-            .nth(1)
-            .and_then(|s| s.split(' ').next())
-            .and_then(|s| s.parse().ok())
-            .unwrap_or_else(|| panic!("no offset in {stdout}"));
+        let bag = demo.join(format!("run-{k}-robot"));
+        let (code, stdout, stderr) = merge(&board, &bag, &out, &["--pose-topic", "/tracker/pose"]);
+        assert_eq!(code, Some(0), "{stdout}{stderr}");
+        // Found to within 5 ms.
+        let offset = reported_offset_s(&stdout);
         assert!(
             (offset - CLOCK_OFFSET_S).abs() <= 0.005,
             "run {k}: offset {offset} s\n{stdout}"
@@ -149,49 +164,11 @@ fn merged_board_logs_and_robot_bags_diagnose_as_the_demos_own_runs() {
 #[test]
 fn a_robot_clock_behind_the_boards_is_found_too() {
     let dir = temp_dir("merge-cli-behind");
-    let demo = dir.join("demo");
-    let made = host_tool()
-        .args([
-            "demo",
-            "--quiet",
-            "--runs",
-            "1",
-            "--seed",
-            "7",
-            "--robot-bag",
-            "--robot-clock-offset-s",
-            "-9.6",
-            "--out",
-        ])
-        .arg(&demo)
-        .output()
-        .expect("demo runs");
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
-    let done = host_tool()
-        .args(["merge", "--board"])
-        .arg(demo.join("run-1.mcap"))
-        .arg("--bag")
-        .arg(demo.join("run-1-robot"))
-        .arg("--out")
-        .arg(dir.join("merged.mcap"))
-        .output()
-        .expect("merge runs");
-    let stdout = String::from_utf8_lossy(&done.stdout);
-    assert!(
-        done.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&done.stderr)
-    );
-    let offset: f64 = stdout
-        .split("clock is ")
-        .nth(1)
-        .and_then(|s| s.split(' ').next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("no offset in {stdout}"));
+    let demo = robot_demo(&dir, -9.6, &["--runs", "1", "--seed", "7"]);
+    let bag = demo.join("run-1-robot");
+    let (code, stdout, stderr) = merge(&demo.join("run-1.mcap"), &bag, &dir.join("m.mcap"), &[]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let offset = reported_offset_s(&stdout);
     assert!((offset + 9.6).abs() <= 0.005, "offset {offset} s\n{stdout}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -199,38 +176,15 @@ fn a_robot_clock_behind_the_boards_is_found_too() {
 #[test]
 fn a_bag_that_does_not_overlap_the_board_log_is_refused() {
     let dir = temp_dir("merge-cli-far");
-    let demo = dir.join("demo");
-    let made = host_tool()
-        .args([
-            "demo",
-            "--quiet",
-            "--runs",
-            "1",
-            "--robot-bag",
-            "--robot-clock-offset-s",
-            "-120",
-            "--out",
-        ])
-        .arg(&demo)
-        .output()
-        .expect("demo runs");
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    let demo = robot_demo(&dir, -120.0, &["--runs", "1"]);
     let out = dir.join("merged.mcap");
-    let done = host_tool()
-        .args(["merge", "--board"])
-        .arg(demo.join("run-1.mcap"))
-        .arg("--bag")
-        .arg(demo.join("run-1-robot"))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .expect("merge runs");
-    let stderr = String::from_utf8_lossy(&done.stderr);
-    assert_eq!(done.status.code(), Some(1), "{stderr}");
+    let (code, _, stderr) = merge(
+        &demo.join("run-1.mcap"),
+        &demo.join("run-1-robot"),
+        &out,
+        &[],
+    );
+    assert_eq!(code, Some(1), "{stderr}");
     assert!(stderr.contains("do not overlap"), "{stderr}");
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);

@@ -209,8 +209,8 @@ pub enum Command {
     /// computers' clocks is measured from the data (the board's power against the power the
     /// commands predict) and reported. Then validate, plot and diagnose read the result.
     #[command(after_help = examples!(
-        "host-tool merge --board run-1.mcap --bag rosbag2_drive --out run-1.merged.mcap",
-        "host-tool merge --board run-1.csv --bag drive_0.mcap --pose-topic /tracker/pose --out merged.csv",
+        "host-tool merge --board drive-1.mcap --bag rosbag2_drive --out drive-1.merged.mcap",
+        "host-tool merge --board drive-1.mcap --bag rosbag2_drive --pose-topic /tracker/pose --out d.csv",
     ))]
     Merge(merge::MergeArgs),
     /// Replay a run log (.mcap or .csv) as the board's byte stream: into a pseudo-terminal that
