@@ -251,9 +251,18 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
         text,
         "\n{} files in {} ({elapsed_s:.1} s): the runs (run-N.mcap, .csv, .commands.csv), \
          report.txt/.json, turns.csv, figures (.png, .svg), diagnosis/ (diagnosis.md, .json, \
-         model.toml for `plan --model`, figures)",
+         model.toml for `plan --model`, figures){}",
         outcome.files.len(),
         out.display(),
+        if outcome
+            .files
+            .iter()
+            .any(|f| f.to_string_lossy().ends_with("-robot"))
+        {
+            ", the robots' bags (run-N-robot/, for `merge`)"
+        } else {
+            ""
+        },
     );
     text
 }
