@@ -25,7 +25,7 @@ use thiserror::Error;
 /// Why two logs could not be merged.
 #[derive(Debug, Error, PartialEq)]
 pub enum MergeError {
-    #[error("the board log has no wall-clock anchor (a `clock` event; logs recorded before the recorder wrote one cannot be lined up with a bag)")]
+    #[error("the board log has no wall-clock anchor (the `wall-clock` event `record` writes at the first sample; a run CSV made by `convert` has none: merge the MCAP log)")]
     NoWallClock,
     #[error("the bag's commands change the power {0} time(s): at least 2 steps (starts, stops, turns) are needed to line up the clocks")]
     NoSteps(usize),
@@ -337,7 +337,8 @@ pub fn command_rows(
 }
 
 /// Merges `bag` into `log`: lines them up, then gives every sample the bag's commanded side
-/// speeds, yaw, pitch and position fixes (the board's own values where the bag says nothing).
+/// speeds, yaw, pitch and position fixes (the log's own values where the bag says nothing;
+/// with a pose topic, the bag's fixes only).
 pub fn merge(
     mut log: RunLog,
     bag: &RobotBag,
@@ -372,10 +373,13 @@ pub fn merge(
             s.pitch_deg = timeline.pitch_deg(s.t_s);
             with_yaw += 1;
         }
-        if let Some((x, y)) = timeline.fix_m(s.t_s) {
-            s.x_m = Some(x);
-            s.y_m = Some(y);
-            fixes += 1;
+        // With a pose topic, the bag's fixes replace the log's (a fix is an event: two sources'
+        // would both count).
+        if !bag.pose.is_empty() {
+            let fix = timeline.fix_m(s.t_s);
+            s.x_m = fix.map(|f| f.0);
+            s.y_m = fix.map(|f| f.1);
+            fixes += usize::from(fix.is_some());
         }
     }
     log.commands = rows;
