@@ -65,7 +65,7 @@ pub use read::{
     Truncation,
 };
 pub use sink::McapSink;
-pub(crate) use sink::{ModelMsg, StatusMsg};
+pub(crate) use sink::{ModelMsg, StatusMsg, HELD_MAX};
 
 use super::commands::CommandRow;
 use super::run_csv::RunSample;

@@ -19,7 +19,9 @@ use super::msgs::{
     StdType,
 };
 use super::write::{BagWriteError, BagWriter};
-use crate::log::mcap::describe_event;
+// Past HELD_MAX messages before the first sample without a wall clock, the MCAP log goes on
+// run time, and so does the bag.
+use crate::log::mcap::{describe_event, HELD_MAX};
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::{LogEvent, Record, RunLog};
 use crate::out_dir::{rebase, write_dir_whole, OutDirError};
@@ -47,10 +49,6 @@ pub const LOGGER_NAME: &str = "rover_power";
 const IMU_FRAME: &str = "base_link";
 /// Frame of the tracked pose.
 const POSE_FRAME: &str = "map";
-
-/// `McapSink`'s `HELD_MAX` (log/mcap/sink.rs): past this many messages before the first sample
-/// without a wall clock, the MCAP log goes on run time, and so does the bag.
-const HELD_MAX: usize = 4096;
 
 /// The ros2msg definition of `rover_power/msg/Sample` (with `builtin_interfaces/msg/Time`), as
 /// the bag stores it so that readers decode it without our package.

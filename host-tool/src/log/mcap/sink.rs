@@ -59,7 +59,7 @@ pub struct McapSink<W: Write + Seek> {
 /// Most messages held while no wall-clock event has come (a run's start before its first
 /// sample: hello, status, start event). Past it, or at a sample without an anchor, the log has
 /// no wall clock and goes on run time.
-const HELD_MAX: usize = 4096;
+pub(crate) const HELD_MAX: usize = 4096;
 
 /// Where a message's `log_time` comes from (`publish_time` is always run time).
 #[derive(Debug)]
