@@ -16,7 +16,7 @@
 use super::cdr::CdrWriter;
 use super::msgs::{
     complete_definition, encode_imu, encode_log, encode_pose_stamped, encode_twist, quaternion_of,
-    StdType,
+    write_stamp, StdType,
 };
 use super::write::{BagWriteError, BagWriter};
 // Past HELD_MAX messages before the first sample without a wall clock, the MCAP log goes on
@@ -273,8 +273,7 @@ pub fn log_line(event: &LogEvent) -> (u8, String) {
 /// A `rover_power/msg/Sample` (see [`sample_definition`]).
 fn encode_sample(stamp_ns: i64, s: &RunSample) -> Vec<u8> {
     let mut w = CdrWriter::new();
-    let (sec, nanosec) = split_stamp(stamp_ns);
-    w.i32(sec).u32(nanosec);
+    write_stamp(&mut w, stamp_ns);
     let or_nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
     for v in [
         s.bus_v.left,
@@ -292,15 +291,6 @@ fn encode_sample(stamp_ns: i64, s: &RunSample) -> Vec<u8> {
         w.f64(v);
     }
     w.finish()
-}
-
-/// `builtin_interfaces/msg/Time` of `ns` (as msgs.rs writes header stamps).
-fn split_stamp(ns: i64) -> (i32, u32) {
-    let sec = ns.div_euclid(1_000_000_000);
-    (
-        i32::try_from(sec).unwrap_or(i32::MAX),
-        ns.rem_euclid(1_000_000_000) as u32,
-    )
 }
 
 /// A header stamp of a log time (a u64 beyond i64 is past the year 2262).

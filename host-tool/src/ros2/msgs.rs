@@ -244,7 +244,8 @@ pub fn decode_pose(ty: StdType, message: &[u8]) -> Result<PoseMsg, CdrError> {
     })
 }
 
-fn write_stamp(w: &mut CdrWriter, ns: i64) {
+/// A `builtin_interfaces/msg/Time` of `ns` since the Unix epoch (seconds saturate at i32).
+pub fn write_stamp(w: &mut CdrWriter, ns: i64) {
     let sec = ns.div_euclid(1_000_000_000);
     w.i32(i32::try_from(sec).unwrap_or(i32::MAX))
         .u32(ns.rem_euclid(1_000_000_000) as u32);
