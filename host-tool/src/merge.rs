@@ -31,7 +31,7 @@ pub enum MergeError {
     NoSteps(usize),
     #[error("the board log has too few samples ({0}) to line up")]
     TooFewSamples(usize),
-    #[error("the logs do not overlap: the board ran {board}, the bag's commands span {bag} (Unix time), more than the {max_offset_s} s offset searched apart (--max-offset-s)")]
+    #[error("the logs do not overlap: the board ran {board}, the bag's commands span {bag} (its log times against the board's wall clock), more than the {max_offset_s} s searched apart (--max-offset-s)")]
     NoOverlap {
         board: String,
         bag: String,

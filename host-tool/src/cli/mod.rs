@@ -206,8 +206,8 @@ pub enum Command {
     /// Merge a board log with the robot's ROS 2 bag of the same drive into one run log: the
     /// bag's commanded twist (side speeds), IMU yaw and pitch, and optionally the tracked pose
     /// land on the board's samples. The two are lined up by wall clock; the offset between the
-    /// computers' clocks is measured from the data (the board's power against the power the
-    /// commands predict) and reported. Then validate, plot and diagnose read the result.
+    /// computers' clocks is measured from the data (the board's power steps where the commands
+    /// do) and reported. Then validate, plot and diagnose read the result.
     #[command(after_help = examples!(
         "host-tool merge --board drive-1.mcap --bag rosbag2_drive --out drive-1.merged.mcap",
         "host-tool merge --board drive-1.mcap --bag rosbag2_drive --pose-topic /tracker/pose --out d.csv",
