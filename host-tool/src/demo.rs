@@ -504,10 +504,7 @@ fn write_robot_bag(
         "{}-robot",
         run.mcap.file_stem().unwrap_or_default().to_string_lossy()
     ));
-    let Some((t_anchor, unix_anchor)) = log.events.iter().find_map(|(t, e)| match e {
-        crate::log::run_log::LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
-        _ => None,
-    }) else {
+    let Some((t_anchor, unix_anchor)) = log.wall_clock() else {
         return Err(DemoError::Check {
             run: run.name.clone(),
             what: "the recording has no wall-clock anchor for its robot bag".into(),

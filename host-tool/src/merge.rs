@@ -13,7 +13,7 @@
 //! says which command changes are steps.
 
 use crate::log::commands::CommandRow;
-use crate::log::run_log::{LogEvent, RunLog};
+use crate::log::run_log::RunLog;
 use crate::record::CommandTimeline;
 use crate::ros2::msgs::yaw_pitch_of;
 use crate::ros2::read::RobotBag;
@@ -71,14 +71,6 @@ pub struct Merged {
     pub samples_with_cmd: usize,
     pub samples_with_yaw: usize,
     pub fixes: usize,
-}
-
-/// The board log's first wall-clock anchor: (run time [s], Unix time [ns]).
-fn anchor(log: &RunLog) -> Option<(f64, u64)> {
-    log.events.iter().find_map(|(t, e)| match e {
-        LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
-        _ => None,
-    })
 }
 
 /// The hard-ground model of `rover` (paper Table 2's μ and G; the rover's geometry).
@@ -179,7 +171,7 @@ pub fn align(
     rover: &Rover,
     max_offset_s: f64,
 ) -> Result<Alignment, MergeError> {
-    let (t_anchor, unix_anchor) = anchor(log).ok_or(MergeError::NoWallClock)?;
+    let (t_anchor, unix_anchor) = log.wall_clock().ok_or(MergeError::NoWallClock)?;
     let n = log.samples.len();
     if n < 20 {
         return Err(MergeError::TooFewSamples(n));
@@ -288,7 +280,7 @@ pub fn align(
 
 /// The board's run time [s] of a bag time [Unix ns], the bag's clock `offset_s` ahead.
 fn run_time_of(log: &RunLog, offset_s: f64) -> Result<impl Fn(u64) -> f64, MergeError> {
-    let (t_anchor, unix_anchor) = anchor(log).ok_or(MergeError::NoWallClock)?;
+    let (t_anchor, unix_anchor) = log.wall_clock().ok_or(MergeError::NoWallClock)?;
     let offset_ns = (offset_s * 1e9).round() as i128;
     Ok(move |ns: u64| t_anchor + (ns as i128 - offset_ns - unix_anchor as i128) as f64 * 1e-9)
 }
@@ -396,6 +388,7 @@ pub fn merge(
 mod tests {
     use super::*;
     use crate::log::run_csv::RunSample;
+    use crate::log::run_log::LogEvent;
     use crate::ros2::msgs::TwistMsg;
     use model_core::rng::SplitMix64;
 

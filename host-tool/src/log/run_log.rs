@@ -83,6 +83,14 @@ pub enum Record<'a> {
 }
 
 impl RunLog {
+    /// The first wall-clock anchor: (run time [s], Unix time [ns] of the sample then).
+    pub fn wall_clock(&self) -> Option<(f64, u64)> {
+        self.events.iter().find_map(|(t, e)| match e {
+            LogEvent::WallClock { unix_ns } => Some((*t, *unix_ns)),
+            _ => None,
+        })
+    }
+
     /// Every record with its run time [s], in the order a recorder writes them: by time;
     /// at equal times events first (the wall-clock anchor comes before the first sample, as the
     /// recorder writes it), then frames, samples, commands; within one kind the log's order.
