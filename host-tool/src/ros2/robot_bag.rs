@@ -2,6 +2,7 @@
 //! --robot-bag`): the commanded twist on `/cmd_vel`, the IMU's orientation on `/imu/data` and the
 //! tracker's pose on `/tracker/pose`, each stamped with the robot computer's clock.
 
+use super::from_log::twist_of;
 use super::msgs::{self, StdType};
 use super::write::{BagWriteError, BagWriter};
 use crate::log::commands::CommandRow;
@@ -47,13 +48,11 @@ pub fn write_robot_bag(
             &StdType::PoseStamped.definition(),
         )?;
         let mut counts = (0, 0, 0);
-        let half = f64::from(rover.slip_track_m) / 2.0;
+        let slip_track_m = f64::from(rover.slip_track_m);
         for row in rows {
             let ns = unix_ns_at(row.t_s).saturating_add_signed(offset_ns);
             let stamp = ns as i64;
-            // Eq 2.4: the controller's side speeds of (v, ω).
-            let v = (row.cmd_mps.left + row.cmd_mps.right) / 2.0;
-            let omega = (row.cmd_mps.right - row.cmd_mps.left) / (2.0 * half);
+            let (v, omega) = twist_of(row.cmd_mps, slip_track_m);
             bag.write(cmd, ns, &msgs::encode_twist(v, omega))?;
             counts.0 += 1;
             let q = row
