@@ -170,6 +170,19 @@ impl LiveServer {
             }
             std::thread::sleep(ACCEPT_POLL);
         }
+        // A viewer subscribes panel by panel: wait until its channels settle (none new for
+        // 300 ms, 2 s at most), so that the run's first events reach its event panel too.
+        let first = Instant::now();
+        let (mut mask, mut since) = (self.hub.subscribed(), Instant::now());
+        while since.elapsed() < Duration::from_millis(300)
+            && first.elapsed() < Duration::from_secs(2)
+        {
+            std::thread::sleep(ACCEPT_POLL);
+            let now = self.hub.subscribed();
+            if now != mask {
+                (mask, since) = (now, Instant::now());
+            }
+        }
         true
     }
 
