@@ -1,6 +1,7 @@
 //! rover-power host tool, library first: the CLI (`src/cli/<command>.rs`, one args struct with
 //! `run` per command; `main.rs` a flat dispatch) parses arguments, calls in here and prints.
 
+pub mod analysis;
 pub mod check;
 pub mod csv_table;
 pub mod decode;

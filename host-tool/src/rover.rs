@@ -168,6 +168,18 @@ pub fn load_rover_file(path: &Path) -> Result<RoverFile, RoverFileError> {
     read_and_parse(path, parse_rover_file)
 }
 
+/// The repository's Husky A200 file, the rover every command (and the Python package) takes
+/// when none is given: no rover and `rovers/husky-a200.toml` are the same.
+pub const HUSKY_A200_TOML: &str = include_str!("../../rovers/husky-a200.toml");
+
+/// The rover file at `path`, or the Husky A200's ([`HUSKY_A200_TOML`]).
+pub fn load_rover_file_or_husky(path: Option<&Path>) -> Result<RoverFile, RoverFileError> {
+    match path {
+        Some(path) => load_rover_file(path),
+        None => Ok(parse_rover_file(HUSKY_A200_TOML).expect("rovers/husky-a200.toml parses")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

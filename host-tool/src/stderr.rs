@@ -24,8 +24,73 @@ pub fn write_line(args: fmt::Arguments<'_>) {
     let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
 }
 
+/// The error's message and its causes, each cause once: a library error names its source in
+/// its own text (whole when shown alone, as in a report), so a cause whose text the message
+/// already holds is not printed again (`{:#}` would: `x.csv: No such file or directory (os
+/// error 2): No such file or directory (os error 2)`).
+pub fn error_text(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let cause = cause.to_string();
+        if text.contains(&cause) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&cause);
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
+    use super::error_text;
+    use anyhow::Context;
+    use std::io;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("{path}: {source}")]
+    struct Named {
+        path: &'static str,
+        #[source]
+        source: io::Error,
+    }
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("{0}")]
+    struct Quoting(#[source] Named);
+
+    #[test]
+    fn error_text_prints_each_cause_once() {
+        let missing = || io::Error::new(io::ErrorKind::NotFound, "No such file or directory");
+        // A source quoted in the message, twice over (wrapper and file error).
+        let quoted = anyhow::Error::new(Quoting(Named {
+            path: "nosuch.csv",
+            source: missing(),
+        }));
+        assert_eq!(error_text(&quoted), "nosuch.csv: No such file or directory");
+        // Context that does not quote its cause keeps it, once.
+        let context = Err::<(), _>(missing())
+            .context("reading x.csv")
+            .expect_err("error");
+        assert_eq!(
+            error_text(&context),
+            "reading x.csv: No such file or directory"
+        );
+        // Both: context above a quoting error.
+        let both = Err::<(), _>(Named {
+            path: "/dev/ttyNOPE",
+            source: missing(),
+        })
+        .context("record")
+        .expect_err("error");
+        assert_eq!(
+            error_text(&both),
+            "record: /dev/ttyNOPE: No such file or directory"
+        );
+    }
+
     #[test]
     fn expands_with_and_without_arguments() {
         // Writes to the test's stderr; the point is that both forms compile and return ().

@@ -1,15 +1,13 @@
 //! `host-tool diagnose`: where the hard-ground model departs, which effect, how much it closes.
 
 use super::output::{self, JsonOut};
-use super::validate::{stream_and_validate, RigRangeArg};
+use super::validate::{done_reading, reader, RigRangeArg};
 use super::Departure;
 use anyhow::{bail, Context, Result};
-use host_tool::diagnose::features::{RunSampleScan, TurnRow};
+use host_tool::analysis::{self, Diagnosed};
+use host_tool::diagnose::path_table::PathDiagnosis;
 use host_tool::diagnose::{self, calibration::Calibration, report};
-use host_tool::log::run_csv::RigRange;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
-use host_tool::validate::ValidateOptions;
-use model_core::Rover;
 use std::io::Write as _;
 use std::path::PathBuf;
 
@@ -49,59 +47,6 @@ pub struct DiagnoseArgs {
     next_runs: Option<PathBuf>,
 }
 
-/// The diagnosis rows of `paths`: run logs through `validate` (run CSVs' readings within
-/// `range`), and per-turn summary CSVs (header with `radius_m` and `avg_power_w`, see
-/// `diagnose::summary`) as total-only rows, each file its own run; plus the summaries' caveats.
-fn diagnosis_rows(
-    rover: &Rover,
-    tracker_offset_m: f64,
-    paths: &[PathBuf],
-    range: RigRange,
-    what: &str,
-) -> Result<(Vec<TurnRow>, Vec<String>)> {
-    let (summaries, runs): (Vec<&PathBuf>, Vec<&PathBuf>) = paths
-        .iter()
-        .partition(|p| diagnose::summary::is_summary_file(p));
-    let mut rows = if runs.is_empty() {
-        Vec::new()
-    } else {
-        let runs: Vec<PathBuf> = runs.into_iter().cloned().collect();
-        let options = ValidateOptions {
-            tracker_offset_m,
-            ..ValidateOptions::for_rover(rover)
-        };
-        // Streamed: validate reads each file twice, the standstill draw and the manoeuvres'
-        // bus voltage a third time; memory stays bounded whatever the logs' length.
-        let (streamed, report) = stream_and_validate(rover, &runs, range, &options)
-            .with_context(|| format!("{what} runs"))?;
-        let mut facts = Vec::with_capacity(runs.len());
-        for index in 0..runs.len() {
-            let mut scan = RunSampleScan::new(&report, index);
-            if let Some(read) = streamed.read_again(index, &mut scan) {
-                read.with_context(|| format!("{what} runs"))?;
-            }
-            facts.push(scan.finish());
-        }
-        diagnose::features::rows_from_facts(&report, &facts)
-    };
-    let mut notes = Vec::new();
-    for path in summaries {
-        let summary = diagnose::summary::load_summary(path)?;
-        let run_index = rows.iter().map(|r| r.run_index + 1).max().unwrap_or(0);
-        let mut of = diagnose::summary::summary_rows(rover, &summary, &path.display().to_string());
-        for row in &mut of {
-            row.run_index = run_index;
-        }
-        rows.extend(of);
-        notes.extend(
-            diagnose::summary::summary_notes(&summary)
-                .into_iter()
-                .map(|n| format!("{}: {n}", path.display())),
-        );
-    }
-    Ok((rows, notes))
-}
-
 impl DiagnoseArgs {
     /// Diagnoses the runs; prints the table (or writes JSON) and writes --out.
     pub fn run(self) -> Result<()> {
@@ -123,34 +68,41 @@ impl DiagnoseArgs {
             }
         }
         let rover_file = self.rover.load()?;
-        let (rover, offset) = (rover_file.rover, rover_file.tracker_offset_m);
-        // Path-level summaries (thesis Table 6.1) have their own judgement.
-        if self
+        let is_path_table = self
             .runs
             .iter()
-            .any(|p| diagnose::path_table::is_path_table_file(p))
+            .any(|p| diagnose::path_table::is_path_table_file(p));
+        if is_path_table
+            && (!self.calibration.is_empty() || self.out.is_some() || self.next_runs.is_some())
         {
-            return self.path_table(&rover);
+            bail!(
+                "a path table is judged against paper Table 2's hard-ground model carried over to \
+                 the rover: --calibration, --out and --next-runs do not apply"
+            );
         }
-        let range = self.rig_range.range;
-        let (rows, notes) = diagnosis_rows(&rover, offset, &self.runs, range, "diagnosed")?;
-        let cal_rows = if self.calibration.is_empty() {
-            None
-        } else {
-            Some(diagnosis_rows(&rover, offset, &self.calibration, range, "calibration")?.0)
+        let mut reader = reader(self.rig_range.range);
+        let diagnosed =
+            analysis::diagnose(&rover_file, &self.runs, &self.calibration, &mut reader)?;
+        done_reading(&reader);
+        let (diagnosis, rows, calibration) = match &diagnosed {
+            Diagnosed::PathTable(diagnosis) => return self.path_table(diagnosis),
+            Diagnosed::Runs {
+                diagnosis,
+                rows,
+                calibration_rows,
+            } => (
+                diagnosis,
+                rows,
+                calibration_rows
+                    .as_deref()
+                    .map_or(Calibration::FROM_RUNS, Calibration::rows),
+            ),
         };
-        let calibration = match &cal_rows {
-            Some(rows) => Calibration::rows(rows),
-            None => Calibration::FROM_RUNS,
-        };
-        let mut diagnosis = diagnose::diagnose_with(&rover, &rows, calibration)
-            .with_context(|| format!("diagnosing {}", output::runs_named(&self.runs)))?;
-        // The inputs' caveats first, then the diagnosis' own.
-        diagnosis.notes.splice(0..0, notes);
+        let rover = &rover_file.rover;
         // Files first: a closed stdout (`| head`) must not lose them.
         let files = match &self.out {
             Some(dir) => write_dir_whole(dir, self.force, |staging| {
-                report::write_out_dir(staging, &rover, &diagnosis, &rows, calibration)
+                report::write_out_dir(staging, rover, diagnosis, rows, calibration)
                     .map(|files| output::rebased(files, staging, dir))
             })?,
             None => Vec::new(),
@@ -174,7 +126,7 @@ impl DiagnoseArgs {
             .json
             .emit(&diagnosis.to_json(), "diagnosis", self.force)?
         {
-            let mut text = report::table(&diagnosis).to_string();
+            let mut text = report::table(diagnosis).to_string();
             if !files.is_empty() {
                 text.push('\n');
             }
@@ -194,40 +146,13 @@ impl DiagnoseArgs {
         Ok(())
     }
 
-    /// `diagnose` on a path table: every `--runs` file must be one; no calibration runs.
-    fn path_table(&self, rover: &Rover) -> Result<()> {
-        use diagnose::path_table;
-        if let Some(p) = self
-            .runs
-            .iter()
-            .find(|p| !path_table::is_path_table_file(p))
-        {
-            bail!(
-                "{}: a path table (header start_deg,end_deg,…) cannot be diagnosed with runs or \
-                 per-turn summaries; pass them separately",
-                p.display()
-            );
-        }
-        if !self.calibration.is_empty() || self.out.is_some() || self.next_runs.is_some() {
-            bail!(
-                "a path table is judged against paper Table 2's hard-ground model carried over to \
-                 the rover: --calibration, --out and --next-runs do not apply"
-            );
-        }
-        let model = path_table::hard_ground_for(rover);
-        let mut rows = Vec::new();
-        for path in &self.runs {
-            let of = path_table::load_path_table(path)?;
-            // Each file's rows on their own: the error's line is then in a file it can name.
-            path_table::check_rows(&model, &of).map_err(|e| output::naming(path, e))?;
-            rows.extend(of);
-        }
-        let diagnosis = path_table::diagnose_path_table(&model, &rows)?;
+    /// Prints (or writes) a path table's diagnosis.
+    fn path_table(&self, diagnosis: &PathDiagnosis) -> Result<()> {
         if !self
             .json
             .emit(&diagnosis.to_json(), "diagnosis", self.force)?
         {
-            output::print(&diagnosis)?;
+            output::print(diagnosis)?;
         }
         if self.fail_on_departure && diagnosis.significant {
             return Err(

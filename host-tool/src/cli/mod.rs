@@ -61,16 +61,11 @@ pub struct RoverArg {
 impl RoverArg {
     /// The rover file given, or the Husky A200's.
     pub fn load(&self) -> anyhow::Result<host_tool::rover::RoverFile> {
-        Ok(match &self.rover {
-            Some(path) => host_tool::rover::load_rover_file(path)?,
-            None => host_tool::rover::parse_rover_file(HUSKY_A200_TOML)?,
-        })
+        Ok(host_tool::rover::load_rover_file_or_husky(
+            self.rover.as_deref(),
+        )?)
     }
 }
-
-/// The default rover: the repository's Husky A200 file, so that `--rover rovers/husky-a200.toml`
-/// and no `--rover` are the same.
-const HUSKY_A200_TOML: &str = include_str!("../../../rovers/husky-a200.toml");
 
 /// Records `--salvage` for the commands.
 pub fn set_salvage(salvage: bool) {
@@ -296,76 +291,8 @@ pub fn exit_code(result: anyhow::Result<()>) -> ExitCode {
         eprintln_best_effort!("departure: {departure}");
         return ExitCode::from(3);
     }
-    eprintln_best_effort!("Error: {}", error_text(&error));
+    eprintln_best_effort!("Error: {}", host_tool::stderr::error_text(&error));
     ExitCode::FAILURE
-}
-
-/// The error's message and its causes, each cause once: a library error names its source in
-/// its own text (whole when shown alone, as in a report), so a cause whose text the message
-/// already holds is not printed again (`{:#}` would: `x.csv: No such file or directory (os
-/// error 2): No such file or directory (os error 2)`).
-fn error_text(error: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in error.chain() {
-        let cause = cause.to_string();
-        if text.contains(&cause) {
-            continue;
-        }
-        if !text.is_empty() {
-            text.push_str(": ");
-        }
-        text.push_str(&cause);
-    }
-    text
-}
-
-#[cfg(test)]
-mod tests {
-    use super::error_text;
-    use anyhow::Context;
-    use std::io;
-
-    #[derive(Debug, thiserror::Error)]
-    #[error("{path}: {source}")]
-    struct Named {
-        path: &'static str,
-        #[source]
-        source: io::Error,
-    }
-
-    #[derive(Debug, thiserror::Error)]
-    #[error("{0}")]
-    struct Quoting(#[source] Named);
-
-    #[test]
-    fn error_text_prints_each_cause_once() {
-        let missing = || io::Error::new(io::ErrorKind::NotFound, "No such file or directory");
-        // A source quoted in the message, twice over (wrapper and file error).
-        let quoted = anyhow::Error::new(Quoting(Named {
-            path: "nosuch.csv",
-            source: missing(),
-        }));
-        assert_eq!(error_text(&quoted), "nosuch.csv: No such file or directory");
-        // Context that does not quote its cause keeps it, once.
-        let context = Err::<(), _>(missing())
-            .context("reading x.csv")
-            .expect_err("error");
-        assert_eq!(
-            error_text(&context),
-            "reading x.csv: No such file or directory"
-        );
-        // Both: context above a quoting error.
-        let both = Err::<(), _>(Named {
-            path: "/dev/ttyNOPE",
-            source: missing(),
-        })
-        .context("record")
-        .expect_err("error");
-        assert_eq!(
-            error_text(&both),
-            "record: /dev/ttyNOPE: No such file or directory"
-        );
-    }
 }
 
 #[cfg(test)]

@@ -8,6 +8,8 @@ use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+pub use host_tool::analysis::naming;
+
 /// `--json FILE|-`, the same for every command.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct JsonOut {
@@ -81,35 +83,6 @@ pub fn write_file(path: &Path, bytes: &[u8], force: bool) -> Result<()> {
     // The error names the file (either part of AtomicWriteError).
     write_atomically(path, |w| w.write_all(bytes))?;
     Ok(())
-}
-
-/// `error` with `path` in front unless a message in its chain already names the file: every
-/// error names its file, once.
-pub fn naming(path: &Path, error: impl Into<anyhow::Error>) -> anyhow::Error {
-    let error = error.into();
-    let shown = path.display().to_string();
-    if error
-        .chain()
-        .any(|cause| cause.to_string().contains(&shown))
-    {
-        error
-    } else {
-        error.context(shown)
-    }
-}
-
-/// The runs a whole-run-set error is about, for its message: `a.csv`, `a.csv, b.csv`, or the
-/// first three and how many more.
-pub fn runs_named(paths: &[PathBuf]) -> String {
-    let shown: Vec<String> = paths
-        .iter()
-        .take(3)
-        .map(|p| p.display().to_string())
-        .collect();
-    match paths.len() {
-        0..=3 => shown.join(", "),
-        n => format!("{} and {} more", shown.join(", "), n - 3),
-    }
 }
 
 /// Creates the directory `path` will be written into.

@@ -1,8 +1,9 @@
 //! `host-tool plot`: the validation figures of runs.
 
 use super::output;
-use super::validate::{load_and_validate, RigRangeArg};
+use super::validate::{done_reading, reader, RigRangeArg};
 use anyhow::Result;
+use host_tool::analysis::load_and_validate;
 use host_tool::figures::write_figures_with;
 use host_tool::out_dir::write_dir_whole;
 use host_tool::plot::Format;
@@ -69,7 +70,9 @@ impl PlotArgs {
         // As `validate` does: the tracker's point from the rover file.
         let mut options = ValidateOptions::for_rover(&rover);
         options.tracker_offset_m = rover_file.tracker_offset_m;
-        let (runs, report) = load_and_validate(&rover, &self.runs, self.rig_range.range, &options)?;
+        let mut reader = reader(self.rig_range.range);
+        let (runs, report) = load_and_validate(&rover, &self.runs, &mut reader, &options)?;
+        done_reading(&reader);
         let samples = runs.samples();
         let files = write_dir_whole(&self.out, self.force, |staging| {
             write_figures_with(

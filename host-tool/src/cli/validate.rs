@@ -3,10 +3,9 @@
 use super::output::{self, write_file, JsonOut};
 use super::Departure;
 use anyhow::Result;
+use host_tool::analysis::{stream_and_validate, Reader};
 use host_tool::eprintln_best_effort;
-use host_tool::log::mcap::Truncation;
 use host_tool::log::run_csv::RigRange;
-use host_tool::runs::{truncation_warning, Runs, StreamedRuns, StreamedRunsError};
 use host_tool::validate::{self, ValidateOptions, ValidationReport};
 use model_core::power::IcrHardGround;
 use std::path::PathBuf;
@@ -89,57 +88,17 @@ fn parse_hard_ground(text: &str) -> Result<[f64; 3], String> {
     }
 }
 
-/// Loads `paths` (run CSVs' readings within `range`) and validates them with `options`,
-/// warning about truncated files: the sequence `validate`, `plot` and `diagnose` share.
-pub fn load_and_validate(
-    rover: &model_core::Rover,
-    paths: &[PathBuf],
-    range: RigRange,
-    options: &ValidateOptions,
-) -> Result<(Runs, ValidationReport)> {
-    let runs = Runs::load(paths, super::salvage(), range)?;
-    warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
-    let report = runs
-        .validate(rover, options)
-        .map_err(|e| about_the_runs(e, paths))?;
-    Ok((runs, report))
+/// A [`Reader`] for a command's run logs: `--salvage` and `range`; warnings to stderr as they
+/// are found.
+pub fn reader(range: RigRange) -> Reader<'static> {
+    Reader::new(super::salvage(), range, |text: &str| {
+        eprintln_best_effort!("{text}")
+    })
 }
 
-/// A validation error about the runs as a whole (no manoeuvre in them) names them; the others
-/// name their run already.
-fn about_the_runs(e: validate::ValidateError, paths: &[PathBuf]) -> anyhow::Error {
-    match e {
-        validate::ValidateError::NoManoeuvres { .. } => {
-            anyhow::anyhow!("{}: {e}", super::output::runs_named(paths))
-        }
-        other => other.into(),
-    }
-}
-
-/// [`load_and_validate`] with the runs streamed (each file read twice): memory stays bounded
-/// whatever the logs' length; the same warnings and report.
-pub fn stream_and_validate(
-    rover: &model_core::Rover,
-    paths: &[PathBuf],
-    range: RigRange,
-    options: &ValidateOptions,
-) -> Result<(StreamedRuns, ValidationReport)> {
-    let runs = StreamedRuns::scan(paths, super::salvage(), range, rover, options)?;
-    warn_about_reads(&runs.truncated, &runs.damage, runs.lost_data);
-    let report = runs.validate().map_err(|e| match e {
-        StreamedRunsError::Validate(e) => about_the_runs(e, paths),
-        other => other.into(),
-    })?;
-    Ok((runs, report))
-}
-
-/// Tells the user which files were cut short or damaged (and marks lost data for the exit
-/// code).
-fn warn_about_reads(truncated: &[(PathBuf, Truncation)], damage: &[String], lost_data: bool) {
-    for (path, t) in truncated {
-        eprintln_best_effort!("{}", truncation_warning(path, t));
-    }
-    super::report_damage(damage, lost_data);
+/// Marks data lost to damage for the exit code (4, unless `--salvage`).
+pub fn done_reading(reader: &Reader<'_>) {
+    super::report_damage(&[], reader.lost_data());
 }
 
 /// Manoeuvres flagged as departing from the fitted model.
@@ -175,7 +134,9 @@ impl ValidateArgs {
                 slip_track_m: bs,
             });
         }
-        let (_, report) = stream_and_validate(&rover, &self.runs, self.rig_range.range, &options)?;
+        let mut reader = reader(self.rig_range.range);
+        let (_, report) = stream_and_validate(&rover, &self.runs, &mut reader, &options)?;
+        done_reading(&reader);
         let json_to_stdout = self.json.emit(&report, "report", self.force)?;
         if let Some(path) = &self.csv {
             let mut text = Vec::new();

@@ -1,0 +1,225 @@
+"""The Python package against the host tool's command line and pandas: every result is compared
+with what the CLI writes (`--json`, `convert`) or what pandas reads from the same file, never
+with values written down here."""
+
+import json
+import pathlib
+import random
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import rover_power as rp
+from conftest import ROOT, cli
+
+
+def cli_json(host_tool, *args):
+    return json.loads(cli(host_tool, *args, "--json", "-").stdout)
+
+
+def cli_error(host_tool, *args) -> str:
+    done = cli(host_tool, *args, ok=False)
+    assert done.returncode == 1, (done.returncode, done.stderr)
+    lines = [l for l in done.stderr.splitlines() if l.startswith("Error: ")]
+    assert len(lines) == 1, done.stderr
+    return lines[0].removeprefix("Error: ")
+
+
+def same_frame(ours: pd.DataFrame, theirs: pd.DataFrame):
+    """Same columns in the same order, same index, same values bit for bit (NaN where NaN)."""
+    assert list(ours.columns) == list(theirs.columns)
+    assert ours.index.name == theirs.index.name
+    np.testing.assert_array_equal(ours.index.to_numpy(), theirs.index.to_numpy())
+    np.testing.assert_array_equal(ours.to_numpy(), theirs.to_numpy())
+
+
+# --- read_run -------------------------------------------------------------------------------
+
+
+def test_run_csv_reads_as_pandas_reads_it(demo_out):
+    path = demo_out / "run-1.csv"
+    df = rp.read_run(path)
+    same_frame(df, pd.read_csv(path, index_col="t_s"))
+    assert (df.dtypes == np.float64).all()
+    assert rp.COLUMNS == ["t_s", *df.columns]
+
+
+def test_mcap_log_reads_as_its_run_csv(host_tool, demo_runs, tmp_path):
+    """An MCAP log holds the samples `convert` writes to a run CSV: the same frame."""
+    csv = tmp_path / "run.csv"
+    cli(host_tool, "convert", demo_runs[0], str(csv))
+    df = rp.read_run(demo_runs[0])
+    same_frame(df, pd.read_csv(csv, index_col="t_s"))
+    assert len(df) > 1000
+
+
+def test_mcap_events_are_the_logs(demo_runs):
+    events = rp.read_run(demo_runs[0]).attrs["events"]
+    kinds = [e["kind"] for e in events]
+    assert kinds[0] == "started" and kinds[-1] == "stopped", kinds
+    assert "wall-clock" in kinds
+    clock = next(e for e in events if e["kind"] == "wall-clock")
+    assert isinstance(clock["unix_ns"], int) and clock["unix_ns"] > 1_600_000_000 * 10**9
+    times = [e["t_s"] for e in events]
+    assert times == sorted(times)
+
+
+def test_a_foreign_csv_in_its_own_column_order(demo_out, tmp_path):
+    """A run CSV written by pandas, columns shuffled, an extra column, CRLF line ends and
+    fewer digits: read by the general reader, in the run CSV's column order."""
+    theirs = pd.read_csv(demo_out / "run-2.csv", index_col="t_s")
+    shuffled = theirs.reset_index()
+    order = list(shuffled.columns)
+    random.Random(7).shuffle(order)
+    shuffled = shuffled[order]
+    shuffled["operator_note"] = "ok"
+    path = tmp_path / "foreign.csv"
+    shuffled.to_csv(path, index=False, lineterminator="\r\n", float_format="%.9g")
+    same_frame(rp.read_run(path), pd.read_csv(path, index_col="t_s")[theirs.columns])
+
+
+def test_a_run_csvs_events_file_is_read(demo_out, tmp_path):
+    path = tmp_path / "run.csv"
+    path.write_bytes((demo_out / "run-1.csv").read_bytes())
+    assert rp.read_run(path).attrs["events"] == []
+    lines = [
+        {"t_s": 1.5, "kind": "device-vanished", "port": "/dev/ttyACM0"},
+        {"t_s": 2.25, "kind": "reconnected", "port": "/dev/ttyACM0", "offline_s": 0.75},
+    ]
+    (tmp_path / "run.events.jsonl").write_text("".join(json.dumps(l) + "\n" for l in lines))
+    assert rp.read_run(path).attrs["events"] == lines
+
+
+# --- validate, diagnose, plan: the CLI's --json ----------------------------------------------
+
+
+def test_validate_is_the_clis_json(host_tool, demo_runs):
+    assert rp.validate(None, demo_runs) == cli_json(host_tool, "validate", "--runs", *demo_runs)
+
+
+def test_diagnose_is_the_clis_json(host_tool, demo_runs):
+    ours = rp.diagnose(None, demo_runs)
+    assert ours == cli_json(host_tool, "diagnose", "--runs", *demo_runs)
+    assert ours["effect"]  # a verdict, whichever it is
+
+
+def test_diagnose_with_calibration_runs_and_a_rover_file(host_tool, demo_runs):
+    rover = ROOT / "rovers" / "husky-a200.toml"
+    ours = rp.diagnose(rover, demo_runs[1:], calibration=demo_runs[0])
+    theirs = cli_json(
+        host_tool,
+        "diagnose",
+        "--rover",
+        str(rover),
+        "--calibration",
+        demo_runs[0],
+        "--runs",
+        *demo_runs[1:],
+    )
+    assert ours == theirs
+
+
+def test_diagnose_a_published_table(host_tool):
+    """The thesis' Table 6.1 as a path table: its own judgement, as on the command line."""
+    table = ROOT / "examples" / "husky-sand-table-6.1.csv"
+    assert rp.diagnose(None, table) == cli_json(host_tool, "diagnose", "--runs", str(table))
+
+
+def test_plan_is_the_clis_json(host_tool, demo_out):
+    args = ["--start-deg", "90", "--end-deg", "45", "--distance-m", "7.5"]
+    assert rp.plan(90, 45, 7.5) == cli_json(host_tool, "plan", *args)
+    model = demo_out / "diagnosis" / "model.toml"
+    assert rp.plan(90, 45, 7.5, model=model) == cli_json(
+        host_tool, "plan", *args, "--model", str(model)
+    )
+
+
+# --- errors and damage ------------------------------------------------------------------------
+
+
+def test_a_malformed_csv_is_the_clis_error(host_tool, demo_out, tmp_path):
+    lines = (demo_out / "run-1.csv").read_text().splitlines(keepends=True)
+    cells = lines[5].split(",")
+    cells[2] = "abc"
+    lines[5] = ",".join(cells)
+    path = tmp_path / "bad.csv"
+    path.write_text("".join(lines))
+    with pytest.raises(rp.RoverPowerError) as caught:
+        rp.read_run(path)
+    message = str(caught.value)
+    assert "line 6, column 3 (left_current_a)" in message, message
+    assert message == cli_error(host_tool, "validate", "--runs", str(path))
+    with pytest.raises(rp.RoverPowerError) as again:
+        rp.validate(None, path)
+    assert str(again.value) == message
+
+
+def test_missing_files_are_named(host_tool, tmp_path):
+    missing = str(tmp_path / "nosuch.mcap")
+    with pytest.raises(rp.RoverPowerError, match="nosuch.mcap") as caught:
+        rp.read_run(missing)
+    assert str(caught.value) == cli_error(host_tool, "validate", "--runs", missing)
+    with pytest.raises(rp.RoverPowerError, match="nosuch.toml"):
+        rp.diagnose(tmp_path / "nosuch.toml", missing)
+    with pytest.raises(rp.RoverPowerError, match="nosuch-model.toml"):
+        rp.plan(0, 0, 5, model=tmp_path / "nosuch-model.toml")
+
+
+def test_bad_arguments_are_value_errors(demo_runs):
+    with pytest.raises(ValueError, match="rig_range"):
+        rp.read_run(demo_runs[0], rig_range="huge")
+    with pytest.raises(rp.RoverPowerError, match="distance"):
+        rp.plan(45, 45, -5)
+
+
+def test_an_mcap_log_cut_short_reads_to_the_cut_with_a_warning(demo_runs, tmp_path):
+    data = pathlib.Path(demo_runs[0]).read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.warns(rp.RoverPowerWarning, match="ends before its footer"):
+        df = rp.read_run(cut)
+    whole = rp.read_run(demo_runs[0])
+    assert 0 < len(df) < len(whole)
+    same_frame(df, whole.iloc[: len(df)])
+
+
+def test_damage_is_an_error_unless_salvaged(host_tool, demo_runs, tmp_path):
+    """As the CLI's exit code 4 unless --salvage."""
+    data = bytearray(pathlib.Path(demo_runs[0]).read_bytes())
+    at = len(data) * 3 // 10
+    data[at : at + 4096] = bytes(4096)
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(data))
+    assert cli(host_tool, "validate", "--runs", str(damaged), ok=False).returncode == 4
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        with pytest.raises(rp.RoverPowerError, match="salvage=True"):
+            rp.read_run(damaged)
+    with pytest.warns(rp.RoverPowerWarning, match="damaged, skipped"):
+        df = rp.read_run(damaged, salvage=True)
+    assert 0 < len(df) < len(rp.read_run(demo_runs[0]))
+
+
+def test_damaged_logs_never_panic(demo_runs, tmp_path):
+    """Seeded truncations and overwrites: a frame or a RoverPowerError, never a panic."""
+    seed = 40
+    rng = random.Random(seed)
+    data = pathlib.Path(demo_runs[0]).read_bytes()
+    path = tmp_path / "fuzzed.mcap"
+    for case in range(60):
+        damaged = bytearray(data[: rng.randrange(len(data) + 1)])
+        for _ in range(rng.randrange(4)):
+            if damaged:
+                at = rng.randrange(len(damaged))
+                damaged[at : at + rng.randrange(1, 200)] = rng.randbytes(rng.randrange(1, 200))
+        path.write_bytes(bytes(damaged))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                rp.read_run(path, salvage=True)
+        except rp.RoverPowerError:
+            pass
+        except BaseException as e:  # a PanicException derives from BaseException
+            pytest.fail(f"seed {seed}, case {case}: {type(e).__name__}: {e}")
