@@ -14,6 +14,10 @@ The board is a replay: a port (`/dev/ttyACM0`, `/dev/rover-power`) becomes the p
 `host-tool replay --to-pty` on the demo's first run. `replay --serve` and `demo --serve` wait for a
 viewer: a minimal Foxglove WebSocket client subscribes to every channel and must receive data.
 
+A `python` block runs as a script with python3 in the page's directory (the `rover_power` package
+installed by CI's Python step), the demo's outputs at `demo-out/`; a `text` block after it is its
+output.
+
 A command that cannot run without hardware is listed in NOT_HERE with the reason; a listed command
 that no page shows any more fails the check, so the list cannot go stale. Nothing is written into
 the tree.
@@ -53,6 +57,8 @@ NOT_HERE = {
     "host-tool check --port /dev/ttyACM0 --json check.json": "needs a board that answers Configure",
     "sudo cp firmware/99-rover-power.rules /etc/udev/rules.d/": "installs a udev rule (root)",
     "sudo udevadm control --reload-rules && sudo udevadm trigger": "reloads udev (root)",
+    "pip install ./python": "installs into the machine's Python from the repository's root; "
+        "CI's Python step runs it as written",
 }
 
 # Exit codes other than 0 that a command is documented to give.
@@ -66,6 +72,8 @@ EXPECTED_EXIT = {
 OUTPUT_OPTIONS = {"--out", "--json", "--to", "--next-runs", "--figure", "--commands-out"}
 PORTS = ("/dev/ttyACM0", "/dev/rover-power")
 SYNOPSIS = re.compile(r"[\[<…]|\b[A-Z]{3,}\b|\bR\.toml\b")
+# A `python` block's code, as a command: this prefix, then the code.
+PYTHON = "python3 <<block>>\n"
 
 
 def commands_of_page(path):
@@ -79,6 +87,9 @@ def commands_of_page(path):
             if in_block and lang == "sh":
                 found += [(number, c, []) for c in logical_lines(block)]
                 last = found[-1] if found else None
+            elif in_block and lang == "python":
+                found.append((number, PYTHON + "\n".join(block) + "\n", []))
+                last = found[-1]
             elif in_block and lang == "text" and last is not None:
                 last[2].append(block)
             in_block, lang, block = not in_block, fence.group(1), []
@@ -141,6 +152,8 @@ def examples_of_cli_reference():
 
 
 def normalised(command):
+    if command.startswith(PYTHON):
+        return command
     return re.sub(r"^cargo run (--release )?-p host-tool -- ", "host-tool ", command)
 
 
@@ -306,9 +319,15 @@ def send_text(sock, text):
 
 def run_command(command, shown, workdir, fixture, bin_dir, host_tool):
     """Runs one command in workdir; returns None when it did what the page says, else why not."""
+    if command.startswith(PYTHON):
+        script = workdir / f"block-{len(list(workdir.glob('block-*.py')))}.py"
+        script.write_text(command.removeprefix(PYTHON))
+        if not (workdir / "demo-out").exists():
+            (workdir / "demo-out").symlink_to(fixture.files["demo-out"])
+        command = f"python3 {script.name}"
     tokens = shlex.split(command)
     shell = command
-    if tokens[0] == "host-tool":
+    if tokens[0] in ("host-tool", "python3"):
         fixture.put_inputs(tokens, workdir)
     replay = None
     if any(p in command for p in PORTS):

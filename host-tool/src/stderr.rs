@@ -1,7 +1,8 @@
 //! Messages on stderr that never end the program: std's `eprintln!` panics (exit 101) when
 //! stderr is closed (`2>&1 >/dev/null | head -n 1`) or full; a warning or a status line lost
 //! that way is no reason to fail a command, so every line this tool writes to stderr goes
-//! through [`eprintln_best_effort!`](crate::eprintln_best_effort).
+//! through [`eprintln_best_effort!`](crate::eprintln_best_effort). [`error_text`] is how an
+//! error reads there (and in the Python package's exceptions).
 
 use std::fmt;
 use std::io::{self, Write};
