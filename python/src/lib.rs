@@ -168,6 +168,8 @@ fn plan(
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // No progress bars: a notebook's stderr is no terminal, and a REPL's would be garbled.
+    host_tool::progress::set_quiet(true);
     m.add("RoverPowerError", m.py().get_type::<RoverPowerError>())?;
     m.add("RoverPowerWarning", m.py().get_type::<RoverPowerWarning>())?;
     m.add_function(wrap_pyfunction!(columns, m)?)?;
