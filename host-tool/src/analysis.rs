@@ -18,6 +18,8 @@ use crate::validate::{self, ValidateOptions, ValidationReport};
 use anyhow::{anyhow, bail, Context, Result};
 use model_core::Rover;
 use std::fmt;
+use std::fs::File;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// How run logs are read (`--salvage`, `--rig-range`), and where what reading them found goes.
@@ -70,7 +72,8 @@ impl<'a> Reader<'a> {
 }
 
 /// A run log's samples as columns, the run CSV's ([`Column::ALL`], in that order), for array
-/// consumers (the Python package's `read_run`): no object per sample on the way.
+/// consumers (the Python package's `read_run`): no object per sample on the way, and each
+/// column one vector that a consumer can take as it is.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunColumns {
     /// One vector per column of [`Column::ALL`], each a value per sample; an empty optional
@@ -85,6 +88,13 @@ impl RunColumns {
     /// The number of samples.
     pub fn rows(&self) -> usize {
         self.values[0].len()
+    }
+
+    /// Room for `rows` samples in every column.
+    fn reserve(&mut self, rows: usize) {
+        for column in &mut self.values {
+            column.reserve(rows);
+        }
     }
 
     fn extend(&mut self, samples: &[RunSample]) {
@@ -134,6 +144,9 @@ impl RunColumns {
 pub fn read_run_columns(path: &Path, reader: &mut Reader<'_>) -> Result<RunColumns> {
     let mut columns = RunColumns::default();
     let format = RunFormat::of(path)?;
+    if format == RunFormat::Csv {
+        columns.reserve(estimated_csv_rows(path));
+    }
     let own = format == RunFormat::Csv
         && visit_own_run_csv(path, reader.range, &mut |rows| columns.extend(rows))?;
     if !own {
@@ -147,6 +160,7 @@ pub fn read_run_columns(path: &Path, reader: &mut Reader<'_>) -> Result<RunColum
             .collect();
         let damage = damage_warnings(path, &loaded.losses, &loaded.dropped_rows);
         reader.found(&truncated, &damage, loaded.lost_data());
+        columns.reserve(loaded.run.samples.len());
         columns.extend(&loaded.run.samples);
         columns.events = loaded.run.events;
     }
@@ -154,7 +168,27 @@ pub fn read_run_columns(path: &Path, reader: &mut Reader<'_>) -> Result<RunColum
     if format == RunFormat::Csv && events.exists() {
         columns.events = read_events(&events)?;
     }
+    for column in &mut columns.values {
+        column.shrink_to_fit(); // a large vector's unused end is given back without a copy
+    }
     Ok(columns)
+}
+
+/// About how many rows the run CSV at `path` holds, a little more rather than less: its length
+/// over the mean length of the lines in its first 64 KiB (0 when it cannot be read: the
+/// reader says why). Growing a column to an hour-long run a doubling at a time would copy it
+/// over and over (a third of the read's time).
+fn estimated_csv_rows(path: &Path) -> usize {
+    let mut head = Vec::new();
+    let Ok(len) = File::open(path).and_then(|mut file| {
+        (&mut file).take(64 << 10).read_to_end(&mut head)?;
+        Ok(file.metadata()?.len())
+    }) else {
+        return 0;
+    };
+    let lines = memchr::memchr_iter(b'\n', &head).count().max(1);
+    let rows = len as f64 / (head.len().max(1) as f64 / lines as f64);
+    (rows * 1.05) as usize + 1024
 }
 
 /// Loads `paths` whole and validates them with `options`: the sequence `plot` needs (it draws
@@ -450,6 +484,30 @@ mod tests {
             columns.events_json(),
             serde_json::json!([{"t_s": 0.1, "kind": "samples-lost", "after_seq": 3, "missing": 2}])
         );
+        std::fs::remove_dir_all(dir).expect("cleaned up");
+    }
+
+    /// The estimate of a run CSV's rows is a little above its count, and 0 for a file that
+    /// cannot be read (whose error the reader words).
+    #[test]
+    fn a_run_csvs_rows_are_estimated_from_its_head() {
+        let dir = scratch("estimate");
+        let path = dir.join("run.csv");
+        let samples: Vec<RunSample> = (0..20_000)
+            .map(|i| {
+                let t = 0.005 * f64::from(i);
+                RunSample::new(
+                    t,
+                    Sides::new(24.0, 23.5),
+                    Sides::new(1.5, -2.25),
+                    Sides::new(0.3, -0.3),
+                )
+            })
+            .collect();
+        write_run_csv_atomically(&path, &samples).expect("written");
+        let estimate = estimated_csv_rows(&path);
+        assert!((20_000..=24_000 + 1024).contains(&estimate), "{estimate}");
+        assert_eq!(estimated_csv_rows(&dir.join("missing.csv")), 0);
         std::fs::remove_dir_all(dir).expect("cleaned up");
     }
 }

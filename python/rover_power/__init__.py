@@ -63,13 +63,13 @@ def read_run(
     ``salvage`` and ``rig_range`` are the command line's ``--salvage`` and ``--rig-range``
     (``"physical"``, ``"board"`` or ``"BUS_V,CURRENT_A"``).
     """
-    data, events = _native.read_run(os.fspath(path), salvage, rig_range)
-    # One buffer, column after column: numpy views it in place, pandas keeps the view.
-    values = np.frombuffer(data, dtype="<f8").reshape(len(COLUMNS), -1)
+    columns, events = _native.read_run(os.fspath(path), salvage, rig_range)
+    # Each column is the Rust side's own vector: numpy views it in place (the array's base
+    # keeps it alive) and pandas keeps the views, one block per column.
+    values = [np.asarray(column) for column in columns]
     frame = pd.DataFrame(
-        values[1:].T,
-        index=pd.Index(values[0], name=COLUMNS[0]),
-        columns=COLUMNS[1:],
+        dict(zip(COLUMNS[1:], values[1:])),
+        index=pd.Index(values[0], name=COLUMNS[0], copy=False),
         copy=False,
     )
     frame.attrs["events"] = json.loads(events)

@@ -9,7 +9,7 @@ use host_tool::log::run_csv::{Column, RigRange};
 use host_tool::plan::{load_model, ModelSource, Preset};
 use pyo3::exceptions::{PyException, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyByteArray;
+use pyo3::types::PyDict;
 use std::ffi::CString;
 use std::path::PathBuf;
 
@@ -72,33 +72,52 @@ fn columns() -> Vec<&'static str> {
     Column::ALL.iter().map(|c| c.name()).collect()
 }
 
-/// The run log at `path` as one bytearray of little-endian f64, column after column (in the
-/// order of `columns()`; NaN where an optional cell is empty), and its events as JSON.
+/// One column of a run lent to numpy without a copy: numpy reads and writes `values` through
+/// `__array_interface__` and keeps this object alive as the array's base, as rust-numpy's
+/// `PyArray::from_vec` does (that crate does not build for the stable ABI). Rust never reads
+/// `values` again; it only frees them with the last array.
+#[pyclass(frozen)]
+#[derive(Debug)]
+struct ColumnBuffer {
+    /// A value per sample.
+    values: Vec<f64>,
+}
+
+#[pymethods]
+impl ColumnBuffer {
+    /// numpy's array interface (version 3): a writable one-dimensional array of f64.
+    #[getter]
+    fn __array_interface__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let interface = PyDict::new(py);
+        interface.set_item("version", 3)?;
+        interface.set_item("shape", (self.values.len(),))?;
+        let typestr = if cfg!(target_endian = "little") {
+            "<f8"
+        } else {
+            ">f8"
+        };
+        interface.set_item("typestr", typestr)?;
+        interface.set_item("data", (self.values.as_ptr() as usize, false))?;
+        Ok(interface)
+    }
+}
+
+/// The run log at `path` as its columns (in the order of `columns()`; NaN where an optional
+/// cell is empty) and its events as JSON.
 #[pyfunction]
-fn read_run<'py>(
-    py: Python<'py>,
+fn read_run(
+    py: Python<'_>,
     path: PathBuf,
     salvage: bool,
     rig_range: &str,
-) -> PyResult<(Bound<'py, PyByteArray>, String)> {
+) -> PyResult<(Vec<ColumnBuffer>, String)> {
     let range = self::rig_range(rig_range)?;
-    let columns = reading(py, salvage, range, |reader| {
-        analysis::read_run_columns(&path, reader)
-    })?;
-    let events = columns.events_json().to_string();
-    let rows = columns.rows();
-    let bytes = PyByteArray::new_with(py, columns.values.len() * rows * 8, |buffer| {
-        if rows == 0 {
-            return Ok(()); // chunks of 0 bytes would panic
-        }
-        for (column, out) in columns.values.iter().zip(buffer.chunks_exact_mut(rows * 8)) {
-            for (value, cell) in column.iter().zip(out.chunks_exact_mut(8)) {
-                cell.copy_from_slice(&value.to_le_bytes());
-            }
-        }
-        Ok(())
-    })?;
-    Ok((bytes, events))
+    reading(py, salvage, range, |reader| {
+        let columns = analysis::read_run_columns(&path, reader)?;
+        let events = columns.events_json().to_string();
+        let buffers = columns.values.map(|values| ColumnBuffer { values });
+        Ok((buffers.into(), events))
+    })
 }
 
 /// `host-tool validate --json`'s report of `runs`, as JSON text.

@@ -46,6 +46,31 @@ def test_run_csv_reads_as_pandas_reads_it(demo_out):
     assert rp.COLUMNS == ["t_s", *df.columns]
 
 
+def test_a_frame_owns_its_memory_and_can_be_written(demo_out):
+    """The columns are the Rust side's vectors, lent to numpy: they outlive every other
+    reference to the call's result, and a frame can be changed in place like any other."""
+    import gc
+
+    path = demo_out / "run-1.csv"
+    df = rp.read_run(path)
+    expected = pd.read_csv(path, index_col="t_s")
+    for _ in range(3):
+        rp.read_run(path)  # other reads come and go
+    gc.collect()
+    same_frame(df, expected)
+    column = df["left_current_a"].to_numpy()
+    assert column.dtype == np.float64 and column.flags["C_CONTIGUOUS"]
+    df.iloc[0, 0] = -1.0
+    df.loc[df.index[1], "right_current_a"] += 1.0
+    assert df.iloc[0, 0] == -1.0
+    assert df["right_current_a"].iloc[1] == expected["right_current_a"].iloc[1] + 1.0
+    view = np.asarray(df["left_bus_v"])
+    del df
+    gc.collect()
+    assert view[0] == -1.0
+    np.testing.assert_array_equal(view[1:], expected["left_bus_v"].to_numpy()[1:])
+
+
 def test_mcap_log_reads_as_its_run_csv(host_tool, demo_runs, tmp_path):
     """An MCAP log holds the samples `convert` writes to a run CSV: the same frame."""
     csv = tmp_path / "run.csv"

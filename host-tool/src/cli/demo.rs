@@ -176,10 +176,13 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             .unwrap_or_default();
         let _ = writeln!(
             text,
-            "{}: {} samples through the pty, {} lost, {} bad frames, {} of {} commands acked; \
+            "{}: {} samples through the pty, {} logged ({} without both chips' readings), \
+             {} lost, {} bad frames, {} of {} commands acked; \
              energy {:.1} J left / {:.1} J right = the board's own total, bit for bit",
             run.name,
             s.samples,
+            s.rows,
+            s.incomplete_samples,
             s.stream.lost_samples,
             s.stream.bad_frames,
             s.commands_acked,
