@@ -33,6 +33,14 @@ impl LiveChannel {
         LiveChannel::Event,
     ];
 
+    /// Whether a viewer that subscribes late still gets what was published before (as a
+    /// latched ROS topic does): the stream's events, which are few and say what the stream is
+    /// (started, wall clock, device lost). A viewer subscribes panel by panel, and its event
+    /// panel would otherwise miss the run's first lines.
+    pub fn latched(self) -> bool {
+        self == LiveChannel::Event
+    }
+
     /// The run log's declaration of this channel.
     pub fn json(self) -> JsonChannel {
         match self {

@@ -3,6 +3,7 @@
 //! slow or vanished viewer costs the recorder nothing.
 
 use super::channels::LiveChannel;
+use std::collections::VecDeque;
 use std::fmt;
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicI64, AtomicU32, AtomicU64, Ordering};
@@ -63,6 +64,9 @@ struct Slot {
     counters: Arc<ViewerCounters>,
 }
 
+/// Most latched messages kept (the stream's events; a damaged stream may have many).
+const LATCHED_MAX: usize = 1024;
+
 /// Viewers connected now and those that left.
 #[derive(Default)]
 pub(super) struct Hub {
@@ -70,6 +74,9 @@ pub(super) struct Hub {
     left: Mutex<Vec<ViewerReport>>,
     /// Messages offered to [`Hub::publish`] with at least one subscriber.
     published: AtomicU64,
+    /// The messages of the latched channels ([`LiveChannel::latched`]) so far, oldest first;
+    /// taken with `slots` held, after it.
+    latched: Mutex<VecDeque<Outgoing>>,
 }
 
 impl fmt::Debug for Hub {
@@ -138,10 +145,31 @@ impl Hub {
             .fold(0, |m, s| m | s.counters.subscribed.load(Ordering::Relaxed))
     }
 
-    /// Offers a message to every viewer subscribed to its channel; never blocks.
+    /// Sets a viewer's subscriptions to `mask` and returns the messages published so far on
+    /// the latched channels it has just subscribed to, oldest first. The publisher holds the
+    /// same lock, so each such message reaches the viewer once: here, or through its queue.
+    pub(super) fn subscribe(&self, counters: &ViewerCounters, mask: u32) -> Vec<Outgoing> {
+        let _slots = lock(&self.slots);
+        let new = mask & !counters.subscribed.swap(mask, Ordering::Relaxed);
+        lock(&self.latched)
+            .iter()
+            .filter(|m| m.channel.bit() & new != 0)
+            .cloned()
+            .collect()
+    }
+
+    /// Offers a message to every viewer subscribed to its channel, and keeps it for later
+    /// subscribers when its channel is latched; never blocks.
     pub(super) fn publish(&self, message: Outgoing) {
         let bit = message.channel.bit();
         let slots = lock(&self.slots);
+        if message.channel.latched() {
+            let mut latched = lock(&self.latched);
+            if latched.len() == LATCHED_MAX {
+                latched.pop_front();
+            }
+            latched.push_back(message.clone());
+        }
         let mut offered = false;
         for slot in slots.iter() {
             if slot.counters.subscribed.load(Ordering::Relaxed) & bit == 0 {
@@ -230,5 +258,44 @@ mod tests {
         let reports = hub.reports();
         assert_eq!(reports[0].dropped, 7);
         assert_eq!(reports[0].ended.as_deref(), Some("gone"));
+    }
+
+    /// A viewer subscribing to the event channel late gets the events published before, once;
+    /// the later ones through its queue; a channel that is not latched gives no backlog.
+    #[test]
+    fn a_late_subscriber_gets_the_latched_events_once() {
+        let hub = Hub::default();
+        let peer: SocketAddr = "127.0.0.1:1".parse().expect("addr");
+        let viewer = Arc::new(ViewerCounters::default());
+        let rx = hub.join(peer, 16, viewer.clone());
+        hub.publish(message(LiveChannel::Event));
+        hub.publish(message(LiveChannel::Sample));
+        hub.publish(message(LiveChannel::Event));
+        let samples = LiveChannel::Sample.bit();
+        assert!(
+            hub.subscribe(&viewer, samples).is_empty(),
+            "samples are not latched"
+        );
+        let backlog = hub.subscribe(&viewer, samples | LiveChannel::Event.bit());
+        assert_eq!(backlog.len(), 2);
+        assert!(backlog.iter().all(|m| m.channel == LiveChannel::Event));
+        assert!(hub
+            .subscribe(&viewer, samples | LiveChannel::Event.bit())
+            .is_empty());
+        hub.publish(message(LiveChannel::Event));
+        assert_eq!(
+            rx.try_iter().count(),
+            1,
+            "the later event through the queue"
+        );
+        for _ in 0..LATCHED_MAX + 5 {
+            hub.publish(message(LiveChannel::Event));
+        }
+        let other = Arc::new(ViewerCounters::default());
+        let _other_rx = hub.join(peer, 16, other.clone());
+        assert_eq!(
+            hub.subscribe(&other, LiveChannel::Event.bit()).len(),
+            LATCHED_MAX
+        );
     }
 }

@@ -171,7 +171,8 @@ impl LiveServer {
             std::thread::sleep(ACCEPT_POLL);
         }
         // A viewer subscribes panel by panel: wait until its channels settle (none new for
-        // 300 ms, 2 s at most), so that the run's first events reach its event panel too.
+        // 300 ms, 2 s at most), so that every panel starts with the run's first samples. The
+        // events do not depend on it: their channel is latched (`LiveChannel::latched`).
         let first = Instant::now();
         let (mut mask, mut since) = (self.hub.subscribed(), Instant::now());
         while since.elapsed() < Duration::from_millis(300)

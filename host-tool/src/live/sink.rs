@@ -83,7 +83,8 @@ impl LiveSink {
 
     /// Serialises `message` and offers it to the channel's subscribers, if it has any.
     fn publish(&self, channel: LiveChannel, t_s: f64, message: impl FnOnce() -> Vec<u8>) {
-        if self.hub.subscribed() & channel.bit() == 0 {
+        // Nobody would read it; a latched channel's message is kept for later viewers.
+        if !channel.latched() && self.hub.subscribed() & channel.bit() == 0 {
             return;
         }
         self.hub.publish(Outgoing {

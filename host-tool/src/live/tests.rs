@@ -4,7 +4,7 @@
 use super::client::{Incoming, LiveClient, Received};
 use super::protocol::{status_level, ServerOp, SUBPROTOCOL};
 use super::*;
-use crate::log::mcap::{read_mcap_run, SAMPLE_CHANNEL, TOPIC_SAMPLE, TOPIC_STATUS};
+use crate::log::mcap::{read_mcap_run, SAMPLE_CHANNEL, TOPIC_EVENT, TOPIC_SAMPLE, TOPIC_STATUS};
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::{LogEvent, RunLogSink};
 use crate::record::{self, BoardPort, RecordOptions};
@@ -54,6 +54,58 @@ fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
         assert!(start.elapsed() < TIMEOUT, "timed out waiting for {what}");
         std::thread::sleep(Duration::from_millis(5));
     }
+}
+
+/// A viewer subscribes panel by panel (Foxglove Studio does): one that subscribes to the
+/// events only after the stream has started still gets its first events, in order and once,
+/// then the later ones as they come.
+#[test]
+fn a_viewer_subscribing_to_the_events_last_gets_the_first_events() {
+    let server = LiveServer::bind(loopback(), LiveOptions::default()).expect("bind");
+    let mut client = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
+    client.subscribe(1, TOPIC_SAMPLE).expect("subscribe");
+    wait_for("the subscription", || {
+        server.subscribed_channels() == [LiveChannel::Sample]
+    });
+    let mut sink = server.recording_sink();
+    let started = LogEvent::Started {
+        port: "/dev/ttyACM0".into(),
+    };
+    sink.event(0.0, &started).expect("event");
+    sink.event(
+        0.0,
+        &LogEvent::WallClock {
+            unix_ns: 1_700_000_000_000_000_000,
+        },
+    )
+    .expect("event");
+    for s in &samples(20, 0.005) {
+        sink.sample(s).expect("sample");
+    }
+    for _ in 0..20 {
+        assert_eq!(data(&mut client).subscription_id, 1);
+    }
+    client.subscribe(2, TOPIC_EVENT).expect("subscribe");
+    let kinds = |client: &mut LiveClient, n: usize| -> Vec<String> {
+        (0..n)
+            .map(|_| {
+                let d = data(client);
+                assert_eq!(d.subscription_id, 2);
+                let json: serde_json::Value = serde_json::from_slice(&d.payload).expect("JSON");
+                json["event"]["kind"].as_str().expect("an event").to_owned()
+            })
+            .collect()
+    };
+    assert_eq!(kinds(&mut client, 2), ["started", "wall-clock"]);
+    sink.event(
+        0.2,
+        &LogEvent::SamplesLost {
+            after_seq: 40,
+            missing: 2,
+        },
+    )
+    .expect("event");
+    assert_eq!(kinds(&mut client, 1), ["samples-lost"]);
 }
 
 #[test]

@@ -54,7 +54,9 @@ pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
             let why = Connection {
                 ws: &mut ws,
                 counters: &counters,
+                hub: &cx.hub,
                 subscriptions: BTreeMap::new(),
+                backlog: Vec::new(),
                 unflushed: false,
             }
             .run(&queue, cx);
@@ -186,8 +188,11 @@ fn choose_subprotocol(
 struct Connection<'a> {
     ws: &'a mut WebSocket<TcpStream>,
     counters: &'a ViewerCounters,
+    hub: &'a Hub,
     /// The viewer's subscription id per channel.
     subscriptions: BTreeMap<LiveChannel, u32>,
+    /// What a latched channel published before the viewer subscribed to it, to send first.
+    backlog: Vec<Outgoing>,
     /// Something (a status op) was written but not flushed yet.
     unflushed: bool,
 }
@@ -221,6 +226,14 @@ impl Connection<'_> {
                     }
                     Err(e) => return format!("connection lost: {e}"),
                 }
+            }
+            if !self.backlog.is_empty() {
+                match self.write_backlog() {
+                    Ok(true) => {}
+                    Ok(false) => blocked_since = Some(Instant::now()),
+                    Err(why) => return why,
+                }
+                continue;
             }
             let first = match queue.recv_timeout(POLL) {
                 Ok(m) => m,
@@ -267,7 +280,8 @@ impl Connection<'_> {
             Err(e) => self.warn(e.to_string()),
         }
         let mask = self.subscriptions.keys().fold(0, |m, c| m | c.bit());
-        self.counters.subscribed.store(mask, Ordering::Relaxed);
+        let backlog = self.hub.subscribe(self.counters, mask);
+        self.backlog.extend(backlog);
     }
 
     /// A warning in the viewer's problems panel (dropped if the socket is full).
@@ -289,30 +303,53 @@ impl Connection<'_> {
         let mut written = 0;
         while let Some(message) = next.take() {
             self.counters.queued.fetch_sub(1, Ordering::Relaxed);
-            // A message queued before an unsubscribe is not sent.
-            if let Some(&subscription_id) = self.subscriptions.get(&message.channel) {
-                let frame = MessageData {
-                    subscription_id,
-                    timestamp_ns: message.timestamp_ns,
-                    payload: &message.payload,
-                }
-                .encode();
-                match self.ws.write(Message::binary(frame)) {
-                    Ok(()) => {}
-                    // Kept in the WebSocket's buffer: sent when the socket drains.
-                    Err(e) if would_block(&e) => {
-                        self.counters.sent.fetch_add(1, Ordering::Relaxed);
-                        return Ok(false);
-                    }
-                    Err(e) => return Err(format!("connection lost: {e}")),
-                }
-                self.counters.sent.fetch_add(1, Ordering::Relaxed);
+            if !self.write(&message)? {
+                return Ok(false);
             }
             written += 1;
             if written < BATCH {
                 next = queue.try_recv().ok();
             }
         }
+        self.flush()
+    }
+
+    /// Writes the backlog of the latched channels just subscribed to, then flushes; as
+    /// [`Connection::write_batch`].
+    fn write_backlog(&mut self) -> Result<bool, String> {
+        let mut rest = std::mem::take(&mut self.backlog).into_iter();
+        while let Some(message) = rest.next() {
+            if !self.write(&message)? {
+                self.backlog = rest.collect();
+                return Ok(false);
+            }
+        }
+        self.flush()
+    }
+
+    /// Writes one message if its channel is subscribed (one queued before an unsubscribe is
+    /// not sent); `Ok(false)`: the socket is full, the message is kept in the WebSocket's
+    /// buffer and sent when it drains.
+    fn write(&mut self, message: &Outgoing) -> Result<bool, String> {
+        let Some(&subscription_id) = self.subscriptions.get(&message.channel) else {
+            return Ok(true);
+        };
+        let frame = MessageData {
+            subscription_id,
+            timestamp_ns: message.timestamp_ns,
+            payload: &message.payload,
+        }
+        .encode();
+        let taken = match self.ws.write(Message::binary(frame)) {
+            Ok(()) => true,
+            Err(e) if would_block(&e) => false,
+            Err(e) => return Err(format!("connection lost: {e}")),
+        };
+        self.counters.sent.fetch_add(1, Ordering::Relaxed);
+        Ok(taken)
+    }
+
+    fn flush(&mut self) -> Result<bool, String> {
         match self.ws.flush() {
             Ok(()) => Ok(true),
             Err(e) if would_block(&e) => Ok(false),
