@@ -91,9 +91,10 @@ fn an_open_verdict_writes_a_scenario_the_demo_drives() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// offset-a: the offset is named beside a baseline it does not repair, so what else explains
-/// the misfit is open, but no manoeuvre within the rover's limits separates it (copper loss
-/// from the offset at 1.9σ of the misfit): nothing to drive, no file, and the table says why.
+/// offset-a: the offset is named by its own mark (the standstill current) beside a baseline it
+/// does not repair; no other candidate could be named in its place (their marks are absent, and
+/// copper loss is the baseline's structure, not a rival effect): the verdict is settled,
+/// nothing to drive, no file, and the table says why.
 #[test]
 fn nothing_to_drive_writes_no_scenario() {
     let dir = temp_dir("next-runs-nothing");
@@ -102,7 +103,7 @@ fn nothing_to_drive_writes_no_scenario() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("what to drive next:"), "{stdout}");
     assert!(
-        stdout.contains("no manoeuvre within the rover's limits"),
+        stdout.contains("the verdict `current-offset` is settled"),
         "{stdout}"
     );
     assert!(stdout.contains("not written"), "{stdout}");

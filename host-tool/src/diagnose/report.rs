@@ -649,7 +649,8 @@ pub fn next_runs_lines(d: &Diagnosis) -> Vec<String> {
             super::Verdict::None => "nothing: the runs show no significant departure".to_owned(),
             v => format!(
                 "nothing: the verdict `{v}` is settled (no rival within the selection's margin \
-                 that the runs do not already separate from it)"
+                 could be named in its place: each lacks its own mark, its mark needs the power \
+                 model beside a misfitting baseline, or the runs already separate it)"
             ),
         });
     } else {

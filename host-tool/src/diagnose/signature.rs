@@ -52,6 +52,9 @@ pub struct Signature {
     pub test: Option<SignatureTest>,
     /// What was measured, or why the data cannot show it.
     pub detail: String,
+    /// Not observable on these runs whatever is driven next: a slope hides it, or a sensor it
+    /// reads is not logged. (Any other unobservable signature needs more manoeuvres.)
+    pub masked: bool,
 }
 
 /// A signature's statistical test.
@@ -99,6 +102,11 @@ impl Signature {
         }
     }
 
+    /// Whether the data cannot show it yet but more manoeuvres can (not tested, not masked).
+    pub fn observable_by_driving(&self) -> bool {
+        self.test.is_none() && !self.masked
+    }
+
     fn unobservable(effect: EffectId, why: impl Into<String>) -> Self {
         Self {
             effect,
@@ -106,6 +114,14 @@ impl Signature {
             needs_power_model: effect.signature_needs_power_model(),
             test: None,
             detail: why.into(),
+            masked: false,
+        }
+    }
+
+    fn masked(effect: EffectId, why: impl Into<String>) -> Self {
+        Self {
+            masked: true,
+            ..Self::unobservable(effect, why)
         }
     }
 
@@ -116,6 +132,7 @@ impl Signature {
             needs_power_model: effect.signature_needs_power_model(),
             test: Some(test),
             detail,
+            masked: false,
         }
     }
 }
@@ -163,13 +180,23 @@ impl<'a> Evidence<'a> {
     }
 }
 
+impl Evidence<'_> {
+    /// Whether any manoeuvre, the calibration's included, was timed by a logged yaw.
+    fn yaw_logged(&self) -> bool {
+        self.rows
+            .iter()
+            .chain(self.calibration_rows)
+            .any(|r| r.turned_from_yaw)
+    }
+}
+
 /// Every effect's signature test, catalogue order.
 pub fn test_all(ev: &Evidence<'_>) -> Vec<Signature> {
     // On a slope the downhill pull turns the rover too: the yaw's timing is then no longer
     // a mark only a slip produces, so the slips' signatures are not read there.
     let slope = slope(ev);
     let on_slope = |e: EffectId| {
-        Signature::unobservable(
+        Signature::masked(
             e,
             "the runs are on a slope (its signature is present), which changes the yaw rate \
              of the turns too; drive the turns on level ground to see a slip",
@@ -357,6 +384,9 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
         point = excess_slips(ev.calibration_rows, ev.baseline, is_point);
     }
     let Some((point_mean, _, _)) = moments(&point) else {
+        if !ev.yaw_logged() {
+            return Signature::masked(e, "no yaw logged");
+        }
         return Signature::unobservable(e, "no point turn timed by yaw to compare with");
     };
     let regimes = [
@@ -439,6 +469,9 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
         )
     };
     let Some((mean, _, n)) = moments(&values) else {
+        if !ev.yaw_logged() {
+            return Signature::masked(e, "no yaw logged and no pose track");
+        }
         return Signature::unobservable(e, "no turn timed by yaw and no pose track");
     };
     // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
@@ -502,7 +535,7 @@ fn slope(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::Slope;
     let pitched: Vec<f64> = ev.rows.iter().filter_map(|r| r.pitch_deg).collect();
     if pitched.is_empty() {
-        return Signature::unobservable(e, "no pitch logged");
+        return Signature::masked(e, "no pitch logged");
     }
     let n = pitched.len();
     let k = pitched
@@ -575,22 +608,69 @@ fn motor_heating(ev: &Evidence<'_>) -> Signature {
             }),
         );
     };
+    // The residuals' trend over run time mixes manoeuvres (a run that ends on a cheaper one
+    // trends too): the mark is the same manoeuvre itself drawing more when driven again later
+    // in the run, measured without the power model.
+    let rises = repeat_rises(ev.rows);
+    let rise = one_sample_upper(&rises, 0.0);
     let test = SignatureTest {
         statistic_name: "permutation",
         statistic: trend.slope_w_per_min,
         df: trend.n as f64,
         p: trend.p_value,
-        present: trend.significant && trend.change_w > 0.0,
+        present: trend.significant
+            && trend.change_w > 0.0
+            && rise.is_some_and(|(_, _, p)| p < ALPHA),
+    };
+    let repeats = match (rise, moments(&rises)) {
+        (Some((t, df, p)), Some((mean, _, n))) => format!(
+            "; driven again later in the same run, a manoeuvre draws {mean:+.1} W ({n} repeat(s), \
+             t = {t:.2}, df {df:.0}, p = {})",
+            format_p(p)
+        ),
+        _ => format!(
+            "; {} repeat(s) of a manoeuvre later in its run: too few to tell whether it draws more",
+            rises.len()
+        ),
     };
     Signature::tested(
         e,
         test,
         format!(
             "the same manoeuvres draw {:+.1} W/min more later in a run ({:+.1} W over a {:.1} min \
-             run; floor {:.1} W)",
+             run; floor {:.1} W){repeats}",
             trend.slope_w_per_min, trend.change_w, trend.run_length_min, trend.floor_w
         ),
     )
+}
+
+/// Each manoeuvre driven again later in its run (the same radius, v_c and direction, at least
+/// [`MIN_TREND_SPREAD_S`](super::gaps::MIN_TREND_SPREAD_S) after its first drive there): how
+/// much more both sides' measured average power is than at that first drive [W].
+fn repeat_rises(rows: &[TurnRow]) -> Vec<f64> {
+    let total = |r: &TurnRow| r.sides[0].avg_power_w + r.sides[1].avg_power_w;
+    let same = |a: &TurnRow, b: &TurnRow| {
+        a.run_index == b.run_index
+            && cv::radius_group(a) == cv::radius_group(b)
+            && (a.v_c_mps - b.v_c_mps).abs() < 0.005
+            && a.direction == b.direction
+    };
+    let mut out = Vec::new();
+    for (i, later) in rows.iter().enumerate() {
+        let first = rows[..i]
+            .iter()
+            .chain(&rows[i + 1..])
+            .filter(|r| same(r, later) && total(r).is_finite())
+            .min_by(|a, b| a.t_start_s.total_cmp(&b.t_start_s));
+        if let Some(first) = first {
+            if later.t_start_s - first.t_start_s >= super::gaps::MIN_TREND_SPREAD_S
+                && total(later).is_finite()
+            {
+                out.push(total(later) - total(first));
+            }
+        }
+    }
+    out
 }
 
 /// The growth through the turn of both sides of `row`, when both have it.

@@ -923,6 +923,24 @@ fn the_closed_loop_settles_an_open_verdict_with_what_it_suggests() {
     assert!(run_dataset_closing(&spec, false, 0).next_rounds.is_empty());
 }
 
+/// A control the closed loop drives to see motor heating's mark (bench seed 1, held-out 10:
+/// three point turns in a row, then a straight, as one short run): the residuals then trend
+/// over run time (+22 W over the 0.8 min run, the runs' mix of manoeuvres), but the repeated
+/// turns themselves draw no more later, so no heating is named.
+#[test]
+fn repeats_that_draw_no_more_later_show_no_heating() {
+    let spec = generate(Part::HeldOut, 100, 1).remove(10);
+    assert_eq!(spec.class, DatasetClass::Control);
+    let r = run_dataset_closing(&spec, false, 2);
+    assert!(r.opened, "{r:?}");
+    assert!(!r.next_rounds.is_empty(), "something to drive");
+    assert!(
+        EffectId::from_id(r.settled_label()).is_none(),
+        "{:?}",
+        r.next_rounds
+    );
+}
+
 /// A step at one radius no larger than the model's steps between other neighbouring radii on
 /// that side is the baseline's structure, not an effect's mark (bench seed 27, tuning 31: inner
 /// drag on lossy motors, once named `braked-inner` from R′'s outer side stepping +1.7 W at
