@@ -20,6 +20,10 @@
 //! Each step takes the manoeuvre that separates the most open pairs per repeat. A manoeuvre
 //! counts for a pair only where the rivals differ there by at least the diagnosis' practical
 //! floor: a smaller difference would not move a signature test, however often repeated.
+//!
+//! A name needs its mark (issue 35), so a rival is in play only while it could be named: its
+//! mark present, or not observable yet on these runs. Before any power separation, each rival
+//! of the second kind gets the manoeuvres its signature test reads ([`to_see_the_mark_of`]).
 
 use super::baseline::{self, Baseline};
 use super::calibration::Calibration;
