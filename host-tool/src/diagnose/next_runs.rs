@@ -868,8 +868,8 @@ fn drivable(s: &Setting<'_>, rows: &[TurnRow], late: bool) -> Vec<Drivable> {
                 t_start_s: PAUSE_S,
             };
             let run = |x: Option<f64>, turn_deg: f64| NextRun {
-                r_over_r_prime: x.map(|x| (x * 1000.0).round() / 1000.0),
-                radius_m: x.map(|x| (x * r_prime * 1000.0).round() / 1000.0),
+                r_over_r_prime: x.map(thousandths),
+                radius_m: x.map(|x| thousandths(x * r_prime)),
                 distance_m: x.is_none().then_some(straight_m),
                 v_c_mps: v_c,
                 turn_deg,
@@ -927,6 +927,11 @@ fn to_see_the_mark_of(e: EffectId) -> Vec<(Option<f64>, f64, When, u32)> {
         EffectId::CurrentOffset => vec![(None, 0.0, When::Any, 1)],
         EffectId::Slope => Vec::new(),
     }
+}
+
+/// `x` to 3 decimals: how the design writes R/R′ and R (and finds them again).
+fn thousandths(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
@@ -1063,7 +1068,7 @@ pub fn plan(
         let leader = in_play[0];
         for (x, turn_deg, when, n) in to_see_the_mark_of(e) {
             let Some(o) = options.iter().find(|o| {
-                o.run.r_over_r_prime == x.map(|x| (x * 1000.0).round() / 1000.0)
+                o.run.r_over_r_prime == x.map(thousandths)
                     && o.run.turn_deg == turn_deg
                     && o.run.when == when
                     && o.run.v_c_mps == fastest
@@ -1079,17 +1084,18 @@ pub fn plan(
             if n > budget {
                 continue;
             }
+            let (drives, weight) = (o.drives(n), noise.repeat_weight(n));
             let pair = pairs.iter().find(|p| {
                 let labels = p.labels(&fitted);
                 labels.contains(&leader) && labels.contains(&Rival::Effect(e))
             });
             let expected_sigma = pair.map_or(0.0, |p| {
                 let mut q = p.clone();
-                q.add(&s, &fitted, &o.drives(n), noise.repeat_weight(n));
+                q.add(&s, &fitted, &drives, weight);
                 q.sigma(noise_w)
             });
             for p in &mut open {
-                p.add(&s, &fitted, &o.drives(n), noise.repeat_weight(n));
+                p.add(&s, &fitted, &drives, weight);
             }
             runs.push(NextRun {
                 repeats: n,

@@ -655,22 +655,19 @@ fn repeat_rises(rows: &[TurnRow]) -> Vec<f64> {
             && (a.v_c_mps - b.v_c_mps).abs() < 0.005
             && a.direction == b.direction
     };
-    let mut out = Vec::new();
-    for (i, later) in rows.iter().enumerate() {
-        let first = rows[..i]
-            .iter()
-            .chain(&rows[i + 1..])
-            .filter(|r| same(r, later) && total(r).is_finite())
-            .min_by(|a, b| a.t_start_s.total_cmp(&b.t_start_s));
-        if let Some(first) = first {
-            if later.t_start_s - first.t_start_s >= super::gaps::MIN_TREND_SPREAD_S
-                && total(later).is_finite()
-            {
-                out.push(total(later) - total(first));
-            }
-        }
-    }
-    out
+    let measured: Vec<&TurnRow> = rows.iter().filter(|r| total(r).is_finite()).collect();
+    measured
+        .iter()
+        .filter_map(|later| {
+            // The first drive of the same manoeuvre (`later` itself when it is the first).
+            let first = measured
+                .iter()
+                .filter(|r| same(r, later))
+                .min_by(|a, b| a.t_start_s.total_cmp(&b.t_start_s))?;
+            (later.t_start_s - first.t_start_s >= super::gaps::MIN_TREND_SPREAD_S)
+                .then(|| total(later) - total(first))
+        })
+        .collect()
 }
 
 /// The growth through the turn of both sides of `row`, when both have it.
