@@ -10,6 +10,7 @@ use super::cv::{self, PRACTICAL_FLOOR_W};
 use super::features::TurnRow;
 use super::model_file::{self, ModelFileError};
 use super::{figures, named_effect, Diagnosis};
+use crate::effect_id::EffectId;
 use crate::log::{write_atomically, AtomicWriteError};
 use crate::plan::{EnergyModel, ModelError};
 use crate::plot::{render_figure, PlotError};
@@ -231,19 +232,48 @@ pub fn conclusion(d: &Diagnosis) -> String {
             untested(d)
         )
     } else if d.effect == super::Verdict::Ambiguous {
+        // The rivals the verdict weighed, and the better fits it did not: a candidate whose
+        // mark is missing, or hidden by another effect's present mark, could not be named.
+        let weighed = |e: EffectId| {
+            d.signature(e)
+                .is_none_or(|s| s.hidden_by.is_none() && (s.test.is_none() || s.present()))
+        };
         let best: Vec<String> = d
             .candidates
             .iter()
+            .filter(|c| weighed(c.effect))
             .take(2)
             .map(|c| format!("{} closes {:.0} %", c.effect, c.shrink_pct))
             .collect();
+        let best = if best.is_empty() {
+            "no candidate has its mark in the data or still to be seen".to_owned()
+        } else {
+            best.join(", ")
+        };
+        let better: Vec<String> = d
+            .candidates
+            .iter()
+            .take_while(|c| !weighed(c.effect))
+            .filter_map(|c| {
+                let s = d.signature(c.effect)?;
+                Some(match s.hidden_by {
+                    Some(by) => format!("{} ({by} hides its mark)", c.effect),
+                    None => format!("{} (its mark is missing)", c.effect),
+                })
+            })
+            .collect();
+        let hidden = if better.is_empty() {
+            String::new()
+        } else {
+            format!("; fitting better but not weighed: {}", better.join(", "))
+        };
         let untested = untested(d);
         format!(
             "diagnosis: ambiguous @ {} (significant gap, no clear cause): {}; naming one needs ≥ \
              {:.0} % closed and a {:.1}× margin in penalised held-out error over the runner-up\
-             {untested}",
+             {hidden}{untested}",
             d.regime,
-            best.join(", "),
+            best,
             cv::MIN_SHRINK_PCT,
             cv::CLEAR_MARGIN
         )
@@ -954,11 +984,27 @@ mod tests {
         let mut ambiguous = d.clone();
         ambiguous.effect = super::super::Verdict::Ambiguous;
         let c = conclusion(&ambiguous);
-        let (a, b) = (d.candidates[0].effect.id(), d.candidates[1].effect.id());
-        assert!(
-            c.contains("no clear cause") && c.contains(a) && c.contains(b),
-            "{c}"
-        );
+        // The two best rivals (a mark present or still to be seen); the better fits whose
+        // marks are missing are listed apart.
+        let missing = |e: EffectId| {
+            d.signature(e)
+                .is_some_and(|s| s.hidden_by.is_some() || (s.test.is_some() && !s.present()))
+        };
+        let (weighed, apart) = c.split_once("not weighed").unwrap_or((&c, ""));
+        assert!(weighed.contains("no clear cause"), "{c}");
+        let rivals: Vec<_> = d
+            .candidates
+            .iter()
+            .filter(|c| !missing(c.effect))
+            .take(2)
+            .collect();
+        assert!(!rivals.is_empty(), "{c}");
+        for rival in rivals {
+            assert!(weighed.contains(&format!("{} closes", rival.effect)), "{c}");
+        }
+        for better in d.candidates.iter().take_while(|c| missing(c.effect)) {
+            assert!(apart.contains(&better.effect.to_string()), "{c}");
+        }
         assert!(!table(&ambiguous).contains("<- named"));
     }
 

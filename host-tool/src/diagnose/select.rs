@@ -26,6 +26,11 @@ struct Mark {
     present: bool,
     /// Its signature is measured without the power model.
     model_free: bool,
+    /// Its signature is hidden by another effect whose own mark is present
+    /// ([`signature::Signature::hidden_by`]).
+    hidden: bool,
+    /// Its signature was tested and is not in the data.
+    absent: bool,
     /// Its term, fitted alone on all rows, has the sign its physics allows; `None` when the
     /// fit failed.
     signed: Option<bool>,
@@ -46,6 +51,12 @@ impl Marks {
                     present: signatures
                         .iter()
                         .any(|s| s.effect == c.effect && s.present()),
+                    absent: signatures
+                        .iter()
+                        .any(|s| s.effect == c.effect && s.test.is_some() && !s.present()),
+                    hidden: signatures
+                        .iter()
+                        .any(|s| s.effect == c.effect && s.hidden_by.is_some()),
                     model_free: !c.effect.signature_needs_power_model(),
                     signed: signed(c.effect).ok(),
                 })
@@ -60,6 +71,21 @@ impl Marks {
     /// Whether `e`'s own signature is in the data.
     pub fn present(&self, e: EffectId) -> bool {
         self.get(e).is_some_and(|m| m.present)
+    }
+
+    /// Whether `e`'s signature is measured without the power model.
+    fn model_free(&self, e: EffectId) -> bool {
+        self.get(e).is_some_and(|m| m.model_free)
+    }
+
+    /// Whether `e`'s signature was tested and is not in the data.
+    pub fn absent(&self, e: EffectId) -> bool {
+        self.get(e).is_some_and(|m| m.absent)
+    }
+
+    /// Whether another effect's present mark hides `e`'s.
+    pub fn hidden(&self, e: EffectId) -> bool {
+        self.get(e).is_some_and(|m| m.hidden)
     }
 
     /// Whether `e`'s term has its physical sign (`false` when unknown).
@@ -87,9 +113,11 @@ pub(super) struct Facts<'a> {
 
 /// The verdict stage's answer.
 pub(super) struct Decision {
-    /// The effect named (its signature in the data, physically signed, reaching the gaps).
+    /// The effect named (its signature in the data, physically signed, and reaching the gaps
+    /// when its signature is read off the residuals).
     pub selected: Option<EffectId>,
-    /// The held-out choice when it was not named because its signature is missing.
+    /// The best fit out of sample when it was not named because its signature is missing (or,
+    /// else, the choice among the rivals when its signature is).
     pub mark_missing: Option<EffectId>,
 }
 
@@ -315,10 +343,13 @@ fn clear_winner(
 ) -> Option<&CandidateScore> {
     let mut sorted: Vec<&CandidateScore> = candidates.iter().collect();
     sorted.sort_by(|a, b| score(a).total_cmp(&score(b)));
+    // A lone rival has no runner-up to beat.
     match sorted.as_slice() {
-        [best, runner_up, ..]
+        [best, rest @ ..]
             if shrink(best) >= cv::MIN_SHRINK_PCT
-                && score(runner_up) >= cv::CLEAR_MARGIN * score(best) =>
+                && rest
+                    .first()
+                    .is_none_or(|r| score(r) >= cv::CLEAR_MARGIN * score(best)) =>
         {
             Some(best)
         }
@@ -364,9 +395,19 @@ impl Selection<'_> {
     /// misfitting baseline only a signature measured without the power model stands
     /// ([`standing_on_its_own`]): the misfit is not absorbed.
     pub fn decide(&self, facts: Facts<'_>) -> Result<Decision, DiagnoseError> {
-        let Facts {
-            candidates, marks, ..
-        } = facts;
+        let Facts { marks, .. } = facts;
+        // The rivals: the candidates that could be named. One whose mark was looked for and is
+        // not in the data is not, however well it fits (its term absorbs a misfit of another
+        // shape); nor one whose mark another effect's present mark hides: what its term fits
+        // is that effect's doing (the slips' and heating's on a slope). A mark the runs cannot
+        // show yet keeps its candidate a rival.
+        let rivals: Vec<CandidateScore> = facts
+            .candidates
+            .iter()
+            .filter(|c| !marks.absent(c.effect) && !marks.hidden(c.effect))
+            .cloned()
+            .collect();
+        let candidates = &rivals[..];
         let marked = |e: EffectId| marks.present(e);
         let chosen = match select(candidates) {
             Some(e) => Some(e),
@@ -390,11 +431,23 @@ impl Selection<'_> {
         let selected = if facts.misfit {
             standing_on_its_own(candidates, marks)
         } else {
-            chosen.filter(|&e| marked(e) && marks.signed(e) && (facts.reaches_the_gaps)(e))
+            // A mark measured without the power model stands on its own here as against a
+            // misfit; one read off the residuals must also reach the gaps.
+            chosen.filter(|&e| {
+                marked(e) && marks.signed(e) && (marks.model_free(e) || (facts.reaches_the_gaps)(e))
+            })
         };
+        // The best fit of all when its mark is not in the data, else the choice among the
+        // rivals when its mark is not.
+        let unmarked = |e: EffectId| !marked(e) && !marks.hidden(e) && selected != Some(e);
+        let best_unmarked = facts
+            .candidates
+            .first()
+            .map(|c| c.effect)
+            .filter(|&e| unmarked(e));
         Ok(Decision {
             selected,
-            mark_missing: chosen.filter(|&e| !marked(e) && selected != Some(e)),
+            mark_missing: best_unmarked.or(chosen.filter(|&e| unmarked(e))),
         })
     }
 
@@ -436,9 +489,11 @@ impl Selection<'_> {
         }
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         Ok(match scored.as_slice() {
-            [(best, shrink, c), (runner_up, ..), ..]
+            [(best, shrink, c), rest @ ..]
                 if *shrink >= cv::MIN_SHRINK_PCT
-                    && *runner_up >= cv::CLEAR_MARGIN * best
+                    && rest
+                        .first()
+                        .is_none_or(|(runner_up, ..)| *runner_up >= cv::CLEAR_MARGIN * best)
                     && c.heldout_error_after <= c.heldout_error_before =>
             {
                 Some(c.effect)
@@ -565,5 +620,157 @@ impl Selection<'_> {
                 _ => return Ok(steps),
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::signature::{Signature, SignatureTest};
+
+    /// A ranked candidate with `penalised` as every score and `shrink` as every shrink.
+    fn candidate(effect: EffectId, penalised: f64, shrink: f64) -> CandidateScore {
+        CandidateScore {
+            effect,
+            heldout_error_before: 10.0,
+            heldout_error_after: 10.0 * (1.0 - shrink / 100.0),
+            shrink_pct: shrink,
+            penalised_mse: penalised,
+            penalised_mse_with_growth: penalised,
+            penalised_mse_with_avg_power: penalised,
+            penalised_mse_total: penalised,
+            shrink_total_pct: shrink,
+            not_testable: None,
+        }
+    }
+
+    fn signature(
+        effect: EffectId,
+        present: Option<bool>,
+        hidden_by: Option<EffectId>,
+    ) -> Signature {
+        Signature {
+            effect,
+            observation: effect.signature(),
+            needs_power_model: effect.signature_needs_power_model(),
+            test: present.map(|present| SignatureTest {
+                statistic_name: "t",
+                statistic: 0.0,
+                df: 1.0,
+                p: if present { 0.001 } else { 0.5 },
+                present,
+            }),
+            detail: String::new(),
+            masked: hidden_by.is_some(),
+            hidden_by,
+        }
+    }
+
+    /// The verdict on `candidates` (sorted) with `signatures`, every term physically signed, no
+    /// gap regimes or trend to fall back on, and `reaches` as the gaps' check.
+    fn decide(
+        candidates: &[CandidateScore],
+        signatures: &[Signature],
+        reaches: bool,
+    ) -> Option<EffectId> {
+        let rover = Rover::HUSKY_A200;
+        let selection = Selection {
+            rover: &rover,
+            rows: &[],
+            scheme: Scheme::LeaveOneRunOut,
+            calibration: Calibration::FROM_RUNS,
+            before: &[],
+        };
+        let marks = Marks::of(candidates, signatures, |_| Ok(true));
+        selection
+            .decide(Facts {
+                candidates,
+                marks: &marks,
+                misfit: false,
+                gap_regimes: &[],
+                trend: None,
+                reaches_the_gaps: &|_| reaches,
+            })
+            .expect("no fold is refitted")
+            .selected
+    }
+
+    /// World E, slope 202-0's shape: the slips fit the slope's pull on the yaw best, but the
+    /// slope hides their marks, so they are no rivals of the slope whose pitch is in the data.
+    #[test]
+    fn a_candidate_whose_mark_a_present_one_hides_is_no_rival() {
+        let candidates = [
+            candidate(EffectId::AngularSlip, 3380.0, 45.0),
+            candidate(EffectId::SlipTrack, 4526.0, 36.0),
+            candidate(EffectId::Slope, 9808.0, 5.0),
+            candidate(EffectId::InnerDrag, 11376.0, 0.0),
+        ];
+        let hidden = Some(EffectId::Slope);
+        let mut signatures = vec![
+            signature(EffectId::AngularSlip, None, hidden),
+            signature(EffectId::SlipTrack, None, hidden),
+            signature(EffectId::Slope, Some(true), None),
+            signature(EffectId::InnerDrag, None, None),
+        ];
+        assert_eq!(
+            decide(&candidates, &signatures, true),
+            Some(EffectId::Slope)
+        );
+        // Merely not observable (more manoeuvres could show them), they stay rivals.
+        signatures[0].hidden_by = None;
+        signatures[1].hidden_by = None;
+        assert_eq!(decide(&candidates, &signatures, true), None);
+    }
+
+    /// World D, sinkage 1-1's shape: the slips fit best, but their marks were looked for in the
+    /// yaw and are not there, so they are no rivals of the one candidate whose mark is (the
+    /// turns' power rising through them); alone, it needs no runner-up to beat.
+    #[test]
+    fn a_candidate_whose_mark_is_missing_is_no_rival() {
+        let candidates = [
+            candidate(EffectId::AngularSlip, 585.0, 76.0),
+            candidate(EffectId::SlipTrack, 1236.0, 65.0),
+            candidate(EffectId::SinkageBulldozing, 1594.0, 62.0),
+            candidate(EffectId::BrakedInner, 7809.0, 11.0),
+        ];
+        let mut signatures = vec![
+            signature(EffectId::AngularSlip, Some(false), None),
+            signature(EffectId::SlipTrack, Some(false), None),
+            signature(EffectId::SinkageBulldozing, Some(true), None),
+            signature(EffectId::BrakedInner, Some(false), None),
+        ];
+        assert_eq!(
+            decide(&candidates, &signatures, true),
+            Some(EffectId::SinkageBulldozing)
+        );
+        // Not yet observable, angular slip could be named in its place.
+        signatures[0].test = None;
+        assert_eq!(decide(&candidates, &signatures, true), None);
+    }
+
+    /// A clear winner whose mark needs no power model is named although a gap sits where its
+    /// term cannot act (World E, slope 203-0: the inner side held still at R′); one whose mark
+    /// is read off the residuals is not.
+    #[test]
+    fn only_a_mark_read_off_the_residuals_must_reach_the_gaps() {
+        let signatures = [
+            signature(EffectId::Slope, Some(true), None),
+            signature(EffectId::BrakedInner, Some(true), None),
+            signature(EffectId::InnerDrag, Some(false), None),
+        ];
+        let slope = [
+            candidate(EffectId::Slope, 39.0, 42.0),
+            candidate(EffectId::InnerDrag, 108.0, 6.0),
+        ];
+        assert_eq!(decide(&slope, &signatures, false), Some(EffectId::Slope));
+        let braked = [
+            candidate(EffectId::BrakedInner, 39.0, 42.0),
+            candidate(EffectId::InnerDrag, 108.0, 6.0),
+        ];
+        assert_eq!(decide(&braked, &signatures, false), None);
+        assert_eq!(
+            decide(&braked, &signatures, true),
+            Some(EffectId::BrakedInner)
+        );
     }
 }

@@ -55,6 +55,10 @@ pub struct Signature {
     /// Not observable on these runs whatever is driven next: a slope hides it, or a sensor it
     /// reads is not logged. (Any other unobservable signature needs more manoeuvres.)
     pub masked: bool,
+    /// The effect whose own mark, present in the data, hides this one (a slope's pull turns
+    /// the rover as a slip would): what this term fits there is that effect's doing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hidden_by: Option<EffectId>,
 }
 
 /// A signature's statistical test.
@@ -115,6 +119,7 @@ impl Signature {
             test: None,
             detail: why.into(),
             masked: false,
+            hidden_by: None,
         }
     }
 
@@ -133,6 +138,7 @@ impl Signature {
             test: Some(test),
             detail,
             masked: false,
+            hidden_by: None,
         }
     }
 }
@@ -192,22 +198,31 @@ impl Evidence<'_> {
 
 /// Every effect's signature test, catalogue order.
 pub fn test_all(ev: &Evidence<'_>) -> Vec<Signature> {
-    // On a slope the downhill pull turns the rover too: the yaw's timing is then no longer
-    // a mark only a slip produces, so the slips' signatures are not read there.
+    // On a slope the downhill pull turns the rover too, and a manoeuvre climbs another grade
+    // at each heading: the yaw's timing is no longer a mark only a slip produces, nor a
+    // repeat's extra power one only a warmer winding does. Those marks are hidden by the slope,
+    // and what their terms fit there is the slope's doing.
     let slope = slope(ev);
-    let on_slope = |e: EffectId| {
-        Signature::masked(
+    let on_slope = |e: EffectId, why: &str| Signature {
+        hidden_by: Some(EffectId::Slope),
+        ..Signature::masked(
             e,
-            "the runs are on a slope (its signature is present), which changes the yaw rate \
-             of the turns too; drive the turns on level ground to see a slip",
+            format!("the runs are on a slope (its signature is present), {why}"),
         )
     };
+    let slip = "which changes the yaw rate of the turns too; drive the turns on level ground to \
+                see a slip";
     // Angular slip's rise towards R′ is also what a slip track's yaw must not show.
     let angular = angular_slip(ev);
     EffectId::ALL
         .map(|e| match e {
             EffectId::CurrentOffset => current_offset(ev),
-            EffectId::AngularSlip | EffectId::SlipTrack if slope.present() => on_slope(e),
+            EffectId::AngularSlip | EffectId::SlipTrack if slope.present() => on_slope(e, slip),
+            EffectId::MotorHeating if slope.present() => on_slope(
+                e,
+                "so the same manoeuvre climbs another grade at each heading; drive the repeats \
+                 on level ground to see a warmer winding",
+            ),
             EffectId::AngularSlip => angular.clone(),
             EffectId::SlipTrack => slip_track(ev, angular.present()),
             EffectId::Slope => slope.clone(),
