@@ -236,7 +236,7 @@ pub fn conclusion(d: &Diagnosis) -> String {
         // mark is missing, or hidden by another effect's present mark, could not be named.
         let weighed = |e: EffectId| {
             d.signature(e)
-                .is_none_or(|s| s.hidden_by.is_none() && (s.test.is_none() || s.present()))
+                .is_none_or(|s| s.hidden_by.is_none() && !s.absent())
         };
         let best: Vec<String> = d
             .candidates
@@ -988,7 +988,7 @@ mod tests {
         // marks are missing are listed apart.
         let missing = |e: EffectId| {
             d.signature(e)
-                .is_some_and(|s| s.hidden_by.is_some() || (s.test.is_some() && !s.present()))
+                .is_some_and(|s| s.hidden_by.is_some() || s.absent())
         };
         let (weighed, apart) = c.split_once("not weighed").unwrap_or((&c, ""));
         assert!(weighed.contains("no clear cause"), "{c}");

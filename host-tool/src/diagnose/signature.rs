@@ -82,6 +82,11 @@ impl Signature {
         self.test.is_some_and(|t| t.present)
     }
 
+    /// Whether it was tested and the data do not show it.
+    pub fn absent(&self) -> bool {
+        self.test.is_some_and(|t| !t.present)
+    }
+
     /// The test's outcome for the report: `present: t = 4.39, df 3, p = 0.011`, or
     /// `not observable`.
     pub fn outcome(&self) -> String {
