@@ -686,36 +686,40 @@ fn fit_rivals(
 }
 
 /// The rivals an open verdict leaves in play: for `ambiguous`, the baseline alone and the best
-/// ranked candidates that improve the held-out error (those with their signature first); for `baseline-misfit` also copper loss;
+/// ranked candidates that improve the held-out error and could be named (their signature
+/// present first, then not yet observable; one looked for and missing is out); for
+/// `baseline-misfit` also copper loss;
 /// for a named effect, the candidates within the selection's clear margin of it, or, when the
 /// baseline with it still misfits its calibration, copper loss and the best candidates. Empty when
 /// the verdict is settled (`none`, or a clear winner).
 fn in_play(d: &Diagnosis) -> Vec<Rival> {
     // The nameable first: a candidate with its signature in the data, then by held-out score.
     let marked = |e: EffectId| d.signature(e).is_some_and(|s| s.present());
-    // A mark these runs' terrain or sensors hide cannot be seen whatever is driven next.
+    // A mark these runs' terrain or sensors hide cannot be seen whatever is driven next; one
+    // looked for and missing rules its candidate out, as in the verdict (issue 35's rule).
     let masked = |e: EffectId| d.signature(e).is_some_and(|s| s.masked);
+    let missing = |e: EffectId| d.signature(e).is_some_and(|s| s.absent());
     let mut improving: Vec<_> = d
         .candidates
         .iter()
-        .filter(|c| c.shrink_pct > 0.0 && !masked(c.effect))
+        .filter(|c| c.shrink_pct > 0.0 && !masked(c.effect) && !missing(c.effect))
         .collect();
     improving.sort_by_key(|c| !marked(c.effect));
     let ranked = improving
         .into_iter()
         .take(MAX_CANDIDATES_IN_PLAY)
         .map(|c| Rival::Effect(c.effect));
-    let missing = d.mark_missing.map(Rival::Effect);
+    let unmarked_choice = d.mark_missing.filter(|&e| !missing(e)).map(Rival::Effect);
     let mut v: Vec<Rival> = match d.effect {
         Verdict::None => Vec::new(),
         Verdict::Ambiguous => std::iter::once(Rival::None)
             .chain(ranked)
-            .chain(missing)
+            .chain(unmarked_choice)
             .collect(),
         Verdict::BaselineMisfit => [Rival::None, Rival::CopperLoss]
             .into_iter()
             .chain(ranked)
-            .chain(missing)
+            .chain(unmarked_choice)
             .collect(),
         // A named effect is open only against a rival that could still be named in its place
         // (issue 35's rule): one whose own mark the runs did not test and miss (present, or not
@@ -730,8 +734,7 @@ fn in_play(d: &Diagnosis) -> Vec<Rival> {
             };
             let misfit = still_misfits(d);
             let nameable = |c: EffectId| {
-                d.signature(c)
-                    .is_none_or(|s| s.present() || s.observable_by_driving())
+                d.signature(c).is_none_or(|s| !s.absent() && !s.masked)
                     && !(misfit && c.signature_needs_power_model())
             };
             let close: Vec<Rival> = d
@@ -1045,12 +1048,16 @@ pub fn plan(
         })
         .cloned()
         .collect();
-    // Rivals whose own mark these runs cannot test yet: the drives their signature test reads
-    // come first, whatever their power says (a mark, not a fit, decides a name).
+    // Rivals whose own mark these runs cannot test yet, or show in size but short of the
+    // noise: the drives their signature test reads come first, whatever their power says (a
+    // mark, not a fit, decides a name).
     let unseen: Vec<EffectId> = in_play
         .iter()
         .filter_map(|r| match r {
-            Rival::Effect(e) if d.signature(*e).is_some_and(|s| s.observable_by_driving()) => {
+            Rival::Effect(e)
+                if d.signature(*e)
+                    .is_some_and(|s| s.observable_by_driving() || s.inconclusive()) =>
+            {
                 Some(*e)
             }
             _ => None,

@@ -523,11 +523,7 @@ fn candidate_rows(d: &Diagnosis) -> Vec<Vec<String>> {
             },
         ));
         row.push(match d.signature(c.effect).and_then(|s| s.test) {
-            Some(t) => format!(
-                "{} (p {})",
-                if t.present { "present" } else { "absent" },
-                super::signature::format_p(t.p)
-            ),
+            Some(t) => format!("{} (p {})", t.verdict(), super::signature::format_p(t.p)),
             None => "not observable".to_owned(),
         });
         row.push(
@@ -677,6 +673,11 @@ pub fn next_runs_lines(d: &Diagnosis) -> Vec<String> {
     if !n.open() {
         out.push(match d.effect {
             super::Verdict::None => "nothing: the runs show no significant departure".to_owned(),
+            v @ (super::Verdict::Ambiguous | super::Verdict::BaselineMisfit) => format!(
+                "nothing: no further run could settle `{v}` (no candidate could be named: each \
+                 one's own mark was looked for and is missing, or another effect's mark hides \
+                 it); the departure is one the catalogue does not explain"
+            ),
             v => format!(
                 "nothing: the verdict `{v}` is settled (no rival within the selection's margin \
                  could be named in its place: each lacks its own mark, its mark needs the power \

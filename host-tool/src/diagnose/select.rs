@@ -658,6 +658,7 @@ mod tests {
                 df: 1.0,
                 p: if present { 0.001 } else { 0.5 },
                 present,
+                sized: present,
             }),
             detail: String::new(),
             masked: hidden_by.is_some(),

@@ -74,6 +74,21 @@ pub struct SignatureTest {
     pub p: f64,
     /// p below [`ALPHA`] and the effect size beyond its practical floor.
     pub present: bool,
+    /// The effect size beyond its practical floor, significant or not: without `present`, the
+    /// mark is there in size but not yet beyond the noise (more of the same manoeuvres could
+    /// show it), not missing.
+    pub sized: bool,
+}
+
+impl SignatureTest {
+    /// `present`, `inconclusive` (its size in the data, not yet beyond the noise) or `absent`.
+    pub fn verdict(&self) -> &'static str {
+        match (self.present, self.sized) {
+            (true, _) => "present",
+            (false, true) => "inconclusive",
+            (false, false) => "absent",
+        }
+    }
 }
 
 impl Signature {
@@ -82,9 +97,10 @@ impl Signature {
         self.test.is_some_and(|t| t.present)
     }
 
-    /// Whether it was tested and the data do not show it.
+    /// Whether it was looked for and is missing: tested, and not even its size reaches the
+    /// floor (a mark of that size not yet beyond the noise is not missing).
     pub fn absent(&self) -> bool {
-        self.test.is_some_and(|t| !t.present)
+        self.test.is_some_and(|t| !t.present && !t.sized)
     }
 
     /// The test's outcome for the report: `present: t = 4.39, df 3, p = 0.011`, or
@@ -93,7 +109,7 @@ impl Signature {
         match &self.test {
             Some(t) => format!(
                 "{}: {} = {:.2}, df {:.0}, p = {}",
-                if t.present { "present" } else { "absent" },
+                t.verdict(),
                 t.statistic_name,
                 t.statistic,
                 t.df,
@@ -109,6 +125,12 @@ impl Signature {
             Some(_) => format!("{} — {}", self.outcome(), self.detail),
             None => format!("not observable: {}", self.detail),
         }
+    }
+
+    /// Whether its size is in the data but not yet beyond the noise: more of the manoeuvres its
+    /// test reads can show it.
+    pub fn inconclusive(&self) -> bool {
+        self.test.is_some_and(|t| !t.present && t.sized)
     }
 
     /// Whether the data cannot show it yet but more manoeuvres can (not tested, not masked).
@@ -357,6 +379,7 @@ fn current_offset(ev: &Evidence<'_>) -> Signature {
                     df,
                     p,
                     present: p < ALPHA && mean.abs() > q,
+                    sized: mean.abs() > q,
                 }
             }
             // One run: no repeat to test the offset against.
@@ -366,6 +389,7 @@ fn current_offset(ev: &Evidence<'_>) -> Signature {
                 df: 0.0,
                 p: 1.0,
                 present: false,
+                sized: false,
             },
         };
         if best
@@ -431,6 +455,7 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
             df,
             p,
             present: p < ALPHA && mean >= MIN_SLIP_EXCESS,
+            sized: mean >= MIN_SLIP_EXCESS,
         };
         let detail = format!(
             "{} turns ({n}) slip {:+.1} % beyond the point turns' {:.1} % (the calibration's \
@@ -514,6 +539,7 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
         df,
         p,
         present: p < ALPHA && mean.abs() >= floor && !rises && !uneven,
+        sized: mean.abs() >= floor && !rises && !uneven,
     };
     let shape = if rises {
         "; but it rises from the point turn towards R′ (angular slip), not the same on every turn"
@@ -569,6 +595,7 @@ fn slope(ev: &Evidence<'_>) -> Signature {
         df: n as f64,
         p,
         present: p < ALPHA && k >= 2,
+        sized: k >= 2,
     };
     Signature::tested(
         e,
@@ -641,6 +668,8 @@ fn motor_heating(ev: &Evidence<'_>) -> Signature {
         present: trend.significant
             && trend.change_w > 0.0
             && rise.is_some_and(|(_, _, p)| p < ALPHA),
+        sized: trend.change_w > trend.floor_w
+            && moments(&rises).is_some_and(|(mean, _, _)| mean > 0.0),
     };
     let repeats = match (rise, moments(&rises)) {
         (Some((t, df, p)), Some((mean, _, n))) => format!(
@@ -738,6 +767,7 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
         df,
         p,
         present: p < ALPHA && inner.0.min(outer.0) >= PRACTICAL_FLOOR_W,
+        sized: inner.0.min(outer.0) >= PRACTICAL_FLOOR_W,
     };
     Signature::tested(
         e,
@@ -811,6 +841,7 @@ fn step_test(
             df,
             p,
             present: p < ALPHA && smallest_step >= PRACTICAL_FLOOR_W.max(elsewhere),
+            sized: smallest_step >= PRACTICAL_FLOOR_W.max(elsewhere),
         },
         format!(
             "the {} side {what} draws {diff:+.1} W beyond the model more than at its weaker edge \
