@@ -687,7 +687,7 @@ fn fit_rivals(
 
 /// The rivals an open verdict leaves in play: for `ambiguous`, the baseline alone and the best
 /// ranked candidates that improve the held-out error and could be named (their signature
-/// present first, then not yet observable; one looked for and missing is out); for
+/// present first, then inconclusive or not yet observable; one looked for and missing is out); for
 /// `baseline-misfit` also copper loss;
 /// for a named effect, the candidates within the selection's clear margin of it, or, when the
 /// baseline with it still misfits its calibration, copper loss and the best candidates. Empty when

@@ -234,10 +234,7 @@ pub fn conclusion(d: &Diagnosis) -> String {
     } else if d.effect == super::Verdict::Ambiguous {
         // The rivals the verdict weighed, and the better fits it did not: a candidate whose
         // mark is missing, or hidden by another effect's present mark, could not be named.
-        let weighed = |e: EffectId| {
-            d.signature(e)
-                .is_none_or(|s| s.hidden_by.is_none() && !s.absent())
-        };
+        let weighed = |e: EffectId| !d.signature(e).is_some_and(|s| s.rules_out());
         let best: Vec<String> = d
             .candidates
             .iter()
@@ -987,10 +984,7 @@ mod tests {
         let c = conclusion(&ambiguous);
         // The two best rivals (a mark present or still to be seen); the better fits whose
         // marks are missing are listed apart.
-        let missing = |e: EffectId| {
-            d.signature(e)
-                .is_some_and(|s| s.hidden_by.is_some() || s.absent())
-        };
+        let missing = |e: EffectId| d.signature(e).is_some_and(|s| s.rules_out());
         let (weighed, apart) = c.split_once("not weighed").unwrap_or((&c, ""));
         assert!(weighed.contains("no clear cause"), "{c}");
         let rivals: Vec<_> = d

@@ -31,8 +31,8 @@ struct Mark {
     /// Its signature is hidden by another effect whose own mark is present
     /// ([`signature::Signature::hidden_by`]).
     hidden: bool,
-    /// Its signature was tested and is not in the data.
-    absent: bool,
+    /// It cannot be named on these runs ([`signature::Signature::rules_out`]).
+    ruled_out: bool,
     /// Its term, fitted alone on all rows, has the sign its physics allows; `None` when the
     /// fit failed.
     signed: Option<bool>,
@@ -53,7 +53,7 @@ impl Marks {
                     Mark {
                         effect: c.effect,
                         present: s.is_some_and(signature::Signature::present),
-                        absent: s.is_some_and(signature::Signature::absent),
+                        ruled_out: s.is_some_and(signature::Signature::rules_out),
                         hidden: s.is_some_and(|s| s.hidden_by.is_some()),
                         model_free: !c.effect.signature_needs_power_model(),
                         signed: signed(c.effect).ok(),
@@ -77,13 +77,13 @@ impl Marks {
         self.get(e).is_some_and(|m| m.model_free)
     }
 
-    /// Whether `e`'s signature was tested and is not in the data.
-    pub fn absent(&self, e: EffectId) -> bool {
-        self.get(e).is_some_and(|m| m.absent)
+    /// Whether `e` cannot be named on these runs.
+    fn ruled_out(&self, e: EffectId) -> bool {
+        self.get(e).is_some_and(|m| m.ruled_out)
     }
 
     /// Whether another effect's present mark hides `e`'s.
-    pub fn hidden(&self, e: EffectId) -> bool {
+    fn hidden(&self, e: EffectId) -> bool {
         self.get(e).is_some_and(|m| m.hidden)
     }
 
@@ -403,7 +403,7 @@ impl Selection<'_> {
         let rivals: Vec<CandidateScore> = facts
             .candidates
             .iter()
-            .filter(|c| !marks.absent(c.effect) && !marks.hidden(c.effect))
+            .filter(|c| !marks.ruled_out(c.effect))
             .cloned()
             .collect();
         let candidates = &rivals[..];

@@ -127,6 +127,12 @@ impl Signature {
         }
     }
 
+    /// Whether its candidate cannot be named on these runs: its mark was looked for and is
+    /// missing, or another effect's present mark hides it (the verdict does not weigh it).
+    pub fn rules_out(&self) -> bool {
+        self.absent() || self.hidden_by.is_some()
+    }
+
     /// Whether its size is in the data but not yet beyond the noise: more of the manoeuvres its
     /// test reads can show it.
     pub fn inconclusive(&self) -> bool {
