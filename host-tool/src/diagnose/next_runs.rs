@@ -695,14 +695,14 @@ fn fit_rivals(
 fn in_play(d: &Diagnosis) -> Vec<Rival> {
     // The nameable first: a candidate with its signature in the data, then by held-out score.
     let marked = |e: EffectId| d.signature(e).is_some_and(|s| s.present());
-    // A mark these runs' terrain or sensors hide cannot be seen whatever is driven next; one
-    // looked for and missing rules its candidate out, as in the verdict (issue 35's rule).
-    let masked = |e: EffectId| d.signature(e).is_some_and(|s| s.masked);
+    // A mark looked for and missing rules its candidate out, as in the verdict (issue 35's
+    // rule); one these runs' terrain or sensors hide cannot be seen whatever is driven next.
     let missing = |e: EffectId| d.signature(e).is_some_and(|s| s.absent());
+    let could_be_named = |e: EffectId| !missing(e) && !d.signature(e).is_some_and(|s| s.masked);
     let mut improving: Vec<_> = d
         .candidates
         .iter()
-        .filter(|c| c.shrink_pct > 0.0 && !masked(c.effect) && !missing(c.effect))
+        .filter(|c| c.shrink_pct > 0.0 && could_be_named(c.effect))
         .collect();
     improving.sort_by_key(|c| !marked(c.effect));
     let ranked = improving
@@ -733,10 +733,8 @@ fn in_play(d: &Diagnosis) -> Vec<Rival> {
                 return Vec::new();
             };
             let misfit = still_misfits(d);
-            let nameable = |c: EffectId| {
-                d.signature(c).is_none_or(|s| !s.absent() && !s.masked)
-                    && !(misfit && c.signature_needs_power_model())
-            };
+            let nameable =
+                |c: EffectId| could_be_named(c) && !(misfit && c.signature_needs_power_model());
             let close: Vec<Rival> = d
                 .candidates
                 .iter()

@@ -1,7 +1,8 @@
 //! The verdict stage: which catalogue term to name. It reads plain values ([`Facts`]: the
 //! ranked candidates, their [`Marks`], the adequacy, where the departure is) and hands back a
 //! [`Decision`]. It weighs only the rivals, the candidates that could be named: their mark
-//! present or not yet observable, and not hidden by another effect's present mark. Inside:
+//! present, inconclusive or not yet observable, and not hidden by another effect's present
+//! mark. Inside:
 //! the clear winner of the held-out selection among them and the rules that decide
 //! near ties (the one candidate in it with its signature, the manoeuvres' total power), the
 //! regimes of the gap, the run-time trend, the physics' signs and the gaps' places; and the
@@ -299,8 +300,9 @@ pub(super) fn marked_in_near_tie(
 /// Against a baseline that misfits its calibration: the best candidate whose signature is
 /// present and measured without the power model (`marked`), physically `signed`. Its evidence
 /// stands without the baseline, and so is not asked to lower a held-out error measured against
-/// it (a term beside a misfit can fit it worse out of sample as a run of new manoeuvres
-/// comes in, though its mark stays); the misfit is reported beside it. No other candidate is named against a misfit: a term that also acts on the calibration
+/// it (a term beside a misfit can fit it worse out of sample as a run of new manoeuvres comes
+/// in, though its mark stays); the misfit is reported beside it. No other candidate is named
+/// against a misfit: a term that also acts on the calibration
 /// manoeuvres can absorb a structural misfit without its own mark.
 pub(super) fn standing_on_its_own(
     candidates: &[CandidateScore],
@@ -332,6 +334,12 @@ pub(super) fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
         .map(|c| c.effect)
 }
 
+/// Whether a penalised error `best` beats the runner-up's by [`cv::CLEAR_MARGIN`]; a lone
+/// rival (no runner-up) has none to beat.
+fn clear_of(best: f64, runner_up: Option<f64>) -> bool {
+    runner_up.is_none_or(|r| r >= cv::CLEAR_MARGIN * best)
+}
+
 /// The best of `candidates` by `score` (a penalised error) when it closes
 /// [`cv::MIN_SHRINK_PCT`] by `shrink` and the runner-up's `score` is at least
 /// [`cv::CLEAR_MARGIN`] times its own.
@@ -342,13 +350,10 @@ fn clear_winner(
 ) -> Option<&CandidateScore> {
     let mut sorted: Vec<&CandidateScore> = candidates.iter().collect();
     sorted.sort_by(|a, b| score(a).total_cmp(&score(b)));
-    // A lone rival has no runner-up to beat.
     match sorted.as_slice() {
         [best, rest @ ..]
             if shrink(best) >= cv::MIN_SHRINK_PCT
-                && rest
-                    .first()
-                    .is_none_or(|r| score(r) >= cv::CLEAR_MARGIN * score(best)) =>
+                && clear_of(score(best), rest.first().map(|r| score(r))) =>
         {
             Some(best)
         }
@@ -399,7 +404,7 @@ impl Selection<'_> {
         // not in the data is not, however well it fits (its term absorbs a misfit of another
         // shape); nor one whose mark another effect's present mark hides: what its term fits
         // is that effect's doing (the slips' and heating's on a slope). A mark the runs cannot
-        // show yet keeps its candidate a rival.
+        // show yet, or show only short of the noise, keeps its candidate a rival.
         let rivals: Vec<CandidateScore> = facts
             .candidates
             .iter()
@@ -490,9 +495,7 @@ impl Selection<'_> {
         Ok(match scored.as_slice() {
             [(best, shrink, c), rest @ ..]
                 if *shrink >= cv::MIN_SHRINK_PCT
-                    && rest
-                        .first()
-                        .is_none_or(|(runner_up, ..)| *runner_up >= cv::CLEAR_MARGIN * best)
+                    && clear_of(*best, rest.first().map(|r| r.0))
                     && c.heldout_error_after <= c.heldout_error_before =>
             {
                 Some(c.effect)

@@ -666,6 +666,7 @@ fn motor_heating(ev: &Evidence<'_>) -> Signature {
     // in the run, measured without the power model.
     let rises = repeat_rises(ev.rows);
     let rise = one_sample_upper(&rises, 0.0);
+    let rise_moments = moments(&rises);
     let test = SignatureTest {
         statistic_name: "permutation",
         statistic: trend.slope_w_per_min,
@@ -675,9 +676,9 @@ fn motor_heating(ev: &Evidence<'_>) -> Signature {
             && trend.change_w > 0.0
             && rise.is_some_and(|(_, _, p)| p < ALPHA),
         sized: trend.change_w > trend.floor_w
-            && moments(&rises).is_some_and(|(mean, _, _)| mean > 0.0),
+            && rise_moments.is_some_and(|(mean, _, _)| mean > 0.0),
     };
-    let repeats = match (rise, moments(&rises)) {
+    let repeats = match (rise, rise_moments) {
         (Some((t, df, p)), Some((mean, _, n))) => format!(
             "; driven again later in the same run, a manoeuvre draws {mean:+.1} W ({n} repeat(s), \
              t = {t:.2}, df {df:.0}, p = {})",
