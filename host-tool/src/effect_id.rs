@@ -83,8 +83,9 @@ impl EffectId {
                 "the inner side alone draws more between B/2 and R′ than at the neighbouring radii"
             }
             EffectId::SinkageBulldozing => {
-                "power rising through the turns below R′ on both sides, more than on straights \
-                 and wide turns"
+                "power rising through the manoeuvre on both sides as the wheels sink: through \
+                 the turns below R′ more than on straights and wide turns, or through the tight \
+                 turns and straights alike"
             }
             EffectId::AngularSlip => {
                 "turns timed by yaw slower than the point turns, rising towards R′"

@@ -11,7 +11,7 @@
 //! | `slip-track` | every turn's slip beyond the calibration's terrain slip, not rising towards R′ (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 %, angular slip's rise absent |
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
-//! | `sinkage-bulldozing` | growth through the turn (second half − first half) of turns below R′, each side | Welch t per side against straights and wide turns, ≥ 1.5 W on both, the weaker side's p ×2 |
+//! | `sinkage-bulldozing` | growth through the manoeuvre (second half − first half of its steady part), each side: of turns below R′, or of turns below R′ and straights | Welch t per side against straights and wide turns, or one-sample t per side against none; ≥ 1.5 W on both, the weaker side's p ×2, the stronger reading's p ×2 |
 //! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both and beyond the largest step between neighbouring radii elsewhere on that side (the baseline's structure) |
 //! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both and beyond the largest step elsewhere, as for `inner-drag` |
 
@@ -731,10 +731,14 @@ fn both_growths(row: &TurnRow) -> Option<[f64; 2]> {
     Some([row.sides[0].growth_w?, row.sides[1].growth_w?])
 }
 
-/// `sinkage-bulldozing`: the turns below R′ grow through the turn on **each** side by at least
-/// [`PRACTICAL_FLOOR_W`] more than the straights and wide turns do (runs and calibration), by
-/// Welch t per side; the weaker side's test, its p doubled. A drag of the inner side alone
-/// (which also grows) does not pass on the outer side.
+/// `sinkage-bulldozing`: the wheels sink after each start, so power rises through the
+/// manoeuvre on **each** side by at least [`PRACTICAL_FLOOR_W`], read two ways: the turns below
+/// R′ beyond the straights and wide turns (runs and calibration; slip sinks them deeper), by
+/// Welch t per side; or, where the sand yields on the straights as much (a heavy rover), the
+/// turns below R′ and the straights beyond no growth at all, by one-sample t per side. The
+/// weaker side's test, its p doubled, of the stronger reading, its p doubled again. A drag of
+/// the inner side alone (which also grows) does not pass on the outer side; an acceleration
+/// transient makes power fall through the manoeuvre, not rise.
 fn sinkage(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::SinkageBulldozing;
     let tight: Vec<[f64; 2]> = ev
@@ -746,10 +750,8 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
     if tight.len() < 2 {
         return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
     }
-    let mut wide: Vec<f64> = ev
-        .rows
-        .iter()
-        .chain(ev.calibration_rows)
+    let rows = || ev.rows.iter().chain(ev.calibration_rows);
+    let mut wide: Vec<f64> = rows()
         .filter(|r| r.is_straight() || r.r_over_r_prime > 1.0)
         .filter_map(both_growths)
         .map(|g| 0.5 * (g[0] + g[1]))
@@ -758,35 +760,64 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
         // Nothing to compare with: against no growth at all.
         wide = vec![0.0, 0.0];
     }
-    let side = |s: usize| -> Option<(f64, f64, f64, f64)> {
+    let driven: Vec<[f64; 2]> = tight
+        .iter()
+        .copied()
+        .chain(rows().filter(|r| r.is_straight()).filter_map(both_growths))
+        .collect();
+    // Per side: (growth beyond the reference, t, df, p).
+    let beyond_wide = |s: usize| -> Option<(f64, f64, f64, f64)> {
         let growth: Vec<f64> = tight.iter().map(|g| g[s]).collect();
         welch_upper(&growth, &wide)
     };
-    let (Some(inner), Some(outer)) = (side(0), side(1)) else {
+    let beyond_none = |s: usize| -> Option<(f64, f64, f64, f64)> {
+        let growth: Vec<f64> = driven.iter().map(|g| g[s]).collect();
+        let (t, df, p) = one_sample_upper(&growth, 0.0)?;
+        Some((growth.iter().sum::<f64>() / growth.len() as f64, t, df, p))
+    };
+    let weaker = |inner: (f64, f64, f64, f64), outer: (f64, f64, f64, f64)| {
+        let w = if inner.3 >= outer.3 { inner } else { outer };
+        (inner.0.min(outer.0), w.1, w.2, (2.0 * w.3).min(1.0))
+    };
+    let (Some(inner), Some(outer)) = (beyond_wide(0), beyond_wide(1)) else {
         return Signature::unobservable(e, "growth without spread");
     };
-    let weaker = if inner.3 >= outer.3 { inner } else { outer };
-    let (_, t, df, p) = weaker;
-    let p = (2.0 * p).min(1.0);
-    let test = SignatureTest {
-        statistic_name: "Welch t",
-        statistic: t,
-        df,
-        p,
-        present: p < ALPHA && inner.0.min(outer.0) >= PRACTICAL_FLOOR_W,
-        sized: inner.0.min(outer.0) >= PRACTICAL_FLOOR_W,
+    let turns = weaker(inner, outer);
+    let everywhere = match (beyond_none(0), beyond_none(1)) {
+        (Some(i), Some(o)) => Some((weaker(i, o), i.0, o.0)),
+        _ => None,
     };
-    Signature::tested(
-        e,
-        test,
-        format!(
-            "turns below R′ grow {:+.1} W on the inner side and {:+.1} W on the outer side \
-             through the turn beyond {} straight(s) and wide turn(s)",
-            inner.0,
-            outer.0,
-            wide.len()
+    let sized = |r: &(f64, f64, f64, f64)| r.0 >= PRACTICAL_FLOOR_W;
+    let turns_detail = format!(
+        "turns below R′ grow {:+.1} W on the inner side and {:+.1} W on the outer side \
+         through the turn beyond {} straight(s) and wide turn(s)",
+        inner.0,
+        outer.0,
+        wide.len()
+    );
+    // The stronger reading: the one reaching the floor, else the smaller p.
+    let (chosen, name, detail) = match everywhere {
+        Some((all, i, o)) if sized(&all) && (!sized(&turns) || all.3 < turns.3) => (
+            all,
+            "t",
+            format!(
+                "{} tight turns and straights grow {i:+.1} W on the inner (left) side and \
+                 {o:+.1} W on the outer (right) side through the manoeuvre ({turns_detail})",
+                driven.len()
+            ),
         ),
-    )
+        _ => (turns, "Welch t", turns_detail),
+    };
+    let readings = if everywhere.is_some() { 2.0 } else { 1.0 };
+    let test = SignatureTest {
+        statistic_name: name,
+        statistic: chosen.1,
+        df: chosen.2,
+        p: (readings * chosen.3).min(1.0),
+        present: readings * chosen.3 < ALPHA && sized(&chosen),
+        sized: sized(&chosen),
+    };
+    Signature::tested(e, test, detail)
 }
 
 /// The residual of the `role` side of each of `rows` matching `keep` [W].
