@@ -1049,22 +1049,24 @@ pub fn plan(
     // Rivals whose own mark these runs cannot test yet, or show in size but short of the
     // noise: the drives their signature test reads come first, whatever their power says (a
     // mark, not a fit, decides a name).
-    let unseen: Vec<EffectId> = in_play
-        .iter()
-        .filter_map(|r| match r {
-            Rival::Effect(e)
-                if d.signature(*e)
-                    .is_some_and(|s| s.observable_by_driving() || s.inconclusive()) =>
-            {
-                Some(*e)
+    // A mark another effect makes too needs that effect's drives as well, to tell them apart.
+    let mut unseen: Vec<EffectId> = Vec::new();
+    for r in &in_play {
+        let Rival::Effect(e) = *r else { continue };
+        let Some(sig) = d.signature(e) else { continue };
+        if !(sig.observable_by_driving() || sig.inconclusive()) {
+            continue;
+        }
+        for e in std::iter::once(e).chain(sig.told_apart_by) {
+            if !unseen.contains(&e) {
+                unseen.push(e);
             }
-            _ => None,
-        })
-        .collect();
+        }
+    }
     let options = if open.is_empty() && unseen.is_empty() {
         Vec::new()
     } else {
-        drivable(&s, rows, late)
+        drivable(&s, rows, late || unseen.contains(&EffectId::MotorHeating))
     };
     let mut runs: Vec<NextRun> = Vec::new();
     let mut budget = MAX_MANOEUVRES;

@@ -666,6 +666,7 @@ mod tests {
             detail: String::new(),
             masked: hidden_by.is_some(),
             hidden_by,
+            told_apart_by: None,
         }
     }
 

@@ -11,7 +11,7 @@
 //! | `slip-track` | every turn's slip beyond the calibration's terrain slip, not rising towards R′ (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 %, angular slip's rise absent |
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
-//! | `sinkage-bulldozing` | growth through the manoeuvre (second half − first half of its steady part), each side: of turns below R′, or of turns below R′ and straights | Welch t per side against straights and wide turns, or one-sample t per side against none; ≥ 1.5 W on both, the weaker side's p ×2, the stronger reading's p ×2 |
+//! | `sinkage-bulldozing` | growth through the manoeuvre (second half − first half of its steady part), each side: of turns below R′, or of turns below R′ and straights | Welch t per side against straights and wide turns, or one-sample t per side against none (not with heating's or the slope's mark present); ≥ 1.5 W on both, the weaker side's p ×2, the stronger reading's p ×2 |
 //! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both and beyond the largest step between neighbouring radii elsewhere on that side (the baseline's structure) |
 //! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both and beyond the largest step elsewhere, as for `inner-drag` |
 
@@ -59,6 +59,11 @@ pub struct Signature {
     /// the rover as a slip would): what this term fits there is that effect's doing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hidden_by: Option<EffectId>,
+    /// The effect whose own mark must first be looked for and found missing before this mark,
+    /// there in size, can be read as this effect's: it makes the same mark (a warming winding
+    /// raises power through every manoeuvre as sinking wheels do). Its drives tell them apart.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub told_apart_by: Option<EffectId>,
 }
 
 /// A signature's statistical test.
@@ -153,6 +158,7 @@ impl Signature {
             detail: why.into(),
             masked: false,
             hidden_by: None,
+            told_apart_by: None,
         }
     }
 
@@ -172,6 +178,7 @@ impl Signature {
             detail,
             masked: false,
             hidden_by: None,
+            told_apart_by: None,
         }
     }
 }
@@ -247,6 +254,15 @@ pub fn test_all(ev: &Evidence<'_>) -> Vec<Signature> {
                 see a slip";
     // Angular slip's rise towards R′ is also what a slip track's yaw must not show.
     let angular = angular_slip(ev);
+    // A warming winding, or a grade changing under the rover, makes a manoeuvre's power rise
+    // through it too: until repeats have ruled the winding out, a rise through every
+    // manoeuvre is not sinkage's alone.
+    let heating = motor_heating(ev);
+    let rising_otherwise = if slope.present() {
+        Some(EffectId::Slope)
+    } else {
+        (!heating.absent()).then_some(EffectId::MotorHeating)
+    };
     EffectId::ALL
         .map(|e| match e {
             EffectId::CurrentOffset => current_offset(ev),
@@ -259,8 +275,8 @@ pub fn test_all(ev: &Evidence<'_>) -> Vec<Signature> {
             EffectId::AngularSlip => angular.clone(),
             EffectId::SlipTrack => slip_track(ev, angular.present()),
             EffectId::Slope => slope.clone(),
-            EffectId::MotorHeating => motor_heating(ev),
-            EffectId::SinkageBulldozing => sinkage(ev),
+            EffectId::MotorHeating => heating.clone(),
+            EffectId::SinkageBulldozing => sinkage(ev, rising_otherwise),
             EffectId::InnerDrag => inner_drag(ev),
             EffectId::BrakedInner => braked_inner(ev),
         })
@@ -735,11 +751,15 @@ fn both_growths(row: &TurnRow) -> Option<[f64; 2]> {
 /// manoeuvre on **each** side by at least [`PRACTICAL_FLOOR_W`], read two ways: the turns below
 /// R′ beyond the straights and wide turns (runs and calibration; slip sinks them deeper), by
 /// Welch t per side; or, where the sand yields on the straights as much (a heavy rover), the
-/// turns below R′ and the straights beyond no growth at all, by one-sample t per side. The
-/// weaker side's test, its p doubled, of the stronger reading, its p doubled again. A drag of
-/// the inner side alone (which also grows) does not pass on the outer side; an acceleration
+/// turns below R′ and the straights beyond no growth at all, by one-sample t per side, unless
+/// `rising_otherwise` raises a manoeuvre's power through it as well: a warmer winding (motor
+/// heating's mark not yet looked for and missing; it does not start over at the next manoeuvre
+/// as sinkage does: heating's drives tell them apart, so such a rise in size leaves the mark
+/// inconclusive, not missing) or a grade changing under the rover (the slope's mark). The weaker
+/// side's test, its p doubled, of the stronger reading, its p doubled again. A drag of the
+/// inner side alone (which also grows) does not pass on the outer side; an acceleration
 /// transient makes power fall through the manoeuvre, not rise.
-fn sinkage(ev: &Evidence<'_>) -> Signature {
+fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<EffectId>) -> Signature {
     let e = EffectId::SinkageBulldozing;
     let tight: Vec<[f64; 2]> = ev
         .rows
@@ -783,11 +803,16 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
         return Signature::unobservable(e, "growth without spread");
     };
     let turns = weaker(inner, outer);
-    let everywhere = match (beyond_none(0), beyond_none(1)) {
+    let sized = |r: &(f64, f64, f64, f64)| r.0 >= PRACTICAL_FLOOR_W;
+    let all_grow = match (beyond_none(0), beyond_none(1)) {
         (Some(i), Some(o)) => Some((weaker(i, o), i.0, o.0)),
         _ => None,
     };
-    let sized = |r: &(f64, f64, f64, f64)| r.0 >= PRACTICAL_FLOOR_W;
+    let everywhere = all_grow.filter(|_| rising_otherwise.is_none());
+    // A rise through every manoeuvre that the other effect's drives can still tell apart.
+    let told_apart_by = rising_otherwise
+        .filter(|&other| other == EffectId::MotorHeating)
+        .filter(|_| all_grow.is_some_and(|(all, _, _)| sized(&all)));
     let turns_detail = format!(
         "turns below R′ grow {:+.1} W on the inner side and {:+.1} W on the outer side \
          through the turn beyond {} straight(s) and wide turn(s)",
@@ -806,7 +831,23 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
                 driven.len()
             ),
         ),
-        _ => (turns, "Welch t", turns_detail),
+        _ => match all_grow {
+            Some((all, i, o)) if rising_otherwise.is_some() && sized(&all) => (
+                turns,
+                "Welch t",
+                format!(
+                    "{turns_detail}; the tight turns and straights grow {i:+.1} W and {o:+.1} W \
+                     through the manoeuvre, {}",
+                    if told_apart_by.is_some() {
+                        "as a warming winding would too (drive a manoeuvre again and again in \
+                         one run to tell)"
+                    } else {
+                        "as the slope's changing grade does too"
+                    }
+                ),
+            ),
+            _ => (turns, "Welch t", turns_detail),
+        },
     };
     let readings = if everywhere.is_some() { 2.0 } else { 1.0 };
     let test = SignatureTest {
@@ -815,9 +856,12 @@ fn sinkage(ev: &Evidence<'_>) -> Signature {
         df: chosen.2,
         p: (readings * chosen.3).min(1.0),
         present: readings * chosen.3 < ALPHA && sized(&chosen),
-        sized: sized(&chosen),
+        sized: sized(&chosen) || told_apart_by.is_some(),
     };
-    Signature::tested(e, test, detail)
+    Signature {
+        told_apart_by,
+        ..Signature::tested(e, test, detail)
+    }
 }
 
 /// The residual of the `role` side of each of `rows` matching `keep` [W].
