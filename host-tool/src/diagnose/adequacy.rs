@@ -16,8 +16,8 @@
 //! (the same tolerance the gaps use). The groups beyond their own floor are what the report
 //! names.
 
-use super::cv::{PRACTICAL_FLOOR_W, RELATIVE_FLOOR};
 use super::features::{Observed, SideRole, TurnRow};
+use super::stats::{PRACTICAL_FLOOR_W, RELATIVE_FLOOR};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -368,7 +368,7 @@ fn suggestions(a: &Adequacy, rows: &[&TurnRow]) -> Vec<String> {
     }
     // A constant angular slip on the calibration turns (thesis Fig 6.7 on hard ground).
     let slips: Vec<f64> = rows.iter().filter_map(|r| r.angular_slip).collect();
-    if let Some((mean, lo, hi)) = super::cv::t_interval(&slips) {
+    if let Some((mean, lo, hi)) = super::stats::t_interval(&slips) {
         if lo > 0.0 && mean > 0.02 {
             out.push(format!(
                 "calibration turns take {:.0} % longer than commanded (95 % CI {:.0}–{:.0} %): a \

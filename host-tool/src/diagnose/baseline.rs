@@ -297,7 +297,7 @@ fn solve(
     // The seed's 95 % intervals, with the quantiles the diagnosis keeps (it fits thousands of
     // baselines per dataset; each inversion is iterative).
     let solved = fit.solve_with_t(model_core::fit::SEED_CONFIDENCE, |dof| {
-        Ok(super::cv::t_quantile_975(dof))
+        Ok(super::stats::t_quantile_975(dof))
     })?;
     let mut estimates = [(0.0, 0.0); 4];
     for (k, &j) in columns.iter().enumerate() {

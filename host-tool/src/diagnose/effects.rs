@@ -1,153 +1,39 @@
-//! The catalogue of unmodelled effects: each a term added to the hard-ground baseline with a
-//! physical shape, linear in its parameters, so that fitting it to the training rows' residuals
-//! is ordinary least squares (`model_core::fit::LinearFit`, no intercept). The ids are the
-//! simulator's [`EffectId`]s, but the shapes here are the seed's, not the simulator's code: the
-//! diagnosis must work on data from any generator.
+//! Catalogue terms fitted to the hard-ground baseline's residuals. Each effect's term (its own
+//! file in [`catalogue`](super::catalogue)) is extra **effective** power per side, ΔP_side [W]
+//! (see [`features`]), with a physical shape linear in its parameters, so that fitting it is
+//! ordinary least squares (`model_core::fit::LinearFit`, no intercept). The shapes are the
+//! thesis', not the simulator's code: the diagnosis must work on data from any generator.
 //!
-//! Every term is extra **effective** power per side, ΔP_side [W] (see [`features`]). Terms are
-//! fitted jointly ([`FittedModel::fit`]); power-type terms through their projection off the
-//! baseline's calibration fit ([`is_power_type`]). `inner-drag` and `sinkage-bulldozing` also
-//! predict the growth of power through the turn ([`has_growth`]).
-//!
-//! | id | seed | regressors per side |
-//! |---|---|---|
-//! | `inner-drag` | Section 5.2, Fig 5.6–5.7 | inner: q·\|V_i\| with q = \|V_i\|·v_iy/v_c², v_iy = ω(R − B/2), for B/2 < R < R' |
-//! | `sinkage-bulldozing` | Eq 5.15–5.39 | \|V_side\|·\|ω_cmd\|·(L/2)/v_c · (1, T/T_ref) (sinkage grows with lateral slip and time) |
-//! | `angular-slip` | Eq 6.3, Fig 6.7 | P_side·(1 − ρ, ρ) for ρ = R/R' ≤ 1, P_side·(0, 1/ρ) above; 0 on straights |
-//! | `slip-track` | Eq 2.2, Table D.1 | P_side on turns (ω scales by B_s,ctrl/B_s,terrain everywhere) |
-//! | `braked-inner` | Section 6.2, Fig 6.10–6.11 | at R = R' only: outer \|V_o\| |
-//! | `current-offset` | Section 3.2, Fig 3.3 | V_bus (an offset current on every manoeuvre and side) |
-//! | `motor-heating` | Section 1.1.3 | mean of I²·x_τ over the manoeuvre, x_τ the measured I² low-passed with τ from a grid (copper loss × a first-order winding temperature rise, [`winding_heat`](super::winding_heat)); without samples (P_side/V_bus)⁴·(1 − e^(−t/τ)) at mid-manoeuvre, a constant current since the run's start |
-//! | `slope` | Eq 1.16, 2.12 | m g sin θ · v_c · \|V_side\|/(\|V_l\| + \|V_r\|) |
+//! Terms are fitted jointly ([`FittedModel::fit`]); power-type terms through their projection
+//! off the baseline's calibration fit ([`is_power_type`]); a term that grows through the turn
+//! also predicts that growth ([`growth_regressor`]).
 //!
 //! [`features`]: super::features
 
-use super::baseline::{self, Baseline};
-use super::features::{SideRole, TurnRow};
+use super::baseline::Baseline;
+use super::catalogue;
+pub use super::effect::{Context, MAX_PARAMS};
+use super::features::TurnRow;
 use super::observe;
+pub use super::winding_heat::HEATING_TAU_GRID_S;
 use crate::effect_id::EffectId;
 use model_core::fit::{LinearFit, RankTest};
-use model_core::power::GRAVITY_M_S2;
 use model_core::Rover;
 use serde::Serialize;
 
-/// Most parameters any effect has.
-pub const MAX_PARAMS: usize = 2;
-
-/// Reference turn time of the sinkage term's growth [s] (a 90° point turn at 0.3 m/s on the
-/// Husky).
-pub const SINKAGE_REF_TIME_S: f64 = 3.0;
-
-/// What an effect's regressors need besides the row.
-#[derive(Debug, Clone, Copy)]
-pub struct Context<'a> {
-    /// The rover (B, L, m, R').
-    pub rover: &'a Rover,
-    /// The fitted baseline (for P_side of the multiplicative terms).
-    pub baseline: &'a Baseline,
-    /// τ of the `motor-heating` term [s] (one of [`HEATING_TAU_GRID_S`]).
-    pub heating_tau_s: f64,
-}
-
-/// The winding's first-order temperature rise at run time `t_s` as a fraction of its final
-/// value, 1 − e^(−t/τ) (a constant mean copper loss heating a first-order thermal mass).
-pub fn heating_rise(t_s: f64, tau_s: f64) -> f64 {
-    if tau_s > 0.0 {
-        1.0 - (-t_s.max(0.0) / tau_s).exp()
-    } else {
-        1.0
-    }
-}
-
-/// The thermal time constants the `motor-heating` term is tried with [s] (small gearmotors:
-/// minutes to tens of minutes); the choice counts as one fitted parameter.
-pub const HEATING_TAU_GRID_S: [f64; 6] = [60.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
-
 /// Parameter count of `effect`'s term.
-pub const fn param_count(effect: EffectId) -> usize {
-    match effect {
-        EffectId::AngularSlip | EffectId::SinkageBulldozing => 2,
-        EffectId::InnerDrag
-        | EffectId::SlipTrack
-        | EffectId::BrakedInner
-        | EffectId::CurrentOffset
-        | EffectId::MotorHeating
-        | EffectId::Slope => 1,
-    }
+pub fn param_count(effect: EffectId) -> usize {
+    catalogue::of(effect).param_count()
 }
 
 /// Whether `effect` changes the **average** power (a power-type term), as opposed to the
-/// time-type terms (`angular-slip`, `slip-track`) that only lengthen the turn. The baseline is
-/// fitted on the calibration rows' average power, so a power-type term acting on calibration
-/// rows (point turns, straights, wide turns) is partly absorbed into a and G: it appears in the
-/// residuals as its regressor minus that regressor's projection on the baseline's features over
-/// the calibration rows (Frisch–Waugh–Lovell), which [`FittedModel::fit`] uses.
-pub const fn is_power_type(effect: EffectId) -> bool {
-    match effect {
-        EffectId::AngularSlip | EffectId::SlipTrack => false,
-        EffectId::InnerDrag
-        | EffectId::SinkageBulldozing
-        | EffectId::BrakedInner
-        | EffectId::CurrentOffset
-        | EffectId::MotorHeating
-        | EffectId::Slope => true,
-    }
-}
-
-/// Parameters a candidate fits on its own: its term's, the growth coefficient where
-/// [`has_growth`], τ for `motor-heating`.
-pub fn fitted_params(effect: EffectId) -> usize {
-    model_params(&[effect])
-}
-
-/// Parameters of a model of several effects fitted jointly (see [`FittedModel::fit`]).
-pub fn model_params(effects: &[EffectId]) -> usize {
-    effects
-        .iter()
-        .map(|&e| {
-            param_count(e) + usize::from(has_growth(e)) + usize::from(e == EffectId::MotorHeating)
-        })
-        .sum()
-}
-
-/// Whether `effect` acts in some regimes only, so its gap may sit in a few of them. A warmer
-/// winding and a sensor offset act on every manoeuvre: a gap confined to a few regimes is not
-/// theirs, and they are judged on all rows.
-pub const fn confined_to_regimes(effect: EffectId) -> bool {
-    match effect {
-        EffectId::MotorHeating | EffectId::CurrentOffset => false,
-        EffectId::InnerDrag
-        | EffectId::SinkageBulldozing
-        | EffectId::AngularSlip
-        | EffectId::SlipTrack
-        | EffectId::BrakedInner
-        | EffectId::Slope => true,
-    }
-}
-
-/// Whether `effect` makes power rise through a turn (the seed's growing sand piles: the inner
-/// wheels' excavated pile, Fig 5.7b, and the sinkage of both sides, Fig 5.11 and 5.19), and so
-/// also predicts the growth target (second minus first half of the turn's average power).
-pub const fn has_growth(effect: EffectId) -> bool {
-    match effect {
-        EffectId::InnerDrag | EffectId::SinkageBulldozing => true,
-        EffectId::AngularSlip
-        | EffectId::SlipTrack
-        | EffectId::BrakedInner
-        | EffectId::CurrentOffset
-        | EffectId::MotorHeating
-        | EffectId::Slope => false,
-    }
-}
-
-/// The growth regressor of `effect` for side `side` of `row`: the shape of its power rise
-/// through the turn (0 when the effect does not grow or `row` has no phases).
-pub fn growth_regressor(effect: EffectId, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
-    if !has_growth(effect) {
-        return 0.0;
-    }
-    // Both growing terms rise with the shape of their base power.
-    regressors(effect, row, side, ctx).map_or(0.0, |x| x[0])
+/// time-type terms that only lengthen the turn. The baseline is fitted on the calibration rows'
+/// average power, so a power-type term acting on calibration rows (point turns, straights, wide
+/// turns) is partly absorbed into a and G: it appears in the residuals as its regressor minus
+/// that regressor's projection on the baseline's features over the calibration rows
+/// (Frisch–Waugh–Lovell), which [`FittedModel::fit`] uses.
+pub fn is_power_type(effect: EffectId) -> bool {
+    catalogue::of(effect).power_type()
 }
 
 /// The regressors of `effect` for side `side` of `row` (unused slots are 0); `None` when the
@@ -158,88 +44,34 @@ pub fn regressors(
     side: usize,
     ctx: &Context<'_>,
 ) -> Option<[f64; MAX_PARAMS]> {
-    let s = &row.sides[side];
-    let v = s.cmd_mps.abs();
-    let r_prime = f64::from(ctx.rover.r_prime_m());
-    let half_track = f64::from(ctx.rover.track_width_m) / 2.0;
-    let turn = !row.is_straight();
-    let x = match effect {
-        EffectId::InnerDrag => {
-            let r = row.radius_cmd_m;
-            if turn
-                && s.role == SideRole::Inner
-                && r > half_track
-                && r < r_prime
-                && row.v_c_mps > 0.0
-            {
-                let v_iy = row.yaw_rate_cmd_rad_s * (r - half_track);
-                let q = v * v_iy / (row.v_c_mps * row.v_c_mps);
-                [q * v, 0.0]
-            } else {
-                [0.0, 0.0]
-            }
-        }
-        EffectId::SinkageBulldozing => {
-            if turn && row.v_c_mps > 0.0 {
-                let lateral = row.yaw_rate_cmd_rad_s * f64::from(ctx.rover.length_m) / 2.0;
-                let base = v * lateral / row.v_c_mps;
-                [base, base * row.expected_duration_s / SINKAGE_REF_TIME_S]
-            } else {
-                [0.0, 0.0]
-            }
-        }
-        EffectId::AngularSlip => {
-            if turn {
-                let p = ctx.baseline.side_power_w(row, side);
-                let rho = row.r_over_r_prime;
-                if rho <= 1.0 {
-                    [p * (1.0 - rho), p * rho]
-                } else {
-                    [0.0, p / rho]
-                }
-            } else {
-                [0.0, 0.0]
-            }
-        }
-        EffectId::SlipTrack => {
-            if turn {
-                [ctx.baseline.side_power_w(row, side), 0.0]
-            } else {
-                [0.0, 0.0]
-            }
-        }
-        EffectId::BrakedInner => {
-            let at_r_prime = row.regime == model_core::kinematics::Regime::AtRPrime;
-            if at_r_prime && s.role == SideRole::Outer {
-                [v, 0.0]
-            } else {
-                [0.0, 0.0]
-            }
-        }
-        EffectId::CurrentOffset => [row.bus_v, 0.0],
-        EffectId::MotorHeating => {
-            let tau = HEATING_TAU_GRID_S
-                .iter()
-                .position(|&t| t == ctx.heating_tau_s);
-            if let (Some(h), Some(k)) = (row.copper_heat_a4, tau) {
-                [h[k][side], 0.0]
-            } else if row.bus_v > 0.0 {
-                // No samples (a per-turn table, the model file's rows): as if the model's
-                // current had flowed since the run's start, x_τ = I²(1 − e^(−t/τ)).
-                let i = ctx.baseline.side_power_w(row, side) / row.bus_v;
-                let t_mid_s = row.t_start_s + 0.5 * row.duration_s;
-                [i.powi(4) * heating_rise(t_mid_s, ctx.heating_tau_s), 0.0]
-            } else {
-                [0.0, 0.0]
-            }
-        }
-        EffectId::Slope => {
-            row.pitch_deg?;
-            let mg = f64::from(ctx.rover.mass_kg) * GRAVITY_M_S2;
-            [mg * baseline::grade_feature_mps(row, side), 0.0]
-        }
-    };
-    Some(x)
+    catalogue::of(effect).regressors(row, side, ctx)
+}
+
+/// Parameters a candidate fits on its own: its term's, the growth coefficient where it grows,
+/// τ where it fits one.
+pub fn fitted_params(effect: EffectId) -> usize {
+    model_params(&[effect])
+}
+
+/// Parameters of a model of several effects fitted jointly (see [`FittedModel::fit`]).
+pub fn model_params(effects: &[EffectId]) -> usize {
+    effects
+        .iter()
+        .map(|&e| {
+            let e = catalogue::of(e);
+            e.param_count() + usize::from(e.grows()) + usize::from(e.fits_tau())
+        })
+        .sum()
+}
+
+/// The growth regressor of `effect` for side `side` of `row`: the shape of its power rise
+/// through the turn (0 when the effect does not grow or `row` has no phases).
+pub fn growth_regressor(effect: EffectId, row: &TurnRow, side: usize, ctx: &Context<'_>) -> f64 {
+    if !catalogue::of(effect).grows() {
+        return 0.0;
+    }
+    // Both growing terms rise with the shape of their base power.
+    regressors(effect, row, side, ctx).map_or(0.0, |x| x[0])
 }
 
 /// The baseline's features of side `side` of `row`, the columns a power-type term is projected
@@ -282,7 +114,7 @@ pub struct FittedEffect {
     pub effect: EffectId,
     /// Its coefficients (the first [`param_count`] are used).
     pub params: [f64; MAX_PARAMS],
-    /// Coefficient of its growth regressor (0 unless [`has_growth`]).
+    /// Coefficient of its growth regressor (0 unless it grows).
     pub growth: f64,
 }
 
@@ -396,7 +228,7 @@ impl FittedModel {
         if effects.is_empty() {
             return Ok(FittedModel::empty());
         }
-        let taus: &[f64] = if effects.contains(&EffectId::MotorHeating) {
+        let taus: &[f64] = if effects.iter().any(|&e| catalogue::of(e).fits_tau()) {
             &HEATING_TAU_GRID_S
         } else {
             &HEATING_TAU_GRID_S[..1]
@@ -490,7 +322,7 @@ impl FittedModel {
         }
         let (_, mut model) = best.ok_or_else(|| fail("regressors are zero or collinear"))?;
         let growing: Vec<usize> = (0..effects.len())
-            .filter(|&k| has_growth(effects[k]))
+            .filter(|&k| catalogue::of(effects[k]).grows())
             .collect();
         if !growing.is_empty() {
             let mut design = Vec::new();

@@ -131,8 +131,9 @@ pub fn residuals_vs_radius(
                 res.iter()
                     .filter_map(|r| {
                         let row = rows.get(r.row)?;
-                        (!row.is_straight())
-                            .then(|| (row.r_over_r_prime + dx, r.effective_w[side_of(row, role)]))
+                        // A total-only row (a per-turn table) has no side to draw.
+                        let w = *r.effective_w.get(side_of(row, role))?;
+                        (!row.is_straight()).then_some((row.r_over_r_prime + dx, w))
                     })
                     .collect::<Vec<_>>()
             };

@@ -1,7 +1,7 @@
 //! Where the model departs: residuals of every manoeuvre and side against the baseline
 //! (hard-ground Eq 21 fitted on the calibration manoeuvres), for four metrics, grouped by
 //! regime, side, phase of the turn and run time, each group with a 95 % bootstrap interval over
-//! the repeats ([`cv::bootstrap_mean`], resampling whole runs).
+//! the repeats ([`stats::bootstrap_mean`], resampling whole runs).
 //!
 //! | metric | measured | model prediction | unit |
 //! |---|---|---|---|
@@ -24,8 +24,8 @@
 //!   time. The slope needs each group to recur at different times (long runs with repeats);
 //!   otherwise it is reported as not identifiable.
 //! - **Significant**: the interval excludes 0 and the mean exceeds the practical floor
-//!   ([`cv::PRACTICAL_FLOOR_W`]; for the effective-power gaps the selection uses, the larger of
-//!   that and [`cv::RELATIVE_FLOOR`] of the group's mean |model power| ([`practical_floor_w`]);
+//!   ([`stats::PRACTICAL_FLOOR_W`]; for the effective-power gaps the selection uses, the larger of
+//!   that and [`stats::RELATIVE_FLOOR`] of the group's mean |model power| ([`practical_floor_w`]);
 //!   for energy, that power over the group's mean expected duration;
 //!   for the trend, that power as the change over the median run length).
 //!

@@ -215,7 +215,7 @@ pub fn tests(
             } else {
                 f64::INFINITY.copysign(residual_w)
             };
-            let half = super::cv::t_quantile_975(df) * se_w;
+            let half = super::stats::t_quantile_975(df) * se_w;
             let p = t_two_sided_p(t, df);
             out.push(LooTest {
                 row: i,
@@ -299,7 +299,7 @@ mod tests {
         }
         // The 97.5 % quantiles give p = 0.05.
         for df in [1, 3, 10, 30, 120] {
-            let q = super::super::cv::t_quantile_975(df);
+            let q = super::super::stats::t_quantile_975(df);
             assert!((t_two_sided_p(q, df) - 0.05).abs() < 5e-4, "{df}");
         }
         assert_eq!(t_two_sided_p(0.0, 5), 1.0);

@@ -15,8 +15,10 @@ pub mod adequacy;
 pub mod baseline;
 pub mod bench;
 pub mod calibration;
+pub mod catalogue;
 pub mod copper_from_runs;
 pub mod cv;
+pub mod effect;
 pub mod effects;
 pub mod features;
 pub mod figures;
@@ -30,6 +32,7 @@ pub mod path_table;
 pub mod report;
 mod select;
 pub mod signature;
+pub mod stats;
 pub mod summary;
 pub mod verdict;
 pub mod winding_heat;
@@ -42,7 +45,8 @@ use adequacy::Adequacy;
 use baseline::{Baseline, BaselineError};
 use calibration::{Calibration, CalibrationNote};
 use cv::{CandidateScore, Scheme};
-use effects::{Context, EffectFitError, FittedModel, HEATING_TAU_GRID_S};
+use effect::{Context, ScoredWhen};
+use effects::{EffectFitError, FittedModel, HEATING_TAU_GRID_S};
 use features::TurnRow;
 pub use gaps::{Gap, Part, WhereAnalysis};
 use model_core::kinematics::Regime;
@@ -276,7 +280,7 @@ pub(crate) fn diagnose_against(
     let gaps = gaps::effective_gaps(&baseline, rows, &verdicts);
     let mut where_ = gaps::analyse(&baseline, rows, &verdicts);
     let significant_gaps = SignificantGaps::of(&gaps);
-    let signatures = signature::test_all(&signature::Evidence::new(
+    let signatures = catalogue::test_marks(&signature::Evidence::new(
         rows,
         calibration,
         &baseline,
@@ -380,8 +384,8 @@ pub(crate) fn diagnose_against(
     };
     let effect = verdict;
     let named = effect.effect();
-    if named == Some(EffectId::SinkageBulldozing) {
-        notes.extend(sinkage_deficit_note(rover, rows, calibration));
+    if let Some(named) = named {
+        notes.extend(deficit_note(rover, rows, named, calibration));
     }
     let added = named.or(candidates.first().map(|c| c.effect));
     let heldout = match added {
@@ -423,26 +427,22 @@ pub(crate) fn diagnose_against(
     })
 }
 
-/// When the named `sinkage-bulldozing` term takes power from the turns (the sign rule of
-/// [`select::physically_signed`] lets it), the report says so: sinkage then shows as turns
-/// drawing less than the straights' resistance implies, not as an extra draw. No note when the
-/// term cannot be refitted alone (the verdict stands; only its wording is at stake).
-fn sinkage_deficit_note(
+/// When the named term takes power from the turns (its sign rule lets it, as
+/// [`select::physically_signed`] says), the report says so with the effect's own words
+/// ([`Effect::deficit_words`](effect::Effect::deficit_words)). No note when the term cannot be
+/// refitted alone (the verdict stands; only its wording is at stake).
+fn deficit_note(
     rover: &Rover,
     rows: &[TurnRow],
+    named: EffectId,
     calibration: Calibration<'_>,
 ) -> Option<String> {
-    let own = select::own_power_per_side_w(rover, rows, EffectId::SinkageBulldozing, calibration)
+    let words = catalogue::of(named).deficit_words()?;
+    let own = select::own_power_per_side_w(rover, rows, named, calibration)
         .ok()
         .flatten();
-    own.filter(|w| *w < 0.0).map(|w| {
-        format!(
-            "sinkage-bulldozing is a deficit here ({w:+.1} W per diagnosed side): G·|V| takes \
-             the sand's resistance on every manoeuvre, straights included, and beyond it the \
-             turns draw less, as when a turn's side compaction keeps the wheels' sinkage below \
-             a straight's (the thesis' 2D slip-sinkage model, Eq 5.27)"
-        )
-    })
+    own.filter(|w| *w < 0.0)
+        .map(|w| format!("{named} is a deficit here ({w:+.1} W per diagnosed side): {words}"))
 }
 
 /// What the significant mean gaps say: whether there is one, their regimes (in gap order,
@@ -487,26 +487,33 @@ fn schemes(rows: &[TurnRow]) -> (Scheme, Scheme) {
 
 /// Which catalogue effects the data can tell apart, and notes on those it cannot.
 struct Admission {
-    heating_identifiable: bool,
-    offset_seen: bool,
+    run_time_identifiable: bool,
+    standstill_current_seen: bool,
 }
 
 impl Admission {
     fn of(rows: &[TurnRow], where_: &WhereAnalysis) -> (Self, Vec<String>) {
-        // Motor heating acts through run time; when every run drives the same manoeuvres in the
-        // same order, run time is confounded with the turn set and a heating term would fit turn
+        let not_scored = |when: ScoredWhen| {
+            catalogue::all()
+                .into_iter()
+                .filter(move |e| e.scored_when() == when)
+                .map(|e| e.id())
+        };
+        // A term acting through run time: when every run drives the same manoeuvres in the
+        // same order, run time is confounded with the turn set and the term would fit turn
         // shapes instead. It is only a candidate when the "where" analysis can identify a
         // run-time trend (the same kind of manoeuvre recurring at run times spread apart).
         let mut notes = Vec::new();
-        let heating_identifiable = where_.run_time.trend.is_some();
-        if !heating_identifiable {
-            notes.push(
-                "motor-heating not scored: run time is not identifiable apart from the turn \
-                 order (repeat manoeuvres within longer runs to test it)"
-                    .to_owned(),
-            );
+        let run_time_identifiable = where_.run_time.trend.is_some();
+        if !run_time_identifiable {
+            notes.extend(not_scored(ScoredWhen::RunTimeApartFromTurnOrder).map(|e| {
+                format!(
+                    "{e} not scored: run time is not identifiable apart from the turn order \
+                     (repeat manoeuvres within longer runs to test it)"
+                )
+            }));
         }
-        // A sensor's current offset reads at standstill too (seed Fig 3.3: 0.59 A at rest):
+        // A sensor's current offset reads at standstill too (thesis Fig 3.3: 0.59 A at rest):
         // when the runs have standstill samples and every side reads no more than a driver's
         // quiescent draw there, a constant extra power in the turns is something else (copper
         // loss, say).
@@ -514,31 +521,29 @@ impl Admission {
         let offset_measured = offset_measured_at_standstill(rows);
         // Without standstill samples (a per-turn summary, runs without pauses) an offset
         // cannot be ruled out.
-        let offset_seen = offset_measured || rows.iter().all(|r| r.standstill_current_a.is_none());
-        if !offset_seen {
-            notes.push(format!(
-                "current-offset not scored: the standstill current is within ±{} A on both sides \
-                 (a sensor offset would read there too)",
-                baseline::QUIESCENT_MAX_A
-            ));
+        let standstill_current_seen =
+            offset_measured || rows.iter().all(|r| r.standstill_current_a.is_none());
+        if !standstill_current_seen {
+            notes.extend(not_scored(ScoredWhen::StandstillCurrentSeen).map(|e| {
+                format!(
+                    "{e} not scored: the standstill current is within ±{} A on both sides \
+                     (a sensor offset would read there too)",
+                    baseline::QUIESCENT_MAX_A
+                )
+            }));
         }
         let admission = Self {
-            heating_identifiable,
-            offset_seen,
+            run_time_identifiable,
+            standstill_current_seen,
         };
         (admission, notes)
     }
 
     fn allows(&self, e: EffectId) -> bool {
-        match e {
-            EffectId::MotorHeating => self.heating_identifiable,
-            EffectId::CurrentOffset => self.offset_seen,
-            EffectId::InnerDrag
-            | EffectId::SinkageBulldozing
-            | EffectId::AngularSlip
-            | EffectId::SlipTrack
-            | EffectId::BrakedInner
-            | EffectId::Slope => true,
+        match catalogue::of(e).scored_when() {
+            ScoredWhen::Always => true,
+            ScoredWhen::RunTimeApartFromTurnOrder => self.run_time_identifiable,
+            ScoredWhen::StandstillCurrentSeen => self.standstill_current_seen,
         }
     }
 }
@@ -655,7 +660,7 @@ fn calibration_adequacy(
 }
 
 /// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
-/// baseline corrections) has an RMS per side of at least [`cv::PRACTICAL_FLOOR_W`] in some
+/// baseline corrections) has an RMS per side of at least [`stats::PRACTICAL_FLOOR_W`] in some
 /// regime and at least half of that floor on the straights (not for `slip-track`: a straight
 /// has no yaw to scale) and in every other regime present but at most one (a slope term is
 /// small on point turns, where v_y = 0 and only the sides' opposite climbs remain). Then
@@ -688,14 +693,14 @@ fn acts_in_every_regime(
         })
         .collect();
     let largest = rms.iter().map(|(_, r)| *r).fold(0.0, f64::max);
-    let acts = |r: f64| r >= 0.5 * cv::PRACTICAL_FLOOR_W;
+    let acts = |r: f64| r >= 0.5 * stats::PRACTICAL_FLOOR_W;
     let missing = rms.iter().filter(|(_, r)| !acts(*r)).count();
-    // A slip track scales every turn alike and a straight has no yaw to scale.
-    let on_straights = effect == EffectId::SlipTrack
+    // A term that scales every turn alike acts where the turns are: a straight has no yaw.
+    let on_straights = catalogue::of(effect).scales_every_turn()
         || rms
             .iter()
             .any(|(regime, r)| *regime == Regime::Straight && acts(*r));
-    Ok(largest >= cv::PRACTICAL_FLOOR_W && on_straights && missing <= 1 && rms.len() >= 3)
+    Ok(largest >= stats::PRACTICAL_FLOOR_W && on_straights && missing <= 1 && rms.len() >= 3)
 }
 
 /// The baseline as `calibration` says and `effects` fitted jointly on all rows (plus the

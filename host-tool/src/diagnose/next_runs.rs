@@ -23,16 +23,22 @@
 //!
 //! A name needs its mark (issue 35), so a rival is in play only while it could be named: its
 //! mark present, or not observable yet on these runs. Before any power separation, each rival
-//! of the second kind gets the manoeuvres its signature test reads ([`to_see_the_mark_of`]).
+//! of the second kind gets the manoeuvres its signature test reads
+//! ([`Effect::drives_to_show_mark`](super::effect::Effect::drives_to_show_mark)).
 
 use super::baseline::{self, Baseline};
 use super::calibration::Calibration;
-use super::cv::{CLEAR_MARGIN, PRACTICAL_FLOOR_W};
-use super::effects::{self, Context, FittedModel, HEATING_TAU_GRID_S};
+use super::catalogue;
+use super::cv::CLEAR_MARGIN;
+use super::effect::{Context, MarkDrive};
+pub use super::effect::{When, MIN_LATE_REPEATS};
+use super::effects::{self, FittedModel, HEATING_TAU_GRID_S};
 use super::features::{Observed, TurnRow};
 use super::gaps::MIN_TREND_SPREAD_S;
 use super::model_file::{synthetic_row, Conditions};
 use super::observe;
+use super::stats::upper_median;
+use super::stats::PRACTICAL_FLOOR_W;
 use super::verdict::Verdict;
 use super::Diagnosis;
 use crate::effect_id::EffectId;
@@ -49,8 +55,6 @@ pub const TARGET_SIGMA: f64 = 3.0;
 pub const MAX_MANOEUVRES: u32 = 10;
 /// Most repeats of one suggested manoeuvre.
 pub const MAX_REPEATS: u32 = 5;
-/// Fewest repeats in a row that show a trend over run time.
-pub const MIN_LATE_REPEATS: u32 = 3;
 /// Most ranked candidates an open verdict keeps in play.
 pub const MAX_CANDIDATES_IN_PLAY: usize = 3;
 /// The radii suggestions are drawn from, R/R′ (the thesis' turn set, 0.8 R′ and 3 R′).
@@ -92,16 +96,6 @@ impl Serialize for Rival {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         serializer.serialize_str(self.label())
     }
-}
-
-/// Where in a run a manoeuvre is driven.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum When {
-    /// Anywhere.
-    Any,
-    /// Repeated in a row within one run, so that the later repeats meet a warm winding.
-    Late,
 }
 
 /// One suggested manoeuvre.
@@ -840,7 +834,7 @@ fn drivable(s: &Setting<'_>, rows: &[TurnRow], late: bool) -> Vec<Drivable> {
     } else {
         Side::Left
     };
-    let straight_m = median(
+    let straight_m = upper_median(
         rows.iter()
             .filter(|r| r.is_straight())
             .map(|r| r.v_c_mps * r.duration_s)
@@ -848,7 +842,8 @@ fn drivable(s: &Setting<'_>, rows: &[TurnRow], late: bool) -> Vec<Drivable> {
             .collect(),
     )
     .map_or(DEFAULT_STRAIGHT_M, |d| (d * 10.0).round() / 10.0);
-    let bus_v = median(rows.iter().map(|r| r.bus_v).filter(|v| *v > 0.0).collect()).unwrap_or(0.0);
+    let bus_v =
+        upper_median(rows.iter().map(|r| r.bus_v).filter(|v| *v > 0.0).collect()).unwrap_or(0.0);
     let r_prime = f64::from(s.rover.r_prime_m());
     let whens: &[When] = if late {
         &[When::Any, When::Late]
@@ -906,41 +901,17 @@ fn drivable(s: &Setting<'_>, rows: &[TurnRow], late: bool) -> Vec<Drivable> {
     out
 }
 
-/// The manoeuvres `e`'s signature test reads (`signature.rs`), as (R/R′ or `None` for a
-/// straight, turn angle, when, repeats), driven at the runs' highest v_c: what lets the test
-/// see the mark when the runs given cannot. A slope's mark is the terrain's, not a manoeuvre's.
-fn to_see_the_mark_of(e: EffectId) -> Vec<(Option<f64>, f64, When, u32)> {
-    let turn = |x: f64, deg: f64, n: u32| (Some(x), deg, When::Any, n);
-    match e {
-        // The same manoeuvre drawing more later in a run: one driven again and again, in a row.
-        EffectId::MotorHeating => vec![(Some(0.0), 180.0, When::Late, MIN_LATE_REPEATS)],
-        // Power rising through turns below R′: long turns there.
-        EffectId::SinkageBulldozing => vec![turn(1.0 / 3.0, 180.0, 2)],
-        // Slip rising from the point turn towards R′, timed by yaw.
-        EffectId::AngularSlip => vec![turn(0.0, 90.0, 1), turn(2.0 / 3.0, 90.0, 2)],
-        // Every turn slipping alike, timed by yaw.
-        EffectId::SlipTrack => vec![turn(2.0, 90.0, 2)],
-        // The inner side between B/2 and R′ against its neighbours.
-        EffectId::InnerDrag => vec![turn(2.0 / 3.0, 90.0, 2), turn(1.0, 90.0, 2)],
-        // The outer side at R′ against its neighbours.
-        EffectId::BrakedInner => vec![turn(1.0, 90.0, 2), turn(4.0 / 3.0, 90.0, 2)],
-        // A standstill: the pause after any drive.
-        EffectId::CurrentOffset => vec![(None, 0.0, When::Any, 1)],
-        EffectId::Slope => Vec::new(),
-    }
+/// Whether `e`'s mark is shown by a manoeuvre repeated in a row, late in a run.
+fn shown_late(e: EffectId) -> bool {
+    catalogue::of(e)
+        .drives_to_show_mark()
+        .iter()
+        .any(|d| d.when == When::Late)
 }
 
 /// `x` to 3 decimals: how the design writes R/R′ and R (and finds them again).
 fn thousandths(x: f64) -> f64 {
     (x * 1000.0).round() / 1000.0
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(v[v.len() / 2])
 }
 
 /// What to drive next after diagnosis `d` of `rows` (calibrated as `calibration`, with the
@@ -1036,8 +1007,11 @@ pub fn plan(
         statements,
     };
 
-    // Repeats in a row only when a warming winding is in play (its trend over run time).
-    let late = in_play.contains(&Rival::Effect(EffectId::MotorHeating));
+    // Repeats in a row only when an effect whose mark late repeats show is in play (a warming
+    // winding's trend over run time).
+    let late = in_play
+        .iter()
+        .any(|r| matches!(r, Rival::Effect(e) if shown_late(*e)));
     let mut open: Vec<Pair> = pairs
         .iter()
         .filter(|p| {
@@ -1066,14 +1040,20 @@ pub fn plan(
     let options = if open.is_empty() && unseen.is_empty() {
         Vec::new()
     } else {
-        drivable(&s, rows, late || unseen.contains(&EffectId::MotorHeating))
+        drivable(&s, rows, late || unseen.iter().any(|&e| shown_late(e)))
     };
     let mut runs: Vec<NextRun> = Vec::new();
     let mut budget = MAX_MANOEUVRES;
     let fastest = options.iter().map(|o| o.run.v_c_mps).fold(0.0, f64::max);
     for &e in &unseen {
         let leader = in_play[0];
-        for (x, turn_deg, when, n) in to_see_the_mark_of(e) {
+        for MarkDrive {
+            r_over_r_prime: x,
+            turn_deg,
+            when,
+            repeats: n,
+        } in catalogue::of(e).drives_to_show_mark()
+        {
             let Some(o) = options.iter().find(|o| {
                 o.run.r_over_r_prime == x.map(thousandths)
                     && o.run.turn_deg == turn_deg
@@ -1202,218 +1182,4 @@ pub fn plan(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::diagnose::bench::{generate, run::explain, Part};
-    use crate::sim::world::{parse_scenario, WorldConfig};
-
-    fn run(x: Option<f64>, repeats: u32, when: When) -> NextRun {
-        NextRun {
-            r_over_r_prime: x,
-            radius_m: x.map(|x| x * 0.55),
-            distance_m: x.is_none().then_some(1.5),
-            v_c_mps: 0.25,
-            turn_deg: if x.is_some() { 180.0 } else { 0.0 },
-            direction: Side::Right,
-            repeats,
-            when,
-            separates: vec![Rival::None, Rival::Effect(EffectId::InnerDrag)],
-            expected_sigma: 3.4,
-            observes: None,
-        }
-    }
-
-    /// What `diagnose --next-runs` writes is the scenario the bench drives, parses as a
-    /// scenario file and is driven by the simulator as it is (what `demo --scenario` does).
-    #[test]
-    fn the_scenario_file_is_the_scenario_and_drives() {
-        let next = NextRuns {
-            in_play: vec![Rival::None, Rival::Effect(EffectId::InnerDrag)],
-            runs: vec![
-                run(Some(0.667), 2, When::Any),
-                run(None, 1, When::Any),
-                run(Some(0.0), 3, When::Late),
-            ],
-            ..NextRuns::default()
-        };
-        assert_eq!(next.manoeuvres(), 6);
-        let text = next.scenario_toml();
-        let parsed = parse_scenario(&text).expect("a valid scenario file");
-        assert_eq!(parsed, next.scenario(), "{text}");
-        assert_eq!(parsed.manoeuvres.len(), 6);
-        assert!(
-            text.contains("separates none / inner-drag by 3.4σ"),
-            "{text}"
-        );
-        let timeline = WorldConfig::hard_ground()
-            .simulate(&parsed, 1)
-            .expect("the simulator drives it");
-        let turned = timeline.manoeuvres().len();
-        assert!(turned >= 6, "{turned} manoeuvres driven");
-    }
-
-    /// On an open verdict of the bench family, every suggestion keeps to the design space and
-    /// its limits, separates rivals in play by at least the target, and the identifiability
-    /// table holds every pair of fitted rivals once.
-    #[test]
-    fn suggestions_keep_to_what_the_rover_can_drive() {
-        let spec = generate(Part::Tuning, 100, 1).remove(45);
-        let (_, d) = explain(&spec, false).expect("diagnosed");
-        let n = &d.next;
-        assert!(n.open(), "{:?}", d.effect);
-        assert!(!n.runs.is_empty());
-        let total: u32 = n.runs.iter().map(|r| r.repeats).sum();
-        assert!(total <= MAX_MANOEUVRES);
-        for r in &n.runs {
-            assert!(r.repeats >= 1 && r.repeats <= MAX_REPEATS, "{r:?}");
-            assert!(r.expected_sigma >= TARGET_SIGMA, "{r:?}");
-            assert!(r.separates.len() >= 2);
-            assert!(r.separates.iter().all(|x| n.in_play.contains(x)), "{r:?}");
-            if let Some(x) = r.r_over_r_prime {
-                assert!(RADII.iter().any(|g| (g - x).abs() < 1e-3), "{x}");
-                assert!(TURN_DEG.contains(&r.turn_deg));
-            }
-            assert!(r.v_c_mps > 0.15 && r.v_c_mps < 0.55, "within the runs' v_c");
-        }
-        let fitted = 1 + EffectId::COUNT + 1 - n.identifiability.not_fitted.len();
-        assert_eq!(n.identifiability.pairs.len(), fitted * (fitted - 1) / 2);
-        let json = d.to_json();
-        let first = &json["next_runs"][0];
-        for key in [
-            "r_over_r_prime",
-            "radius_m",
-            "v_c_mps",
-            "turn_deg",
-            "direction",
-            "repeats",
-            "when",
-            "separates",
-            "expected_sigma",
-        ] {
-            assert!(first.get(key).is_some(), "{key}: {first}");
-        }
-        assert!(json["identifiability"]["pairs"].is_array());
-    }
-
-    /// A rival whose predictions the baseline's own features reproduce cannot be separated
-    /// from the baseline alone by any manoeuvre; one that draws power where they cannot can.
-    #[test]
-    fn a_rival_the_baseline_can_mimic_is_never_separated() {
-        let spec = generate(Part::Tuning, 100, 1).remove(45);
-        let (_, d) = explain(&spec, false).expect("diagnosed");
-        let rover = spec.rover.rover();
-        let s = Setting {
-            rover: &rover,
-            baseline: &d.baseline,
-        };
-        let fitted = vec![
-            Fitted {
-                rival: Rival::None,
-                prediction: Prediction::Nothing,
-            },
-            // 3 N of skid force and 2 N of rolling resistance more: the baseline refitted.
-            Fitted {
-                rival: Rival::CopperLoss,
-                prediction: Prediction::Copper([0.0, 3.0, 2.0]),
-            },
-        ];
-        let (_, driven) = crate::diagnose::bench::simulate(&spec)
-            .expect("simulated")
-            .rows(&rover, None)
-            .expect("validated");
-        let rows = drivable(&s, &driven, false);
-        assert_eq!(rows.len(), 1 + RADII.len() * TURN_DEG.len(), "one v_c");
-        let mut pair = Pair::new(&fitted, 0, 1);
-        for o in &rows {
-            pair.add(&s, &fitted, &o.drives(5), 1.0);
-        }
-        assert!(pair.sigma(0.1) < 1e-3, "{}", pair.sigma(0.1));
-        let copper = vec![
-            fitted.into_iter().next().expect("none"),
-            Fitted {
-                rival: Rival::CopperLoss,
-                prediction: Prediction::Copper([1e-3, 0.0, 0.0]),
-            },
-        ];
-        let mut pair = Pair::new(&copper, 0, 1);
-        for o in &rows {
-            pair.add(&s, &copper, &o.drives(1), 1.0);
-        }
-        assert!(pair.sigma(0.1) > TARGET_SIGMA, "{}", pair.sigma(0.1));
-    }
-
-    /// A named effect whose close runners-up lack their own marks is settled: they could not be
-    /// named in its place however well they fit (bench seed 1, tuning 42: sinkage named beside
-    /// a misfitting baseline; angular slip and inner drag within the margin, both marks absent).
-    #[test]
-    fn a_rival_without_its_mark_leaves_the_verdict_settled() {
-        let spec = generate(Part::Tuning, 100, 1).remove(42);
-        let (_, d) = explain(&spec, false).expect("diagnosed");
-        assert_eq!(d.effect, Verdict::Effect(EffectId::SinkageBulldozing));
-        let named = d
-            .candidates
-            .iter()
-            .find(|c| c.effect == EffectId::SinkageBulldozing);
-        let named = named.expect("ranked").penalised_mse;
-        let close: Vec<EffectId> = d
-            .candidates
-            .iter()
-            .filter(|c| {
-                c.effect != EffectId::SinkageBulldozing && c.penalised_mse < CLEAR_MARGIN * named
-            })
-            .map(|c| c.effect)
-            .collect();
-        assert!(!close.is_empty(), "a runner-up within the margin");
-        for e in close {
-            let s = d.signature(e).expect("tested");
-            assert!(
-                s.test.is_some_and(|t| !t.present),
-                "{e:?}: {}",
-                s.describe()
-            );
-        }
-        assert!(!d.next.open(), "{:?}", d.next.in_play);
-        assert!(d.next.runs.is_empty());
-    }
-
-    /// A close rival whose mark the runs cannot test yet keeps the verdict open, and what is
-    /// suggested first is what its signature test reads: motor heating's, a manoeuvre driven
-    /// again and again in one run (bench seed 1, tuning 22: sinkage named, heating within the
-    /// margin, no run repeating a manoeuvre).
-    #[test]
-    fn a_rival_whose_mark_is_not_observable_yet_is_driven_to_see_it() {
-        let spec = generate(Part::Tuning, 100, 1).remove(22);
-        let (_, d) = explain(&spec, false).expect("diagnosed");
-        assert_eq!(d.effect, Verdict::Effect(EffectId::SinkageBulldozing));
-        let heating = d.signature(EffectId::MotorHeating).expect("tested");
-        assert!(heating.observable_by_driving(), "{}", heating.describe());
-        assert!(d
-            .next
-            .in_play
-            .contains(&Rival::Effect(EffectId::MotorHeating)));
-        let first = d.next.runs.first().expect("something to drive");
-        assert_eq!(first.observes, Some(Rival::Effect(EffectId::MotorHeating)));
-        assert_eq!(first.when, When::Late);
-        assert!(first.repeats >= MIN_LATE_REPEATS, "{first:?}");
-        assert_eq!(first.r_over_r_prime, Some(0.0));
-        assert!(d.next.manoeuvres() <= MAX_MANOEUVRES);
-    }
-
-    /// A mark the terrain hides (the slips' on a slope) keeps no rival in play, whatever is
-    /// driven (bench seed 3, tuning 58: slope named, angular slip and slip track masked).
-    #[test]
-    fn a_mark_the_terrain_hides_keeps_no_rival_in_play() {
-        let spec = generate(Part::Tuning, 100, 3).remove(58);
-        let (_, d) = explain(&spec, false).expect("diagnosed");
-        assert_eq!(d.effect, Verdict::Effect(EffectId::Slope));
-        for e in [EffectId::AngularSlip, EffectId::SlipTrack] {
-            let s = d.signature(e).expect("tested");
-            assert!(s.masked && !s.observable_by_driving(), "{}", s.describe());
-            assert!(
-                !d.next.in_play.contains(&Rival::Effect(e)),
-                "{:?}",
-                d.next.in_play
-            );
-        }
-    }
-}
+mod tests;

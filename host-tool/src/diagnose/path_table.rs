@@ -20,6 +20,8 @@
 //! (≥ 30 % of the held-out error closed, runner-up's held-out MSE ≥ 1.5×), on the held-out
 //! error without Akaike's factor (see [`diagnose_path_table`]).
 
+use super::catalogue;
+use super::effect::PathSegment;
 use super::verdict::{Scope, Verdict};
 use crate::csv_table::{content_lines, csv_header, RowError};
 use crate::effect_id::EffectId;
@@ -309,51 +311,30 @@ fn segment_regressors(
     let rp = law.r_prime_m();
     let v = law.v_c_mps();
     let line = radius_m.is_infinite();
-    let t = if line {
+    let t_s = if line {
         dtheta_rad / v // dtheta carries the line's length
     } else {
         law.arc_duration_s(radius_m, dtheta_rad)
     };
     let rho = radius_m / rp;
-    let e_hg = if line {
+    let e_hg_j = if line {
         0.0
     } else {
         law.hard_ground().arc_energy_j(radius_m, dtheta_rad)
     };
     let at_r_prime = (rho - 1.0).abs() <= f64::from(RegimeBounds::default().r_prime_fraction);
-    Some(match effect {
-        EffectId::InnerDrag => {
-            // q·|V_i| with q = |V_i| v_iy / v_c², B/2 < R < R' (ω = v_c/R').
-            let half = width_m / 2.0;
-            let p = if !line && radius_m > half && radius_m < rp {
-                let w = v / rp;
-                let vi = w * (rp - radius_m);
-                let viy = w * (radius_m - half);
-                vi * viy / (v * v) * vi
-            } else {
-                0.0
-            };
-            vec![p * t]
-        }
-        // |V_o| + |V_i| = 2v_c times |ω| L/2 / v_c, over the turn: L |Δθ|.
-        EffectId::SinkageBulldozing => vec![if line {
-            0.0
-        } else {
-            length_m * dtheta_rad.abs()
-        }],
-        EffectId::AngularSlip => match () {
-            () if line => vec![0.0, 0.0],
-            () if rho <= 1.0 => vec![e_hg * (1.0 - rho), e_hg * rho],
-            () => vec![0.0, e_hg / rho],
-        },
-        EffectId::SlipTrack => vec![e_hg],
-        EffectId::BrakedInner => vec![if !line && at_r_prime {
-            2.0 * v * t
-        } else {
-            0.0
-        }],
-        EffectId::CurrentOffset => vec![t],
-        EffectId::MotorHeating | EffectId::Slope => return None,
+    catalogue::of(effect).path_segment(&PathSegment {
+        line,
+        t_s,
+        rho,
+        e_hg_j,
+        at_r_prime,
+        v_mps: v,
+        r_prime_m: rp,
+        width_m,
+        length_m,
+        radius_m,
+        dtheta_rad,
     })
 }
 

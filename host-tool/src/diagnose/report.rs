@@ -6,9 +6,10 @@
 use super::adequacy::{Adequacy, LackOfFit, Observation};
 use super::baseline::{BaselineError, Split};
 use super::calibration::{Calibration, CalibrationSource};
-use super::cv::{self, PRACTICAL_FLOOR_W};
+use super::cv;
 use super::features::TurnRow;
 use super::model_file::{self, ModelFileError};
+use super::stats::PRACTICAL_FLOOR_W;
 use super::{figures, named_effect, Diagnosis};
 use crate::effect_id::EffectId;
 use crate::log::{write_atomically, AtomicWriteError};

@@ -6,7 +6,19 @@
 //! straight), which the run time alone does not: that is what tells heating apart from a term
 //! of the turn itself when the runs drive the turn set in different orders.
 
-use super::effects::HEATING_TAU_GRID_S;
+/// The thermal time constants the `motor-heating` term is tried with [s] (small gearmotors:
+/// minutes to tens of minutes); the choice counts as one fitted parameter.
+pub const HEATING_TAU_GRID_S: [f64; 6] = [60.0, 150.0, 300.0, 600.0, 1200.0, 2400.0];
+
+/// The winding's first-order temperature rise at run time `t_s` as a fraction of its final
+/// value, 1 − e^(−t/τ) (a constant mean copper loss heating a first-order thermal mass).
+pub fn heating_rise(t_s: f64, tau_s: f64) -> f64 {
+    if tau_s > 0.0 {
+        1.0 - (-t_s.max(0.0) / tau_s).exp()
+    } else {
+        1.0
+    }
+}
 
 /// How many time constants are tried.
 pub const TAUS: usize = HEATING_TAU_GRID_S.len();

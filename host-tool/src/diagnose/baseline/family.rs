@@ -390,7 +390,7 @@ fn constant_turn_slip(level: &[&TurnRow]) -> Option<f64> {
         .filter(|r| !r.is_straight() && r.turned_from_yaw && r.angular_slip.is_some())
         .collect();
     let slips: Vec<f64> = turns.iter().filter_map(|r| r.angular_slip).collect();
-    let (mean, lo, _) = crate::diagnose::cv::t_interval(&slips)?;
+    let (mean, lo, _) = crate::diagnose::stats::t_interval(&slips)?;
     if !(lo > 0.0 && (MIN_TURN_SLIP..1.0).contains(&mean)) {
         return None;
     }

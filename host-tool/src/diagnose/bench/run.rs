@@ -272,7 +272,7 @@ impl DatasetResult {
             && self
                 .truth
                 .as_ref()
-                .is_some_and(|t| t.peak_extra_power_w >= crate::diagnose::cv::PRACTICAL_FLOOR_W)
+                .is_some_and(|t| t.peak_extra_power_w >= crate::diagnose::stats::PRACTICAL_FLOOR_W)
     }
 
     /// Whether the effect shows beyond what the calibration runs absorb

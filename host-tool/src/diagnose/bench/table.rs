@@ -10,7 +10,7 @@ use super::{
     BenchOptions, GOAL_DIAGNOSE_MS, GOAL_ONE_HOUR_LOG_S, GOAL_SHOWN_NAMED_PCT, GOAL_WRONG_PCT,
     SHOWN_CEILING_PCT,
 };
-use crate::diagnose::cv::PRACTICAL_FLOOR_W;
+use crate::diagnose::stats::PRACTICAL_FLOOR_W;
 use crate::effect_id::EffectId;
 use crate::sim::world::Side;
 use serde::Serialize;

@@ -7,8 +7,8 @@
 //! `motor-heating` are `all` by definition: their extra power follows the pitch along the path
 //! and the winding temperature over run time, not the turn radius.
 
-use crate::diagnose::cv::{PRACTICAL_FLOOR_W, RELATIVE_FLOOR};
 use crate::diagnose::effects::{is_power_type, least_squares};
+use crate::diagnose::stats::{PRACTICAL_FLOOR_W, RELATIVE_FLOOR};
 use crate::effect_id::EffectId;
 use crate::sim::world::ManoeuvreTruth;
 use model_core::kinematics::Regime;

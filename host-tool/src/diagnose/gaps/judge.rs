@@ -3,10 +3,10 @@
 //! without from the leave-one-out tests of [`loo`](super::super::loo).
 
 use super::super::calibration::Calibration;
-use super::super::cv;
 use super::super::features::TurnRow;
 use super::super::loo::{self, LooTest, Measure};
 use super::super::observe;
+use super::super::stats;
 use super::Part;
 use model_core::kinematics::Regime;
 use std::collections::BTreeMap;
@@ -60,7 +60,7 @@ pub(super) enum Floor {
     /// The power floor for values centred on their (regime, side) mean (run-time groups): the
     /// baseline's error is common to a group, so centring removes it and it does not widen.
     CentredPower,
-    /// [`cv::PRACTICAL_FLOOR_W`] (growth: no model power to take a share of) [W].
+    /// [`stats::PRACTICAL_FLOOR_W`] (growth: no model power to take a share of) [W].
     Fixed,
 }
 
@@ -84,7 +84,7 @@ pub(super) struct Judgement {
 /// **The one significance rule** of the diagnosis, for the selection's gaps and every group of
 /// the "where" analysis alike:
 /// - with repeats ([`has_repeats`]): the mean's 95 % interval over them
-///   ([`cv::bootstrap_mean`]), widened in quadrature by the baseline's 95 % error there, excludes
+///   ([`stats::bootstrap_mean`]), widened in quadrature by the baseline's 95 % error there, excludes
 ///   0 and |mean| > the floor;
 /// - without repeats, when the observations have leave-one-out tests ([`loo`], power metrics):
 ///   some observation lies outside its prediction interval after the multiple-testing
@@ -102,13 +102,13 @@ pub(super) fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> 
             practical_floor_w(&model_w) * obs.iter().map(|o| o.duration_s).sum::<f64>()
                 / obs.len() as f64
         }
-        Floor::Fixed => cv::PRACTICAL_FLOOR_W,
+        Floor::Fixed => stats::PRACTICAL_FLOOR_W,
     };
     let pairs: Vec<(usize, i64)> = obs.iter().map(|o| (o.run, o.key)).collect();
     let values: Vec<f64> = obs.iter().map(|o| o.value).collect();
     if has_repeats(&pairs) {
         let runs: Vec<usize> = obs.iter().map(|o| o.run).collect();
-        let (mean, lo, hi) = cv::bootstrap_mean(&values, &runs, seed)?;
+        let (mean, lo, hi) = stats::bootstrap_mean(&values, &runs, seed)?;
         // The baseline's own error is common to every row of the group (its parameters were fitted
         // once, on the calibration manoeuvres): add it in quadrature to the repeats' interval.
         let n = obs.len() as f64;
@@ -152,7 +152,8 @@ pub(super) fn judge(obs: &[Obs], floor: Floor, seed: u64, tests: &[LooTest]) -> 
     // The interval of the mean leave-one-out residual, treating the rows as independent (exact
     // for one row; the verdict itself is per row).
     let df = loo.iter().map(|t| t.df).min().unwrap_or(0);
-    let half = cv::t_quantile_975(df) * loo.iter().map(|t| t.se_w * t.se_w).sum::<f64>().sqrt() / k;
+    let half =
+        stats::t_quantile_975(df) * loo.iter().map(|t| t.se_w * t.se_w).sum::<f64>().sqrt() / k;
     let significant = loo
         .iter()
         .any(|t| t.beyond_noise && t.residual_w.abs() > floor);
@@ -209,12 +210,12 @@ impl RowVerdicts {
 }
 
 /// The practical floor of a group whose observations have model powers `model_w`: the larger of
-/// [`cv::PRACTICAL_FLOOR_W`] and [`cv::RELATIVE_FLOOR`] of their mean |model power| [W].
+/// [`stats::PRACTICAL_FLOOR_W`] and [`stats::RELATIVE_FLOOR`] of their mean |model power| [W].
 pub fn practical_floor_w(model_w: &[f64]) -> f64 {
     let mean_abs = if model_w.is_empty() {
         0.0
     } else {
         model_w.iter().map(|p| p.abs()).sum::<f64>() / model_w.len() as f64
     };
-    cv::PRACTICAL_FLOOR_W.max(cv::RELATIVE_FLOOR * mean_abs)
+    stats::PRACTICAL_FLOOR_W.max(stats::RELATIVE_FLOOR * mean_abs)
 }

@@ -46,12 +46,18 @@ fn the_baselines_fit_error_widens_a_gaps_interval() {
 #[test]
 fn practical_floor_scales_with_the_model_power() {
     // Small or zero model power: the absolute floor.
-    assert_eq!(practical_floor_w(&[]), cv::PRACTICAL_FLOOR_W);
-    assert_eq!(practical_floor_w(&[0.0, 10.0]), cv::PRACTICAL_FLOOR_W);
+    assert_eq!(
+        practical_floor_w(&[]),
+        crate::diagnose::stats::PRACTICAL_FLOOR_W
+    );
+    assert_eq!(
+        practical_floor_w(&[0.0, 10.0]),
+        crate::diagnose::stats::PRACTICAL_FLOOR_W
+    );
     // A 200 W side (either sign): 5 % of it.
     let floor = practical_floor_w(&[200.0, -200.0]);
-    assert!((floor - cv::RELATIVE_FLOOR * 200.0).abs() < 1e-9);
-    assert!(floor > cv::PRACTICAL_FLOOR_W);
+    assert!((floor - crate::diagnose::stats::RELATIVE_FLOOR * 200.0).abs() < 1e-9);
+    assert!(floor > crate::diagnose::stats::PRACTICAL_FLOOR_W);
 }
 
 fn analyse_world(world: &WorldConfig, scenario: &Scenario, runs: u64) -> WhereAnalysis {

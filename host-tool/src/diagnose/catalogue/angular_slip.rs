@@ -1,0 +1,139 @@
+//! `angular-slip` (thesis Section 6.2, Eq 6.3, Fig 6.7–6.8): the rover yaws slower than
+//! commanded, most at R′.
+//!
+//! - Term (time-type): P_side·(1 − ρ, ρ) for ρ = R/R′ ≤ 1, P_side·(0, 1/ρ) above; 0 on
+//!   straights.
+//! - Mark: the yaw-timed slip of the turns with 0 < R ≤ R′ beyond the point turns': one-sided
+//!   t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3; measured without the power model.
+
+use crate::diagnose::effect::{
+    Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
+};
+use crate::diagnose::features::TurnRow;
+use crate::diagnose::signature::{
+    excess_slips, Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS,
+};
+use crate::diagnose::stats::{moments, one_sample_upper};
+use crate::effect_id::EffectId;
+use model_core::kinematics::Regime;
+
+/// `angular-slip`.
+#[derive(Debug)]
+pub struct AngularSlip;
+
+impl Effect for AngularSlip {
+    fn id(&self) -> EffectId {
+        EffectId::AngularSlip
+    }
+    fn param_count(&self) -> usize {
+        2
+    }
+    fn power_type(&self) -> bool {
+        false
+    }
+    fn regressors(
+        &self,
+        row: &TurnRow,
+        side: usize,
+        ctx: &Context<'_>,
+    ) -> Option<[f64; MAX_PARAMS]> {
+        if row.is_straight() {
+            return Some([0.0, 0.0]);
+        }
+        let p = ctx.baseline.side_power_w(row, side);
+        let rho = row.r_over_r_prime;
+        Some(if rho <= 1.0 {
+            [p * (1.0 - rho), p * rho]
+        } else {
+            [0.0, p / rho]
+        })
+    }
+    fn mark_source(&self) -> MarkSource {
+        MarkSource::YawTiming
+    }
+    fn mark(&self, ev: &Evidence<'_>, _marks: &Marks<'_>) -> Signature {
+        angular_slip(ev)
+    }
+    fn mark_rises_towards_r_prime(&self) -> bool {
+        true
+    }
+    // Slip rising from the point turn towards R′, timed by yaw.
+    fn drives_to_show_mark(&self) -> Vec<MarkDrive> {
+        vec![
+            MarkDrive::turn(0.0, 90.0, 1),
+            MarkDrive::turn(2.0 / 3.0, 90.0, 2),
+        ]
+    }
+    fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {
+        Some(match () {
+            () if s.line => vec![0.0, 0.0],
+            () if s.rho <= 1.0 => vec![s.e_hg_j * (1.0 - s.rho), s.e_hg_j * s.rho],
+            () => vec![0.0, s.e_hg_j / s.rho],
+        })
+    }
+}
+
+/// `angular-slip`: the turns between the point turn and R′ slower by yaw than the point turns
+/// (the runs', else the calibration's), by at least [`MIN_SLIP_EXCESS`] (the thesis' Fig 6.8:
+/// 0.27 at R = 0 to 0.38 at R′ on sand). A slip constant over the radii does not rise.
+fn angular_slip(ev: &Evidence<'_>) -> Signature {
+    let e = EffectId::AngularSlip;
+    // The runs' own point turns, on the same terrain; the calibration's when they have none.
+    let is_point = |r: &TurnRow| r.regime == Regime::Point;
+    let mut point = excess_slips(ev.rows, ev.baseline, is_point);
+    if point.is_empty() {
+        point = excess_slips(ev.calibration_rows, ev.baseline, is_point);
+    }
+    let Some((point_mean, _, _)) = moments(&point) else {
+        if !ev.yaw_logged() {
+            return Signature::masked(e, "no yaw logged");
+        }
+        return Signature::unobservable(e, "no point turn timed by yaw to compare with");
+    };
+    let regimes = [
+        Regime::BelowHalfTrack,
+        Regime::DraggedInner,
+        Regime::AtRPrime,
+    ];
+    let mut best: Option<(SignatureTest, String)> = None;
+    for regime in regimes {
+        let rise: Vec<f64> = excess_slips(ev.rows, ev.baseline, |r| r.regime == regime)
+            .into_iter()
+            .map(|s| s - point_mean)
+            .collect();
+        let Some((t, df, p)) = one_sample_upper(&rise, 0.0) else {
+            continue;
+        };
+        let (mean, _, n) = moments(&rise).expect("two or more");
+        let p = (p * regimes.len() as f64).min(1.0);
+        let test = SignatureTest {
+            statistic_name: "t",
+            statistic: t,
+            df,
+            p,
+            present: p < ALPHA && mean >= MIN_SLIP_EXCESS,
+            sized: mean >= MIN_SLIP_EXCESS,
+        };
+        let detail = format!(
+            "{} turns ({n}) slip {:+.1} % beyond the point turns' {:.1} % (the calibration's \
+             terrain slip {:.1} % taken off both)",
+            regime.id(),
+            100.0 * mean,
+            100.0 * point_mean,
+            100.0 * ev.baseline.turn_slip
+        );
+        if best
+            .as_ref()
+            .is_none_or(|(b, _)| (test.present, -test.p) > (b.present, -b.p))
+        {
+            best = Some((test, detail));
+        }
+    }
+    match best {
+        Some((test, detail)) => Signature::tested(e, test, detail),
+        None => Signature::unobservable(
+            e,
+            "fewer than 2 turns timed by yaw in each regime between the point turn and R′",
+        ),
+    }
+}
