@@ -216,7 +216,7 @@ pub(crate) fn evidence(
 }
 
 /// RMS of the held-out residuals of the sides held at stall [W]; `None` without one.
-fn stalled_rms_w(rows: &[TurnRow], res: &[cv::RowResidual]) -> Option<f64> {
+fn stalled_rms_w(rows: &[TurnRow], res: &[crate::diagnose::observe::RowResidual]) -> Option<f64> {
     let (sum, n) = res
         .iter()
         .filter(|r| !r.effective_w.is_total())

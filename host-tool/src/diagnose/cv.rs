@@ -28,7 +28,8 @@ use super::baseline::{Baseline, BaselineError};
 use super::calibration::{Calibration, Source};
 use super::effects::{model_params, Context, FittedModel, HEATING_TAU_GRID_S};
 use super::features::TurnRow;
-use super::observe::Residuals;
+use super::observe::{HeldOut, RowResidual};
+use crate::diagnose::features::radius_group;
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 use model_core::Rover;
@@ -65,35 +66,6 @@ impl Scheme {
         }
     }
 }
-
-/// The commanded radius of `row` as a group key: R/R′ to 0.01, straights all in one. The
-/// manoeuvres leave-one-radius-out holds out together.
-pub fn radius_group(row: &TurnRow) -> i64 {
-    if row.r_over_r_prime.is_finite() {
-        (row.r_over_r_prime * 100.0).round() as i64
-    } else {
-        i64::MAX
-    }
-}
-
-/// Held-out residuals of one row: effective power and growth per side ([inner/left,
-/// outer/right], measured − predicted [W]; growth `None` without phases).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct RowResidual {
-    /// Index into the rows.
-    pub row: usize,
-    /// Effective-power residual of each observation: per side, or the total of a total-only
-    /// row [W].
-    pub effective_w: Residuals,
-    /// Growth residual per side [W].
-    pub growth_w: [Option<f64>; 2],
-    /// Average-power residual per side: measured average power − baseline − the model's extra
-    /// average power ([`FittedModel::extra_avg_power_w`]) [W]; `None` for total-only rows.
-    pub avg_w: [Option<f64>; 2],
-}
-
-/// Held-out residuals, in row order.
-pub type HeldOut = Vec<RowResidual>;
 
 /// The manoeuvres one fold holds out.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

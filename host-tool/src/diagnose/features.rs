@@ -469,3 +469,13 @@ fn measured_radius(
         slip_track_m,
     })
 }
+
+/// The commanded radius of `row` as a group key: R/R′ to 0.01, straights all in one. The
+/// manoeuvres leave-one-radius-out holds out together.
+pub fn radius_group(row: &TurnRow) -> i64 {
+    if row.r_over_r_prime.is_finite() {
+        (row.r_over_r_prime * 100.0).round() as i64
+    } else {
+        i64::MAX
+    }
+}

@@ -3,9 +3,9 @@
 //! through each turn (second minus first half) against R/R′ per side, measured against the
 //! models (Eq 21 and every catalogue term predict a constant power through a steady turn).
 
-use super::cv::HeldOut;
 use super::features::{SideRole, TurnRow};
 use super::gaps::{regime_side_label, Gap, GroupStat, Part};
+use super::observe::HeldOut;
 use crate::plot::{Chart, Figure, Marker, Series, SeriesStyle};
 use model_core::kinematics::Regime;
 use model_core::Rover;

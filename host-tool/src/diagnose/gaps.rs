@@ -37,9 +37,10 @@ mod analysis;
 mod judge;
 
 use super::baseline::Baseline;
-use super::cv;
 use super::features::{SideRole, TurnRow};
 use super::loo::LooTest;
+use super::observe::RowResidual;
+use crate::effect_id::EffectId;
 pub use analysis::analyse;
 use judge::{judge, repeat_key, Floor, Obs};
 pub use judge::{practical_floor_w, RowVerdicts, SIGNIFICANCE_RULE};
@@ -522,7 +523,7 @@ fn median_run_length_s(run_end: &BTreeMap<usize, f64>) -> f64 {
 /// The run-time trend of held-out residuals `res` of `rows`, as its change over the median run
 /// length [W] (the within-(regime, side) slope of [`Trend`]); `None` when run time is not
 /// identifiable or the rows are total-only.
-pub fn heldout_run_time_change_w(rows: &[TurnRow], res: &[cv::RowResidual]) -> Option<f64> {
+pub fn heldout_run_time_change_w(rows: &[TurnRow], res: &[RowResidual]) -> Option<f64> {
     let mut obs: Vec<TimedObs> = Vec::new();
     let mut run_end: BTreeMap<usize, f64> = BTreeMap::new();
     for r in res.iter().filter(|r| !r.effective_w.is_total()) {
@@ -844,25 +845,22 @@ impl WhereAnalysis {
     }
 
     /// Records a departure that no group shows but cross-validation does: the selection's clear
-    /// winner `c` removes at least the practical floor of held-out RMS (e.g. a slope, whose power
+    /// winner `effect` (held-out RMS `before` → `after` under `scheme`) removes at least the
+    /// practical floor of held-out RMS (e.g. a slope, whose power
     /// changes sign along the path, so its group means are ~0). The diagnosis' `significant`
     /// counts it, so the "where" analysis must too.
     pub fn add_heldout_departure(
         &mut self,
-        c: &cv::CandidateScore,
-        scheme: cv::Scheme,
+        effect: EffectId,
+        (before, after): (f64, f64),
+        scheme: &str,
         floor_w: f64,
     ) {
-        let removed = (c.heldout_error_before.powi(2) - c.heldout_error_after.powi(2))
-            .max(0.0)
-            .sqrt();
+        let removed = (before.powi(2) - after.powi(2)).max(0.0).sqrt();
         let finding = format!(
             "held out ({}): {} removes {removed:.1} W RMS ({:.2} → {:.2} W), more than the \
              {floor_w:.1} W floor, although no group's mean departs on its own",
-            scheme.id(),
-            c.effect,
-            c.heldout_error_before,
-            c.heldout_error_after,
+            scheme, effect, before, after,
         );
         self.statement = if self.significant {
             format!("{}; {finding}", self.statement)

@@ -342,7 +342,12 @@ pub(crate) fn diagnose_against(
     // The headline and the "where" analysis state one verdict: a departure seen only out of
     // sample is recorded there too.
     if let (Some((c, floor_w)), false) = (spread, in_groups) {
-        where_.add_heldout_departure(c, primary, floor_w);
+        where_.add_heldout_departure(
+            c.effect,
+            (c.heldout_error_before, c.heldout_error_after),
+            primary.id(),
+            floor_w,
+        );
     }
     let verdict = match selected {
         _ if !significant => Verdict::None,
@@ -575,7 +580,7 @@ fn heldout_errors(
     rows: &[TurnRow],
     primary: Scheme,
     calibration: Calibration<'_>,
-    before: &[cv::RowResidual],
+    before: &[observe::RowResidual],
     added: EffectId,
     gap_regimes: &[Regime],
 ) -> Result<Vec<HeldOutError>, DiagnoseError> {

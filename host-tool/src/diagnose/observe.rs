@@ -4,6 +4,7 @@
 //! row counts **once**, with the sum of its sides' regressors, and never as two made-up sides.
 
 use super::features::{Observed, TurnRow};
+use serde::Serialize;
 use std::ops::{Deref, DerefMut};
 
 /// The side indices each observation of `row` sums: `[[0], [1]]` for per-side rows, `[[0, 1]]`
@@ -102,6 +103,25 @@ impl DerefMut for Residuals {
         &mut self.values[..self.len]
     }
 }
+
+/// Held-out residuals of one row: effective power and growth per side ([inner/left,
+/// outer/right], measured − predicted [W]; growth `None` without phases).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RowResidual {
+    /// Index into the rows.
+    pub row: usize,
+    /// Effective-power residual of each observation: per side, or the total of a total-only
+    /// row [W].
+    pub effective_w: Residuals,
+    /// Growth residual per side [W].
+    pub growth_w: [Option<f64>; 2],
+    /// Average-power residual per side: measured average power − baseline − the model's extra
+    /// average power ([`FittedModel::extra_avg_power_w`](super::effects::FittedModel::extra_avg_power_w)) [W]; `None` for total-only rows.
+    pub avg_w: [Option<f64>; 2],
+}
+
+/// Held-out residuals, in row order.
+pub type HeldOut = Vec<RowResidual>;
 
 #[cfg(test)]
 mod tests {

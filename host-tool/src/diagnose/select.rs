@@ -379,7 +379,7 @@ pub(super) struct Selection<'a> {
     pub rows: &'a [TurnRow],
     pub scheme: Scheme,
     pub calibration: Calibration<'a>,
-    pub before: &'a [cv::RowResidual],
+    pub before: &'a [crate::diagnose::observe::RowResidual],
 }
 
 impl Selection<'_> {
@@ -471,7 +471,7 @@ impl Selection<'_> {
             if !catalogue::of(c.effect).confined_to_regimes() {
                 continue;
             }
-            let gap_rows: Vec<cv::RowResidual> =
+            let gap_rows: Vec<crate::diagnose::observe::RowResidual> =
                 after.into_iter().filter(|r| in_gap(r.row)).collect();
             let Some(ms_after) = cv::mean_square(&gap_rows, |_| true) else {
                 return Ok(None);
@@ -501,7 +501,8 @@ impl Selection<'_> {
     fn heldout_with_each<'c>(
         &self,
         candidates: &'c [CandidateScore],
-    ) -> Result<Option<Vec<(&'c CandidateScore, cv::HeldOut)>>, DiagnoseError> {
+    ) -> Result<Option<Vec<(&'c CandidateScore, crate::diagnose::observe::HeldOut)>>, DiagnoseError>
+    {
         let Selection {
             rover,
             rows,
@@ -530,7 +531,7 @@ impl Selection<'_> {
         floor_w: f64,
     ) -> Result<Option<EffectId>, DiagnoseError> {
         let Selection { rows, before, .. } = *self;
-        let beyond = |res: &[cv::RowResidual]| {
+        let beyond = |res: &[crate::diagnose::observe::RowResidual]| {
             gaps::heldout_run_time_change_w(rows, res).is_none_or(|c| c.abs() >= floor_w)
         };
         if !beyond(before) {

@@ -17,10 +17,10 @@
 
 use super::baseline::Baseline;
 use super::calibration::{Calibration, Source};
-use super::cv;
 use super::features::{SideRole, TurnRow};
 use super::gaps::WhereAnalysis;
 use super::stats::{moments, welch_upper, PRACTICAL_FLOOR_W};
+use crate::diagnose::features::radius_group;
 use crate::effect_id::EffectId;
 use serde::Serialize;
 
@@ -331,14 +331,14 @@ fn largest_step_elsewhere(
         .rows
         .iter()
         .filter(|r| !r.is_straight() && !r.is_total_only())
-        .map(cv::radius_group)
+        .map(radius_group)
         .collect();
     groups.sort_unstable();
     groups.dedup();
     let means: Vec<(bool, f64)> = groups
         .into_iter()
         .filter_map(|g| {
-            let in_group = |r: &TurnRow| cv::radius_group(r) == g;
+            let in_group = |r: &TurnRow| radius_group(r) == g;
             let values = side_residuals(ev, role, in_group);
             let (mean, _, _) = moments(&values)?;
             let is_at = ev.rows.iter().any(|r| in_group(r) && at(r));

@@ -6,10 +6,10 @@
 //!   next commanded radius below and above, Welch t, ≥ 1.5 W above both and beyond the largest
 //!   step elsewhere: a step at one radius.
 
-use crate::diagnose::cv;
 use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
 };
+use crate::diagnose::features::radius_group;
 use crate::diagnose::features::{SideRole, TurnRow};
 use crate::diagnose::signature::{step_test, Evidence, Signature};
 use crate::effect_id::EffectId;
@@ -66,20 +66,20 @@ fn braked_inner(ev: &Evidence<'_>) -> Signature {
     let turns = || ev.rows.iter().filter(|r| !r.is_straight());
     let Some(at) = turns()
         .find(|r| r.regime == Regime::AtRPrime)
-        .map(cv::radius_group)
+        .map(radius_group)
     else {
         return Signature::unobservable(EffectId::BrakedInner, "no turn at R′");
     };
-    let below = turns().map(cv::radius_group).filter(|&k| k < at).max();
-    let above = turns().map(cv::radius_group).filter(|&k| k > at).min();
+    let below = turns().map(radius_group).filter(|&k| k < at).max();
+    let above = turns().map(radius_group).filter(|&k| k > at).min();
     step_test(
         ev,
         EffectId::BrakedInner,
         SideRole::Outer,
-        |r| cv::radius_group(r) == at,
+        |r| radius_group(r) == at,
         [
-            &|r: &TurnRow| Some(cv::radius_group(r)) == below,
-            &|r: &TurnRow| Some(cv::radius_group(r)) == above,
+            &|r: &TurnRow| Some(radius_group(r)) == below,
+            &|r: &TurnRow| Some(radius_group(r)) == above,
         ],
         "at R′",
     )

@@ -10,11 +10,11 @@
 //!   repeats themselves draw more (one-sample t).
 //! - Scored only where run time is identifiable apart from the turn order.
 
-use crate::diagnose::cv;
 use crate::diagnose::effect::{
     AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, ScoredWhen, When, MAX_PARAMS,
     MIN_LATE_REPEATS,
 };
+use crate::diagnose::features::radius_group;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::gaps::MIN_TREND_SPREAD_S;
 use crate::diagnose::signature::{format_p, Evidence, Signature, SignatureTest, ALPHA};
@@ -151,7 +151,7 @@ fn repeats_within_a_run(rows: &[TurnRow]) -> bool {
     rows.iter().enumerate().any(|(i, a)| {
         rows[i + 1..].iter().any(|b| {
             a.run_index == b.run_index
-                && cv::radius_group(a) == cv::radius_group(b)
+                && radius_group(a) == radius_group(b)
                 && (a.t_start_s - b.t_start_s).abs() >= MIN_TREND_SPREAD_S
         })
     })
@@ -164,7 +164,7 @@ fn repeat_rises(rows: &[TurnRow]) -> Vec<f64> {
     let total = |r: &TurnRow| r.sides[0].avg_power_w + r.sides[1].avg_power_w;
     let same = |a: &TurnRow, b: &TurnRow| {
         a.run_index == b.run_index
-            && cv::radius_group(a) == cv::radius_group(b)
+            && radius_group(a) == radius_group(b)
             && (a.v_c_mps - b.v_c_mps).abs() < 0.005
             && a.direction == b.direction
     };

@@ -99,7 +99,7 @@ fn assert_gaps_are_where_groups(d: &super::super::Diagnosis) {
 fn a_heldout_departure_is_recorded_in_where() {
     let mut a = analyse_world(&WorldConfig::hard_ground(), &scenario(), 3);
     assert!(!a.significant);
-    let c = cv::CandidateScore {
+    let c = crate::diagnose::cv::CandidateScore {
         effect: EffectId::Slope,
         heldout_error_before: 5.0,
         heldout_error_after: 3.0,
@@ -111,7 +111,12 @@ fn a_heldout_departure_is_recorded_in_where() {
         shrink_total_pct: 40.0,
         not_testable: None,
     };
-    a.add_heldout_departure(&c, cv::Scheme::LeaveOneRunOut, 3.5);
+    a.add_heldout_departure(
+        c.effect,
+        (c.heldout_error_before, c.heldout_error_after),
+        crate::diagnose::cv::Scheme::LeaveOneRunOut.id(),
+        3.5,
+    );
     assert!(a.significant);
     assert!(
         a.statement.contains("slope removes 4.0 W RMS")
