@@ -314,12 +314,6 @@ fn solve(
 }
 
 impl Baseline {
-    /// The baseline family's member chosen by leave-one-run-out cross-validation on the
-    /// `calibration` rows (one-standard-error rule), refitted on all of them ([`family`]).
-    pub fn fit(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
-        family::choose(rover, calibration, family::Members::Escalating)
-    }
-
     /// Fits a and G of the plain member on the `calibration` rows' average power per side (a
     /// total-only row is one observation: its total on the sum of both sides' features).
     pub fn fit_plain(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {

@@ -32,80 +32,13 @@ use super::baseline::family::Members;
 use super::baseline::held_at_stall;
 use super::calibration::Calibration;
 use super::cv;
+use super::diagnosis::{CopperEvidence, Diagnosis};
+use super::error::DiagnoseError;
 use super::features::TurnRow;
-use super::Diagnosis;
-use crate::effect_id::EffectId;
 use model_core::Rover;
-use serde::Serialize;
 
 /// The copper-loss member's held-out RMS must be below this share of the chosen member's.
 pub const COPPER_ERROR_RATIO: f64 = 0.95;
-
-/// Why the diagnosis was redone with copper loss in the baseline: held-out RMS over all
-/// diagnosed rows under the diagnosis' scheme [W].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct CopperEvidence {
-    /// The member the calibration chose (copper-free).
-    pub chosen_member_error_w: f64,
-    /// The copper-loss member, fitted on the same calibration manoeuvres.
-    pub copper_member_error_w: f64,
-    /// The best single effect on top of the chosen member.
-    pub best_effect: EffectId,
-    /// Its held-out RMS [W].
-    pub best_effect_error_w: f64,
-    /// The copper-loss member plus the best effect, when copper loss won beside the effect
-    /// rather than instead of it [W]; `None` when the copper member alone won.
-    pub copper_with_effect_error_w: Option<f64>,
-    /// When the sides held at stall decided it: their held-out RMS with the chosen member and
-    /// with the copper member [W].
-    pub at_stall_error_w: Option<[f64; 2]>,
-}
-
-impl CopperEvidence {
-    /// One line for the report.
-    pub fn describe(&self) -> String {
-        let why = match self.copper_with_effect_error_w {
-            None => format!(
-                "predicts the held-out rows with {:.2} W RMS against {:.2} W for the copper-free \
-                 member the calibration chose and {:.2} W for it plus the best single effect ({})",
-                self.copper_member_error_w,
-                self.chosen_member_error_w,
-                self.best_effect_error_w,
-                self.best_effect.id(),
-            ),
-            Some(both) => format!(
-                "predicts the held-out rows with {:.2} W RMS against {:.2} W for the copper-free \
-                 member the calibration chose, and with the best single effect ({}) {:.2} W \
-                 against {:.2} W",
-                self.copper_member_error_w,
-                self.chosen_member_error_w,
-                self.best_effect.id(),
-                both,
-                self.best_effect_error_w,
-            ),
-        };
-        let why = match self.at_stall_error_w {
-            Some([chosen, copper]) => format!(
-                "predicts the sides held at stall (commanded still in a turn, holding the \
-                 tread's force: the inner side at R′) with {copper:.2} W RMS against {chosen:.2} W \
-                 for the copper-free member the calibration chose, which gives them no power; \
-                 over all held-out rows, with the best single effect ({}), {}",
-                self.best_effect.id(),
-                self.copper_with_effect_error_w.map_or_else(
-                    || "n/a".to_owned(),
-                    |both| format!("{both:.2} W against {:.2} W", self.best_effect_error_w)
-                ),
-            ),
-            None => why,
-        };
-        format!(
-            "copper loss taken from the diagnosed runs: the copper-loss member, fitted on the \
-             same calibration manoeuvres, {why}; the calibration manoeuvres cannot show it (they \
-             never drive a side slowly against a large force, as the inner side between B/2 and \
-             R′ is)"
-        )
-    }
-}
 
 /// `first`, or the diagnosis against the copper-loss member when the diagnosed runs show copper
 /// loss (see the module docs). `diagnose_against` diagnoses with a given calibration.
@@ -114,8 +47,8 @@ pub(super) fn reconsider(
     rows: &[TurnRow],
     calibration: Calibration<'_>,
     first: Diagnosis,
-    diagnose_against: impl Fn(Calibration<'_>) -> Result<Diagnosis, super::DiagnoseError>,
-) -> Result<Diagnosis, super::DiagnoseError> {
+    diagnose_against: impl Fn(Calibration<'_>) -> Result<Diagnosis, DiagnoseError>,
+) -> Result<Diagnosis, DiagnoseError> {
     if first.effect.effect().is_some()
         || first.baseline.structure.copper_loss
         || calibration.members == Members::CopperLoss
@@ -137,7 +70,7 @@ pub(super) fn reconsider(
             .candidates
             .iter()
             .any(|c| c.effect == e && c.shrink_pct >= cv::MIN_SHRINK_PCT),
-        None => second.effect != super::Verdict::BaselineMisfit,
+        None => second.effect != super::verdict::Verdict::BaselineMisfit,
     };
     if !keep {
         return Ok(first);

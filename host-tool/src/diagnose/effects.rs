@@ -11,8 +11,10 @@
 //! [`features`]: super::features
 
 use super::baseline::Baseline;
+use super::calibration::Calibration;
 use super::catalogue;
 pub use super::effect::{Context, MAX_PARAMS};
+use super::error::{DiagnoseError, EffectFitError};
 use super::features::TurnRow;
 use super::observe;
 pub use super::winding_heat::HEATING_TAU_GRID_S;
@@ -136,17 +138,6 @@ pub struct FittedModel {
     /// terms): what [`FittedModel::design_row`] takes off the regressors.
     #[serde(skip)]
     pub projections: Vec<[[f64; 2]; MAX_PARAMS]>,
-}
-
-/// Why an effect could not be fitted on a training set (e.g. its regressors are all zero there:
-/// the training fold holds no row of the regime it acts on).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{effects:?}: {reason}")]
-pub struct EffectFitError {
-    /// The effects of the model.
-    pub effects: Vec<EffectId>,
-    /// The least-squares complaint.
-    pub reason: String,
 }
 
 /// Most columns of a joint fit: every catalogue effect with its most parameters.
@@ -425,4 +416,40 @@ impl FittedEffect {
         regressors(self.effect, row, side, ctx)
             .map_or(0.0, |x| x[0] * self.params[0] + x[1] * self.params[1])
     }
+}
+
+/// The baseline as `calibration` says and `effects` fitted jointly on all rows (plus the
+/// calibration runs' manoeuvres): the diagnosed model, for tabulating (e.g. the model file of
+/// `plan --model`, [`model_file`]) with [`extra_power_w`].
+pub fn fit_model(
+    rover: &Rover,
+    rows: &[TurnRow],
+    effects: &[EffectId],
+    calibration: Calibration<'_>,
+) -> Result<(Baseline, FittedModel), DiagnoseError> {
+    let baseline = calibration.baseline(rover, rows)?;
+    let ctx = Context {
+        rover,
+        baseline: &baseline,
+        heating_tau_s: HEATING_TAU_GRID_S[0],
+    };
+    let model = FittedModel::fit(
+        effects,
+        &calibration.training_rows(rows),
+        &calibration.manoeuvres(rows),
+        &ctx,
+    )?;
+    Ok((baseline, model))
+}
+
+/// The extra effective power `model` predicts on top of `baseline` for each side of `row`
+/// ([inner, outer] for turns) [W], baseline corrections included.
+pub fn extra_power_w(
+    rover: &Rover,
+    baseline: &Baseline,
+    model: &FittedModel,
+    row: &TurnRow,
+) -> [f64; 2] {
+    let ctx = model.context(rover, baseline);
+    [0, 1].map(|side| model.extra_w(row, side, &ctx))
 }

@@ -23,10 +23,12 @@
 
 use super::baseline::Baseline;
 use super::calibration::Calibration;
+use super::diagnosis::Diagnosis;
+use super::effects::fit_model;
 use super::effects::{FittedEffect, FittedModel};
+use super::error::DiagnoseError;
 use super::features::{Observed, SideObs, SideRole, TurnRow, CALIBRATION_MIN_R_OVER_R_PRIME};
 use super::stats;
-use super::{fit_model, DiagnoseError, Diagnosis};
 use crate::plan::{self, EffectTerm, EnergyModel, HardGroundBase, ModelError};
 use crate::rover::decimal_f64;
 use model_core::kinematics::{side_speeds_for, yaw_rate_for, Regime, RegimeBounds, TurnDirection};

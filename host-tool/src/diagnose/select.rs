@@ -8,15 +8,20 @@
 //! regimes of the gap, the run-time trend, the physics' signs and the gaps' places; and the
 //! forward stepwise secondaries.
 
+use super::baseline::Baseline;
+use super::calibration::Calibration;
 use super::catalogue;
+use super::cv::{self, CandidateScore, Scheme};
+use super::diagnosis::StepwiseStep;
 use super::effect::{Context, SignRule};
 use super::effects::{self, FittedEffect, HEATING_TAU_GRID_S};
+use super::effects::{fit_model, FittedModel};
+use super::error::DiagnoseError;
+use super::features::TurnRow;
+use super::gaps::{self, Gap, Part};
+use super::signature;
 use super::stats;
-use super::{
-    cv, fit_model, gaps, removed_rms_w, signature, DiagnoseError, FittedModel, Gap, Part,
-    StepwiseStep,
-};
-use super::{Baseline, Calibration, CandidateScore, Scheme, TurnRow};
+use super::stats::removed_rms_w;
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 use model_core::Rover;

@@ -216,6 +216,11 @@ pub fn upper_median(mut values: Vec<f64>) -> Option<f64> {
     Some(values[values.len() / 2])
 }
 
+/// The held-out RMS a model removes: √(before² − after²), 0 when it makes things worse [W].
+pub fn removed_rms_w(before: f64, after: f64) -> f64 {
+    (before * before - after * after).max(0.0).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

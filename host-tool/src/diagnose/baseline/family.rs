@@ -422,3 +422,11 @@ fn mean_and_se(e: &[f64]) -> Option<(f64, f64)> {
     let var = e.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
     Some((mean, (var / n).sqrt()))
 }
+
+impl Baseline {
+    /// The baseline family's member chosen by leave-one-run-out cross-validation on the
+    /// `calibration` rows (one-standard-error rule), refitted on all of them.
+    pub fn fit(rover: &Rover, calibration: &[&TurnRow]) -> Result<Baseline, BaselineError> {
+        choose(rover, calibration, Members::Escalating)
+    }
+}
