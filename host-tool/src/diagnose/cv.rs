@@ -556,3 +556,14 @@ pub fn score_all(
     }
     Ok(Some(out))
 }
+
+/// The primary and secondary cross-validation schemes: leave one run out when there are two
+/// runs or more, else leave one radius out.
+pub fn schemes(rows: &[TurnRow]) -> (Scheme, Scheme) {
+    let runs = rows.iter().map(|r| r.run_index).max().unwrap_or(0) + 1;
+    if runs >= 2 {
+        (Scheme::LeaveOneRunOut, Scheme::LeaveOneRadiusOut)
+    } else {
+        (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
+    }
+}

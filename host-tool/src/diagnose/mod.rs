@@ -12,6 +12,7 @@
 //! copper loss when the diagnosed runs show it ([`copper_from_runs`]) → [`report`].
 
 pub mod adequacy;
+mod admission;
 pub mod baseline;
 pub mod bench;
 pub mod calibration;
@@ -24,6 +25,7 @@ pub mod effects;
 pub mod error;
 pub mod features;
 pub mod figures;
+mod findings;
 pub mod gaps;
 pub mod loo;
 pub mod model_file;
@@ -34,6 +36,7 @@ pub mod path_table;
 pub mod report;
 mod select;
 pub mod signature;
+mod significance;
 pub mod stats;
 pub mod summary;
 pub mod verdict;
@@ -44,20 +47,31 @@ mod tests;
 
 use crate::effect_id::EffectId;
 use adequacy::Adequacy;
+use admission::Admission;
 use baseline::Baseline;
 use calibration::Calibration;
 use cv::{CandidateScore, Scheme};
 pub use diagnosis::{named_effect, CopperEvidence, Diagnosis, HeldOutError, StepwiseStep};
-use effect::ScoredWhen;
-use effects::FittedModel;
 pub use effects::{extra_power_w, fit_model};
 pub use error::{DiagnoseError, EffectFitError};
 use features::TurnRow;
 pub use gaps::{Gap, Part, WhereAnalysis};
-use model_core::kinematics::Regime;
 use model_core::Rover;
 use select::Selection;
+use significance::SignificantGaps;
 pub use verdict::{Scope, Verdict};
+
+/// What is diagnosed, built once: the rover, the rows, and how the baseline is calibrated.
+#[derive(Debug, Clone, Copy)]
+pub struct Problem<'a> {
+    /// The rover (geometry, R′).
+    pub rover: &'a Rover,
+    /// The diagnosed rows (see [`features::rows`]), with the calibration runs' rows when the
+    /// runs calibrate themselves.
+    pub rows: &'a [TurnRow],
+    /// Where the baseline is fitted, and which members it chooses from.
+    pub calibration: Calibration<'a>,
+}
 
 /// Diagnoses `rows` (see [`features::rows`]), calibrated on their own calibration manoeuvres.
 pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseError> {
@@ -67,7 +81,7 @@ pub fn diagnose(rover: &Rover, rows: &[TurnRow]) -> Result<Diagnosis, DiagnoseEr
 /// Diagnoses `rows` with the baseline fitted as `calibration` says (e.g. on the calibration
 /// manoeuvres of separate calibration runs, which are then not scored), and again against the
 /// copper-loss members when the diagnosed runs show copper loss the calibration cannot
-/// ([`copper_from_runs`]).
+/// ([`copper_from_runs`]); then what to drive next ([`next_runs`]).
 pub fn diagnose_with(
     rover: &Rover,
     rows: &[TurnRow],
@@ -76,57 +90,210 @@ pub fn diagnose_with(
     if rows.is_empty() {
         return Err(DiagnoseError::NoRows);
     }
-    let first = diagnose_against(rover, rows, calibration)?;
-    let mut d = copper_from_runs::reconsider(rover, rows, calibration, first, |c| {
-        diagnose_against(rover, rows, c)
+    let problem = Problem {
+        rover,
+        rows,
+        calibration,
+    };
+    let first = diagnose_against(problem)?;
+    let mut d = copper_from_runs::reconsider(rover, rows, calibration, first, |calibration| {
+        diagnose_against(Problem {
+            calibration,
+            ..problem
+        })
     })?;
     d.next = next_runs::plan(rover, rows, d.fitted_with(calibration), &d);
     Ok(d)
 }
 
-/// [`diagnose_with`] against the baseline `calibration` chooses, as it is.
-pub(crate) fn diagnose_against(
-    rover: &Rover,
-    rows: &[TurnRow],
-    calibration: Calibration<'_>,
-) -> Result<Diagnosis, DiagnoseError> {
-    let baseline = calibration.baseline(rover, rows)?;
+/// One pass of the diagnosis against the baseline the problem's calibration chooses, read
+/// forward: baseline → departures → marks → candidates → verdict → findings.
+pub(crate) fn diagnose_against(p: Problem<'_>) -> Result<Diagnosis, DiagnoseError> {
+    let Fitted { baseline, adequacy } = fit_baseline(p)?;
+    let departures = departures(p, &baseline);
+    let signatures = catalogue::test_marks(&signature::Evidence::new(
+        p.rows,
+        p.calibration,
+        &baseline,
+        &departures.where_,
+    ));
+    let mut candidates = candidates(p, &departures.where_)?;
+    let conclusion = conclude(
+        p,
+        &baseline,
+        &adequacy,
+        &departures,
+        &signatures,
+        &candidates,
+    )?;
+    let Departures {
+        gaps,
+        mut where_,
+        significant: significant_gaps,
+    } = departures;
+    // The headline and the "where" analysis state one verdict: a departure seen only out of
+    // sample is recorded there too.
+    if let Some((effect, errors, floor_w)) = conclusion.heldout_departure {
+        where_.add_heldout_departure(effect, errors, candidates.primary.id(), floor_w);
+    }
+    let named = conclusion.verdict.effect();
+    if let Some(named) = named {
+        candidates.notes.extend(findings::deficit_note(
+            p.rover,
+            p.rows,
+            named,
+            p.calibration,
+        ));
+    }
+    let added = named.or(candidates.ranked.first().map(|c| c.effect));
+    let heldout = match added {
+        Some(added) => findings::heldout_errors(
+            p.rover,
+            p.rows,
+            candidates.primary,
+            p.calibration,
+            &candidates.before,
+            added,
+            &significant_gaps.regimes,
+        )?,
+        None => Vec::new(),
+    };
+    let regime = findings::scope_of(p.rover, p.rows, named, p.calibration, &significant_gaps)?;
+    Ok(Diagnosis {
+        heldout,
+        effect: conclusion.verdict,
+        regime,
+        significant: conclusion.significant,
+        baseline,
+        adequacy,
+        adequacy_with_effect: conclusion.adequacy_with_effect,
+        gaps,
+        where_,
+        scheme: candidates.primary,
+        candidates: candidates.ranked,
+        not_testable: candidates.not_testable,
+        other_scheme: candidates.other_scheme,
+        gap_regimes: significant_gaps.regimes,
+        secondary: conclusion.secondary,
+        copper_from_runs: None,
+        calibration: p.calibration.note(p.rows),
+        notes: candidates.notes,
+        signatures,
+        mark_missing: conclusion.mark_missing,
+        sign_checks: conclusion.sign_checks,
+        next: next_runs::NextRuns::default(),
+    })
+}
+
+/// The baseline on the calibration manoeuvres, and its lack-of-fit test there.
+struct Fitted {
+    baseline: Baseline,
+    adequacy: Adequacy,
+}
+
+fn fit_baseline(p: Problem<'_>) -> Result<Fitted, DiagnoseError> {
+    let baseline = p.calibration.baseline(p.rover, p.rows)?;
     // Judged as fitted: with the calibration's slope nuisance (`calibration_grade_n`).
-    let adequacy = adequacy::test(&calibration.manoeuvres(rows), 2, |r, s| {
+    let adequacy = adequacy::test(&p.calibration.manoeuvres(p.rows), 2, |r, s| {
         baseline.calibration_side_power_w(r, s)
     });
+    Ok(Fitted { baseline, adequacy })
+}
 
+/// Where the model departs: the mean gaps per regime and side, and every metric's groups.
+struct Departures {
+    gaps: Vec<Gap>,
+    where_: WhereAnalysis,
+    significant: SignificantGaps,
+}
+
+fn departures(p: Problem<'_>, baseline: &Baseline) -> Departures {
     // One significance rule for the gaps and the "where" groups (gaps::judge); groups without
     // repeats are judged row by row by leave-one-out prediction intervals.
-    let verdicts = gaps::RowVerdicts::of(rows, calibration);
-    let gaps = gaps::effective_gaps(&baseline, rows, &verdicts);
-    let mut where_ = gaps::analyse(&baseline, rows, &verdicts);
-    let significant_gaps = SignificantGaps::of(&gaps);
-    let signatures = catalogue::test_marks(&signature::Evidence::new(
+    let verdicts = gaps::RowVerdicts::of(p.rows, p.calibration);
+    let gaps = gaps::effective_gaps(baseline, p.rows, &verdicts);
+    let where_ = gaps::analyse(baseline, p.rows, &verdicts);
+    let significant = SignificantGaps::of(&gaps);
+    Departures {
+        gaps,
+        where_,
+        significant,
+    }
+}
+
+/// Every admitted catalogue term scored out of sample: ranked (every fold tests it) or not
+/// testable, under the primary scheme, and under the other one for the report.
+struct Candidates {
+    primary: Scheme,
+    /// Held-out residuals of the baseline alone under `primary`.
+    before: observe::HeldOut,
+    admission: Admission,
+    ranked: Vec<CandidateScore>,
+    not_testable: Vec<CandidateScore>,
+    other_scheme: Option<(Scheme, Vec<CandidateScore>)>,
+    notes: Vec<String>,
+}
+
+fn candidates(p: Problem<'_>, where_: &WhereAnalysis) -> Result<Candidates, DiagnoseError> {
+    let Problem {
+        rover,
         rows,
         calibration,
-        &baseline,
-        &where_,
-    ));
-
-    let (primary, secondary) = schemes(rows);
+    } = p;
+    let (primary, secondary) = cv::schemes(rows);
     let before = cv::heldout_residuals(rover, rows, primary, &[], calibration)?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
-    let (admission, mut notes) = Admission::of(rows, &where_);
-    let allowed = |e: EffectId| admission.allows(e);
-    let admitted = || EffectId::ALL.into_iter().filter(|&e| allowed(e));
+    let (admission, notes) = Admission::of(rows, where_);
+    let admitted = || EffectId::ALL.into_iter().filter(|&e| admission.allows(e));
     let scored = cv::score_all(rover, rows, primary, calibration, &before, admitted())?
         .ok_or(DiagnoseError::NothingToHoldOut)?;
     // A candidate some fold does not test has no out-of-sample score: not ranked, not named.
-    let (mut candidates, not_testable): (Vec<CandidateScore>, Vec<CandidateScore>) =
+    let (mut ranked, not_testable): (Vec<CandidateScore>, Vec<CandidateScore>) =
         scored.into_iter().partition(|c| c.not_testable.is_none());
-    candidates.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
+    ranked.sort_by(|a, b| a.penalised_mse.total_cmp(&b.penalised_mse));
     let other_scheme = match cv::heldout_residuals(rover, rows, secondary, &[], calibration)? {
         Some(before) => cv::score_all(rover, rows, secondary, calibration, &before, admitted())?
             .map(|c| (secondary, c)),
         None => None,
     };
+    Ok(Candidates {
+        primary,
+        before,
+        admission,
+        ranked,
+        not_testable,
+        other_scheme,
+        notes,
+    })
+}
 
+/// The verdict and what it brings along: whether the departure is significant, the stepwise
+/// secondaries, the candidate whose mark is missing, each candidate's sign check, the
+/// calibration's lack of fit with the named model, and a departure seen only out of sample
+/// (effect, held-out RMS before and after, floor).
+struct Conclusion {
+    verdict: Verdict,
+    significant: bool,
+    secondary: Vec<StepwiseStep>,
+    mark_missing: Option<EffectId>,
+    sign_checks: Vec<(EffectId, Option<bool>)>,
+    adequacy_with_effect: Option<Adequacy>,
+    heldout_departure: Option<(EffectId, (f64, f64), f64)>,
+}
+
+fn conclude(
+    p: Problem<'_>,
+    baseline: &Baseline,
+    adequacy: &Adequacy,
+    departures: &Departures,
+    signatures: &[signature::Signature],
+    candidates: &Candidates,
+) -> Result<Conclusion, DiagnoseError> {
+    let Problem {
+        rover,
+        rows,
+        calibration,
+    } = p;
     // A departure is significant when a mean gap is (beyond the repeat noise and the floor), or
     // when a catalogue term is the clear winner of the held-out selection and removes a
     // practically relevant RMS, √(MSE_before − MSE_after) ≥ the practical floor: an effect whose
@@ -135,14 +302,14 @@ pub(crate) fn diagnose_against(
     let selection = Selection {
         rover,
         rows,
-        scheme: primary,
+        scheme: candidates.primary,
         calibration,
-        before: &before,
+        before: &candidates.before,
     };
     // Each ranked candidate's evidence beside its fit, one plain table: its own signature and
     // whether its term has the sign its physics allows (fitted once; the selection reads what
     // the report shows).
-    let marks = select::Marks::of(&candidates, &signatures, |e| {
+    let marks = select::Marks::of(&candidates.ranked, signatures, |e| {
         select::physically_signed(rover, rows, &[e], calibration)
     });
     let misfit = adequacy.adequate == Some(false);
@@ -150,27 +317,23 @@ pub(crate) fn diagnose_against(
         selected,
         mark_missing,
     } = selection.decide(select::Facts {
-        candidates: &candidates,
+        candidates: &candidates.ranked,
         marks: &marks,
         misfit,
-        gap_regimes: &significant_gaps.regimes,
-        trend: where_.run_time.trend.as_ref(),
-        reaches_the_gaps: &|e| select::reaches_the_gaps(rover, rows, &baseline, &gaps, e),
+        gap_regimes: &departures.significant.regimes,
+        trend: departures.where_.run_time.trend.as_ref(),
+        reaches_the_gaps: &|e| select::reaches_the_gaps(rover, rows, baseline, &departures.gaps, e),
     })?;
-    let marked = |e: EffectId| marks.present(e);
-    let spread = explained_spread(&baseline, rows, &candidates, selected);
-    let in_groups = significant_gaps.any || where_.departs_over_run_time();
+    let spread = significance::explained_spread(baseline, rows, &candidates.ranked, selected);
+    let in_groups = departures.significant.any || departures.where_.departs_over_run_time();
     let significant = in_groups || spread.is_some();
-    // The headline and the "where" analysis state one verdict: a departure seen only out of
-    // sample is recorded there too.
-    if let (Some((c, floor_w)), false) = (spread, in_groups) {
-        where_.add_heldout_departure(
+    let heldout_departure = spread.filter(|_| !in_groups).map(|(c, floor_w)| {
+        (
             c.effect,
             (c.heldout_error_before, c.heldout_error_after),
-            primary.id(),
             floor_w,
-        );
-    }
+        )
+    });
     let verdict = match selected {
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
@@ -180,26 +343,27 @@ pub(crate) fn diagnose_against(
     // The stepwise selection starts from the selected effect's own score (the selection may
     // have named it on the growth score, ahead of the best on effective power alone). The
     // adequacy check then judges the whole diagnosed model (a world may carry several effects).
-    let mut secondary_steps = match verdict
+    let stepwise_allowed = |e: EffectId| candidates.admission.allows(e) && marks.present(e);
+    let mut secondary = match verdict
         .effect()
-        .and_then(|e| candidates.iter().find(|c| c.effect == e))
+        .and_then(|e| candidates.ranked.iter().find(|c| c.effect == e))
     {
-        Some(score) => selection.stepwise(score, &|e| allowed(e) && marked(e))?,
+        Some(score) => selection.stepwise(score, &stepwise_allowed)?,
         None => Vec::new(),
     };
     if misfit {
         // Beside a misfitting baseline only what stands on its own is named.
-        secondary_steps.retain(|s| !s.effect.signature_needs_power_model());
+        secondary.retain(|s| !s.effect.signature_needs_power_model());
     }
     let model_effects: Vec<EffectId> = verdict
         .effect()
         .into_iter()
-        .chain(secondary_steps.iter().map(|s| s.effect))
+        .chain(secondary.iter().map(|s| s.effect))
         .collect();
     let adequacy_with_effect = match verdict.effect() {
         Some(_) if misfit => {
             let (baseline, model) = fit_model(rover, rows, &model_effects, calibration)?;
-            Some(calibration_adequacy(
+            Some(findings::calibration_adequacy(
                 rover,
                 rows,
                 calibration,
@@ -209,323 +373,13 @@ pub(crate) fn diagnose_against(
         }
         _ => None,
     };
-    let effect = verdict;
-    let named = effect.effect();
-    if let Some(named) = named {
-        notes.extend(deficit_note(rover, rows, named, calibration));
-    }
-    let added = named.or(candidates.first().map(|c| c.effect));
-    let heldout = match added {
-        Some(added) => heldout_errors(
-            rover,
-            rows,
-            primary,
-            calibration,
-            &before,
-            added,
-            &significant_gaps.regimes,
-        )?,
-        None => Vec::new(),
-    };
-    let regime = scope_of(rover, rows, named, calibration, &significant_gaps)?;
-    Ok(Diagnosis {
-        heldout,
-        effect,
-        regime,
+    Ok(Conclusion {
+        verdict,
         significant,
-        baseline,
-        adequacy,
-        adequacy_with_effect,
-        gaps,
-        where_,
-        scheme: primary,
-        candidates,
-        not_testable,
-        other_scheme,
-        gap_regimes: significant_gaps.regimes,
-        secondary: secondary_steps,
-        copper_from_runs: None,
-        calibration: calibration.note(rows),
-        notes,
-        signatures,
+        secondary,
         mark_missing,
         sign_checks: marks.sign_checks(),
-        next: next_runs::NextRuns::default(),
+        adequacy_with_effect,
+        heldout_departure,
     })
-}
-
-/// When the named term takes power from the turns (its sign rule lets it, as
-/// [`select::physically_signed`] says), the report says so with the effect's own words
-/// ([`Effect::deficit_words`](effect::Effect::deficit_words)). No note when the term cannot be
-/// refitted alone (the verdict stands; only its wording is at stake).
-fn deficit_note(
-    rover: &Rover,
-    rows: &[TurnRow],
-    named: EffectId,
-    calibration: Calibration<'_>,
-) -> Option<String> {
-    let words = catalogue::of(named).deficit_words()?;
-    let own = select::own_power_per_side_w(rover, rows, named, calibration)
-        .ok()
-        .flatten();
-    own.filter(|w| *w < 0.0)
-        .map(|w| format!("{named} is a deficit here ({w:+.1} W per diagnosed side): {words}"))
-}
-
-/// What the significant mean gaps say: whether there is one, their regimes (in gap order,
-/// repeats next to each other merged) and the regime of the largest.
-struct SignificantGaps {
-    any: bool,
-    regimes: Vec<Regime>,
-    largest: Option<Regime>,
-}
-
-impl SignificantGaps {
-    fn of(gaps: &[Gap]) -> Self {
-        let mut regimes: Vec<Regime> = gaps
-            .iter()
-            .filter(|g| g.significant)
-            .map(|g| g.regime)
-            .collect();
-        regimes.dedup();
-        let largest = gaps
-            .iter()
-            .filter(|g| g.significant)
-            .max_by(|a, b| a.mean_w.abs().total_cmp(&b.mean_w.abs()))
-            .map(|g| g.regime);
-        Self {
-            any: gaps.iter().any(|g| g.significant),
-            regimes,
-            largest,
-        }
-    }
-}
-
-/// The primary and secondary cross-validation schemes: leave one run out when there are two
-/// runs or more, else leave one radius out.
-fn schemes(rows: &[TurnRow]) -> (Scheme, Scheme) {
-    let runs = rows.iter().map(|r| r.run_index).max().unwrap_or(0) + 1;
-    if runs >= 2 {
-        (Scheme::LeaveOneRunOut, Scheme::LeaveOneRadiusOut)
-    } else {
-        (Scheme::LeaveOneRadiusOut, Scheme::LeaveOneRunOut)
-    }
-}
-
-/// Which catalogue effects the data can tell apart, and notes on those it cannot.
-struct Admission {
-    run_time_identifiable: bool,
-    standstill_current_seen: bool,
-}
-
-impl Admission {
-    fn of(rows: &[TurnRow], where_: &WhereAnalysis) -> (Self, Vec<String>) {
-        let not_scored = |when: ScoredWhen| {
-            catalogue::all()
-                .into_iter()
-                .filter(move |e| e.scored_when() == when)
-                .map(|e| e.id())
-        };
-        // A term acting through run time: when every run drives the same manoeuvres in the
-        // same order, run time is confounded with the turn set and the term would fit turn
-        // shapes instead. It is only a candidate when the "where" analysis can identify a
-        // run-time trend (the same kind of manoeuvre recurring at run times spread apart).
-        let mut notes = Vec::new();
-        let run_time_identifiable = where_.run_time.trend.is_some();
-        if !run_time_identifiable {
-            notes.extend(not_scored(ScoredWhen::RunTimeApartFromTurnOrder).map(|e| {
-                format!(
-                    "{e} not scored: run time is not identifiable apart from the turn order \
-                     (repeat manoeuvres within longer runs to test it)"
-                )
-            }));
-        }
-        // A sensor's current offset reads at standstill too (thesis Fig 3.3: 0.59 A at rest):
-        // when the runs have standstill samples and every side reads no more than a driver's
-        // quiescent draw there, a constant extra power in the turns is something else (copper
-        // loss, say).
-        notes.extend(features::radius_source_note(rows));
-        let offset_measured = offset_measured_at_standstill(rows);
-        // Without standstill samples (a per-turn summary, runs without pauses) an offset
-        // cannot be ruled out.
-        let standstill_current_seen =
-            offset_measured || rows.iter().all(|r| r.standstill_current_a.is_none());
-        if !standstill_current_seen {
-            notes.extend(not_scored(ScoredWhen::StandstillCurrentSeen).map(|e| {
-                format!(
-                    "{e} not scored: the standstill current is within ±{} A on both sides \
-                     (a sensor offset would read there too)",
-                    baseline::QUIESCENT_MAX_A
-                )
-            }));
-        }
-        let admission = Self {
-            run_time_identifiable,
-            standstill_current_seen,
-        };
-        (admission, notes)
-    }
-
-    fn allows(&self, e: EffectId) -> bool {
-        match catalogue::of(e).scored_when() {
-            ScoredWhen::Always => true,
-            ScoredWhen::RunTimeApartFromTurnOrder => self.run_time_identifiable,
-            ScoredWhen::StandstillCurrentSeen => self.standstill_current_seen,
-        }
-    }
-}
-
-/// The selected effect's score and the floor [W] when it removes at least that practical floor
-/// of RMS out of sample. The floor is the one of the gaps and the adequacy test: the larger of
-/// the fixed floor and a share of the model power (a few watts are noise for a rover drawing
-/// hundreds).
-fn explained_spread<'a>(
-    baseline: &Baseline,
-    rows: &[TurnRow],
-    candidates: &'a [CandidateScore],
-    selected: Option<EffectId>,
-) -> Option<(&'a CandidateScore, f64)> {
-    let model_w: Vec<f64> = rows
-        .iter()
-        .flat_map(|r| [0, 1].map(|s| baseline.effective_side_power_w(r, s)))
-        .collect();
-    let floor_w = gaps::practical_floor_w(&model_w);
-    selected
-        .and_then(|e| candidates.iter().find(|c| c.effect == e))
-        .filter(|c| stats::removed_rms_w(c.heldout_error_before, c.heldout_error_after) >= floor_w)
-        .map(|c| (c, floor_w))
-}
-
-/// Held-out RMS before and after adding `added`, over all rows, the gap regimes and each regime.
-fn heldout_errors(
-    rover: &Rover,
-    rows: &[TurnRow],
-    primary: Scheme,
-    calibration: Calibration<'_>,
-    before: &[observe::RowResidual],
-    added: EffectId,
-    gap_regimes: &[Regime],
-) -> Result<Vec<HeldOutError>, DiagnoseError> {
-    let mut heldout = Vec::new();
-    if let Some(after) = cv::heldout_residuals(rover, rows, primary, &[added], calibration)? {
-        let mut push = |regime: Scope, keep: &dyn Fn(usize) -> bool| {
-            if let (Some(b), Some(a)) =
-                (cv::mean_square(before, keep), cv::mean_square(&after, keep))
-            {
-                let (b, a) = (b.sqrt(), a.sqrt());
-                heldout.push(HeldOutError {
-                    regime,
-                    effect: added,
-                    error_before: b,
-                    error_after: a,
-                    shrink_pct: cv::shrink_pct(b, a),
-                });
-            }
-        };
-        push(Scope::All, &|_| true);
-        if !gap_regimes.is_empty() {
-            push(Scope::Gap, &|i| gap_regimes.contains(&rows[i].regime));
-        }
-        for regime in Regime::ALL {
-            push(Scope::Regime(regime), &|i| rows[i].regime == regime);
-        }
-    }
-    Ok(heldout)
-}
-
-/// Where the departure acts: everywhere when the named effect acts in every regime, else the
-/// regime of the largest significant gap. Without a named effect: `all` when every regime
-/// present has a significant gap.
-fn scope_of(
-    rover: &Rover,
-    rows: &[TurnRow],
-    named: Option<EffectId>,
-    calibration: Calibration<'_>,
-    gaps: &SignificantGaps,
-) -> Result<Scope, DiagnoseError> {
-    let largest = gaps.largest.map_or(Scope::All, Scope::Regime);
-    Ok(match named {
-        Some(e) if acts_in_every_regime(rover, rows, e, calibration)? => Scope::All,
-        Some(_) => largest,
-        None => {
-            let present = Regime::ALL
-                .iter()
-                .filter(|r| rows.iter().any(|row| row.regime == **r))
-                .count();
-            if gaps.regimes.len() == present {
-                Scope::All
-            } else {
-                largest
-            }
-        }
-    })
-}
-
-/// Whether some run's standstill current on some side exceeds the drivers' quiescent draw
-/// ([`baseline::QUIESCENT_MAX_A`]).
-fn offset_measured_at_standstill(rows: &[TurnRow]) -> bool {
-    rows.iter().filter_map(|r| r.standstill_current_a).any(|s| {
-        s.left.abs() > baseline::QUIESCENT_MAX_A || s.right.abs() > baseline::QUIESCENT_MAX_A
-    })
-}
-
-/// The calibration manoeuvres' lack-of-fit test of `baseline` with `model`'s terms, fitted
-/// jointly on all rows.
-fn calibration_adequacy(
-    rover: &Rover,
-    rows: &[TurnRow],
-    calibration: Calibration<'_>,
-    baseline: &Baseline,
-    model: &FittedModel,
-) -> Adequacy {
-    let ctx = model.context(rover, baseline);
-    let effects: Vec<EffectId> = model.effects.iter().map(|t| t.effect).collect();
-    let params = 2 + effects::model_params(&effects);
-    adequacy::test(&calibration.manoeuvres(rows), params, |r, s| {
-        baseline.side_power_w(r, s) + model.extra_avg_power_w(r, s, &ctx)
-    })
-}
-
-/// Whether `effect`, fitted on all rows, acts across the regimes: its own term (without the
-/// baseline corrections) has an RMS per side of at least [`stats::PRACTICAL_FLOOR_W`] in some
-/// regime and at least half of that floor on the straights (not for `slip-track`: a straight
-/// has no yaw to scale) and in every other regime present but at most one (a slope term is
-/// small on point turns, where v_y = 0 and only the sides' opposite climbs remain). Then
-/// the departure is not confined to a regime and the diagnosis' regime is `all`. (The gaps
-/// alone cannot say so: a term acting on every row is partly absorbed into a and G on the
-/// calibration rows, so its gaps change sign between regimes.)
-fn acts_in_every_regime(
-    rover: &Rover,
-    rows: &[TurnRow],
-    effect: EffectId,
-    calibration: Calibration<'_>,
-) -> Result<bool, DiagnoseError> {
-    let (baseline, model) = fit_model(rover, rows, &[effect], calibration)?;
-    let ctx = model.context(rover, &baseline);
-    let Some(term) = model.effects.first() else {
-        return Ok(false);
-    };
-    let rms: Vec<(Regime, f64)> = Regime::ALL
-        .iter()
-        .filter_map(|&regime| {
-            let of: Vec<&TurnRow> = rows.iter().filter(|r| r.regime == regime).collect();
-            (!of.is_empty()).then(|| {
-                let ms = of
-                    .iter()
-                    .flat_map(|r| (0..2).map(move |side| term.term_w(r, side, &ctx).powi(2)))
-                    .sum::<f64>()
-                    / (2 * of.len()) as f64;
-                (regime, ms.sqrt())
-            })
-        })
-        .collect();
-    let largest = rms.iter().map(|(_, r)| *r).fold(0.0, f64::max);
-    let acts = |r: f64| r >= 0.5 * stats::PRACTICAL_FLOOR_W;
-    let missing = rms.iter().filter(|(_, r)| !acts(*r)).count();
-    // A term that scales every turn alike acts where the turns are: a straight has no yaw.
-    let on_straights = catalogue::of(effect).scales_every_turn()
-        || rms
-            .iter()
-            .any(|(regime, r)| *regime == Regime::Straight && acts(*r));
-    Ok(largest >= stats::PRACTICAL_FLOOR_W && on_straights && missing <= 1 && rms.len() >= 3)
 }

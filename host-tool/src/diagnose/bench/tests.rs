@@ -474,7 +474,12 @@ fn a_term_fitted_against_its_physics_is_not_named() {
 fn a_term_that_misses_an_equal_gap_where_it_cannot_act_is_not_named() {
     let (rover, cal_rows, rows) = dataset_rows(Part::Tuning, 1, 69, DatasetClass::StructureOnly);
     let calibration = crate::diagnose::calibration::Calibration::rows(&cal_rows);
-    let d = crate::diagnose::diagnose_against(&rover, &rows, calibration).expect("diagnoses");
+    let d = crate::diagnose::diagnose_against(crate::diagnose::Problem {
+        rover: &rover,
+        rows: &rows,
+        calibration,
+    })
+    .expect("diagnoses");
     let inner_gap = |regime: Regime| {
         d.gaps
             .iter()
@@ -612,7 +617,12 @@ fn copper_loss_beside_the_best_effect_is_evidence_from_the_runs() {
         .rows(&rover, None)
         .expect("validates");
     let calibration = crate::diagnose::Calibration::rows(&cal_rows);
-    let first = crate::diagnose::diagnose_against(&rover, &rows, calibration).expect("diagnoses");
+    let first = crate::diagnose::diagnose_against(crate::diagnose::Problem {
+        rover: &rover,
+        rows: &rows,
+        calibration,
+    })
+    .expect("diagnoses");
     assert_eq!(
         first.effect,
         crate::diagnose::Verdict::Effect(EffectId::AngularSlip)
