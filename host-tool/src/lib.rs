@@ -7,6 +7,7 @@ pub mod csv_table;
 pub mod decode;
 pub mod demo;
 pub mod diagnose;
+pub mod diagnose_bench;
 pub mod effect_id;
 pub mod excerpt;
 pub mod figures;

@@ -13,7 +13,6 @@
 
 pub mod adequacy;
 pub mod baseline;
-pub mod bench;
 pub mod calibration;
 pub mod copper_from_runs;
 pub mod cv;
@@ -28,7 +27,7 @@ pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
 pub mod path_table;
 pub mod report;
-mod select;
+pub(crate) mod select;
 pub mod signature;
 pub mod summary;
 pub mod verdict;
