@@ -24,6 +24,7 @@ pub mod replay;
 pub mod ros2;
 pub mod rover;
 pub mod runs;
+pub mod scenario;
 pub mod serial;
 pub mod sim;
 pub mod stderr;
