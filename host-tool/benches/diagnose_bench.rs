@@ -2,7 +2,7 @@
 //! withheld effect, none, or only a non-default structure, diagnosed blind; prints, per part
 //! (tuning, held-out), the confusion matrix, the accuracy, the controls, the structure-only
 //! datasets, the median held-out shrink, per structure and per class, and the diagnosis time
-//! (see `host_tool::diagnose::bench`).
+//! (see `host_tool::diagnose_bench`).
 //!
 //! `cargo bench -p host-tool --bench diagnose_bench -- [--datasets N] [--seed S] [--threads T]
 //! [--part tuning|held-out|both] [--json OUT.json]` (defaults: 100 datasets per part, seed 1, 2
@@ -10,7 +10,7 @@
 //! datasets per part, one per class.
 
 use anyhow::{bail, Context};
-use host_tool::diagnose::bench::{run_bench, BenchOptions, PartChoice};
+use host_tool::diagnose_bench::{run_bench, BenchOptions, PartChoice};
 use std::path::PathBuf;
 
 fn main() -> anyhow::Result<()> {

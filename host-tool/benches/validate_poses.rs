@@ -8,7 +8,7 @@
 //! the same samples without them (the run as before this feature). Under `cargo test --benches`
 //! (no `--bench` argument) the run is two simulated minutes and each path runs once.
 
-use host_tool::diagnose::bench::sample_run;
+use host_tool::diagnose_bench::sample_run;
 use host_tool::log::run_csv::RunSample;
 use host_tool::sim::world::{Scenario, WorldConfig};
 use host_tool::validate::pose::without_positions;

@@ -29,7 +29,7 @@ fn scenario() -> Scenario {
 /// One run of `world` sampled at 200 Hz, written as a run CSV.
 fn write_run(world: &WorldConfig, seed: u64, path: &Path) {
     let timeline = world.simulate(&scenario(), seed).expect("scenario runs");
-    let samples = host_tool::diagnose::bench::sample_run(&timeline, 200);
+    let samples = host_tool::diagnose_bench::sample_run(&timeline, 200);
     write_run_csv_atomically(path, &samples).expect("write run");
 }
 

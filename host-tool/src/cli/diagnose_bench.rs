@@ -3,10 +3,10 @@
 use super::output::{self, JsonOut};
 use anyhow::Context;
 use anyhow::Result;
-use host_tool::diagnose::bench::{
+use host_tool::diagnose::report;
+use host_tool::diagnose_bench::{
     dump::dump_dataset, generate_all, run::explain, run_bench, BenchOptions, PartChoice,
 };
-use host_tool::diagnose::report;
 use host_tool::log::run_csv::CURRENT_A_MAX;
 use host_tool::out_dir::{write_dir_whole, OutDirError};
 use std::fmt::Write as _;

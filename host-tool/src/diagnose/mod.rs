@@ -14,7 +14,6 @@
 pub mod adequacy;
 mod admission;
 pub mod baseline;
-pub mod bench;
 pub mod calibration;
 pub mod catalogue;
 pub mod copper_from_runs;
@@ -34,7 +33,7 @@ pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
 pub mod path_table;
 pub mod report;
-mod select;
+pub(crate) mod select;
 pub mod signature;
 mod significance;
 pub mod stats;

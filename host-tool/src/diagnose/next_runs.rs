@@ -42,7 +42,7 @@ use super::stats::PRACTICAL_FLOOR_W;
 use super::verdict::Verdict;
 use super::Diagnosis;
 use crate::effect_id::EffectId;
-use crate::sim::world::{Manoeuvre, Scenario, Side};
+use crate::scenario::{Manoeuvre, Scenario, Side};
 use model_core::fit::LinearFit;
 use model_core::kinematics::TurnDirection;
 use model_core::Rover;

@@ -597,7 +597,7 @@ fn regime_rows(d: &Diagnosis) -> Vec<Vec<String>> {
 }
 
 /// The effect the per-regime table and the figures add (the named one, else the best).
-fn added_effect(d: &Diagnosis) -> Option<crate::sim::world::EffectId> {
+fn added_effect(d: &Diagnosis) -> Option<EffectId> {
     d.heldout
         .first()
         .map(|h| h.effect)

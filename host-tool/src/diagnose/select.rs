@@ -323,7 +323,7 @@ pub(super) fn standing_on_its_own(
 /// effective and average power pooled by the same margin (terms that lengthen the turn against
 /// terms that draw more power). Either way it must
 /// close [`cv::MIN_SHRINK_PCT`] of the held-out gap.
-pub(super) fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
+pub(crate) fn select(candidates: &[CandidateScore]) -> Option<EffectId> {
     let shrink = |c: &CandidateScore| c.shrink_pct;
     clear_winner(candidates, |c| c.penalised_mse, shrink)
         .or_else(|| clear_winner(candidates, |c| c.penalised_mse_with_growth, shrink))
@@ -366,7 +366,7 @@ fn clear_winner(
 /// the other and hides the term's share of each). Only for terms that draw power: the two
 /// that lengthen the turn (`angular-slip`, `slip-track`) share a signature the total does not
 /// separate either.
-pub(super) fn clear_in_total(candidates: &[CandidateScore]) -> Option<EffectId> {
+pub(crate) fn clear_in_total(candidates: &[CandidateScore]) -> Option<EffectId> {
     clear_winner(
         candidates,
         |c| c.penalised_mse_total,

@@ -15,7 +15,7 @@ const HUSKY: Rover = Rover::HUSKY_A200;
 /// One simulated run of `world` over `scenario`, sampled at 200 Hz.
 pub(super) fn simulate_run(world: &WorldConfig, scenario: &Scenario, seed: u64) -> Vec<RunSample> {
     let timeline = world.simulate(scenario, seed).expect("scenario runs");
-    super::bench::sample_run(&timeline, 200)
+    crate::diagnose_bench::sample_run(&timeline, 200)
 }
 
 /// One simulated run sampled every `step_us` (coarser sampling keeps long runs cheap).
@@ -26,12 +26,12 @@ pub(super) fn simulate_run_every(
     step_us: u64,
 ) -> Vec<RunSample> {
     let timeline = world.simulate(scenario, seed).expect("scenario runs");
-    super::bench::sample_run(&timeline, 1_000_000 / step_us)
+    crate::diagnose_bench::sample_run(&timeline, 1_000_000 / step_us)
 }
 
 /// Rows of `runs` (each a run's samples) through `validate` and `features::rows`.
 pub(super) fn rows_of(runs: &[Vec<RunSample>]) -> Vec<TurnRow> {
-    super::bench::rows_of(runs).expect("validates")
+    crate::diagnose_bench::rows_of(runs).expect("validates")
 }
 
 /// Adds `extra_w` of power drawn all through the manoeuvre to side `side` of `row`: its
@@ -201,7 +201,7 @@ fn slip_track_is_named_with_a_pose_track() {
         .map(|k| simulate_run(&world, &scenario(), 10 + k))
         .collect();
     let offset = Some(world.tracker.offset_m);
-    let rows = super::bench::rows_for(&HUSKY, &runs, "run", offset).expect("validates");
+    let rows = crate::diagnose_bench::rows_for(&HUSKY, &runs, "run", offset).expect("validates");
     assert!(rows
         .iter()
         .filter(|r| !r.is_straight())
@@ -439,7 +439,7 @@ pub(super) fn scaled(effect: EffectId, scale: f64, current_std_a: f64) -> WorldC
     let mut w = WorldConfig::hard_ground().with_effect(effect, true);
     w.noise.left_current_std_a = current_std_a;
     w.noise.right_current_std_a = current_std_a;
-    super::bench::scale_effect(&mut w, effect, scale);
+    crate::diagnose_bench::scale_effect(&mut w, effect, scale);
     w
 }
 

@@ -1,5 +1,5 @@
 use super::*;
-use crate::diagnose::bench::{generate, run::explain, Part};
+use crate::diagnose_bench::{generate, run::explain, Part};
 use crate::sim::world::{parse_scenario, WorldConfig};
 
 fn run(x: Option<f64>, repeats: u32, when: When) -> NextRun {
@@ -112,7 +112,7 @@ fn a_rival_the_baseline_can_mimic_is_never_separated() {
             prediction: Prediction::Copper([0.0, 3.0, 2.0]),
         },
     ];
-    let (_, driven) = crate::diagnose::bench::simulate(&spec)
+    let (_, driven) = crate::diagnose_bench::simulate(&spec)
         .expect("simulated")
         .rows(&rover, None)
         .expect("validated");

@@ -86,77 +86,28 @@ pub mod effects;
 mod engine;
 mod file;
 pub mod path_energy;
-pub mod scenario;
 pub mod structure;
 mod timeline;
 pub mod tracker;
 
 pub use effects::EffectId;
 pub use file::{load_world, parse_world};
-pub use scenario::{load_scenario, parse_scenario, Manoeuvre, ManoeuvreKind, Scenario, Side};
+// The scenario (what the rover is commanded to do) and `WorldError`, which reading one returns,
+// live in the neutral `crate::scenario`: the diagnosis writes scenarios without the simulator.
+pub use crate::scenario;
+pub use crate::scenario::{
+    load_scenario, parse_scenario, Manoeuvre, ManoeuvreKind, Scenario, Side, WorldError,
+};
 pub use structure::{DrivePower, PowerSplit, Structure};
 pub use timeline::{ManoeuvreTruth, Timeline, TimelineLoad};
 pub use tracker::Tracker;
 
-use crate::toml_syntax::TomlSyntaxError;
 use model_core::power::{DcMotor, IcrHardGround};
 use model_core::{Rover, Sides};
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
 
 /// Integration step of the world's mechanics [s].
 pub const STEP_S: f64 = 0.01;
-
-/// Why a world or scenario could not be read or simulated.
-#[derive(Debug, thiserror::Error)]
-pub enum WorldError {
-    /// The file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// Not valid TOML, an unknown key or a value of the wrong type (the message names the key
-    /// and, where TOML knows it, the line).
-    #[error("{origin}: {source}")]
-    Toml {
-        /// The file (or "world"/"scenario" for text).
-        origin: String,
-        /// The parser's error.
-        #[source]
-        source: TomlSyntaxError,
-    },
-    /// A value outside its domain.
-    #[error("{origin}: `{key}` {reason}")]
-    Invalid {
-        /// The file (or "world"/"scenario" for text).
-        origin: String,
-        /// The key, dotted (`inner-drag.torque_nm`, `manoeuvres[2].angle_deg`).
-        key: String,
-        /// What is wrong.
-        reason: String,
-    },
-    /// The world's `rover` file.
-    #[error("{origin}: `rover`: {source}")]
-    Rover {
-        /// The world file.
-        origin: String,
-        /// The rover file's error.
-        #[source]
-        source: crate::rover::RoverFileError,
-    },
-    /// A manoeuvre that does not finish (e.g. the rover cannot turn).
-    #[error("manoeuvre `{label}` did not finish within {limit_s:.0} s")]
-    Stalled {
-        /// The manoeuvre.
-        label: String,
-        /// The time limit [s].
-        limit_s: f64,
-    },
-}
 
 /// The terrain of a world: it picks the ICR parameters and which terrain effects are on by
 /// default.

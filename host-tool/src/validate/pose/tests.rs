@@ -200,7 +200,7 @@ fn slip_track_is_the_median_with_its_spread() {
 /// fixes.
 #[test]
 fn validate_recovers_the_worlds_radius_and_slip_track() {
-    use crate::diagnose::bench::run::sample_run;
+    use crate::diagnose_bench::run::sample_run;
     use crate::sim::world::{EffectId, Scenario, WorldConfig};
     use crate::validate::{validate, RunInput, ValidateOptions};
 
@@ -289,7 +289,7 @@ fn validate_recovers_the_worlds_radius_and_slip_track() {
 /// unchanged; with positions, every other figure is the same.
 #[test]
 fn runs_without_positions_validate_as_before() {
-    use crate::diagnose::bench::run::sample_run;
+    use crate::diagnose_bench::run::sample_run;
     use crate::sim::world::{Scenario, WorldConfig};
     use crate::validate::report::CSV_COLUMNS;
     use crate::validate::{validate, RunInput, ValidateOptions};

@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 /// The rover files of the family, as shipped in `rovers/`.
 fn rover_file(rover: RoverKind) -> &'static str {
     match rover {
-        RoverKind::HuskyA200 => include_str!("../../../../rovers/husky-a200.toml"),
-        RoverKind::ArgoJ5 => include_str!("../../../../rovers/argo-j5.toml"),
+        RoverKind::HuskyA200 => include_str!("../../../rovers/husky-a200.toml"),
+        RoverKind::ArgoJ5 => include_str!("../../../rovers/argo-j5.toml"),
     }
 }
 
@@ -112,7 +112,7 @@ pub fn dump_dataset(spec: &DatasetSpec, dir: &Path, poses: bool) -> Result<Dumpe
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnose::bench::{generate, Part};
+    use crate::diagnose_bench::{generate, Part};
     use crate::rover::parse_rover_file;
 
     #[test]

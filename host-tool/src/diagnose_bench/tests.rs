@@ -616,7 +616,7 @@ fn copper_loss_beside_the_best_effect_is_evidence_from_the_runs() {
         .expect("simulates")
         .rows(&rover, None)
         .expect("validates");
-    let calibration = crate::diagnose::Calibration::rows(&cal_rows);
+    let calibration = crate::diagnose::calibration::Calibration::rows(&cal_rows);
     let first = crate::diagnose::diagnose_against(crate::diagnose::Problem {
         rover: &rover,
         rows: &rows,
@@ -913,7 +913,7 @@ fn the_sides_held_at_stall_show_the_copper_loss() {
         .expect("simulates")
         .rows(&rover, None)
         .expect("rows");
-    let calibration = crate::diagnose::Calibration::rows(&cal_rows);
+    let calibration = crate::diagnose::calibration::Calibration::rows(&cal_rows);
     let d = crate::diagnose::diagnose_with(&rover, &rows, calibration).expect("diagnoses");
     assert_eq!(d.effect, crate::diagnose::Verdict::Effect(EffectId::Slope));
     assert!(!d.baseline.structure.copper_loss);

@@ -40,15 +40,70 @@
 //! ```
 //!
 //! R' is the rover's (its controller slip track B_s / 2, Eq 2.5). Unknown keys are errors.
+//!
+//! Neutral ground between the simulator, which runs a scenario (`crate::sim::world` re-exports
+//! this module), and the diagnosis, whose what-to-drive-next writes one: nothing here imports
+//! `crate::sim`.
 
-use super::WorldError;
 use crate::rover::decimal_f64;
 use crate::toml_syntax::TomlSyntaxError;
 use model_core::kinematics::{side_speeds_for, TurnDirection};
 use model_core::paths::{ClcEnds, ClcPath};
 use model_core::Rover;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Why a world or scenario could not be read or simulated (here because reading a scenario
+/// returns it; `crate::sim::world::WorldError` is this type).
+#[derive(Debug, thiserror::Error)]
+pub enum WorldError {
+    /// The file could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not valid TOML, an unknown key or a value of the wrong type (the message names the key
+    /// and, where TOML knows it, the line).
+    #[error("{origin}: {source}")]
+    Toml {
+        /// The file (or "world"/"scenario" for text).
+        origin: String,
+        /// The parser's error.
+        #[source]
+        source: TomlSyntaxError,
+    },
+    /// A value outside its domain.
+    #[error("{origin}: `{key}` {reason}")]
+    Invalid {
+        /// The file (or "world"/"scenario" for text).
+        origin: String,
+        /// The key, dotted (`inner-drag.torque_nm`, `manoeuvres[2].angle_deg`).
+        key: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The world's `rover` file.
+    #[error("{origin}: `rover`: {source}")]
+    Rover {
+        /// The world file.
+        origin: String,
+        /// The rover file's error.
+        #[source]
+        source: crate::rover::RoverFileError,
+    },
+    /// A manoeuvre that does not finish (e.g. the rover cannot turn).
+    #[error("manoeuvre `{label}` did not finish within {limit_s:.0} s")]
+    Stalled {
+        /// The manoeuvre.
+        label: String,
+        /// The time limit [s].
+        limit_s: f64,
+    },
+}
 
 /// A list of manoeuvres, repeated, with standstill pauses between them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -2,8 +2,8 @@
 //! datasets drawn from a WORLD FAMILY of the simulator, each with one effect switched on at a
 //! random strength, none (a control), or a structure off the family's default without an
 //! effect, diagnosed blind — the diagnosis sees only the runs' samples and the rover, through
-//! `validate` and [`features::rows`](super::features::rows) — and scored against the world's
-//! ground truth.
+//! `validate` and [`features::rows`](crate::diagnose::features::rows) — and scored against the
+//! world's ground truth.
 //!
 //! # The family ([`family`])
 //!

@@ -10,7 +10,7 @@ use super::{
     BenchOptions, GOAL_DIAGNOSE_MS, GOAL_ONE_HOUR_LOG_S, GOAL_SHOWN_NAMED_PCT, GOAL_WRONG_PCT,
     SHOWN_CEILING_PCT,
 };
-use crate::diagnose::stats::PRACTICAL_FLOOR_W;
+use crate::diagnose::stats::{median, PRACTICAL_FLOOR_W};
 use crate::effect_id::EffectId;
 use crate::sim::world::Side;
 use serde::Serialize;
@@ -317,19 +317,6 @@ pub struct BenchReport {
     pub parts: Vec<PartFigures>,
     /// Every dataset.
     pub datasets: Vec<DatasetResult>,
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    })
 }
 
 pub(super) fn pct(a: usize, b: usize) -> Option<f64> {
