@@ -1,7 +1,9 @@
 //! The catalogue of unmodelled effects: one registry that the simulated world (which can switch
-//! each on) and the diagnosis (which names them) both import, so neither depends on the other.
-//! Adding an effect means a variant here, its term in the world's engine and its regressor in
-//! `diagnose::effects`; the exhaustive matches below point the compiler at each place.
+//! each on) and the diagnosis (which names them) both import, so neither depends on the other:
+//! their ids, names and the words of their signatures. Adding an effect means a variant here,
+//! its file in `diagnose/catalogue/` with its line in that list (everything the diagnosis knows
+//! about it), and its term in the simulator (`sim/world/`); the exhaustive matches point the
+//! compiler at each place.
 
 use serde::{Deserialize, Serialize};
 

@@ -273,35 +273,46 @@ fn heldout(
             .enumerate()
             .filter(|(_, r)| scheme.group(r) == g)
         {
-            let mut effective_w = baseline.observed_residuals_w(row);
-            effective_w.subtract(|side| fitted.extra_w(row, side, &ctx));
-            let mut growth_w = [row.sides[0].growth_w, row.sides[1].growth_w];
-            for (side, growth) in growth_w.iter_mut().enumerate() {
-                if let Some(gw) = growth {
-                    *gw -= fitted.growth_w(row, side, &ctx);
-                }
-            }
-            let avg_w = if row.is_total_only() {
-                [None, None]
-            } else {
-                [0, 1].map(|side| {
-                    Some(
-                        row.sides[side].avg_power_w
-                            - baseline.side_power_w(row, side)
-                            - fitted.extra_avg_power_w(row, side, &ctx),
-                    )
-                })
-            };
-            out.push(RowResidual {
-                row: i,
-                effective_w,
-                growth_w,
-                avg_w,
-            });
+            out.push(row_residual(i, row, &baseline, &fitted, &ctx));
         }
     }
     out.sort_by_key(|r| r.row);
     Ok(Some((out, unidentified.or(extrapolated))))
+}
+
+/// The held-out residuals of row `i` (`row`) under `baseline` and `fitted`.
+fn row_residual(
+    i: usize,
+    row: &TurnRow,
+    baseline: &Baseline,
+    fitted: &FittedModel,
+    ctx: &Context<'_>,
+) -> RowResidual {
+    let mut effective_w = baseline.observed_residuals_w(row);
+    effective_w.subtract(|side| fitted.extra_w(row, side, ctx));
+    let mut growth_w = [row.sides[0].growth_w, row.sides[1].growth_w];
+    for (side, growth) in growth_w.iter_mut().enumerate() {
+        if let Some(gw) = growth {
+            *gw -= fitted.growth_w(row, side, ctx);
+        }
+    }
+    let avg_w = if row.is_total_only() {
+        [None, None]
+    } else {
+        [0, 1].map(|side| {
+            Some(
+                row.sides[side].avg_power_w
+                    - baseline.side_power_w(row, side)
+                    - fitted.extra_avg_power_w(row, side, ctx),
+            )
+        })
+    };
+    RowResidual {
+        row: i,
+        effective_w,
+        growth_w,
+        avg_w,
+    }
 }
 
 /// Whether some term of `effects` has a nonzero regressor on some side of `rows`.

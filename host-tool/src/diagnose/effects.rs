@@ -172,6 +172,74 @@ fn least_squares_of<X: AsRef<[f64]>>(
     Some((b[..k].to_vec(), fit.residual_sum_of_squares()))
 }
 
+/// Each power-type column's projection on the baseline's features over the rows the baseline
+/// was fitted on, `fitted_on`: [effect][param] → [on skid, on |V|] (zeros for time-type terms).
+fn projections(
+    effects: &[EffectId],
+    fitted_on: &[&TurnRow],
+    ctx: &Context<'_>,
+) -> Vec<[[f64; 2]; MAX_PARAMS]> {
+    effects
+        .iter()
+        .map(|&e| {
+            let mut out = [[0.0; 2]; MAX_PARAMS];
+            if !is_power_type(e) {
+                return out;
+            }
+            for (p, slot) in out.iter_mut().enumerate().take(param_count(e)) {
+                let design = fitted_on.iter().flat_map(|r| {
+                    observe::observations(r).iter().map(move |sides| {
+                        let [z] = observe::sum_sides(sides, |side| {
+                            [regressors(e, r, side, ctx).unwrap_or([0.0; MAX_PARAMS])[p]]
+                        });
+                        let f = observe::sum_sides(sides, |side| baseline_features(r, side));
+                        (f, z)
+                    })
+                });
+                if let Some((b, _)) = least_squares_of(2, design) {
+                    *slot = [b[0], b[1]];
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// The growth coefficients of `model`'s growing terms: least squares of the observed growth
+/// per side of `train` on their growth regressors (none without phases or growing rows).
+fn fit_growth(
+    model: &mut FittedModel,
+    effects: &[EffectId],
+    train: &[&TurnRow],
+    ctx: &Context<'_>,
+) {
+    let growing: Vec<usize> = (0..effects.len())
+        .filter(|&k| catalogue::of(effects[k]).grows())
+        .collect();
+    if growing.is_empty() {
+        return;
+    }
+    let mut design = Vec::new();
+    for row in train {
+        for side in 0..2 {
+            let Some(g) = row.sides[side].growth_w else {
+                continue;
+            };
+            let x = growing
+                .iter()
+                .map(|&k| growth_regressor(effects[k], row, side, ctx))
+                .collect();
+            design.push((x, g));
+        }
+    }
+    // No phases or no row where it grows: the terms predict no growth.
+    if let Some((b, _)) = least_squares(&design) {
+        for (&k, g) in growing.iter().zip(b) {
+            model.effects[k].growth = g;
+        }
+    }
+}
+
 impl FittedModel {
     /// The context this model's terms are evaluated in: `rover`, the `baseline` it was fitted
     /// with, and its own heating τ.
@@ -246,33 +314,7 @@ impl FittedModel {
                 heating_tau_s: tau,
                 ..*ctx
             };
-            // Projection of each power-type column on the baseline's features over the
-            // calibration rows: [effect][param] -> [on skid, on |V|].
-            let projections: Vec<[[f64; 2]; MAX_PARAMS]> = effects
-                .iter()
-                .map(|&e| {
-                    let mut out = [[0.0; 2]; MAX_PARAMS];
-                    if !is_power_type(e) {
-                        return out;
-                    }
-                    for (p, slot) in out.iter_mut().enumerate().take(param_count(e)) {
-                        let design = fitted_on.iter().flat_map(|r| {
-                            observe::observations(r).iter().map(move |sides| {
-                                let [z] = observe::sum_sides(sides, |side| {
-                                    [regressors(e, r, side, &ctx).unwrap_or([0.0; MAX_PARAMS])[p]]
-                                });
-                                let f =
-                                    observe::sum_sides(sides, |side| baseline_features(r, side));
-                                (f, z)
-                            })
-                        });
-                        if let Some((b, _)) = least_squares_of(2, design) {
-                            *slot = [b[0], b[1]];
-                        }
-                    }
-                    out
-                })
-                .collect();
+            let projections = projections(effects, fitted_on, &ctx);
             // One observation per side, or one per total-only row on the summed regressors.
             let design = observed.iter().map(|&(row, sides, f, y)| {
                 (design_row(effects, &projections, row, sides, f, &ctx), y)
@@ -312,30 +354,7 @@ impl FittedModel {
             ));
         }
         let (_, mut model) = best.ok_or_else(|| fail("regressors are zero or collinear"))?;
-        let growing: Vec<usize> = (0..effects.len())
-            .filter(|&k| catalogue::of(effects[k]).grows())
-            .collect();
-        if !growing.is_empty() {
-            let mut design = Vec::new();
-            for row in train {
-                for side in 0..2 {
-                    let Some(g) = row.sides[side].growth_w else {
-                        continue;
-                    };
-                    let x = growing
-                        .iter()
-                        .map(|&k| growth_regressor(effects[k], row, side, ctx))
-                        .collect();
-                    design.push((x, g));
-                }
-            }
-            // No phases or no row where it grows: the terms predict no growth.
-            if let Some((b, _)) = least_squares(&design) {
-                for (&k, g) in growing.iter().zip(b) {
-                    model.effects[k].growth = g;
-                }
-            }
-        }
+        fit_growth(&mut model, effects, train, ctx);
         Ok(model)
     }
 
