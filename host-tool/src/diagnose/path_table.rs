@@ -20,31 +20,23 @@
 //! (≥ 30 % of the held-out error closed, runner-up's held-out MSE ≥ 1.5×), on the held-out
 //! error without Akaike's factor (see [`diagnose_path_table`]).
 
+mod reader;
+
+pub use reader::{
+    is_path_table_file, load_path_table, parse_path_table, PathRow, PathTableError,
+    PATH_TABLE_COLUMNS,
+};
+
 use super::catalogue;
 use super::effect::PathSegment;
 use super::verdict::{Scope, Verdict};
-use crate::csv_table::{content_lines, csv_header, RowError};
 use crate::effect_id::EffectId;
-use crate::excerpt::{self, Number};
-use crate::file_error::{read_bytes_and_parse, FileError};
 use crate::plan::{EnergyModel, ModelLaw};
 use model_core::kinematics::{Regime, RegimeBounds};
 use model_core::paths::{ClcEnds, ClcPath, SegmentEnergy};
 use model_core::Rover;
 use serde::Serialize;
 use std::fmt;
-use std::path::Path;
-
-/// The header of a path table; the last column is optional.
-pub const PATH_TABLE_COLUMNS: [&str; 7] = [
-    "start_deg",
-    "end_deg",
-    "distance_m",
-    "r_lo_over_r_prime",
-    "r_hi_over_r_prime",
-    "delta_e_pct",
-    "p_value",
-];
 
 /// Smallest gap that counts in practice [percentage points] (the thesis matched CLC and PLP
 /// displacements within ±2 %).
@@ -52,163 +44,6 @@ pub const FLOOR_PP: f64 = 2.0;
 
 /// Points per slice over which the model's mean ΔE is taken (midpoint rule).
 const SLICE_POINTS: u32 = 40;
-
-/// One row of a path table.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PathRow {
-    /// Line in the file (1-based).
-    pub line: usize,
-    /// θ_A [deg].
-    pub start_deg: f64,
-    /// θ_C [deg].
-    pub end_deg: f64,
-    /// d [m].
-    pub distance_m: f64,
-    /// Lower bound of R/R'.
-    pub r_lo_over_r_prime: f64,
-    /// Upper bound of R/R'.
-    pub r_hi_over_r_prime: f64,
-    /// Measured mean ΔE [%].
-    pub delta_e_pct: f64,
-    /// p of the two-tailed t-test, if given.
-    pub p_value: Option<f64>,
-}
-
-/// What is wrong with a path table.
-#[derive(Debug, thiserror::Error)]
-pub enum PathTableError {
-    /// Not UTF-8.
-    #[error("not UTF-8 text")]
-    NotUtf8,
-    /// The header is not the path table's.
-    #[error("line {line}: header `{found}` is not `{}[,p_value]`", PATH_TABLE_COLUMNS[..6].join(","))]
-    Header {
-        /// The header's line (0: no header).
-        line: usize,
-        /// As written (cut after 40 characters).
-        found: String,
-    },
-    /// A row that does not parse.
-    #[error(transparent)]
-    Row(#[from] RowError),
-    /// A slice whose lower bound is not below its upper bound.
-    #[error("line {line}: slice {} – {} of R/R' is empty (r_lo_over_r_prime must be < r_hi_over_r_prime)", Number(*.lo), Number(*.hi))]
-    EmptySlice {
-        /// The line.
-        line: usize,
-        /// Lower bound.
-        lo: f64,
-        /// Upper bound.
-        hi: f64,
-    },
-    /// A path the model cannot plan (headings outside Eq 50, a slice too wide for the poses).
-    #[error("line {line}: {why}")]
-    Path {
-        /// The line.
-        line: usize,
-        /// Why.
-        why: String,
-    },
-    /// A header and no row.
-    #[error("no rows after the header")]
-    NoRows,
-    /// Fewer than three slices: nothing to hold out against.
-    #[error("{0} slices: leave-one-slice-out needs at least 3")]
-    TooFewRows(usize),
-}
-
-/// Whether `header`'s cells are the path table's six or seven columns, in order.
-fn is_header(header: &str) -> bool {
-    let cells: Vec<&str> = header.split(',').map(str::trim).collect();
-    (cells.len() == 6 || cells.len() == 7)
-        && cells.iter().zip(PATH_TABLE_COLUMNS).all(|(c, n)| *c == n)
-}
-
-/// Parses a path table's text (see the module doc).
-pub fn parse_path_table(text: &str) -> Result<Vec<PathRow>, PathTableError> {
-    let mut lines = content_lines(text);
-    let (header_line, header) = lines.next().ok_or(PathTableError::Header {
-        line: 0,
-        found: String::new(),
-    })?;
-    if !is_header(header) {
-        return Err(PathTableError::Header {
-            line: header_line,
-            found: excerpt::cut(header),
-        });
-    }
-    let columns = header.split(',').count();
-    let mut rows = Vec::new();
-    for (line, text) in lines {
-        let cells: Vec<&str> = text.split(',').map(str::trim).collect();
-        if cells.len() != columns {
-            return Err(RowError::CellCount {
-                line,
-                found: cells.len(),
-                expected: columns,
-            }
-            .into());
-        }
-        let bad = |k: usize, problem: &'static str| {
-            PathTableError::from(RowError::Cell {
-                line,
-                column: k + 1,
-                name: PATH_TABLE_COLUMNS[k],
-                value: excerpt::cut(cells[k]),
-                problem,
-            })
-        };
-        let number = |k: usize| match cells[k].parse::<f64>() {
-            Ok(x) if x.is_finite() => Ok(x),
-            _ => Err(bad(k, "is not a finite number")),
-        };
-        let [start_deg, end_deg, distance_m, lo, hi, delta_e_pct] = [0, 1, 2, 3, 4, 5].map(number);
-        let (lo, hi) = (lo?, hi?);
-        if lo < 0.0 {
-            return Err(bad(3, "must be ≥ 0"));
-        }
-        if lo >= hi {
-            return Err(PathTableError::EmptySlice { line, lo, hi });
-        }
-        let distance_m = distance_m?;
-        if distance_m <= 0.0 {
-            return Err(bad(2, "must be > 0"));
-        }
-        let p_value = match cells.get(6) {
-            None | Some(&"") => None,
-            Some(_) => match number(6)? {
-                p if p > 0.0 && p <= 1.0 => Some(p),
-                _ => return Err(bad(6, "must be in (0, 1]")),
-            },
-        };
-        rows.push(PathRow {
-            line,
-            start_deg: start_deg?,
-            end_deg: end_deg?,
-            distance_m,
-            r_lo_over_r_prime: lo,
-            r_hi_over_r_prime: hi,
-            delta_e_pct: delta_e_pct?,
-            p_value,
-        });
-    }
-    if rows.is_empty() {
-        return Err(PathTableError::NoRows);
-    }
-    Ok(rows)
-}
-
-/// Reads and parses the path table at `path`; an error names the file.
-pub fn load_path_table(path: &Path) -> Result<Vec<PathRow>, FileError<PathTableError>> {
-    read_bytes_and_parse(path, |bytes| {
-        parse_path_table(std::str::from_utf8(bytes).map_err(|_| PathTableError::NotUtf8)?)
-    })
-}
-
-/// Whether `path` is a path table: a `.csv` whose first content line is its header.
-pub fn is_path_table_file(path: &Path) -> bool {
-    csv_header(path).is_some_and(|h| h.starts_with("start_deg,") && h.contains("delta_e_pct"))
-}
 
 /// The hard-ground model of `rover` for a path table without calibration runs: paper Table 2's
 /// Husky values carried over (μ, G per kg, the terrain slip track per track width), as the
@@ -296,6 +131,40 @@ pub struct PathDiagnosis {
     pub model: EnergyModel,
     /// Caveats.
     pub notes: Vec<String>,
+}
+
+/// One slice of the table against the hard-ground model: the gap in ΔE, its σ from the
+/// slice's p, and the gap's z and two-tailed p (Holm's adjustment comes later, over all slices).
+fn slice_verdict(
+    row: &PathRow,
+    law: &ModelLaw,
+    rover: &Rover,
+) -> Result<SliceVerdict, PathTableError> {
+    let e = row_energies(row, law, rover, None)?.ok_or(PathTableError::NoRows)?;
+    let model_pct = 100.0 * (e.clc_j / e.plp_j - 1.0);
+    let gap = row.delta_e_pct - model_pct;
+    let sigma = row
+        .p_value
+        .filter(|_| row.delta_e_pct != 0.0)
+        .map(|p| row.delta_e_pct.abs() / two_tailed_z(p));
+    let z = sigma.map(|s| gap / s);
+    let p =
+        z.map(|z| 2.0 * (1.0 - model_core::fit::student_t_cdf(z.abs(), 1_000_000).unwrap_or(1.0)));
+    let centre = 0.5 * (row.r_lo_over_r_prime + row.r_hi_over_r_prime) * law.r_prime_m();
+    Ok(SliceVerdict {
+        line: row.line,
+        lo: row.r_lo_over_r_prime,
+        hi: row.r_hi_over_r_prime,
+        regime: Regime::of(centre as f32, rover, &RegimeBounds::default()),
+        measured_pct: row.delta_e_pct,
+        model_pct,
+        gap_pp: gap,
+        sigma_pp: sigma,
+        z,
+        p,
+        p_holm: None,
+        beyond_noise: false,
+    })
 }
 
 /// Extra energy of a segment per unit of each parameter of `effect` [J per unit]; `None` for
@@ -578,35 +447,10 @@ pub fn diagnose_path_table(
         return Err(PathTableError::TooFewRows(rows.len()));
     }
     let (law, rover) = law_and_rover(model)?;
-    let mut slices = Vec::with_capacity(rows.len());
-    for row in rows {
-        let e = row_energies(row, &law, &rover, None)?.ok_or(PathTableError::NoRows)?;
-        let model_pct = 100.0 * (e.clc_j / e.plp_j - 1.0);
-        let gap = row.delta_e_pct - model_pct;
-        let sigma = row
-            .p_value
-            .filter(|_| row.delta_e_pct != 0.0)
-            .map(|p| row.delta_e_pct.abs() / two_tailed_z(p));
-        let z = sigma.map(|s| gap / s);
-        let p = z.map(|z| {
-            2.0 * (1.0 - model_core::fit::student_t_cdf(z.abs(), 1_000_000).unwrap_or(1.0))
-        });
-        let centre = 0.5 * (row.r_lo_over_r_prime + row.r_hi_over_r_prime) * law.r_prime_m();
-        slices.push(SliceVerdict {
-            line: row.line,
-            lo: row.r_lo_over_r_prime,
-            hi: row.r_hi_over_r_prime,
-            regime: Regime::of(centre as f32, &rover, &RegimeBounds::default()),
-            measured_pct: row.delta_e_pct,
-            model_pct,
-            gap_pp: gap,
-            sigma_pp: sigma,
-            z,
-            p,
-            p_holm: None,
-            beyond_noise: false,
-        });
-    }
+    let mut slices = rows
+        .iter()
+        .map(|row| slice_verdict(row, &law, &rover))
+        .collect::<Result<Vec<_>, _>>()?;
     let tested: Vec<usize> = (0..slices.len())
         .filter(|&i| slices[i].p.is_some())
         .collect();

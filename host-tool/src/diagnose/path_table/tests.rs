@@ -1,5 +1,6 @@
 use super::*;
 use crate::plan::sweep::TABLE_6_1;
+use std::path::Path;
 use std::path::PathBuf;
 
 fn repo(path: &str) -> PathBuf {
