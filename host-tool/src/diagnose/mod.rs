@@ -1,6 +1,7 @@
 //! `diagnose`: where the hard-ground ICR model (paper Eq 21, fitted on calibration manoeuvres)
 //! departs from measured power, which catalogued unmodelled effect explains it, and how much of
-//! the held-out gap it closes. Design notes and measured figures: `NOTES.md` in this directory.
+//! the held-out gap it closes. Its design (stages, invariants, how to add an effect): `DESIGN.md`
+//! in this directory; measured figures: `docs/engineering-record.md`.
 //!
 //! Pipeline, read forward: [`features::rows`] (per-turn inner/outer rows from `validate`) →
 //! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → [`adequacy`] (does it fit

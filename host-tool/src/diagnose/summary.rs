@@ -478,7 +478,8 @@ mod tests {
     }
 
     /// Seed Table 4.1 (Argo J5 on sand, zero pitch and roll, v_c = 0.3 m/s): what the diagnosis
-    /// concludes, and the numbers behind NOTES.md's "Argo J5 example".
+    /// concludes, and the numbers behind `docs/diagnosing.md`'s Argo J5 example (*Other
+    /// inputs*).
     #[test]
     fn argo_j5_table_4_1() {
         let (rover, rows) = argo();

@@ -445,8 +445,9 @@ pub(super) fn scaled(effect: EffectId, scale: f64, current_std_a: f64) -> WorldC
 
 /// A small grid of strengths (0.5×, 1×, 2× default) and current noise (30 and 100 mA): the
 /// diagnosis names the true effect wherever the catalogue can see it, and never names a wrong
-/// one. Known gaps (NOTES.md): `motor-heating` is invisible in ~40 s runs, `sinkage-bulldozing`
-/// at 2× and `braked-inner` at half strength are `ambiguous`, and so is `slip-track` (below).
+/// one. Known gaps: `motor-heating` is invisible in ~40 s runs (`docs/engineering-record.md`),
+/// `sinkage-bulldozing` at 2× and `braked-inner` at half strength are `ambiguous`, and so is
+/// `slip-track` (below).
 #[test]
 fn strengths_and_noise_grid_names_no_wrong_effect() {
     for effect in EffectId::ALL {
@@ -527,12 +528,12 @@ fn with_winding_heat(runs: &[Vec<RunSample>], k: f64) -> Vec<TurnRow> {
     rows
 }
 
-/// The world's `motor-heating` is physically tiny at the seed's speeds (≈ 2 A per side: copper
+/// The world's `motor-heating` is physically tiny at the thesis' speeds (≈ 2 A per side: copper
 /// loss ≈ 0.6 W, a few kelvin, < 0.05 W of extra power even after 20 min at 2× its thermal
-/// resistance), so the diagnosis rightly says `none` on it (NOTES.md). When the data does hold
-/// a heating signal, the τ-grid term finds it: long runs of the hard-ground world (15 repeats of
-/// the turn set, ~11 min each, sampled at 50 Hz) with a first-order winding heating added to
-/// each side's measured power, ΔP = k I² (1 − e^(−t/τ)), I from the measured power, k such
+/// resistance), so the diagnosis rightly says `none` on it (`docs/engineering-record.md`). When the
+/// data does hold a heating signal, the τ-grid term finds it: long runs of the hard-ground world
+/// (15 repeats of the turn set, ~11 min each, sampled at 50 Hz) with a first-order winding heating
+/// added to each side's measured power, ΔP = k I² (1 − e^(−t/τ)), I from the measured power, k such
 /// that the last manoeuvres draw ~4 W more at a point turn, τ = 400 s (not on the grid).
 #[test]
 fn motor_heating_is_named_on_long_runs() {
@@ -574,8 +575,8 @@ fn a_run_time_trend_is_a_departure_the_headline_counts() {
 }
 
 /// The sand world (every sand effect on at once, 3 runs): the diagnosis names a primary effect
-/// and explains most of the held-out error with the stepwise secondaries; the numbers are in
-/// NOTES.md.
+/// and explains most of the held-out error with the stepwise secondaries; the test prints its
+/// numbers (the demo's on the same world: `docs/diagnosing.md`, *What the demo finds*).
 #[test]
 fn sand_world_primary_and_secondary_effects() {
     let world = WorldConfig::sand();

@@ -254,10 +254,10 @@ fn sinkage_grows_through_the_turn_on_both_sides() {
     }
 }
 
-/// Motor heating is invisible in short runs (NOTES.md); over 12 repeats of the turn set
-/// (~8 min per run) with 3× the thermal and the winding resistance it shows as a rising
-/// residual (with 10× the thermal resistance alone the winding reaches the 105 K insulation
-/// limit within minutes, and the Husky's hard-ground copper loss then adds a constant ~1.2 W).
+/// Motor heating is invisible in short runs (`docs/engineering-record.md`); over 12 repeats of the
+/// turn set (~8 min per run) with 3× the thermal and the winding resistance it shows as a rising
+/// residual (with 10× the thermal resistance alone the winding reaches the 105 K insulation limit
+/// within minutes, and the Husky's hard-ground copper loss then adds a constant ~1.2 W).
 #[test]
 fn motor_heating_shows_as_a_run_time_trend_in_long_runs() {
     let long = Scenario::seed_turns(0.3, 12);
