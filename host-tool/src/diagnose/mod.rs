@@ -3,14 +3,16 @@
 //! the held-out gap it closes. Its design (stages, invariants, how to add an effect): `DESIGN.md`
 //! in this directory; measured figures: `docs/engineering-record.md`.
 //!
-//! Pipeline, read forward: [`features::rows`] (per-turn inner/outer rows from `validate`) →
-//! [`baseline::Baseline`] (Eq 21 per side, calibration manoeuvres) → [`adequacy`] (does it fit
-//! them?) → gaps per regime and side ([`gaps`]) → [`signature`] (each effect's own mark in the
-//! data, tested) → every [`effects`] term scored by grouped cross-validation
-//! ([`cv::score_all`]) → each candidate's marks, one table (`select::Marks`: its signature
-//! and its sign check) → the verdict (`Selection::decide`: an effect only with its signature;
-//! against a misfitting baseline only with one that needs no power model) → the same against
-//! copper loss when the diagnosed runs show it ([`copper_from_runs`]) → [`report`].
+//! Pipeline, read forward, each stage a function of the previous stages' values: the
+//! [`Problem`] (rover, rows from [`features::rows`], calibration) → `fit_baseline`
+//! ([`baseline::Baseline`], Eq 21 per side on the calibration manoeuvres, and its
+//! [`adequacy`]) → `departures` (gaps per regime and side and the "where" groups, [`gaps`]) →
+//! the marks ([`catalogue::test_marks`]: each effect's own, tested) → `candidates` (every
+//! admitted term scored by grouped cross-validation, [`cv::score_all`]) → `conclude` (the
+//! verdict, `select`: an effect only with its mark; against a misfitting baseline only with
+//! one that needs no power model) → `findings` (held-out errors, regime). Then the same against
+//! copper loss when the diagnosed runs show it ([`copper_from_runs`]), what to drive next
+//! ([`next_runs`]), and the [`report`].
 
 pub mod adequacy;
 mod admission;
