@@ -155,8 +155,9 @@ def build(args):
         ("argo-j5-table-4.1", "rovers/argo-j5.toml", "examples/argo-j5-table-4.1.csv"),
         ("husky-sand-table-6.1", "rovers/husky-a200.toml", "examples/husky-sand-table-6.1.csv"),
     ]:
-        # A path table (Table 6.1) takes no --out.
-        corpus.diagnose(name, ["--rover", os.path.join(ROOT, rover), "--runs", os.path.join(ROOT, csv)],
+        # Relative paths: the report names its inputs, and a clone may live anywhere. A path
+        # table (Table 6.1) takes no --out.
+        corpus.diagnose(name, ["--rover", rover, "--runs", csv], cwd=ROOT,
                         with_out=name.startswith("argo"))
     if args.demo_out:
         runs = sorted(os.path.join(os.path.abspath(args.demo_out), f)
