@@ -29,8 +29,7 @@
 use super::baseline::skid_feature_mps;
 use super::calibration::{Calibration, Source};
 use super::features::TurnRow;
-use super::gaps::Part;
-use super::observe;
+use super::observe::{self, Part};
 use serde::Serialize;
 
 /// Family-wise error rate of the row verdicts.
@@ -86,6 +85,33 @@ pub struct LooTest {
     pub family: Family,
     /// `p_adjusted` ≤ [`ALPHA`] (the practical floor is the caller's).
     pub beyond_noise: bool,
+}
+
+impl LooTest {
+    /// One line: the row, its leave-one-out residual and the significance statement.
+    pub fn statement(&self, rows: &[TurnRow]) -> String {
+        let what = rows.get(self.row).map_or_else(String::new, |r| {
+            if r.radius_cmd_m.is_finite() {
+                format!("R = {:.2} m ", r.radius_cmd_m)
+            } else {
+                "straight ".to_owned()
+            }
+        });
+        format!(
+            "{what}{:+.1} W against the baseline refitted without it ({:.1} W, 95 % prediction \
+             interval [{:.1}, {:.1}]): t = {:.2}, df = {}, p = {:.3} (adjusted {:.3}; plain Holm \
+             over all tested rows {:.3})",
+            self.residual_w,
+            self.prediction_w,
+            self.interval_w.0,
+            self.interval_w.1,
+            self.t,
+            self.df,
+            self.p,
+            self.p_adjusted,
+            self.p_holm_all
+        )
+    }
 }
 
 /// Sums of a 2-parameter least-squares fit (no intercept).

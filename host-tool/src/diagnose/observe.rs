@@ -3,7 +3,7 @@
 //! residuals, the effect fits and the held-out errors all iterate over these, so a total-only
 //! row counts **once**, with the sum of its sides' regressors, and never as two made-up sides.
 
-use super::features::{Observed, TurnRow};
+use super::features::{Observed, SideRole, TurnRow};
 use serde::Serialize;
 use std::ops::{Deref, DerefMut};
 
@@ -122,6 +122,44 @@ pub struct RowResidual {
 
 /// Held-out residuals, in row order.
 pub type HeldOut = Vec<RowResidual>;
+
+/// Which part of a manoeuvre an observation is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Part {
+    /// The side towards the turning centre (straights: by convention).
+    Inner,
+    /// The side away from it.
+    Outer,
+    /// Both sides together (total-only rows).
+    Total,
+}
+
+impl Part {
+    /// Stable identifier (`inner`, `outer`, `total`).
+    pub const fn id(self) -> &'static str {
+        match self {
+            Part::Inner => "inner",
+            Part::Outer => "outer",
+            Part::Total => "total",
+        }
+    }
+}
+
+impl From<SideRole> for Part {
+    fn from(role: SideRole) -> Self {
+        match role {
+            SideRole::Inner => Part::Inner,
+            SideRole::Outer => Part::Outer,
+        }
+    }
+}
+
+impl PartialEq<SideRole> for Part {
+    fn eq(&self, other: &SideRole) -> bool {
+        *self == Part::from(*other)
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -1,12 +1,15 @@
 //! The "where" analysis: each metric's groups, the findings ranked by strength, the headline
 //! and the notes on what the data cannot show.
 
-use super::judge::Floor;
-use super::{grouped, run_time, strongest, turn_residuals, GroupStat, Metric, MetricWhere};
-use super::{RowVerdicts, RunTimeWhere, TurnResidual, WhereAnalysis};
+use super::groups::{grouped, GroupStat, MetricWhere};
+use super::judge::{Floor, RowVerdicts};
+use super::residuals::{turn_residuals, Metric, TurnResidual};
+use super::run_time::{run_time, RunTimeWhere};
 use crate::diagnose::baseline::Baseline;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::loo::LooTest;
+use crate::effect_id::EffectId;
+use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// The "where" analysis of `rows` against `baseline`; groups without repeats are judged by
@@ -258,4 +261,76 @@ fn where_notes(rows: &[TurnRow], run_time: &RunTimeWhere) -> Vec<String> {
         notes.push(n.clone());
     }
     notes
+}
+
+/// The significant leave-one-out test with the largest |t| among `loo` whose residual exceeds
+/// `floor`.
+fn strongest(loo: &[LooTest], floor: f64) -> Option<&LooTest> {
+    loo.iter()
+        .filter(|t| t.beyond_noise && t.residual_w.abs() > floor)
+        .max_by(|a, b| a.t.abs().total_cmp(&b.t.abs()))
+}
+
+/// Where the model departs: per-turn residuals and their groups.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WhereAnalysis {
+    /// One line: the significant groups, or that there is no gap beyond the repeat noise.
+    pub statement: String,
+    /// Whether any finding of the diagnosed metric is (the headline's `significant` agrees).
+    pub significant: bool,
+    /// Every significant group of the diagnosed metric (effective power by regime and side, its
+    /// run-time trend), one line each, largest (relative to its floor) first.
+    pub findings: Vec<String>,
+    /// The other metrics' significant groups (average and peak power, energy, growth, run-time
+    /// thirds), same order: reported, not counted in the verdict.
+    pub other_findings: Vec<String>,
+    /// Caveats of the data (total-only rows, one run, ...).
+    pub notes: Vec<String>,
+    /// Groups of each metric (metrics with no observation are left out).
+    pub metrics: Vec<MetricWhere>,
+    /// Growth of average power through the turn (second minus first half of the steady part),
+    /// `regime/side` and per side over turns [W].
+    pub phase_by_regime_side: Vec<GroupStat>,
+    /// Growth through the turn per side over turns [W].
+    pub phase_by_side: Vec<GroupStat>,
+    /// Run-time grouping.
+    pub run_time: RunTimeWhere,
+    /// Per-turn, per-side residuals.
+    pub turns: Vec<TurnResidual>,
+}
+
+impl WhereAnalysis {
+    /// Whether the effective-power residual's run-time trend is significant: a departure of the
+    /// diagnosed metric that no regime's mean shows (heating grows in every regime), so the
+    /// headline counts it.
+    pub fn departs_over_run_time(&self) -> bool {
+        self.run_time.trend.as_ref().is_some_and(|t| t.significant)
+    }
+
+    /// Records a departure that no group shows but cross-validation does: the selection's clear
+    /// winner `effect` (held-out RMS `before` → `after` under `scheme`) removes at least the
+    /// practical floor of held-out RMS (e.g. a slope, whose power
+    /// changes sign along the path, so its group means are ~0). The diagnosis' `significant`
+    /// counts it, so the "where" analysis must too.
+    pub fn add_heldout_departure(
+        &mut self,
+        effect: EffectId,
+        (before, after): (f64, f64),
+        scheme: &str,
+        floor_w: f64,
+    ) {
+        let removed = (before.powi(2) - after.powi(2)).max(0.0).sqrt();
+        let finding = format!(
+            "held out ({}): {} removes {removed:.1} W RMS ({:.2} → {:.2} W), more than the \
+             {floor_w:.1} W floor, although no group's mean departs on its own",
+            scheme, effect, before, after,
+        );
+        self.statement = if self.significant {
+            format!("{}; {finding}", self.statement)
+        } else {
+            format!("departure beyond the noise out of sample: {finding}")
+        };
+        self.findings.push(finding);
+        self.significant = true;
+    }
 }

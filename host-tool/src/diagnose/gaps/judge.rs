@@ -5,9 +5,8 @@
 use super::super::calibration::Calibration;
 use super::super::features::TurnRow;
 use super::super::loo::{self, LooTest, Measure};
-use super::super::observe;
+use super::super::observe::{self, Part};
 use super::super::stats;
-use super::Part;
 use model_core::kinematics::Regime;
 use std::collections::BTreeMap;
 

@@ -1,9 +1,13 @@
 use super::super::tests::{rows_of, scenario, simulate_run};
+use super::run_time::{
+    permutation_p, permutation_p_until, run_time, timed_obs, within_slope, TimedObs, TREND_ALPHA,
+};
 use super::*;
 use crate::diagnose::calibration::Calibration;
 use crate::effect_id::EffectId;
 use crate::log::run_csv::RunSample;
 use crate::sim::world::{Scenario, WorldConfig};
+use model_core::rng::SplitMix64;
 use model_core::Rover;
 
 const HUSKY: Rover = Rover::HUSKY_A200;
