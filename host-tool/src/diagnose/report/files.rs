@@ -2,18 +2,55 @@
 //! file written atomically.
 
 use super::markdown::markdown;
+use super::names::{GROWTH_FIGURE, MODEL_FILE, REPORT_FILE, RESIDUALS_FIGURE};
 use super::tables::added_effect;
-use super::{ReportError, GROWTH_FIGURE, MODEL_FILE, REPORT_FILE, RESIDUALS_FIGURE};
+use crate::diagnose::baseline::BaselineError;
 use crate::diagnose::calibration::Calibration;
 use crate::diagnose::cv;
 use crate::diagnose::features::TurnRow;
+use crate::diagnose::model_file::ModelFileError;
 use crate::diagnose::{figures, model_file, Diagnosis};
 use crate::log::write_atomically;
+use crate::log::AtomicWriteError;
+use crate::plan::ModelError;
 use crate::plot::render_figure;
+use crate::plot::PlotError;
 use model_core::Rover;
 use std::fmt::Write as _;
 use std::io::{self, Write as _};
 use std::path::{Path, PathBuf};
+
+/// Why an output was not written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Recomputing the held-out residuals for the figures failed.
+    #[error(transparent)]
+    Baseline(#[from] BaselineError),
+    /// The scheme of the diagnosis has fewer than 2 groups (cannot happen for a diagnosis).
+    #[error("no held-out residuals to draw")]
+    NothingToHoldOut,
+    /// A figure could not be drawn or written.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// The plan model could not be made.
+    #[error("model file: {0}")]
+    ModelFile(#[from] ModelFileError),
+    /// The plan model could not be written as TOML.
+    #[error("model file: {0}")]
+    Model(#[from] ModelError),
+    /// The output directory could not be created.
+    #[error("{}: {source}", path.display())]
+    Dir {
+        /// The directory.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+    /// A file could not be written (a previous file of that name is untouched).
+    #[error(transparent)]
+    Write(#[from] AtomicWriteError<io::Error>),
+}
 
 /// Writes `d.to_json()` (pretty) to `path`.
 pub fn write_json(path: &Path, d: &Diagnosis) -> Result<(), ReportError> {

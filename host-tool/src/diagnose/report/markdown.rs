@@ -1,11 +1,11 @@
 //! The Markdown report (`diagnosis.md` in the `--out` directory).
 
+use super::names::MODEL_FILE;
 use super::tables::{
     added_effect, candidate_rows, gap_rows, markdown_table, not_testable_lines, regime_rows,
     signature_rows, METRIC,
 };
 use super::words::{baseline_line, calibration_line, conclusion, findings, next_runs_lines};
-use super::MODEL_FILE;
 use crate::diagnose::{gaps, signature, Diagnosis};
 use crate::plan::EnergyModel;
 use std::fmt::Write as _;
