@@ -2,10 +2,11 @@
 //! the runs given tell apart, and what the runs cannot tell apart, in words.
 
 use super::super::cv::CLEAR_MARGIN;
+use super::super::features::TurnRow;
 use super::super::verdict::Verdict;
 use super::super::Diagnosis;
-use super::pair::PairSeparation;
-use super::rival::{Rival, Unfitted};
+use super::pair::{Pair, PairSeparation, TARGET_SIGMA};
+use super::rival::{Fitted, Rival, Unfitted};
 use crate::effect_id::EffectId;
 use serde::Serialize;
 
@@ -27,6 +28,69 @@ pub struct Identifiability {
     pub statements: Vec<String>,
 }
 
+/// Decides the rivals in play: those the verdict leaves open that could be fitted, a named
+/// effect only against runner-ups the runs do not separate from it, none unless two remain.
+pub(super) fn rivals_in_play(
+    d: &Diagnosis,
+    fitted: &[Fitted],
+    pairs: &[Pair],
+    noise_w: f64,
+) -> Vec<Rival> {
+    let in_play: Vec<Rival> = in_play(d)
+        .into_iter()
+        .filter(|r| fitted.iter().any(|f| f.rival == *r))
+        .collect();
+    // A named effect stays open only against the runner-ups the runs do not separate from it.
+    let in_play: Vec<Rival> = match d.effect {
+        Verdict::Effect(e) => {
+            let named = Rival::Effect(e);
+            let unseparated = |r: &Rival| {
+                pairs.iter().any(|p| {
+                    let labels = p.labels(fitted);
+                    labels.contains(&named) && labels.contains(r) && p.sigma(noise_w) < TARGET_SIGMA
+                })
+            };
+            in_play
+                .into_iter()
+                .filter(|r| *r == named || unseparated(r))
+                .collect()
+        }
+        _ => in_play,
+    };
+    if in_play.len() >= 2 {
+        in_play
+    } else {
+        Vec::new()
+    }
+}
+
+/// Decides what the runs `rows` cannot tell apart among the rivals `in_play`, in words.
+pub(super) fn statements_on(
+    rows: &[TurnRow],
+    not_fitted: &[Unfitted],
+    in_play: &[Rival],
+) -> Vec<String> {
+    let mut statements = Vec::new();
+    if rows.iter().all(|r| r.measured.is_none()) {
+        statements.push(
+            "without a pose track, a slip track off the terrain's and a terrain-wide angular \
+             slip are the same in timing and power: slip-track is read only as every turn \
+             slipping alike beyond the calibration's terrain slip"
+                .into(),
+        );
+    }
+    for u in not_fitted {
+        if in_play.contains(&u.rival) {
+            statements.push(format!(
+                "{} cannot be fitted on these runs: {}",
+                u.rival.label(),
+                u.why
+            ));
+        }
+    }
+    statements
+}
+
 /// The rivals an open verdict leaves in play: for `ambiguous`, the baseline alone and the best
 /// ranked candidates that improve the held-out error and could be named (their signature
 /// present first, then inconclusive or not yet observable; one looked for and missing is out); for
@@ -34,7 +98,7 @@ pub struct Identifiability {
 /// for a named effect, the candidates within the selection's clear margin of it, or, when the
 /// baseline with it still misfits its calibration, copper loss and the best candidates. Empty when
 /// the verdict is settled (`none`, or a clear winner).
-pub(super) fn in_play(d: &Diagnosis) -> Vec<Rival> {
+fn in_play(d: &Diagnosis) -> Vec<Rival> {
     // The nameable first: a candidate with its signature in the data, then by held-out score.
     let marked = |e: EffectId| d.signature(e).is_some_and(|s| s.present());
     // A mark looked for and missing rules its candidate out, as in the verdict (issue 35's

@@ -14,14 +14,14 @@ const MIN_SIGMA_OF_FLOOR: f64 = 0.05;
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Noise {
     repeat_w: f64,
-    pub(super) misfit_w: f64,
+    misfit_w: f64,
 }
 
 impl Noise {
     /// The repeat noise `repeat_w` and the misfit of `d`'s best model: the held-out RMS error
     /// of its best candidate, of the baseline alone or of the diagnosed model with its stepwise
     /// steps, whichever is lowest, beyond the repeat noise.
-    pub(super) fn of(repeat_w: f64, d: &Diagnosis) -> Self {
+    fn of(repeat_w: f64, d: &Diagnosis) -> Self {
         // The diagnosed model with its stepwise steps, when it has them, leaves the least.
         let stepwise = d.secondary.last().map(|s| s.heldout_error_after);
         let best = d
@@ -66,7 +66,7 @@ type DriveKey = (i64, i64, i64, usize);
 /// standard deviation of the effective power of manoeuvres driven alike (radius, v_c and turned
 /// angle), over the diagnosed and calibration runs; else the calibration's lack-of-fit test's
 /// pure error; else the practical floor.
-pub(super) fn repeat_noise(train: &[&TurnRow], d: &Diagnosis) -> (f64, String) {
+fn repeat_noise(train: &[&TurnRow], d: &Diagnosis) -> (f64, String) {
     let mut groups: Vec<(DriveKey, Vec<f64>)> = Vec::new();
     for row in train {
         let angle = (row.expected_duration_s * row.yaw_rate_cmd_rad_s).to_degrees();
@@ -129,4 +129,17 @@ pub(super) fn repeat_noise(train: &[&TurnRow], d: &Diagnosis) -> (f64, String) {
         PRACTICAL_FLOOR_W,
         "no repeated manoeuvre: the practical floor taken".into(),
     )
+}
+
+/// Decides the σ of one side of one manoeuvre the separations are in, and says where it came
+/// from.
+pub(super) fn measure_noise(train: &[&TurnRow], d: &Diagnosis) -> (Noise, String) {
+    let (repeat_w, repeat_from) = repeat_noise(train, d);
+    let noise = Noise::of(repeat_w, d);
+    let noise_from = format!(
+        "repeat noise {repeat_w:.2} W ({repeat_from}) and {:.2} W the best model leaves \
+         unexplained out of sample, the same on every repeat",
+        noise.misfit_w
+    );
+    (noise, noise_from)
 }

@@ -127,3 +127,27 @@ impl Pair {
         self.rivals.map(|i| fitted[i].rival)
     }
 }
+
+/// Decides how far the manoeuvres driven (`train`) separate every pair of fitted rivals.
+pub(super) fn pairs_driven(s: &Setting<'_>, fitted: &[Fitted], train: &[&TurnRow]) -> Vec<Pair> {
+    // Every pair over the manoeuvres driven.
+    let mut pairs: Vec<Pair> = Vec::new();
+    for a in 0..fitted.len() {
+        for b in a + 1..fitted.len() {
+            let mut p = Pair::new(fitted, a, b);
+            p.add(s, fitted, train.iter().copied(), 1.0);
+            pairs.push(p);
+        }
+    }
+    pairs
+}
+
+/// Decides whether `p` is separated, by noise σ `noise_w`.
+pub(super) fn separation(p: &Pair, fitted: &[Fitted], noise_w: f64) -> PairSeparation {
+    let sigma = p.sigma(noise_w);
+    PairSeparation {
+        rivals: p.labels(fitted),
+        sigma,
+        separable: sigma >= TARGET_SIGMA,
+    }
+}
