@@ -5,7 +5,7 @@ use super::baseline::{self, Baseline};
 use super::calibration::{Calibration, CalibrationNote};
 use super::cv::{CandidateScore, Scheme};
 use super::gaps::{Gap, WhereAnalysis};
-use super::next_runs;
+use super::next_runs::suggestion::NextRuns;
 use super::signature;
 use super::verdict::{Scope, Verdict};
 use crate::effect_id::EffectId;
@@ -71,7 +71,7 @@ pub struct Diagnosis {
     /// ([`select::physically_signed`]): `None` when it cannot be fitted there.
     pub sign_checks: Vec<(EffectId, Option<bool>)>,
     /// Which rivals the runs separate and what to drive next ([`next_runs`]).
-    pub next: next_runs::NextRuns,
+    pub next: NextRuns,
 }
 
 /// One step of the forward stepwise selection after the named effect.

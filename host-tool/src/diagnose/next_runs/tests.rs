@@ -1,5 +1,12 @@
+use super::drivable::drivable;
+use super::pair::Pair;
+use super::rival::{Fitted, Prediction, Setting};
 use super::*;
+use crate::diagnose::cv::CLEAR_MARGIN;
+use crate::diagnose::verdict::Verdict;
 use crate::diagnose_bench::{generate, run::explain, Part};
+use crate::effect_id::EffectId;
+use crate::sim::world::Side;
 use crate::sim::world::{parse_scenario, WorldConfig};
 
 fn run(x: Option<f64>, repeats: u32, when: When) -> NextRun {
