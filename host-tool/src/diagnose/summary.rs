@@ -117,11 +117,12 @@ pub fn load_summary(path: &Path) -> Result<Vec<SummaryRow>, FileError<SummaryErr
     read_bytes_and_parse(path, parse_summary_bytes)
 }
 
-/// Parses a summary's text (see the module doc).
-pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
-    let mut lines = content_lines(text);
-    let (header_line, header) = lines.next().ok_or(SummaryError::NoHeader)?;
-    // Column index in the file of each of SUMMARY_COLUMNS.
+/// The file's column of each of [`SUMMARY_COLUMNS`] (the first two required), and how many
+/// columns the header has.
+fn header_columns(
+    header_line: usize,
+    header: &str,
+) -> Result<([Option<usize>; 4], usize), SummaryError> {
     let mut index: [Option<usize>; 4] = [None; 4];
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     for (k, name) in names.iter().enumerate() {
@@ -148,14 +149,22 @@ pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
             });
         }
     }
+    Ok((index, names.len()))
+}
+
+/// Parses a summary's text (see the module doc).
+pub fn parse_summary(text: &str) -> Result<Vec<SummaryRow>, SummaryError> {
+    let mut lines = content_lines(text);
+    let (header_line, header) = lines.next().ok_or(SummaryError::NoHeader)?;
+    let (index, columns) = header_columns(header_line, header)?;
     let mut rows = Vec::new();
     for (line, text) in lines {
         let cells: Vec<&str> = text.split(',').map(str::trim).collect();
-        if cells.len() != names.len() {
+        if cells.len() != columns {
             return Err(RowError::CellCount {
                 line,
                 found: cells.len(),
-                expected: names.len(),
+                expected: columns,
             }
             .into());
         }

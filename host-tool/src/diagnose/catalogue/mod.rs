@@ -12,9 +12,6 @@ mod motor_heating;
 mod sinkage_bulldozing;
 mod slip_track;
 mod slope;
-// An example file, as a new effect is written; registered by a test.
-#[cfg(test)]
-mod example;
 
 pub use sinkage_bulldozing::SINKAGE_REF_TIME_S;
 

@@ -182,14 +182,7 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
         },
     };
     let readings = if everywhere.is_some() { 2.0 } else { 1.0 };
-    let test = SignatureTest {
-        statistic_name: name,
-        statistic: chosen.1,
-        df: chosen.2,
-        p: (readings * chosen.3).min(1.0),
-        present: readings * chosen.3 < ALPHA && sized(&chosen),
-        sized: sized(&chosen) || told_apart_by.is_some(),
-    };
+    let test = reading_test(name, chosen, readings, told_apart_by.is_some());
     Signature {
         told_apart_by,
         ..Signature::tested(e, test, detail)
@@ -199,4 +192,24 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
 /// The growth through the turn of both sides of `row`, when both have it.
 fn both_growths(row: &TurnRow) -> Option<[f64; 2]> {
     Some([row.sides[0].growth_w?, row.sides[1].growth_w?])
+}
+
+/// The chosen reading's test, (growth beyond the reference, t, df, p): its p multiplied by the
+/// number of readings tried; sized at [`PRACTICAL_FLOOR_W`] of growth, or when another effect's
+/// drives can still tell the rise apart (`told_apart`).
+fn reading_test(
+    name: &'static str,
+    (growth, t, df, p): (f64, f64, f64, f64),
+    readings: f64,
+    told_apart: bool,
+) -> SignatureTest {
+    let sized = growth >= PRACTICAL_FLOOR_W;
+    SignatureTest {
+        statistic_name: name,
+        statistic: t,
+        df,
+        p: (readings * p).min(1.0),
+        present: readings * p < ALPHA && sized,
+        sized: sized || told_apart,
+    }
 }

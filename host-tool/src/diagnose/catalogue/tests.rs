@@ -1,5 +1,8 @@
 use super::*;
 
+// An example file, as a new effect is written; the test below registers it.
+mod example;
+
 #[test]
 fn every_effect_has_its_own_entry() {
     for e in EffectId::ALL {
