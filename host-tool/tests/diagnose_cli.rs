@@ -271,3 +271,26 @@ fn diagnose_reads_table_6_1_as_a_path_table() {
         "{v}"
     );
 }
+
+/// `--out` on thesis Table 4.1's per-turn summary (total power only, no sides) panicked drawing
+/// the residuals by side (bdbfc5c); it writes the report, the model file and the figures, whose
+/// side panels draw no total-only row.
+#[test]
+fn diagnose_out_on_a_total_only_summary_writes_its_report() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = temp_dir("diagnose-cli-argo").join("out");
+    let out = host_tool()
+        .arg("diagnose")
+        .arg("--rover")
+        .arg(root.join("rovers/argo-j5.toml"))
+        .arg("--runs")
+        .arg(root.join("examples/argo-j5-table-4.1.csv"))
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .expect("runs");
+    ok(&out);
+    for file in ["diagnosis.md", "model.toml", "residuals-vs-radius.png"] {
+        assert!(dir.join(file).is_file(), "{file}");
+    }
+}

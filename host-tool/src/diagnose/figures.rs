@@ -132,8 +132,11 @@ pub fn residuals_vs_radius(
                     .filter_map(|r| {
                         let row = rows.get(r.row)?;
                         // A total-only row (a per-turn table) has no side to draw.
+                        if row.is_straight() || row.is_total_only() {
+                            return None;
+                        }
                         let w = *r.effective_w.get(side_of(row, role))?;
-                        (!row.is_straight()).then_some((row.r_over_r_prime + dx, w))
+                        Some((row.r_over_r_prime + dx, w))
                     })
                     .collect::<Vec<_>>()
             };
