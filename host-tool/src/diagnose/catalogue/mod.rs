@@ -13,8 +13,6 @@ mod sinkage_bulldozing;
 mod slip_track;
 mod slope;
 
-pub use sinkage_bulldozing::SINKAGE_REF_TIME_S;
-
 use super::effect::{Effect, Marks};
 use super::signature::{Evidence, Signature};
 use crate::effect_id::EffectId;
