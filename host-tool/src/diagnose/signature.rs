@@ -233,6 +233,29 @@ impl Evidence<'_> {
             .chain(self.calibration_rows)
             .any(|r| r.turned_from_yaw)
     }
+
+    /// The standstill current of each run, per side (left, right), diagnosed and calibration runs.
+    pub(crate) fn standstill_currents(&self) -> [Vec<f64>; 2] {
+        let mut seen: Vec<(bool, usize)> = Vec::new();
+        let mut sides = [Vec::new(), Vec::new()];
+        let all = self
+            .rows
+            .iter()
+            .map(|r| (false, r))
+            .chain(self.calibration_rows.iter().map(|r| (true, r)));
+        for (cal, row) in all {
+            let Some(s) = row.standstill_current_a else {
+                continue;
+            };
+            if seen.contains(&(cal, row.run_index)) {
+                continue;
+            }
+            seen.push((cal, row.run_index));
+            sides[0].push(s.left);
+            sides[1].push(s.right);
+        }
+        sides
+    }
 }
 
 /// The measured angular slip of each yaw-timed turn of `regime` in `rows`, less the terrain's

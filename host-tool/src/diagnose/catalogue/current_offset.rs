@@ -64,7 +64,7 @@ impl Effect for CurrentOffset {
 /// `current-offset`: the standstill current of some side beyond a driver's quiescent draw.
 fn current_offset(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::CurrentOffset;
-    let sides = standstill_currents(ev);
+    let sides = ev.standstill_currents();
     if sides[0].is_empty() {
         return Signature::unobservable(e, "no run stands still long enough");
     }
@@ -108,27 +108,4 @@ fn current_offset(ev: &Evidence<'_>) -> Signature {
     }
     let (test, detail) = best.expect("two sides");
     Signature::tested(e, test, detail)
-}
-
-/// The standstill current of each run, per side (left, right), diagnosed and calibration runs.
-fn standstill_currents(ev: &Evidence<'_>) -> [Vec<f64>; 2] {
-    let mut seen: Vec<(bool, usize)> = Vec::new();
-    let mut sides = [Vec::new(), Vec::new()];
-    let all = ev
-        .rows
-        .iter()
-        .map(|r| (false, r))
-        .chain(ev.calibration_rows.iter().map(|r| (true, r)));
-    for (cal, row) in all {
-        let Some(s) = row.standstill_current_a else {
-            continue;
-        };
-        if seen.contains(&(cal, row.run_index)) {
-            continue;
-        }
-        seen.push((cal, row.run_index));
-        sides[0].push(s.left);
-        sides[1].push(s.right);
-    }
-    sides
 }

@@ -41,17 +41,8 @@ impl Effect for ExampleOffset {
     }
     fn mark(&self, ev: &Evidence<'_>, _marks: &Marks<'_>) -> Signature {
         // Each run's standstill current once, both sides, as magnitudes.
-        let mut runs: Vec<(bool, usize)> = Vec::new();
-        let mut amps = Vec::new();
-        let all = ev.rows.iter().map(|r| (false, r));
-        for (cal, row) in all.chain(ev.calibration_rows.iter().map(|r| (true, r))) {
-            if let Some(s) = row.standstill_current_a {
-                if !runs.contains(&(cal, row.run_index)) {
-                    runs.push((cal, row.run_index));
-                    amps.extend([s.left.abs(), s.right.abs()]);
-                }
-            }
-        }
+        let [left, right] = ev.standstill_currents();
+        let amps: Vec<f64> = left.iter().chain(&right).map(|a| a.abs()).collect();
         let (Some((t, df, p)), Some((mean, _, n))) =
             (one_sample_upper(&amps, QUIESCENT_MAX_A), moments(&amps))
         else {
