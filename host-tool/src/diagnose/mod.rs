@@ -36,6 +36,7 @@ pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
 pub mod path_table;
 pub mod report;
+pub(crate) mod matched_slip;
 pub(crate) mod select;
 pub mod signature;
 mod significance;
@@ -283,6 +284,28 @@ struct Conclusion {
     heldout_departure: Option<(EffectId, (f64, f64), f64)>,
 }
 
+/// Whether some catalogued effect could still be named for the departure: a candidate that
+/// improves the held-out fit (or one not testable out of sample) whose own mark is neither
+/// ruled out (looked for and missing, or hidden by another's) nor unobservable whatever is
+/// driven. Without one, the departure is outside the catalogue.
+fn catalogue_could_explain(
+    ranked: &[CandidateScore],
+    not_testable: &[CandidateScore],
+    signatures: &[signature::Signature],
+) -> bool {
+    let still_nameable = |e: EffectId| {
+        signatures
+            .iter()
+            .find(|s| s.effect == e)
+            .is_none_or(|s| !s.rules_out() && !s.masked)
+    };
+    ranked
+        .iter()
+        .filter(|c| c.shrink_pct > 0.0)
+        .chain(not_testable)
+        .any(|c| still_nameable(c.effect))
+}
+
 fn conclude(
     p: Problem<'_>,
     baseline: &Baseline,
@@ -340,6 +363,9 @@ fn conclude(
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
         None if misfit => Verdict::BaselineMisfit,
+        None if !catalogue_could_explain(&candidates.ranked, &candidates.not_testable, signatures) => {
+            Verdict::OutsideCatalogue
+        }
         None => Verdict::Ambiguous,
     };
     // The stepwise selection starts from the selected effect's own score (the selection may

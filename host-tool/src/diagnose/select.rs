@@ -9,7 +9,7 @@
 //! forward stepwise secondaries.
 
 use super::baseline::Baseline;
-use super::calibration::Calibration;
+use super::calibration::{Calibration, Source};
 use super::catalogue;
 use super::cv::{self, CandidateScore, Scheme};
 use super::diagnosis::StepwiseStep;
@@ -19,6 +19,7 @@ use super::effects::{fit_model, FittedModel};
 use super::error::DiagnoseError;
 use super::features::TurnRow;
 use super::gaps::{self, Gap, Part};
+use super::matched_slip::{slip_against_calibration, SlipAgainstCalibration};
 use super::signature;
 use super::stats;
 use super::stats::removed_rms_w;
@@ -135,7 +136,7 @@ pub(super) struct Decision {
 /// carries the sign (a slope's pitch), a positive coefficient; one that may go either way (a
 /// sensor offset; sinkage, whose resistance G takes on the straights), any; and a slip track
 /// narrower than the controller's (every turn quicker) must not contradict turns the yaw timed
-/// as slow as the terrain slip says ([`turns_no_quicker_by_yaw`]). A term fitted against its
+/// as slow as the calibration's turns driven alike ([`turns_no_quicker_by_yaw`]). A term fitted against its
 /// physics is a shape that happens to match a deficit, not the effect.
 pub(super) fn physically_signed(
     rover: &Rover,
@@ -144,7 +145,13 @@ pub(super) fn physically_signed(
     calibration: Calibration<'_>,
 ) -> Result<bool, DiagnoseError> {
     let (baseline, model) = fit_model(rover, rows, effects, calibration)?;
-    Ok(terms_physically_signed(rover, rows, &baseline, &model))
+    Ok(terms_physically_signed(
+        rover,
+        rows,
+        &baseline,
+        &model,
+        calibration,
+    ))
 }
 
 /// [`physically_signed`] of a model already fitted with `baseline`.
@@ -153,6 +160,7 @@ fn terms_physically_signed(
     rows: &[TurnRow],
     baseline: &Baseline,
     model: &FittedModel,
+    calibration: Calibration<'_>,
 ) -> bool {
     let ctx = model.context(rover, baseline);
     model
@@ -161,7 +169,7 @@ fn terms_physically_signed(
         .all(|term| match catalogue::of(term.effect).sign_rule() {
             SignRule::Either => true,
             SignRule::NonNegativeUnlessTurnsQuickerByYaw => {
-                term.params[0] >= 0.0 || !turns_no_quicker_by_yaw(rows, baseline)
+                term.params[0] >= 0.0 || !turns_no_quicker_by_yaw(rows, calibration)
             }
             SignRule::PositiveCoefficient => term.params[0] > 0.0,
             SignRule::AddsPower => term_own_power_w(rows, term, &ctx) > 0.0,
@@ -256,12 +264,17 @@ pub(super) fn reaches_the_gaps(
     })
 }
 
-/// Whether the turns timed by yaw took, on average, at least as long as the baseline's terrain
-/// slip says: then no narrower slip track (a negative `slip-track` term, every turn quicker
-/// than commanded) is what the power shows. `false` without yaw-timed turns.
-fn turns_no_quicker_by_yaw(rows: &[TurnRow], baseline: &Baseline) -> bool {
-    let all = signature::excess_slips(rows, baseline, |_| true);
-    !all.is_empty() && all.iter().sum::<f64>() >= 0.0
+/// Whether the turns timed by yaw took, on average, at least as long as the calibration's own
+/// turns driven alike: then no narrower slip track (a negative `slip-track` term, every turn
+/// quicker) is what the power shows. `false` when not measured.
+fn turns_no_quicker_by_yaw(rows: &[TurnRow], calibration: Calibration<'_>) -> bool {
+    let Source::Rows(cal) = calibration.source else {
+        return false;
+    };
+    matches!(
+        slip_against_calibration(rows, cal, |_| true),
+        SlipAgainstCalibration::Measured(m) if m.difference >= 0.0
+    )
 }
 
 /// Without a clear winner: the one candidate in a near tie with the best (penalised error

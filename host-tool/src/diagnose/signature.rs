@@ -7,8 +7,8 @@
 //! | effect | observation | test |
 //! |---|---|---|
 //! | `current-offset` | standstill current per run and side | one-sided t of \|mean\| over the quiescent draw (0.25 A), per side, Bonferroni ×2 |
-//! | `angular-slip` | yaw-timed slip of the turns with 0 < R ≤ R′ minus the point turns' | one-sided t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3 |
-//! | `slip-track` | every turn's slip beyond the calibration's terrain slip, not rising towards R′ (pose: measured slip track vs the terrain's) | two-sided t, \|mean\| ≥ 2 %, angular slip's rise absent |
+//! | `angular-slip` | yaw-timed slip of the turns with 0 < R ≤ R′ minus the point turns' (same yaw rate) | one-sided Welch t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3 |
+//! | `slip-track` | the turns' yaw-timed slip beyond the calibration runs' own turns driven alike (radius, yaw rate, angle), not rising towards R′ (pose: measured slip track vs the calibration's) | two-sided t of the matched difference, \|difference\| ≥ 2 %, angular slip's rise absent |
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
 //! | `sinkage-bulldozing` | growth through the manoeuvre (second half − first half of its steady part), each side: of turns below R′, or of turns below R′ and straights | Welch t per side against straights and wide turns, or one-sample t per side against none (not with heating's or the slope's mark present); ≥ 1.5 W on both, the weaker side's p ×2, the stronger reading's p ×2 |
@@ -85,6 +85,12 @@ pub struct SignatureTest {
 }
 
 impl SignatureTest {
+    /// Whether its statistic is undefined: a sample without spread (or a single value) has no
+    /// noise to test against ([`super::stats::MAX_STATISTIC`]); its p is 1, never 0.
+    pub fn degenerate(&self) -> bool {
+        self.statistic.is_nan()
+    }
+
     /// `present`, `inconclusive` (its size in the data, not yet beyond the noise) or `absent`.
     pub fn verdict(&self) -> &'static str {
         match (self.present, self.sized) {
@@ -111,6 +117,13 @@ impl Signature {
     /// `not observable`.
     pub fn outcome(&self) -> String {
         match &self.test {
+            Some(t) if t.degenerate() => format!(
+                "{}: degenerate {} (the values do not vary beyond rounding, or one value: no \
+                 noise to test against), df {:.0}",
+                t.verdict(),
+                t.statistic_name,
+                t.df
+            ),
             Some(t) => format!(
                 "{}: {} = {:.2}, df {:.0}, p = {}",
                 t.verdict(),
@@ -256,19 +269,6 @@ impl Evidence<'_> {
         }
         sides
     }
-}
-
-/// The measured angular slip of each yaw-timed turn of `regime` in `rows`, less the terrain's
-/// constant slip the calibration fitted (`baseline.turn_slip`).
-pub(crate) fn excess_slips<'r>(
-    rows: impl IntoIterator<Item = &'r TurnRow>,
-    baseline: &Baseline,
-    keep: impl Fn(&TurnRow) -> bool,
-) -> Vec<f64> {
-    rows.into_iter()
-        .filter(|r| r.turned_from_yaw && !r.is_straight() && keep(r))
-        .filter_map(|r| r.angular_slip.map(|s| s - baseline.turn_slip))
-        .collect()
 }
 
 /// The residual of the `role` side of each of `rows` matching `keep` [W].

@@ -135,26 +135,36 @@ pub fn t_upper(t: f64, df: f64) -> f64 {
     model_core::fit::student_t_cdf(t, dof).map_or(1.0, |c| (1.0 - c).clamp(0.0, 1.0))
 }
 
-/// One-sided one-sample t of `values`' mean above `null`: (t, df, p); `None` under 2 values.
+/// Largest |t| a test reports as a statistic. Beyond it the spread is not noise a sensor makes
+/// (a simulated run repeated exactly, values equal to rounding): the test is degenerate.
+pub const MAX_STATISTIC: f64 = 1e6;
+
+/// A t statistic, or NaN when it is degenerate: a zero spread, or one so small against the
+/// difference that |t| passes [`MAX_STATISTIC`]. A degenerate test is never significant (its
+/// p is 1): a sample without variance says nothing about the noise it is to be told from.
+fn t_or_degenerate(difference: f64, se: f64) -> f64 {
+    let t = difference / se;
+    if se > 0.0 && t.abs() <= MAX_STATISTIC {
+        t
+    } else {
+        f64::NAN
+    }
+}
+
+/// One-sided one-sample t of `values`' mean above `null`: (t, df, p); `None` under 2 values;
+/// t NaN and p 1 when degenerate ([`t_or_degenerate`]).
 pub fn one_sample_upper(values: &[f64], null: f64) -> Option<(f64, f64, f64)> {
     let (mean, sd, n) = moments(values)?;
     if n < 2 {
         return None;
     }
-    let se = sd / (n as f64).sqrt();
-    let t = if se > 0.0 {
-        (mean - null) / se
-    } else if mean > null {
-        f64::INFINITY
-    } else {
-        f64::NEG_INFINITY
-    };
+    let t = t_or_degenerate(mean - null, sd / (n as f64).sqrt());
     let df = (n - 1) as f64;
     Some((t, df, t_upper(t, df)))
 }
 
 /// One-sided Welch t of mean(`a`) above mean(`b`): (difference, t, df, p); `None` when either
-/// has fewer than 2 values.
+/// has fewer than 2 values; t NaN and p 1 when degenerate ([`t_or_degenerate`]).
 pub fn welch_upper(a: &[f64], b: &[f64]) -> Option<(f64, f64, f64, f64)> {
     let (ma, sa, na) = moments(a)?;
     let (mb, sb, nb) = moments(b)?;
@@ -164,17 +174,44 @@ pub fn welch_upper(a: &[f64], b: &[f64]) -> Option<(f64, f64, f64, f64)> {
     let (va, vb) = (sa * sa / na as f64, sb * sb / nb as f64);
     let se2 = va + vb;
     let diff = ma - mb;
-    if se2 <= 0.0 {
-        let t = if diff > 0.0 {
-            f64::INFINITY
-        } else {
-            f64::NEG_INFINITY
-        };
-        return Some((diff, t, (na + nb - 2) as f64, t_upper(t, 1.0)));
-    }
-    let t = diff / se2.sqrt();
-    let df = se2 * se2 / (va * va / (na - 1) as f64 + vb * vb / (nb - 1) as f64);
+    let t = t_or_degenerate(diff, se2.sqrt());
+    let df = if se2 > 0.0 {
+        se2 * se2 / (va * va / (na - 1) as f64 + vb * vb / (nb - 1) as f64)
+    } else {
+        (na + nb - 2) as f64
+    };
     Some((diff, t, df, t_upper(t, df)))
+}
+
+/// One-sided t of the mean difference of paired groups above 0, each group a condition the
+/// two samples were both taken at (`(a, b)`: a's values against b's at one condition): the
+/// differences of the group means weighted by a's count, against a spread pooled within the
+/// groups of both samples (a group of one value adds no degrees of freedom but still its
+/// difference). (difference, t, df, p); `None` without a group holding both or without a
+/// degree of freedom; t NaN and p 1 when degenerate ([`t_or_degenerate`]).
+pub fn matched_upper(groups: &[(Vec<f64>, Vec<f64>)]) -> Option<(f64, f64, f64, f64)> {
+    let held: Vec<_> = groups
+        .iter()
+        .filter(|(a, b)| !a.is_empty() && !b.is_empty())
+        .collect();
+    let n: usize = held.iter().map(|(a, _)| a.len()).sum();
+    let (mut diff, mut var_factor, mut ss, mut df) = (0.0, 0.0, 0.0, 0usize);
+    for (a, b) in &held {
+        let (ma, _, na) = moments(a)?;
+        let (mb, _, nb) = moments(b)?;
+        let w = na as f64 / n as f64;
+        diff += w * (ma - mb);
+        var_factor += w * w * (1.0 / na as f64 + 1.0 / nb as f64);
+        ss += a.iter().map(|v| (v - ma).powi(2)).sum::<f64>();
+        ss += b.iter().map(|v| (v - mb).powi(2)).sum::<f64>();
+        df += na + nb - 2;
+    }
+    if df == 0 {
+        return None;
+    }
+    let se = (ss / df as f64 * var_factor).sqrt();
+    let t = t_or_degenerate(diff, se);
+    Some((diff, t, df as f64, t_upper(t, df as f64)))
 }
 
 /// P(X ≥ k) for X ~ Binomial(n, p).
@@ -293,5 +330,42 @@ mod tests {
         let (_, _, p) = one_sample_upper(&above, 1.5).expect("test");
         assert!(p > 0.99, "{p}");
         assert!(one_sample_upper(&[1.0], 0.0).is_none());
+    }
+
+    #[test]
+    fn a_sample_without_variance_is_degenerate_never_certain() {
+        // Identical values, or values equal to rounding: no noise to test a difference against.
+        let (t, df, p) = one_sample_upper(&[0.05, 0.05, 0.05], 0.0).expect("three values");
+        assert!(t.is_nan() && df == 2.0 && p == 1.0);
+        let rounding = [0.057, 0.057 + 1e-17, 0.057 - 2e-17, 0.057 + 3e-18];
+        let (t, _, p) = one_sample_upper(&rounding, 0.0).expect("values");
+        assert!(t.is_nan() && p == 1.0, "t {t}");
+        let (_, t, _, p) = welch_upper(&[1.0, 1.0], &[0.0, 0.0]).expect("two each");
+        assert!(t.is_nan() && p == 1.0);
+        // Real spread still tests.
+        let (t, _, p) = one_sample_upper(&[0.04, 0.05, 0.06], 0.0).expect("values");
+        assert!((t - 8.66).abs() < 0.01 && p < 0.01, "t {t} p {p}");
+    }
+
+    #[test]
+    fn matched_groups_compare_like_with_like_and_pool_their_spread() {
+        // Two conditions whose levels differ by far more than the shift between the samples:
+        // matched, only the shift (0.01 at both) is tested, against the within-group spread.
+        let groups = vec![
+            (vec![0.11, 0.12, 0.13], vec![0.10, 0.11]),
+            (vec![0.31, 0.32, 0.33], vec![0.30, 0.31]),
+        ];
+        let (diff, t, df, p) = matched_upper(&groups).expect("groups");
+        assert!((diff - 0.015).abs() < 1e-12, "{diff}");
+        assert_eq!(df, 6.0);
+        // Pooled variance: (2·0.0001 + 0.00005) × 2 / 6; factor 2·0.25·(1/3 + 1/2).
+        let se = ((2.0f64 * 2e-4 + 2.0 * 5e-5) / 6.0 * (0.5 * (1.0 / 3.0 + 0.5))).sqrt();
+        assert!((t - 0.015 / se).abs() < 1e-9 && p < 0.05, "t {t} p {p}");
+        // A group one side of which is empty is not matched; one value per side adds no df.
+        assert!(matched_upper(&[(vec![0.1], vec![0.0]), (vec![0.2], vec![])]).is_none());
+        let (diff, _, df, _) =
+            matched_upper(&[(vec![0.1], vec![0.0]), (vec![0.2, 0.3], vec![0.2, 0.2])])
+                .expect("two df");
+        assert!((diff - (0.1 / 3.0 + 2.0 / 3.0 * 0.05)).abs() < 1e-12 && df == 2.0);
     }
 }

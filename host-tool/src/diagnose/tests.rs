@@ -678,7 +678,13 @@ fn on_a_slope_the_yaw_timing_is_no_slips_mark() {
         let s = mark(e);
         assert!(s.test.is_none() && s.detail.contains("slope"), "{s:?}");
     }
-    let level = diagnose_world(&WorldConfig::hard_ground());
+    // Level ground, calibrated on calibration runs of its own (the slip's reference).
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run(&WorldConfig::hard_ground(), &scenario(), 10 + k))
+        .collect();
+    let cal_rows = control_calibration_rows();
+    let level = super::diagnose_with(&HUSKY, &rows_of(&runs), super::Calibration::rows(&cal_rows))
+        .expect("diagnoses");
     let slip = level
         .signatures
         .iter()

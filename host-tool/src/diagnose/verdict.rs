@@ -1,5 +1,6 @@
 //! The diagnosis' conclusion as types: what it names ([`Verdict`]) and where ([`Scope`]). Both
-//! serialise to the report's stable strings (`none`, `ambiguous`, `baseline-misfit`, an effect
+//! serialise to the report's stable strings (`none`, `ambiguous`, `outside-catalogue`,
+//! `baseline-misfit`, an effect
 //! id; `all`, `gap`, a regime id), so the JSON keeps its keys and values.
 
 use crate::effect_id::EffectId;
@@ -11,8 +12,14 @@ use serde::{Serialize, Serializer};
 pub enum Verdict {
     /// No significant departure from the baseline.
     None,
-    /// A significant departure, but no catalogue term explains it clearly.
+    /// A significant departure, but no catalogue term explains it clearly yet: a candidate
+    /// that improves the held-out fit could still be named (its mark present beside a rival,
+    /// not yet beyond the noise, or not yet observed).
     Ambiguous,
+    /// A significant departure that no catalogued effect explains: every candidate improving
+    /// the held-out fit had its own mark looked for and missing, hidden, or unobservable
+    /// whatever is driven. The cause is one the catalogue does not hold.
+    OutsideCatalogue,
     /// The baseline itself does not fit its calibration manoeuvres beyond their repeat noise:
     /// no effect can be named against it.
     BaselineMisfit,
@@ -21,11 +28,13 @@ pub enum Verdict {
 }
 
 impl Verdict {
-    /// The report string: `none`, `ambiguous`, `baseline-misfit` or the effect id.
+    /// The report string: `none`, `ambiguous`, `outside-catalogue`, `baseline-misfit` or the
+    /// effect id.
     pub const fn label(self) -> &'static str {
         match self {
             Verdict::None => "none",
             Verdict::Ambiguous => "ambiguous",
+            Verdict::OutsideCatalogue => "outside-catalogue",
             Verdict::BaselineMisfit => "baseline-misfit",
             Verdict::Effect(e) => e.id(),
         }
@@ -35,7 +44,10 @@ impl Verdict {
     pub const fn effect(self) -> Option<EffectId> {
         match self {
             Verdict::Effect(e) => Some(e),
-            Verdict::None | Verdict::Ambiguous | Verdict::BaselineMisfit => None,
+            Verdict::None
+            | Verdict::Ambiguous
+            | Verdict::OutsideCatalogue
+            | Verdict::BaselineMisfit => None,
         }
     }
 
@@ -44,6 +56,7 @@ impl Verdict {
         match label {
             "none" => Some(Verdict::None),
             "ambiguous" => Some(Verdict::Ambiguous),
+            "outside-catalogue" => Some(Verdict::OutsideCatalogue),
             "baseline-misfit" => Some(Verdict::BaselineMisfit),
             other => EffectId::from_id(other).map(Verdict::Effect),
         }
@@ -123,7 +136,12 @@ mod tests {
 
     #[test]
     fn labels_round_trip_and_serialise_as_todays_strings() {
-        let verdicts = [Verdict::None, Verdict::Ambiguous, Verdict::BaselineMisfit]
+        let verdicts = [
+            Verdict::None,
+            Verdict::Ambiguous,
+            Verdict::OutsideCatalogue,
+            Verdict::BaselineMisfit,
+        ]
             .into_iter()
             .chain(EffectId::ALL.map(Verdict::Effect));
         for v in verdicts {

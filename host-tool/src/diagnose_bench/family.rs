@@ -383,7 +383,18 @@ impl DatasetSpec {
         self.class.effect()
     }
 
-    /// The dataset's world (calibration and test runs share it).
+    /// The calibration runs' world: the test runs' ([`DatasetSpec::world`]) on the reference
+    /// ground's slip track. A slip track is the ground's (thesis Appendix D); the one the
+    /// calibration ground shares with the test ground is absorbed by the baseline as the
+    /// terrain's constant slip, so `slip-track` is the test ground's departure from it (its mark
+    /// is measured against the calibration's own turns).
+    pub fn calibration_world(&self) -> WorldConfig {
+        let mut w = self.world();
+        w.effects.set_enabled(EffectId::SlipTrack, false);
+        w
+    }
+
+    /// The test runs' world (every other effect and all structure are the calibration's too).
     pub fn world(&self) -> WorldConfig {
         let mut w = self.rover.world();
         w.icr.mu = self.mu;

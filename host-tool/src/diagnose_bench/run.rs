@@ -73,7 +73,9 @@ pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
         .map(|i| {
             let t_us = i * step_us;
             let load = timeline.load_at(t_us);
-            let (yaw_rad, pitch_deg) = timeline.pose_at(t_us);
+            // As the IMU reads them: a noise-free yaw makes every turn's slip exact, and a
+            // test of slips against each other degenerate.
+            let (yaw_rad, pitch_deg) = timeline.measured_pose_at(t_us);
             let mut fix = None;
             while let Some(&t_fix) = fix_times.get(next_fix).filter(|&&t| t <= t_us) {
                 fix = timeline.fix_at(t_fix).or(fix);
@@ -97,10 +99,11 @@ pub fn sample_run(timeline: &Timeline, sample_hz: u64) -> Vec<RunSample> {
 pub fn simulate(spec: &DatasetSpec) -> Result<SimulatedDataset, DatasetError> {
     let world = spec.world();
     let cal = spec.calibration_scenario();
+    let cal_world = spec.calibration_world();
     let mut cal_truths = Vec::new();
     let calibration = (0..CALIBRATION_RUNS)
         .map(|k| {
-            let t = world.simulate(&cal, spec.seed.wrapping_add(k as u64))?;
+            let t = cal_world.simulate(&cal, spec.seed.wrapping_add(k as u64))?;
             cal_truths.extend(t.manoeuvres().iter().cloned());
             Ok(sample_run(&t, spec.sample_hz))
         })
@@ -550,7 +553,9 @@ pub fn time_one_hour_log(spec: &DatasetSpec) -> Result<LongLogTiming, DatasetErr
     // One set more than the estimate: the long run's seed draws other pauses.
     long.repeats = (HOUR_S / set_s.max(1.0)).ceil() as u32 + 1;
     let rover = spec.rover.rover();
-    let calibration = world.simulate(&long.calibration_scenario(), spec.seed)?;
+    let calibration = spec
+        .calibration_world()
+        .simulate(&long.calibration_scenario(), spec.seed)?;
     let run = world.simulate(&long.test_scenarios()[0], spec.seed.wrapping_add(1))?;
     let samples = [sample_run(&run, spec.sample_hz)];
     let cal_rows = rows_for(

@@ -22,7 +22,8 @@ use std::fmt;
 pub struct ConfusionMatrix {
     /// Row labels: `none` (controls), the catalogue, `structure-only`.
     pub true_labels: Vec<String>,
-    /// Column labels: the catalogue, `none`, `ambiguous`, `baseline-misfit`, `error`.
+    /// Column labels: the catalogue, `none`, `ambiguous`, `outside-catalogue`,
+    /// `baseline-misfit`, `error`.
     pub diagnosed_labels: Vec<String>,
     /// `counts[true][diagnosed]`.
     pub counts: Vec<Vec<usize>>,
@@ -38,7 +39,13 @@ impl ConfusionMatrix {
         let diagnosed_labels: Vec<String> = EffectId::ALL
             .iter()
             .map(|e| e.id())
-            .chain(["none", "ambiguous", BASELINE_MISFIT, "error"])
+            .chain([
+                "none",
+                "ambiguous",
+                "outside-catalogue",
+                BASELINE_MISFIT,
+                "error",
+            ])
             .map(String::from)
             .collect();
         let mut counts = vec![vec![0; diagnosed_labels.len()]; true_labels.len()];
@@ -78,6 +85,8 @@ pub struct ClassFigures {
     pub right: usize,
     /// `ambiguous`.
     pub ambiguous: usize,
+    /// `outside-catalogue`.
+    pub outside: usize,
     /// `baseline-misfit` (right on structure-only datasets, a miss on the others).
     pub misfit: usize,
     /// `none` on effect datasets (missed).
@@ -331,6 +340,7 @@ fn class_figures(label: &str, of: &[&DatasetResult]) -> ClassFigures {
         n: of.len(),
         right: count(&|r| r.right()),
         ambiguous: count(&|r| r.diagnosed == "ambiguous"),
+        outside: count(&|r| r.diagnosed == "outside-catalogue"),
         misfit: count(&|r| r.diagnosed == BASELINE_MISFIT),
         none: if has_effect {
             count(&|r| r.diagnosed == "none")
@@ -793,11 +803,12 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
     }
     writeln!(
         f,
-        "{:<20}{:>4}{:>7}{:>7}{:>7}{:>6}{:>7}{:>8}{:>9}{:>9}{:>10}{:>9}",
+        "{:<20}{:>4}{:>7}{:>7}{:>8}{:>7}{:>6}{:>7}{:>8}{:>9}{:>9}{:>10}{:>9}",
         "true class",
         "n",
         "right",
         "ambig",
+        "outside",
         "misfit",
         "none",
         "wrong",
@@ -810,11 +821,12 @@ fn write_part(f: &mut fmt::Formatter<'_>, p: &PartFigures) -> fmt::Result {
     for c in &p.per_class {
         writeln!(
             f,
-            "{:<20}{:>4}{:>7}{:>7}{:>7}{:>6}{:>7}{:>8}{:>9}{:>9}{:>10}{:>9}",
+            "{:<20}{:>4}{:>7}{:>7}{:>8}{:>7}{:>6}{:>7}{:>8}{:>9}{:>9}{:>10}{:>9}",
             row_label(&c.label),
             c.n,
             c.right,
             c.ambiguous,
+            c.outside,
             c.misfit,
             c.none,
             c.wrong,

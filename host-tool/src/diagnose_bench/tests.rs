@@ -232,19 +232,18 @@ fn truth_regimes_follow_where_the_extra_power_goes() {
     assert_eq!(truth_of(None, &[], &[]).regime, "none");
 }
 
-/// What the calibration runs absorb: a terrain slip track only scales every turn's time, which
-/// the baseline's constant angular slip fitted on the calibration turns takes whole (nothing
-/// left to see), while braked inner wheels at R′ (a radius the calibration does not drive) stay
-/// visible nearly whole.
+/// What the calibration runs absorb: a slip track of the test ground (the calibration ground
+/// keeps the controller's, [`DatasetSpec::calibration_world`]) is none of the calibration's, so
+/// it stays visible, as do braked inner wheels at R′ (a radius the calibration does not drive).
 #[test]
 fn the_truth_says_what_calibration_absorbs() {
     let slip_track = husky_truth(EffectId::SlipTrack);
     assert!(slip_track.peak_extra_power_w > 5.0, "{slip_track:?}");
     assert!(
-        slip_track.unabsorbed_peak_w < 0.05 * slip_track.peak_extra_power_w,
+        slip_track.unabsorbed_peak_w > 0.5 * slip_track.peak_extra_power_w,
         "{slip_track:?}"
     );
-    assert!(!slip_track.visible_after_calibration);
+    assert!(slip_track.visible_after_calibration);
     let braked = husky_truth(EffectId::BrakedInner);
     assert!(
         braked.unabsorbed_peak_w > 0.8 * braked.peak_extra_power_w,
@@ -283,7 +282,8 @@ fn small_bench_tabulates_every_dataset_per_part() {
             } else {
                 c.misfit
             };
-            let sum = c.right + c.ambiguous + misfit_wrong + c.none + c.wrong + c.errors;
+            let sum =
+                c.right + c.ambiguous + c.outside + misfit_wrong + c.none + c.wrong + c.errors;
             assert_eq!(sum, c.n, "{c:?}");
         }
         let per_structure: usize = p.per_structure.iter().map(|st| st.n).sum();

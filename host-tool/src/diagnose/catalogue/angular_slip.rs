@@ -10,10 +10,9 @@ use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
-use crate::diagnose::signature::{
-    excess_slips, Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS,
-};
-use crate::diagnose::stats::{moments, one_sample_upper};
+use crate::diagnose::matched_slip::yaw_slips;
+use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS};
+use crate::diagnose::stats::{moments, one_sample_upper, welch_upper};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 
@@ -75,14 +74,19 @@ impl Effect for AngularSlip {
 
 /// `angular-slip`: the turns between the point turn and R′ slower by yaw than the point turns
 /// (the runs', else the calibration's), by at least [`MIN_SLIP_EXCESS`] (the thesis' Fig 6.8:
-/// 0.27 at R = 0 to 0.38 at R′ on sand). A slip constant over the radii does not rise.
+/// 0.27 at R = 0 to 0.38 at R′ on sand). Under the constant total-absolute-velocity constraint
+/// (Eq 2.6) these turns share the point turn's yaw rate, so a slip that grows with the yaw rate
+/// or a lagging speed loop does not rise; a slip constant over the radii does not either. The
+/// point turns' mean is itself measured: Welch t when there are two or more.
 fn angular_slip(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::AngularSlip;
     // The runs' own point turns, on the same terrain; the calibration's when they have none.
     let is_point = |r: &TurnRow| r.regime == Regime::Point;
-    let mut point = excess_slips(ev.rows, ev.baseline, is_point);
+    let mut point = yaw_slips(ev.rows, is_point);
+    let mut whose = "the point turns'";
     if point.is_empty() {
-        point = excess_slips(ev.calibration_rows, ev.baseline, is_point);
+        point = yaw_slips(ev.calibration_rows, is_point);
+        whose = "the calibration's point turns'";
     }
     let Some((point_mean, _, _)) = moments(&point) else {
         if !ev.yaw_logged() {
@@ -97,17 +101,20 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
     ];
     let mut best: Option<(SignatureTest, String)> = None;
     for regime in regimes {
-        let rise: Vec<f64> = excess_slips(ev.rows, ev.baseline, |r| r.regime == regime)
-            .into_iter()
-            .map(|s| s - point_mean)
-            .collect();
-        let Some((t, df, p)) = one_sample_upper(&rise, 0.0) else {
+        let slips = yaw_slips(ev.rows, |r| r.regime == regime);
+        let rise = if point.len() >= 2 {
+            welch_upper(&slips, &point).map(|(d, t, df, p)| (d, t, df, p, "Welch t"))
+        } else {
+            let shifted: Vec<f64> = slips.iter().map(|s| s - point_mean).collect();
+            one_sample_upper(&shifted, 0.0)
+                .map(|(t, df, p)| (moments(&shifted).map_or(0.0, |m| m.0), t, df, p, "t"))
+        };
+        let Some((mean, t, df, p, statistic_name)) = rise else {
             continue;
         };
-        let (mean, _, n) = moments(&rise).expect("two or more");
         let p = (p * regimes.len() as f64).min(1.0);
         let test = SignatureTest {
-            statistic_name: "t",
+            statistic_name,
             statistic: t,
             df,
             p,
@@ -115,12 +122,12 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
             sized: mean >= MIN_SLIP_EXCESS,
         };
         let detail = format!(
-            "{} turns ({n}) slip {:+.1} % beyond the point turns' {:.1} % (the calibration's \
-             terrain slip {:.1} % taken off both)",
+            "{} turns ({}) slip {:+.1} % beyond {whose} {:.1} % ({} turn(s))",
             regime.id(),
+            slips.len(),
             100.0 * mean,
             100.0 * point_mean,
-            100.0 * ev.baseline.turn_slip
+            point.len()
         );
         if best
             .as_ref()

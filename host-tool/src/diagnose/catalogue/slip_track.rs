@@ -2,20 +2,21 @@
 //! the controller's, so every turn's yaw rate scales by B_s,ctrl/B_s,terrain.
 //!
 //! - Term (time-type): P_side on turns.
-//! - Mark: every turn's slip beyond the calibration's terrain slip, the same on every turn (not
-//!   rising towards R′: angular slip's mark absent); with a pose track, the measured slip track
-//!   against the terrain's. Two-sided t, |mean| ≥ 2 %.
+//! - Mark: the turns' yaw-timed slip beyond the calibration runs' own turns driven alike (same
+//!   radius, yaw rate and angle), the same on every turn (not rising towards R′: angular slip's
+//!   mark absent); with a pose track, the measured slip track against the calibration's.
+//!   Two-sided t, |difference| ≥ 2 %.
 
 use crate::diagnose::baseline::family::MAX_SLIP_SPREAD;
 use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, SignRule, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
+use crate::diagnose::matched_slip::{slip_against_calibration, yaw_slips, SlipAgainstCalibration};
 use crate::diagnose::signature::{
-    excess_slips, Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS,
-    MIN_SLIP_TRACK_DIFFERENCE,
+    Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS, MIN_SLIP_TRACK_DIFFERENCE,
 };
-use crate::diagnose::stats::{moments, one_sample_upper};
+use crate::diagnose::stats::{moments, one_sample_upper, t_upper, welch_upper};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
 
@@ -67,72 +68,78 @@ impl Effect for SlipTrack {
     }
 }
 
-/// `slip-track`: with a pose track, the measured slip track off the terrain's (the controller's
-/// B_s widened by the calibration's constant slip) by [`MIN_SLIP_TRACK_DIFFERENCE`]; else
-/// every turn's yaw-timed slip off the calibration's terrain slip by [`MIN_SLIP_EXCESS`], either
-/// way (a narrower track makes turns quicker than commanded), and the same on every turn: not
-/// rising from the point turn towards R′ as angular slip does (`slip_rises`, its signature),
-/// and each radius' mean within [`MAX_SLIP_SPREAD`] of the common mean.
+/// `slip-track`: with a pose track, the measured slip track off the calibration's measured
+/// one (else off the controller's B_s) by [`MIN_SLIP_TRACK_DIFFERENCE`]; else the turns'
+/// yaw-timed slip off the calibration's own turns driven alike ([`slip_against_calibration`])
+/// by [`MIN_SLIP_EXCESS`], either way (a narrower track makes turns quicker), and the same on
+/// every turn: not rising from the point turn towards R′ as angular slip does (`slip_rises`,
+/// its signature), and each radius' mean within [`MAX_SLIP_SPREAD`] of the common mean.
 fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     let e = EffectId::SlipTrack;
-    let terrain_m = ev.baseline.slip_track_m / (1.0 - ev.baseline.turn_slip);
-    let measured: Vec<f64> = ev
-        .rows
-        .iter()
-        .filter_map(|r| r.measured.map(|m| m.slip_track_m / terrain_m - 1.0))
-        .filter(|v| v.is_finite())
-        .collect();
-    let by_yaw = measured.len() < 2;
-    let (values, floor, what) = if !by_yaw {
-        (
-            measured,
-            MIN_SLIP_TRACK_DIFFERENCE,
-            format!("the pose track's slip track relative to the terrain's {terrain_m:.3} m"),
-        )
-    } else {
-        (
-            excess_slips(ev.rows, ev.baseline, |_| true),
-            MIN_SLIP_EXCESS,
-            format!(
-                "the turns' slip beyond the calibration's terrain slip {:.1} %",
-                100.0 * ev.baseline.turn_slip
-            ),
-        )
-    };
-    let Some((mean, _, n)) = moments(&values) else {
-        if !ev.yaw_logged() {
-            return Signature::masked(e, "no yaw logged and no pose track");
+    if let Some(pose) = by_pose(ev) {
+        return pose;
+    }
+    let m = match slip_against_calibration(ev.rows, ev.calibration_rows, |_| true) {
+        SlipAgainstCalibration::Measured(m) => m,
+        SlipAgainstCalibration::NoCalibrationRuns => {
+            return Signature::masked(
+                e,
+                "no calibration runs and no pose track: the turns' slip has no reference ground \
+                 to be compared with (drive calibration runs on the reference ground, or log a \
+                 pose track)",
+            )
         }
-        return Signature::unobservable(e, "no turn timed by yaw and no pose track");
+        SlipAgainstCalibration::NoYawTimedTurns if !ev.yaw_logged() => {
+            return Signature::masked(e, "no yaw logged and no pose track")
+        }
+        SlipAgainstCalibration::NoYawTimedTurns => {
+            return Signature::unobservable(e, "no turn timed by yaw and no pose track")
+        }
+        SlipAgainstCalibration::NotMatched { turns } => {
+            return Signature::unobservable(
+                e,
+                format!(
+                    "none of the {turns} turn(s) timed by yaw was driven as a calibration turn \
+                     was (radius, yaw rate and turned angle)"
+                ),
+            )
+        }
+        SlipAgainstCalibration::TooFew { turns } => {
+            return Signature::unobservable(
+                e,
+                format!(
+                    "{turns} turn(s) driven as the calibration's, one per condition: no spread to \
+                     test against"
+                ),
+            )
+        }
     };
     // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
-    // same fraction on every turn. (A pose track measures the slip track itself.)
-    let rises = by_yaw && slip_rises;
-    // A slip track rescales every turn's yaw rate by the same B_s,ctrl/B_s (Eq 2.2): by yaw, a
-    // slip that differs between the radii (anything that resists the turn more at some radii,
+    // same fraction on every turn.
+    let rises = slip_rises;
+    // A slip track rescales every turn's yaw rate by the same B_s,ctrl/B_s (Eq 2.2): a slip
+    // that differs between the runs' radii (anything that resists the turn more at some radii,
     // such as sand piling up at the point turn) is not it. The same spread the baseline allows
     // a constant calibration slip.
-    let spread = if by_yaw { regime_spread(ev, mean) } else { 0.0 };
+    let spread = regime_spread(ev);
     let uneven = spread > MAX_SLIP_SPREAD;
-    let flipped: Vec<f64> = values.iter().map(|v| v * mean.signum()).collect();
-    let Some((t, df, p)) = one_sample_upper(&flipped, 0.0) else {
-        return Signature::unobservable(e, "a single turn timed by yaw");
-    };
-    let p = (2.0 * p).min(1.0);
+    let sized = m.difference.abs() >= MIN_SLIP_EXCESS && !rises && !uneven;
+    let p = (2.0 * t_upper(m.t.abs(), m.df)).min(1.0);
     let test = SignatureTest {
         statistic_name: "t",
-        statistic: t,
-        df,
+        statistic: m.t,
+        df: m.df,
         p,
-        present: p < ALPHA && mean.abs() >= floor && !rises && !uneven,
-        sized: mean.abs() >= floor && !rises && !uneven,
+        present: p < ALPHA && sized,
+        sized,
     };
     let shape = if rises {
         "; but it rises from the point turn towards R′ (angular slip), not the same on every turn"
             .to_string()
     } else if uneven {
         format!(
-            "; but a radius' mean differs from it by {:.1} %, not the same on every turn",
+            "; but a radius' mean differs from the runs' common mean by {:.1} %, not the same on \
+             every turn",
             100.0 * spread
         )
     } else {
@@ -141,20 +148,85 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     Signature::tested(
         e,
         test,
-        format!("{what}: {:+.1} % over {n} turn(s){shape}", 100.0 * mean),
+        format!(
+            "{} turn(s) timed by yaw slip {:+.1} % beyond {} calibration turn(s) driven alike \
+             ({} condition(s): radius, yaw rate and angle){shape}",
+            m.turns,
+            100.0 * m.difference,
+            m.calibration_turns,
+            m.conditions
+        ),
     )
 }
 
-/// Largest distance of a radius' mean excess slip (regimes with 2 or more yaw-timed turns) from
-/// `mean`, the turns' common mean.
-fn regime_spread(ev: &Evidence<'_>, mean: f64) -> f64 {
+/// With a pose track: the measured slip track relative to the calibration runs' measured one
+/// (Welch), or to the controller's B_s without one (the calibration ground's own is then not
+/// known); two-sided, [`MIN_SLIP_TRACK_DIFFERENCE`]. `None` with fewer than 2 measured turns.
+fn by_pose(ev: &Evidence<'_>) -> Option<Signature> {
+    let measured = |rows: &[TurnRow]| -> Vec<f64> {
+        rows.iter()
+            .filter_map(|r| r.measured.map(|m| m.slip_track_m))
+            .filter(|v| v.is_finite())
+            .collect()
+    };
+    let runs = measured(ev.rows);
+    if runs.len() < 2 {
+        return None;
+    }
+    let calibration = measured(ev.calibration_rows);
+    let (reference_m, against) = match moments(&calibration) {
+        Some((mean, _, n)) if n >= 2 => (
+            mean,
+            format!("the calibration runs' measured {mean:.3} m ({n} turns)"),
+        ),
+        _ => {
+            let b_s = ev.baseline.slip_track_m;
+            (b_s, format!("the controller's B_s {b_s:.3} m"))
+        }
+    };
+    let relative = |v: &[f64]| -> Vec<f64> { v.iter().map(|m| m / reference_m - 1.0).collect() };
+    let (values, reference) = (relative(&runs), relative(&calibration));
+    let (mean, _, n) = moments(&values)?;
+    let (t, df) = if reference.len() >= 2 {
+        let (_, t, df, _) = welch_upper(&values, &reference)?;
+        (t, df)
+    } else {
+        let (t, df, _) = one_sample_upper(&values, 0.0)?;
+        (t, df)
+    };
+    let p = (2.0 * t_upper(t.abs(), df)).min(1.0);
+    let sized = mean.abs() >= MIN_SLIP_TRACK_DIFFERENCE;
+    let test = SignatureTest {
+        statistic_name: if reference.len() >= 2 { "Welch t" } else { "t" },
+        statistic: t,
+        df,
+        p,
+        present: p < ALPHA && sized,
+        sized,
+    };
+    Some(Signature::tested(
+        EffectId::SlipTrack,
+        test,
+        format!(
+            "the pose track's slip track relative to {against}: {:+.1} % over {n} turn(s)",
+            100.0 * mean
+        ),
+    ))
+}
+
+/// Largest distance of a radius' mean yaw-timed slip (regimes with 2 or more such turns) from
+/// the runs' common mean: measured within the runs, no reference needed.
+fn regime_spread(ev: &Evidence<'_>) -> f64 {
+    let Some((mean, _, _)) = moments(&yaw_slips(ev.rows, |_| true)) else {
+        return 0.0;
+    };
     let mut regimes: Vec<Regime> = ev.rows.iter().map(|r| r.regime).collect();
     regimes.sort_by_key(|r| r.id());
     regimes.dedup();
     regimes
         .into_iter()
         .filter_map(|regime| {
-            let at = excess_slips(ev.rows, ev.baseline, |r| r.regime == regime);
+            let at = yaw_slips(ev.rows, |r| r.regime == regime);
             let (at_mean, _, n) = moments(&at)?;
             (n >= 2).then(|| (at_mean - mean).abs())
         })

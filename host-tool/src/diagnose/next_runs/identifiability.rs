@@ -101,7 +101,8 @@ fn in_play(d: &Diagnosis) -> Vec<Rival> {
         .map(|c| Rival::Effect(c.effect));
     let unmarked_choice = d.mark_missing.filter(|&e| !missing(e)).map(Rival::Effect);
     let mut v: Vec<Rival> = match d.effect {
-        Verdict::None => Vec::new(),
+        // Outside the catalogue: no catalogued rival can be named, so none is in play.
+        Verdict::None | Verdict::OutsideCatalogue => Vec::new(),
         Verdict::Ambiguous => std::iter::once(Rival::None)
             .chain(ranked)
             .chain(unmarked_choice)

@@ -102,6 +102,8 @@ pub fn conclusion(d: &Diagnosis) -> String {
         named_conclusion(d, effect)
     } else if d.effect == Verdict::Ambiguous {
         ambiguous_conclusion(d)
+    } else if d.effect == Verdict::OutsideCatalogue {
+        outside_conclusion(d)
     } else if d
         .gaps
         .iter()
@@ -153,6 +155,77 @@ fn named_conclusion(d: &Diagnosis, effect: EffectId) -> String {
         d.regime,
         untested(d)
     )
+}
+
+/// `outside-catalogue`: the departure's shape (where, which side, which way, how large, and
+/// whether it grows over run time), what ruled each catalogued candidate out, and where to
+/// look.
+fn outside_conclusion(d: &Diagnosis) -> String {
+    let ruled_out: Vec<String> = d
+        .candidates
+        .iter()
+        .filter(|c| c.shrink_pct > 0.0)
+        .filter_map(|c| {
+            let s = d.signature(c.effect)?;
+            Some(match s.hidden_by {
+                Some(by) => format!("{} ({by} hides its mark)", c.effect),
+                None if s.masked => format!("{} (its mark cannot be observed here)", c.effect),
+                None => format!("{} (its mark is missing)", c.effect),
+            })
+        })
+        .take(3)
+        .collect();
+    let ruled_out = if ruled_out.is_empty() {
+        String::new()
+    } else {
+        format!("; the catalogue's best fits lack their own marks: {}", ruled_out.join(", "))
+    };
+    format!(
+        "diagnosis: outside-catalogue @ {} (a significant departure no catalogued effect \
+         explains): {}{ruled_out}. Look beyond the catalogue: the model's power split between the \
+         sides, the battery under load, the drivers' \
+         efficiency, the tyres' radii, the gearboxes, the load on the wheels",
+        d.regime,
+        departure_shape(d)
+    )
+}
+
+/// The significant gaps in words: which way, at which regimes and sides, their size, and a
+/// trend over run time.
+fn departure_shape(d: &Diagnosis) -> String {
+    let significant: Vec<_> = d.gaps.iter().filter(|g| g.significant).collect();
+    let mut parts = Vec::new();
+    for (more, way) in [(true, "more"), (false, "less")] {
+        let these: Vec<_> = significant
+            .iter()
+            .filter(|g| (g.mean_w > 0.0) == more)
+            .collect();
+        if these.is_empty() {
+            continue;
+        }
+        let mut sides: Vec<&str> = these.iter().map(|g| g.side.id()).collect();
+        sides.sort_unstable();
+        sides.dedup();
+        let mut regimes: Vec<&str> = these.iter().map(|g| g.regime.id()).collect();
+        regimes.dedup();
+        let (lo, hi) = these.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), g| {
+            (lo.min(g.mean_w.abs()), hi.max(g.mean_w.abs()))
+        });
+        parts.push(format!(
+            "{way} than the model on the {} side(s) at {} ({lo:.1}–{hi:.1} W)",
+            sides.join(" and "),
+            regimes.join(", ")
+        ));
+    }
+    let mut shape = if parts.is_empty() {
+        "the held-out error, not one group's mean, departs".to_owned()
+    } else {
+        format!("the runs draw {}", parts.join("; and "))
+    };
+    if d.where_.departs_over_run_time() {
+        shape.push_str("; and the departure changes over run time");
+    }
+    shape
 }
 
 /// `ambiguous`: the rivals weighed, and the better fits that could not be named.
@@ -403,6 +476,10 @@ pub fn next_runs_lines(d: &Diagnosis) -> Vec<String> {
     if !n.open() {
         out.push(match d.effect {
             Verdict::None => "nothing: the runs show no significant departure".to_owned(),
+            Verdict::OutsideCatalogue => "nothing more of the same: the departure is outside the \
+                catalogue (each catalogued candidate's own mark was looked for and is missing, \
+                hidden or unobservable); measure what the catalogue does not hold"
+                .to_owned(),
             v @ (Verdict::Ambiguous | Verdict::BaselineMisfit) => format!(
                 "nothing: no further run could settle `{v}` (no candidate could be named: each \
                  one's own mark was looked for and is missing, or another effect's mark hides \

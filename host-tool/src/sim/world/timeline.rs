@@ -286,6 +286,16 @@ impl Timeline {
             .map_or((0.0, 0.0), |s| (s.yaw_rad, s.pitch_deg))
     }
 
+    /// Yaw [rad] and pitch [deg] at `t_us` as the IMU reads them: [`Timeline::pose_at`] plus
+    /// the world's sensor noise.
+    pub fn measured_pose_at(&self, t_us: u64) -> (f64, f64) {
+        let (yaw, pitch) = self.pose_at(t_us);
+        (
+            yaw + self.noise.yaw_std_rad * gaussian(self.seed, YAW, t_us),
+            pitch + self.noise.pitch_std_deg * gaussian(self.seed, PITCH, t_us),
+        )
+    }
+
     /// True position of the rover's centre at `t_us` [m] (yaw 0 faces +x).
     pub fn centre_at(&self, t_us: u64) -> (f64, f64) {
         self.sample_at(t_us).map_or((0.0, 0.0), |s| s.position_m)
@@ -352,7 +362,7 @@ impl Timeline {
         times
             .into_iter()
             .map(|t| {
-                let (yaw, pitch) = self.pose_at(t);
+                let (yaw, pitch) = self.measured_pose_at(t);
                 let fix = fix_times
                     .binary_search(&t)
                     .ok()
@@ -360,10 +370,8 @@ impl Timeline {
                 CommandRow {
                     t_s: t as f64 * 1e-6,
                     cmd_mps: self.command_at(t),
-                    yaw_rad: Some(yaw + self.noise.yaw_std_rad * gaussian(self.seed, YAW, t)),
-                    pitch_deg: Some(
-                        pitch + self.noise.pitch_std_deg * gaussian(self.seed, PITCH, t),
-                    ),
+                    yaw_rad: Some(yaw),
+                    pitch_deg: Some(pitch),
                     x_m: fix.map(|p| p.0),
                     y_m: fix.map(|p| p.1),
                 }

@@ -1,0 +1,151 @@
+//! The turns' yaw-timed slip against the calibration runs' own turns driven alike: the same
+//! commanded radius, yaw rate and turned angle, and the same side where both are known.
+//!
+//! The reference is measured, never a parameter of the fitted baseline (its terrain slip may be
+//! clamped at 0, absent from the chosen member, or chosen for the power). What the calibration
+//! ground does to a turn it does to the same turn in the runs: a slip track narrower than the
+//! controller's makes every turn quicker than commanded, a slip that grows with the yaw rate
+//! slows the quick turns more, a wheel-speed loop that lags loses the same time on each turn of
+//! one angle, a gyro that reads 3 % high reads it in both. Compared like with like, each
+//! cancels; only a change between the calibration ground and the runs' remains. Negative
+//! differences (turns quicker than the calibration's) are slips too.
+
+use super::features::TurnRow;
+use super::stats::matched_upper;
+
+/// Largest difference of R/R′ between turns driven alike: an absolute part (point turns, 0)
+/// and a relative part.
+const RADIUS_TOLERANCE: (f64, f64) = (0.05, 0.10);
+
+/// Largest relative difference of the commanded yaw rate between turns driven alike.
+const YAW_RATE_TOLERANCE: f64 = 0.15;
+
+/// Largest relative difference of the turned angle between turns driven alike (a fixed time
+/// lost per turn is a larger share of a short turn).
+const ANGLE_TOLERANCE: f64 = 0.30;
+
+/// The turns' slip beyond the calibration's at matched conditions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum SlipAgainstCalibration {
+    /// The runs calibrate themselves: no calibration ground was driven to compare with.
+    NoCalibrationRuns,
+    /// No turn of the runs (or none of the calibration's) was timed by yaw.
+    NoYawTimedTurns,
+    /// Turns timed by yaw, but none driven as a calibration turn was (radius, yaw rate, angle).
+    NotMatched {
+        /// The runs' yaw-timed turns.
+        turns: usize,
+    },
+    /// Matched turns, too few to estimate a spread (one per condition on both sides).
+    TooFew {
+        /// The runs' matched turns.
+        turns: usize,
+    },
+    /// The comparison.
+    Measured(MatchedSlip),
+}
+
+/// The matched comparison ([`matched_upper`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct MatchedSlip {
+    /// The runs' slip minus the calibration's, weighted by the runs' turns per condition.
+    pub difference: f64,
+    /// Its t (NaN when degenerate: no spread to test against).
+    pub t: f64,
+    /// Degrees of freedom of the pooled spread.
+    pub df: f64,
+    /// The runs' matched turns.
+    pub turns: usize,
+    /// The calibration turns they were matched with.
+    pub calibration_turns: usize,
+    /// Conditions (groups of turns driven alike).
+    pub conditions: usize,
+}
+
+/// Whether two turns were driven alike: radius, yaw rate and turned angle within their
+/// tolerances, and the same side of the turn where both are known.
+fn driven_alike(a: &TurnRow, b: &TurnRow) -> bool {
+    let within = |x: f64, y: f64, rel: f64| (x - y).abs() <= rel * x.abs().max(y.abs());
+    let (abs, rel) = RADIUS_TOLERANCE;
+    let turned = |r: &TurnRow| r.expected_duration_s * r.yaw_rate_cmd_rad_s;
+    (a.r_over_r_prime - b.r_over_r_prime).abs() <= abs + rel * a.r_over_r_prime.max(b.r_over_r_prime)
+        && within(a.yaw_rate_cmd_rad_s, b.yaw_rate_cmd_rad_s, YAW_RATE_TOLERANCE)
+        && within(turned(a), turned(b), ANGLE_TOLERANCE)
+        && (a.direction.is_none() || b.direction.is_none() || a.direction == b.direction)
+}
+
+/// The yaw-timed turns of `rows` with their measured angular slip (Eq 6.3).
+pub(crate) fn yaw_timed<'r>(
+    rows: impl IntoIterator<Item = &'r TurnRow>,
+) -> impl Iterator<Item = (&'r TurnRow, f64)> {
+    rows.into_iter()
+        .filter(|r| r.turned_from_yaw && !r.is_straight())
+        .filter_map(|r| r.angular_slip.map(|s| (r, s)))
+        .filter(|(_, s)| s.is_finite())
+}
+
+/// The measured angular slip of the yaw-timed turns of `rows` matching `keep`.
+pub(crate) fn yaw_slips<'r>(
+    rows: impl IntoIterator<Item = &'r TurnRow>,
+    keep: impl Fn(&TurnRow) -> bool,
+) -> Vec<f64> {
+    yaw_timed(rows)
+        .filter(|(r, _)| keep(r))
+        .map(|(_, s)| s)
+        .collect()
+}
+
+/// The slip of the turns of `rows` matching `keep` against the turns of `calibration` (the
+/// calibration runs' rows, empty when the runs calibrate themselves) driven alike.
+pub(crate) fn slip_against_calibration(
+    rows: &[TurnRow],
+    calibration: &[TurnRow],
+    keep: impl Fn(&TurnRow) -> bool,
+) -> SlipAgainstCalibration {
+    if calibration.is_empty() {
+        return SlipAgainstCalibration::NoCalibrationRuns;
+    }
+    let turns: Vec<(&TurnRow, f64)> = yaw_timed(rows).filter(|(r, _)| keep(r)).collect();
+    let reference: Vec<(&TurnRow, f64)> = yaw_timed(calibration).collect();
+    if turns.is_empty() || reference.is_empty() {
+        return SlipAgainstCalibration::NoYawTimedTurns;
+    }
+    // Group the runs' turns by the set of calibration turns they match: one condition each.
+    let mut groups: Vec<(Vec<usize>, Vec<f64>)> = Vec::new();
+    for (row, slip) in &turns {
+        let matched: Vec<usize> = (0..reference.len())
+            .filter(|&i| driven_alike(row, reference[i].0))
+            .collect();
+        if matched.is_empty() {
+            continue;
+        }
+        match groups.iter_mut().find(|(m, _)| *m == matched) {
+            Some((_, slips)) => slips.push(*slip),
+            None => groups.push((matched, vec![*slip])),
+        }
+    }
+    if groups.is_empty() {
+        return SlipAgainstCalibration::NotMatched { turns: turns.len() };
+    }
+    let matched_turns = groups.iter().map(|(_, s)| s.len()).sum();
+    let mut calibration_turns: Vec<usize> = groups.iter().flat_map(|(m, _)| m.clone()).collect();
+    calibration_turns.sort_unstable();
+    calibration_turns.dedup();
+    let samples: Vec<(Vec<f64>, Vec<f64>)> = groups
+        .iter()
+        .map(|(m, slips)| (slips.clone(), m.iter().map(|&i| reference[i].1).collect()))
+        .collect();
+    match matched_upper(&samples) {
+        None => SlipAgainstCalibration::TooFew {
+            turns: matched_turns,
+        },
+        Some((difference, t, df, _)) => SlipAgainstCalibration::Measured(MatchedSlip {
+            difference,
+            t,
+            df,
+            turns: matched_turns,
+            calibration_turns: calibration_turns.len(),
+            conditions: groups.len(),
+        }),
+    }
+}
