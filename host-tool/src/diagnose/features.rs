@@ -109,6 +109,10 @@ pub struct TurnRow {
     pub turned_from_yaw: bool,
     /// Eq 6.3 angular slip, turns with yaw only.
     pub angular_slip: Option<f64>,
+    /// Mean measured yaw rate (heading change over the duration), CCW positive [rad/s];
+    /// `None` without yaw. On a straight, a side asymmetry (a smaller tyre, a weaker driver)
+    /// turns the rover.
+    pub yaw_rate_act_rad_s: Option<f64>,
     /// Run time at the start of the manoeuvre [s].
     pub t_start_s: f64,
     /// Mean pitch over the steady part [deg]; `None` without pitch.
@@ -195,18 +199,21 @@ pub const CALIBRATION_MIN_R_OVER_R_PRIME: f64 = 2.0;
 /// Time a run must have stood still before its current counts as the standstill draw [s].
 pub const STANDSTILL_SETTLE_S: f64 = 0.5;
 
-/// Mean current per side over the settled standstill samples of a run; `None` if there are
-/// fewer than 10.
+/// Mean current per side over the settled standstill samples of a run: of each standstill,
+/// the samples at least [`STANDSTILL_SETTLE_S`] after the stop and in its later half (a wheel
+/// whose speed loop lags still draws as it stops: the later half waits for it whatever the
+/// lag, without a constant tuned to one drive). `None` if there are fewer than 10.
 pub fn standstill_current_a(samples: &[RunSample]) -> Option<Sides<f64>> {
     let mut still = StandstillCurrent::default();
     samples.iter().for_each(|s| still.push(s));
     still.mean_a()
 }
 
-/// [`standstill_current_a`] sample by sample.
-#[derive(Debug, Clone, Copy, Default)]
+/// [`standstill_current_a`] sample by sample: the standstill under way is held until it ends.
+#[derive(Debug, Clone, Default)]
 struct StandstillCurrent {
-    still_since: Option<f64>,
+    /// The current standstill's samples: (time, left, right).
+    span: Vec<(f64, f64, f64)>,
     sum_l: f64,
     sum_r: f64,
     n: usize,
@@ -215,21 +222,33 @@ struct StandstillCurrent {
 impl StandstillCurrent {
     fn push(&mut self, s: &RunSample) {
         let still = s.cmd_mps.left == 0.0 && s.cmd_mps.right == 0.0;
-        if !still {
-            self.still_since = None;
-            return;
-        }
-        let since = *self.still_since.get_or_insert(s.t_s);
-        if s.t_s - since >= STANDSTILL_SETTLE_S {
-            self.sum_l += s.current_a.left;
-            self.sum_r += s.current_a.right;
-            self.n += 1;
+        if still {
+            self.span.push((s.t_s, s.current_a.left, s.current_a.right));
+        } else if !self.span.is_empty() {
+            let (l, r, n) = Self::settled(&self.span);
+            self.sum_l += l;
+            self.sum_r += r;
+            self.n += n;
+            self.span.clear();
         }
     }
 
+    /// Sums and count of the settled samples of one standstill.
+    fn settled(span: &[(f64, f64, f64)]) -> (f64, f64, usize) {
+        let (Some(first), Some(last)) = (span.first(), span.last()) else {
+            return (0.0, 0.0, 0);
+        };
+        let from = first.0 + STANDSTILL_SETTLE_S.max(0.5 * (last.0 - first.0));
+        span.iter()
+            .filter(|(t, _, _)| *t >= from)
+            .fold((0.0, 0.0, 0), |(l, r, n), s| (l + s.1, r + s.2, n + 1))
+    }
+
     fn mean_a(&self) -> Option<Sides<f64>> {
-        let n = self.n as f64;
-        (self.n >= 10).then(|| Sides::new(self.sum_l / n, self.sum_r / n))
+        let (l, r, n) = Self::settled(&self.span);
+        let (sum_l, sum_r, n) = (self.sum_l + l, self.sum_r + r, self.n + n);
+        let count = n as f64;
+        (n >= 10).then(|| Sides::new(sum_l / count, sum_r / count))
     }
 }
 
@@ -430,6 +449,7 @@ pub fn rows_from_facts(report: &ValidationReport, facts: &[RunSampleFacts]) -> V
             expected_duration_s,
             turned_from_yaw: s.turned_from_yaw,
             angular_slip: s.angular_slip,
+            yaw_rate_act_rad_s: s.yaw_rate_act_rad_s,
             t_start_s: m.t_start_s,
             pitch_deg: s.mean_pitch_deg,
             standstill_current_a: still,

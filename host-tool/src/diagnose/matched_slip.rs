@@ -68,8 +68,13 @@ fn driven_alike(a: &TurnRow, b: &TurnRow) -> bool {
     let within = |x: f64, y: f64, rel: f64| (x - y).abs() <= rel * x.abs().max(y.abs());
     let (abs, rel) = RADIUS_TOLERANCE;
     let turned = |r: &TurnRow| r.expected_duration_s * r.yaw_rate_cmd_rad_s;
-    (a.r_over_r_prime - b.r_over_r_prime).abs() <= abs + rel * a.r_over_r_prime.max(b.r_over_r_prime)
-        && within(a.yaw_rate_cmd_rad_s, b.yaw_rate_cmd_rad_s, YAW_RATE_TOLERANCE)
+    (a.r_over_r_prime - b.r_over_r_prime).abs()
+        <= abs + rel * a.r_over_r_prime.max(b.r_over_r_prime)
+        && within(
+            a.yaw_rate_cmd_rad_s,
+            b.yaw_rate_cmd_rad_s,
+            YAW_RATE_TOLERANCE,
+        )
         && within(turned(a), turned(b), ANGLE_TOLERANCE)
         && (a.direction.is_none() || b.direction.is_none() || a.direction == b.direction)
 }
@@ -147,5 +152,32 @@ pub(crate) fn slip_against_calibration(
             calibration_turns: calibration_turns.len(),
             conditions: groups.len(),
         }),
+    }
+}
+
+/// The slip a side asymmetry can put between the point turns and the turns towards R′, read
+/// off the straights of `rows`. Sides that run at different ground speeds for the same command
+/// (a smaller tyre, a weaker driver) turn a straight at δ·v_c/B_s; under the constant
+/// total-absolute-velocity constraint (Eq 2.6) they slow the point turn by δ/2 and a turn at
+/// R′ (one side still) by 0 or δ, a rise of up to δ/2, which is the straights' yaw rate over
+/// the point turn's commanded one (2v_c/B_s). 0 without yaw-timed straights or point turns.
+pub(crate) fn asymmetry_slip(rows: &[TurnRow]) -> f64 {
+    let per_speed = |keep: &dyn Fn(&TurnRow) -> bool, rate: &dyn Fn(&TurnRow) -> Option<f64>| {
+        let v: Vec<f64> = rows
+            .iter()
+            .filter(|r| keep(r) && r.v_c_mps > 0.0)
+            .filter_map(|r| rate(r).map(|w| w / r.v_c_mps))
+            .filter(|v| v.is_finite())
+            .collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let straight = per_speed(&|r| r.is_straight(), &|r| r.yaw_rate_act_rad_s);
+    let point = per_speed(
+        &|r| r.regime == model_core::kinematics::Regime::Point,
+        &|r| Some(r.yaw_rate_cmd_rad_s),
+    );
+    match (straight, point) {
+        (Some(s), Some(p)) if p > 0.0 => s.abs() / p,
+        _ => 0.0,
     }
 }

@@ -34,9 +34,9 @@ pub mod model_file;
 pub mod next_runs;
 pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
+pub(crate) mod matched_slip;
 pub mod path_table;
 pub mod report;
-pub(crate) mod matched_slip;
 pub(crate) mod select;
 pub mod signature;
 mod significance;
@@ -363,7 +363,12 @@ fn conclude(
         _ if !significant => Verdict::None,
         Some(e) => Verdict::Effect(e),
         None if misfit => Verdict::BaselineMisfit,
-        None if !catalogue_could_explain(&candidates.ranked, &candidates.not_testable, signatures) => {
+        None if !catalogue_could_explain(
+            &candidates.ranked,
+            &candidates.not_testable,
+            signatures,
+        ) =>
+        {
             Verdict::OutsideCatalogue
         }
         None => Verdict::Ambiguous,

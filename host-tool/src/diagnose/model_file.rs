@@ -172,6 +172,7 @@ pub fn synthetic_row(
         expected_duration_s: duration_s,
         turned_from_yaw: true,
         angular_slip: None,
+        yaw_rate_act_rad_s: None,
         t_start_s: at.t_start_s,
         pitch_deg: Some(0.0),
         standstill_current_a: None,

@@ -328,6 +328,7 @@ pub fn summary_rows(rover: &Rover, rows: &[SummaryRow], run: &str) -> Vec<TurnRo
                 expected_duration_s: 0.0,
                 turned_from_yaw: false,
                 angular_slip: None,
+                yaw_rate_act_rad_s: None,
                 t_start_s: 0.0,
                 pitch_deg: s.pitch_deg,
                 standstill_current_a: None,

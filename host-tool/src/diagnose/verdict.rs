@@ -142,8 +142,8 @@ mod tests {
             Verdict::OutsideCatalogue,
             Verdict::BaselineMisfit,
         ]
-            .into_iter()
-            .chain(EffectId::ALL.map(Verdict::Effect));
+        .into_iter()
+        .chain(EffectId::ALL.map(Verdict::Effect));
         for v in verdicts {
             assert_eq!(Verdict::from_label(v.label()), Some(v));
             assert_eq!(

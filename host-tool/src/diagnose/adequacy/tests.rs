@@ -64,6 +64,7 @@ fn row(
         expected_duration_s: 5.0,
         turned_from_yaw: false,
         angular_slip: None,
+        yaw_rate_act_rad_s: None,
         t_start_s: 0.0,
         pitch_deg: None,
         standstill_current_a: None,

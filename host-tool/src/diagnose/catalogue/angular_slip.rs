@@ -10,7 +10,7 @@ use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
-use crate::diagnose::matched_slip::yaw_slips;
+use crate::diagnose::matched_slip::{asymmetry_slip, yaw_slips};
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS};
 use crate::diagnose::stats::{moments, one_sample_upper, welch_upper};
 use crate::effect_id::EffectId;
@@ -77,7 +77,8 @@ impl Effect for AngularSlip {
 /// 0.27 at R = 0 to 0.38 at R′ on sand). Under the constant total-absolute-velocity constraint
 /// (Eq 2.6) these turns share the point turn's yaw rate, so a slip that grows with the yaw rate
 /// or a lagging speed loop does not rise; a slip constant over the radii does not either. The
-/// point turns' mean is itself measured: Welch t when there are two or more.
+/// point turns' mean is itself measured: Welch t when there are two or more. A side asymmetry
+/// also raises it ([`asymmetry_slip`], read off the straights): the rise must exceed that.
 fn angular_slip(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::AngularSlip;
     // The runs' own point turns, on the same terrain; the calibration's when they have none.
@@ -99,6 +100,18 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
         Regime::DraggedInner,
         Regime::AtRPrime,
     ];
+    // What a side asymmetry, seen turning the straights, could raise by itself.
+    let asymmetry = asymmetry_slip(ev.rows);
+    let asymmetric = if asymmetry >= 0.005 {
+        format!(
+            "; the straights turn as sides that differ by {:.1} % would, which can raise it by \
+             {:.1} % (taken off)",
+            200.0 * asymmetry,
+            100.0 * asymmetry
+        )
+    } else {
+        String::new()
+    };
     let mut best: Option<(SignatureTest, String)> = None;
     for regime in regimes {
         let slips = yaw_slips(ev.rows, |r| r.regime == regime);
@@ -118,11 +131,11 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
             statistic: t,
             df,
             p,
-            present: p < ALPHA && mean >= MIN_SLIP_EXCESS,
-            sized: mean >= MIN_SLIP_EXCESS,
+            present: p < ALPHA && mean - asymmetry >= MIN_SLIP_EXCESS,
+            sized: mean - asymmetry >= MIN_SLIP_EXCESS,
         };
         let detail = format!(
-            "{} turns ({}) slip {:+.1} % beyond {whose} {:.1} % ({} turn(s))",
+            "{} turns ({}) slip {:+.1} % beyond {whose} {:.1} % ({} turn(s)){asymmetric}",
             regime.id(),
             slips.len(),
             100.0 * mean,

@@ -79,41 +79,40 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     if let Some(pose) = by_pose(ev) {
         return pose;
     }
-    let m = match slip_against_calibration(ev.rows, ev.calibration_rows, |_| true) {
-        SlipAgainstCalibration::Measured(m) => m,
-        SlipAgainstCalibration::NoCalibrationRuns => {
-            return Signature::masked(
+    let m =
+        match slip_against_calibration(ev.rows, ev.calibration_rows, |_| true) {
+            SlipAgainstCalibration::Measured(m) => m,
+            SlipAgainstCalibration::NoCalibrationRuns => return Signature::masked(
                 e,
                 "no calibration runs and no pose track: the turns' slip has no reference ground \
                  to be compared with (drive calibration runs on the reference ground, or log a \
                  pose track)",
-            )
-        }
-        SlipAgainstCalibration::NoYawTimedTurns if !ev.yaw_logged() => {
-            return Signature::masked(e, "no yaw logged and no pose track")
-        }
-        SlipAgainstCalibration::NoYawTimedTurns => {
-            return Signature::unobservable(e, "no turn timed by yaw and no pose track")
-        }
-        SlipAgainstCalibration::NotMatched { turns } => {
-            return Signature::unobservable(
-                e,
-                format!(
+            ),
+            SlipAgainstCalibration::NoYawTimedTurns if !ev.yaw_logged() => {
+                return Signature::masked(e, "no yaw logged and no pose track")
+            }
+            SlipAgainstCalibration::NoYawTimedTurns => {
+                return Signature::unobservable(e, "no turn timed by yaw and no pose track")
+            }
+            SlipAgainstCalibration::NotMatched { turns } => {
+                return Signature::unobservable(
+                    e,
+                    format!(
                     "none of the {turns} turn(s) timed by yaw was driven as a calibration turn \
                      was (radius, yaw rate and turned angle)"
                 ),
-            )
-        }
-        SlipAgainstCalibration::TooFew { turns } => {
-            return Signature::unobservable(
-                e,
-                format!(
+                )
+            }
+            SlipAgainstCalibration::TooFew { turns } => {
+                return Signature::unobservable(
+                    e,
+                    format!(
                     "{turns} turn(s) driven as the calibration's, one per condition: no spread to \
                      test against"
                 ),
-            )
-        }
-    };
+                )
+            }
+        };
     // By yaw, a slip rising from the point turn towards R′ is angular slip's mark: not the
     // same fraction on every turn.
     let rises = slip_rises;

@@ -178,7 +178,10 @@ fn outside_conclusion(d: &Diagnosis) -> String {
     let ruled_out = if ruled_out.is_empty() {
         String::new()
     } else {
-        format!("; the catalogue's best fits lack their own marks: {}", ruled_out.join(", "))
+        format!(
+            "; the catalogue's best fits lack their own marks: {}",
+            ruled_out.join(", ")
+        )
     };
     format!(
         "diagnosis: outside-catalogue @ {} (a significant departure no catalogued effect \
