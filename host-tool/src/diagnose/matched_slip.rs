@@ -181,3 +181,38 @@ pub(crate) fn asymmetry_slip(rows: &[TurnRow]) -> f64 {
         _ => 0.0,
     }
 }
+
+/// Whether the runs were driven on a weaker supply than any the calibration ran on: their
+/// straights (the lightest load, driven alike in both) on a mean bus voltage below the lowest
+/// of any calibration manoeuvre (its heaviest load). Then every loaded manoeuvre of the runs
+/// had less headroom than was ever calibrated: the drives may not reach their commanded wheel
+/// speeds, so a slower turn or a side drawing otherwise is the supply's doing, not the
+/// ground's. `Some((runs' straights, calibration's lowest))` [V] when so; `None` without
+/// calibration runs, straights or bus voltages.
+pub(crate) fn supply_below_calibration(
+    rows: &[TurnRow],
+    calibration: &[TurnRow],
+) -> Option<(f64, f64)> {
+    let floor = calibration
+        .iter()
+        .map(|r| r.bus_v)
+        .filter(|v| *v > 0.0)
+        .min_by(f64::total_cmp)?;
+    let straights: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.is_straight() && r.bus_v > 0.0)
+        .map(|r| r.bus_v)
+        .collect();
+    let mean = straights.iter().sum::<f64>() / straights.len() as f64;
+    (!straights.is_empty() && mean < floor).then_some((mean, floor))
+}
+
+/// Why marks are not read on a weaker supply than the calibration's.
+pub(crate) fn supply_words((runs_v, floor_v): (f64, f64)) -> String {
+    format!(
+        "the runs' straights ran on a {runs_v:.2} V bus, below the {floor_v:.2} V of the \
+         calibration's most loaded manoeuvre: the drives may not reach their commanded speeds, \
+         so this mark would be the supply's, not the ground's (charge the battery, or calibrate \
+         on the same supply)"
+    )
+}

@@ -19,6 +19,7 @@ use super::baseline::Baseline;
 use super::calibration::{Calibration, Source};
 use super::features::{SideRole, TurnRow};
 use super::gaps::WhereAnalysis;
+use super::matched_slip::{supply_below_calibration, supply_words};
 use super::stats::{moments, welch_upper, PRACTICAL_FLOOR_W};
 use crate::diagnose::features::radius_group;
 use crate::effect_id::EffectId;
@@ -299,6 +300,9 @@ pub(crate) fn step_test(
     around: [&dyn Fn(&TurnRow) -> bool; 2],
     what: &str,
 ) -> Signature {
+    if let Some(supply) = supply_below_calibration(ev.rows, ev.calibration_rows) {
+        return Signature::masked(effect, supply_words(supply));
+    }
     let here = side_residuals(ev, role, &at);
     let edges: Vec<(f64, f64, f64, f64, usize)> = around
         .iter()

@@ -10,7 +10,9 @@ use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
-use crate::diagnose::matched_slip::{asymmetry_slip, yaw_slips};
+use crate::diagnose::matched_slip::{
+    asymmetry_slip, supply_below_calibration, supply_words, yaw_slips,
+};
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS};
 use crate::diagnose::stats::{moments, one_sample_upper, welch_upper};
 use crate::effect_id::EffectId;
@@ -82,6 +84,9 @@ impl Effect for AngularSlip {
 fn angular_slip(ev: &Evidence<'_>) -> Signature {
     let e = EffectId::AngularSlip;
     // The runs' own point turns, on the same terrain; the calibration's when they have none.
+    if let Some(supply) = supply_below_calibration(ev.rows, ev.calibration_rows) {
+        return Signature::masked(e, supply_words(supply));
+    }
     let is_point = |r: &TurnRow| r.regime == Regime::Point;
     let mut point = yaw_slips(ev.rows, is_point);
     let mut whose = "the point turns'";

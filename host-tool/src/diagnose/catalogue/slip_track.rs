@@ -12,7 +12,10 @@ use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, SignRule, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
-use crate::diagnose::matched_slip::{slip_against_calibration, yaw_slips, SlipAgainstCalibration};
+use crate::diagnose::matched_slip::{
+    slip_against_calibration, supply_below_calibration, supply_words, yaw_slips,
+    SlipAgainstCalibration,
+};
 use crate::diagnose::signature::{
     Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS, MIN_SLIP_TRACK_DIFFERENCE,
 };
@@ -78,6 +81,9 @@ fn slip_track(ev: &Evidence<'_>, slip_rises: bool) -> Signature {
     let e = EffectId::SlipTrack;
     if let Some(pose) = by_pose(ev) {
         return pose;
+    }
+    if let Some(supply) = supply_below_calibration(ev.rows, ev.calibration_rows) {
+        return Signature::masked(e, supply_words(supply));
     }
     let m =
         match slip_against_calibration(ev.rows, ev.calibration_rows, |_| true) {
