@@ -499,3 +499,38 @@ pub fn radius_group(row: &TurnRow) -> i64 {
         i64::MAX
     }
 }
+
+#[cfg(test)]
+mod standstill_tests {
+    use super::*;
+
+    /// A drive whose speed loop lags still draws as it stops: 1 A decaying over the first
+    /// 0.9 s of each 2 s standstill, then its 0.05 A quiescent draw. The later half of each
+    /// standstill reads the quiescent draw; a fixed 0.5 s wait read the decay too.
+    #[test]
+    fn the_standstill_draw_waits_for_a_lagging_stop() {
+        let mut samples = Vec::new();
+        for span in 0..3 {
+            let t0 = 4.0 * span as f64;
+            for i in 0..400 {
+                let t = t0 + 0.01 * i as f64;
+                let still = t - t0 >= 2.0;
+                let since = t - t0 - 2.0;
+                let current = match () {
+                    () if !still => 3.0,
+                    () if since < 0.9 => 0.05 + 0.95 * (1.0 - since / 0.9),
+                    () => 0.05,
+                };
+                let cmd = if still { 0.0 } else { 0.3 };
+                samples.push(RunSample::new(
+                    t,
+                    Sides::new(24.0, 24.0),
+                    Sides::new(current, current),
+                    Sides::new(cmd, cmd),
+                ));
+            }
+        }
+        let still = standstill_current_a(&samples).expect("settled samples");
+        assert!((still.left - 0.05).abs() < 1e-9, "{still:?}");
+    }
+}

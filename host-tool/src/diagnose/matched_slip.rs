@@ -216,3 +216,140 @@ pub(crate) fn supply_words((runs_v, floor_v): (f64, f64)) -> String {
          on the same supply)"
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::features::{Observed, SideObs, SideRole};
+    use model_core::kinematics::Regime;
+
+    /// A yaw-timed turn (or straight) of run `run` at R/R′ `rho` with slip `slip`.
+    fn turn(run: usize, rho: f64, slip: f64, bus_v: f64, yaw_rate: f64) -> TurnRow {
+        let side = |role| SideObs {
+            role,
+            cmd_mps: 0.3,
+            avg_power_w: 10.0,
+            max_power_w: 10.0,
+            energy_j: 50.0,
+            effective_power_w: 10.0,
+            growth_w: None,
+        };
+        let straight = rho.is_infinite();
+        TurnRow {
+            run: format!("run-{run}"),
+            run_index: run,
+            manoeuvre: 0,
+            regime: match rho {
+                r if r.is_infinite() => Regime::Straight,
+                0.0 => Regime::Point,
+                _ => Regime::AboveRPrime,
+            },
+            radius_cmd_m: rho * 0.55,
+            r_over_r_prime: rho,
+            v_c_mps: 0.3,
+            yaw_rate_cmd_rad_s: if straight { 0.0 } else { 0.6 / (1.0 + rho) },
+            duration_s: 3.0,
+            expected_duration_s: if straight {
+                3.0
+            } else {
+                1.5 * (1.0 + rho) / 0.6
+            },
+            turned_from_yaw: true,
+            angular_slip: (!straight).then_some(slip),
+            yaw_rate_act_rad_s: Some(yaw_rate),
+            t_start_s: 0.0,
+            pitch_deg: None,
+            standstill_current_a: None,
+            standstill_w: [0.0; 2],
+            bus_v,
+            sides: [side(SideRole::Inner), side(SideRole::Outer)],
+            calibration_kind: true,
+            observed: Observed::Sides,
+            copper_heat_a4: None,
+            measured: None,
+            direction: None,
+        }
+    }
+
+    #[test]
+    fn the_reference_is_the_calibrations_turns_driven_alike() {
+        // Calibration and runs both 6 % quicker than commanded at the point turn and 3 % at
+        // 2R′ (a narrow slip track and a slip that grows with the yaw rate): no difference.
+        let cal = [0, 1].map(|k| {
+            [
+                turn(k, 0.0, -0.06, 25.0, 0.0),
+                turn(k, 2.0, -0.03, 25.0, 0.0),
+            ]
+        });
+        let cal: Vec<TurnRow> = cal.into_iter().flatten().collect();
+        let runs: Vec<TurnRow> = (0..3)
+            .flat_map(|k| {
+                let jitter = 0.001 * k as f64;
+                [
+                    turn(k, 0.0, -0.06 + jitter, 25.0, 0.0),
+                    turn(k, 2.0, -0.03 - jitter, 25.0, 0.0),
+                    // No calibration turn at R′/3: not compared.
+                    turn(k, 1.0 / 3.0, 0.2, 25.0, 0.0),
+                ]
+            })
+            .collect();
+        let SlipAgainstCalibration::Measured(m) = slip_against_calibration(&runs, &cal, |_| true)
+        else {
+            panic!("measured");
+        };
+        assert!(m.difference.abs() < 0.002, "{m:?}");
+        assert_eq!((m.turns, m.calibration_turns, m.conditions), (6, 4, 2));
+        // Without calibration runs there is no reference ground.
+        assert_eq!(
+            slip_against_calibration(&runs, &[], |_| true),
+            SlipAgainstCalibration::NoCalibrationRuns
+        );
+        // Runs 5 % slower than the calibration at both radii: a difference of +5 %.
+        let slower: Vec<TurnRow> = runs
+            .iter()
+            .map(|r| TurnRow {
+                angular_slip: r.angular_slip.map(|s| s + 0.05),
+                ..r.clone()
+            })
+            .collect();
+        let SlipAgainstCalibration::Measured(m) = slip_against_calibration(&slower, &cal, |_| true)
+        else {
+            panic!("measured");
+        };
+        assert!((m.difference - 0.05).abs() < 0.002 && m.t > 10.0, "{m:?}");
+    }
+
+    #[test]
+    fn straights_that_turn_bound_what_an_asymmetry_can_raise() {
+        // Point turns at 2v_c/B_s = 0.6 rad/s; straights turning at 0.012 rad/s: sides 4 %
+        // apart, which can raise the slip towards R′ by 2 %.
+        let rows = [
+            turn(0, 0.0, 0.05, 25.0, 0.6),
+            turn(0, f64::INFINITY, 0.0, 25.0, 0.012),
+            turn(1, f64::INFINITY, 0.0, 25.0, 0.012),
+        ];
+        assert!((asymmetry_slip(&rows) - 0.02).abs() < 1e-9);
+        assert_eq!(asymmetry_slip(&rows[..1]), 0.0);
+    }
+
+    #[test]
+    fn a_supply_weaker_than_any_the_calibration_ran_on_is_said() {
+        let cal = [
+            turn(0, 0.0, 0.0, 24.0, 0.0),
+            turn(0, f64::INFINITY, 0.0, 25.5, 0.0),
+        ];
+        // The runs' straights on 24.5 V: above the calibration's most loaded 24.0 V.
+        let runs = [
+            turn(0, 0.0, 0.0, 23.0, 0.0),
+            turn(0, f64::INFINITY, 0.0, 24.5, 0.0),
+        ];
+        assert_eq!(supply_below_calibration(&runs, &cal), None);
+        // A battery 40 % down: its straights on 15.5 V.
+        let flat = [
+            turn(0, 0.0, 0.0, 14.0, 0.0),
+            turn(0, f64::INFINITY, 0.0, 15.5, 0.0),
+        ];
+        assert_eq!(supply_below_calibration(&flat, &cal), Some((15.5, 24.0)));
+        assert!(supply_words((15.5, 24.0)).contains("charge the battery"));
+    }
+}

@@ -869,3 +869,33 @@ fn one_run_reports_an_extrapolating_candidate_instead_of_ranking_it() {
         .as_array()
         .is_some_and(|c| c.iter().all(|c| c["effect"] != "sinkage-bulldozing")));
 }
+
+/// A terrain whose slip track is below the controller's B_s (thesis Appendix D: compacted
+/// sand) makes every turn quicker than commanded, on the calibration ground as on the runs'.
+/// The mark is measured against the calibration's own turns driven alike, so a slip track the
+/// calibration shares is no effect: `slip-track` is not named and its mark reads a difference
+/// near 0 (a fitted terrain slip clamped at 0 read −10 % here as a slip track).
+#[test]
+fn a_slip_track_the_calibration_shares_is_no_effect() {
+    let mut world = WorldConfig::hard_ground().with_effect(EffectId::SlipTrack, true);
+    world.effects.slip_track.slip_track_m = Some(0.99);
+    let cal: Vec<Vec<RunSample>> = (0..2)
+        .map(|k| simulate_run(&world, &scenario(), 50 + k))
+        .collect();
+    let runs: Vec<Vec<RunSample>> = (0..3)
+        .map(|k| simulate_run(&world, &scenario(), 10 + k))
+        .collect();
+    let (cal_rows, rows) = (rows_of(&cal), rows_of(&runs));
+    let quicker: Vec<f64> = rows.iter().filter_map(|r| r.angular_slip).collect();
+    assert!(quicker.iter().all(|s| *s < -0.05), "{quicker:?}");
+    let d = super::diagnose_with(&HUSKY, &rows, super::Calibration::rows(&cal_rows))
+        .expect("diagnoses");
+    assert_ne!(d.effect, "slip-track", "{}", summary(&d));
+    let mark = d
+        .signatures
+        .iter()
+        .find(|s| s.effect == EffectId::SlipTrack)
+        .expect("tested");
+    assert!(mark.absent(), "{mark:?}");
+    assert!(mark.detail.contains("driven alike"), "{}", mark.detail);
+}
