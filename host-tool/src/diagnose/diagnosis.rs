@@ -202,6 +202,14 @@ impl Diagnosis {
                          residual (energy / expected duration, measured minus model)",
                 "unit": "W",
             },
+            "reliability": self.effect.effect().zip(all).and_then(|(e, h)| {
+                super::reliability::of(e, h.shrink_pct).map(|r| serde_json::json!({
+                    "bench": "World N (nuisance-swept), both parts",
+                    "shrink_bin_pct": r.bin,
+                    "named": r.cell.named,
+                    "right": r.cell.right,
+                }))
+            }),
             "heldout": all.map(|h| serde_json::json!({
                 "scheme": self.scheme.id(),
                 "effect": h.effect.id(),
@@ -233,6 +241,7 @@ impl Diagnosis {
             "in_play": self.next.in_play,
             "next_runs": self.next.runs,
             "next_runs_unresolved": self.next.unresolved,
+            "next_measurements": self.next.measurements,
             "notes": self.notes,
         })
     }

@@ -259,6 +259,10 @@ pub trait Effect: Sync + std::fmt::Debug {
     /// The manoeuvres its mark's test reads, driven at the runs' highest v_c (none: its mark
     /// is the terrain's, not a manoeuvre's).
     fn drives_to_show_mark(&self) -> Vec<MarkDrive>;
+    /// The measurement that reads its mark directly where no manoeuvre tells it from a rival
+    /// (a sensor to add), and whether a pose track is it (then one already logged needs no
+    /// suggestion).
+    fn measurement(&self) -> Measurement;
 
     // Path-level summaries (thesis Table 6.1).
 
@@ -267,4 +271,13 @@ pub trait Effect: Sync + std::fmt::Debug {
     fn path_segment(&self, _segment: &PathSegment) -> Option<Vec<f64>> {
         None
     }
+}
+
+/// A measurement that reads an effect's mark directly ([`Effect::measurement`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Measurement {
+    /// What to measure, and what it shows.
+    pub what: &'static str,
+    /// Whether it is a pose track (the runs may already log one).
+    pub pose_track: bool,
 }

@@ -36,6 +36,7 @@ pub mod observe;
 // Path-level summaries (thesis Table 6.1): their own reader and judgement.
 pub(crate) mod matched_slip;
 pub mod path_table;
+pub mod reliability;
 pub mod report;
 pub(crate) mod select;
 pub mod signature;

@@ -36,6 +36,7 @@ mod scenario;
 pub(crate) mod suggestion;
 
 use super::calibration::Calibration;
+use super::catalogue;
 use super::diagnosis::Diagnosis;
 pub use super::effect::{When, MIN_LATE_REPEATS};
 use super::features::TurnRow;
@@ -49,7 +50,7 @@ use pair::{pairs_driven, separation};
 pub use pair::{PairSeparation, TARGET_SIGMA};
 use rival::{fit_rivals, Setting};
 pub use rival::{Rival, Unfitted};
-pub use suggestion::{Identifiability, NextRun, NextRuns};
+pub use suggestion::{Identifiability, NextRun, NextRuns, SuggestedMeasurement};
 
 /// What to drive next after diagnosis `d` of `rows` (calibrated as `calibration`, with the
 /// members `d`'s baseline came from).
@@ -87,17 +88,51 @@ pub fn plan(
     let mut design = Design::new(&s, &fitted, noise, options, open);
     design.show_marks(&unseen, &in_play, &pairs);
     design.separate();
-    let unresolved = design
+    let unresolved: Vec<PairSeparation> = design
         .open
         .iter()
         .map(|p| separation(p, &fitted, noise_w))
         .collect();
+    let measurements = measurements_for(rows, &in_play, &unresolved, design.runs.is_empty());
     NextRuns {
         identifiability,
         in_play,
         runs: design.runs,
         unresolved,
+        measurements,
     }
+}
+
+/// The measurements of the effects in play that no manoeuvre settles: those in an unresolved
+/// pair, or all of them when nothing is left to drive; a pose track only when the runs log
+/// none.
+fn measurements_for(
+    rows: &[TurnRow],
+    in_play: &[Rival],
+    unresolved: &[PairSeparation],
+    nothing_to_drive: bool,
+) -> Vec<SuggestedMeasurement> {
+    let posed = rows.iter().any(|r| r.measured.is_some());
+    let stuck: Vec<Rival> = if nothing_to_drive {
+        in_play.to_vec()
+    } else {
+        unresolved.iter().flat_map(|p| p.rivals).collect()
+    };
+    let mut out: Vec<SuggestedMeasurement> = Vec::new();
+    for rival in stuck {
+        let Rival::Effect(effect) = rival else {
+            continue;
+        };
+        let m = catalogue::of(effect).measurement();
+        if (m.pose_track && posed) || out.iter().any(|o| o.effect == effect) {
+            continue;
+        }
+        out.push(SuggestedMeasurement {
+            effect,
+            what: m.what,
+        });
+    }
+    out
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 //!   t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3; measured without the power model.
 
 use crate::diagnose::effect::{
-    Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
+    Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::matched_slip::{
@@ -64,6 +64,12 @@ impl Effect for AngularSlip {
             MarkDrive::turn(0.0, 90.0, 1),
             MarkDrive::turn(2.0 / 3.0, 90.0, 2),
         ]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "a pose track: each turn's actual radius and yaw rate (thesis Section 5.1), which tell the ground's slip from a drive that lags or cannot hold its wheel",
+            pose_track: true,
+        }
     }
     fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {
         Some(match () {

@@ -7,7 +7,7 @@
 //!   step elsewhere: a step at one radius.
 
 use crate::diagnose::effect::{
-    Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
+    Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, MAX_PARAMS,
 };
 use crate::diagnose::features::radius_group;
 use crate::diagnose::features::{SideRole, TurnRow};
@@ -50,6 +50,12 @@ impl Effect for BrakedInner {
             MarkDrive::turn(1.0, 90.0, 2),
             MarkDrive::turn(4.0 / 3.0, 90.0, 2),
         ]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "the inner wheels' speed at R′ (wheel encoders): held wheels pushed over the ground turn against their command",
+            pose_track: false,
+        }
     }
     fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {
         Some(vec![if !s.line && s.at_r_prime {

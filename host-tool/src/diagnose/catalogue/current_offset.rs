@@ -8,8 +8,8 @@
 
 use crate::diagnose::baseline;
 use crate::diagnose::effect::{
-    Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, ScoredWhen, SignRule, When,
-    MAX_PARAMS,
+    Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, ScoredWhen, SignRule,
+    When, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA};
@@ -55,6 +55,12 @@ impl Effect for CurrentOffset {
             when: When::Any,
             repeats: 1,
         }]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "each sensor's zero: 5 s or more at standstill with the drivers switched off, at the start of a run",
+            pose_track: false,
+        }
     }
     fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {
         Some(vec![s.t_s])

@@ -8,7 +8,7 @@
 //!   between neighbouring radii elsewhere on that side.
 
 use crate::diagnose::effect::{
-    Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, MAX_PARAMS,
+    Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, MAX_PARAMS,
 };
 use crate::diagnose::features::{SideRole, TurnRow};
 use crate::diagnose::signature::{step_test, Evidence, Signature};
@@ -64,6 +64,12 @@ impl Effect for InnerDrag {
             MarkDrive::turn(2.0 / 3.0, 90.0, 2),
             MarkDrive::turn(1.0, 90.0, 2),
         ]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "the inner wheels' speed (wheel encoders): dragged against its command, the inner side is pushed forwards over the ground between B/2 and R′",
+            pose_track: false,
+        }
     }
     // q·|V_i| with q = |V_i| v_iy / v_c², B/2 < R < R' (ω = v_c/R').
     fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {

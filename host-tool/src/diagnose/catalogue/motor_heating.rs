@@ -11,8 +11,8 @@
 //! - Scored only where run time is identifiable apart from the turn order.
 
 use crate::diagnose::effect::{
-    AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, ScoredWhen, When, MAX_PARAMS,
-    MIN_LATE_REPEATS,
+    AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, Measurement, ScoredWhen, When,
+    MAX_PARAMS, MIN_LATE_REPEATS,
 };
 use crate::diagnose::features::radius_group;
 use crate::diagnose::features::TurnRow;
@@ -83,6 +83,12 @@ impl Effect for MotorHeating {
             when: When::Late,
             repeats: MIN_LATE_REPEATS,
         }]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "the windings' temperature (a thermistor on each motor case): a warming winding shows it, sinking wheels do not",
+            pose_track: false,
+        }
     }
 }
 

@@ -11,7 +11,8 @@
 //!   reading's p ×2.
 
 use crate::diagnose::effect::{
-    AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, SignRule, MAX_PARAMS,
+    AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, SignRule,
+    MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA};
@@ -72,6 +73,12 @@ impl Effect for SinkageBulldozing {
     // Power rising through turns below R′: long turns there.
     fn drives_to_show_mark(&self) -> Vec<MarkDrive> {
         vec![MarkDrive::turn(1.0 / 3.0, 180.0, 2)]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "the wheels' sinkage at the tight turns (a camera or a depth gauge beside the track): it is the mark itself",
+            pose_track: false,
+        }
     }
     // |V_o| + |V_i| = 2v_c times |ω| L/2 / v_c, over the turn: L |Δθ|.
     fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {

@@ -9,7 +9,7 @@
 
 use crate::diagnose::baseline::family::MAX_SLIP_SPREAD;
 use crate::diagnose::effect::{
-    Context, Effect, MarkDrive, MarkSource, Marks, PathSegment, SignRule, MAX_PARAMS,
+    Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, SignRule, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::matched_slip::{
@@ -65,6 +65,12 @@ impl Effect for SlipTrack {
     // Every turn slipping alike, timed by yaw.
     fn drives_to_show_mark(&self) -> Vec<MarkDrive> {
         vec![MarkDrive::turn(2.0, 90.0, 2)]
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "a pose track (motion capture, or RTK GNSS at 5 Hz or more): it measures the slip track itself (thesis Appendix D), which the yaw timing cannot tell from a terrain-wide angular slip",
+            pose_track: true,
+        }
     }
     fn path_segment(&self, s: &PathSegment) -> Option<Vec<f64>> {
         Some(vec![s.e_hg_j])

@@ -10,7 +10,7 @@
 use crate::diagnose::adequacy::LEVEL_PITCH_DEG;
 use crate::diagnose::baseline;
 use crate::diagnose::effect::{
-    AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, SignRule, MAX_PARAMS,
+    AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, Measurement, SignRule, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA, OFF_LEVEL_BY_CHANCE};
@@ -73,6 +73,12 @@ impl Effect for Slope {
     // A slope's mark is the terrain's, not a manoeuvre's.
     fn drives_to_show_mark(&self) -> Vec<MarkDrive> {
         Vec::new()
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "the ground's inclination (the IMU's pitch, or a level on the test patch)",
+            pose_track: false,
+        }
     }
 }
 

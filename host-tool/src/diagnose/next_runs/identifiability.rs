@@ -57,9 +57,9 @@ pub(super) fn statements_on(
     let mut statements = Vec::new();
     if rows.iter().all(|r| r.measured.is_none()) {
         statements.push(
-            "without a pose track, a slip track off the terrain's and a terrain-wide angular \
-             slip are the same in timing and power: slip-track is read only as every turn \
-             slipping alike beyond the calibration's terrain slip"
+            "without a pose track, a slip track off the calibration ground's and a terrain-wide \
+             angular slip are the same in timing and power: slip-track is read only as every \
+             turn slipping alike beyond the calibration's own turns driven alike"
                 .into(),
         );
     }

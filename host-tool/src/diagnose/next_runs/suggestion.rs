@@ -5,6 +5,7 @@
 use super::super::effect::When;
 use super::pair::PairSeparation;
 use super::rival::{Rival, Unfitted};
+use crate::effect_id::EffectId;
 use crate::scenario::Side;
 use serde::Serialize;
 
@@ -62,6 +63,19 @@ pub struct NextRuns {
     pub runs: Vec<NextRun>,
     /// Pairs in play no manoeuvre within the limits separates.
     pub unresolved: Vec<PairSeparation>,
+    /// What to measure where manoeuvres cannot settle the verdict: each effect in play whose
+    /// mark a sensor reads directly (a pose track, encoders, a thermistor), when it is in a pair
+    /// no manoeuvre separates or nothing is left to drive.
+    pub measurements: Vec<SuggestedMeasurement>,
+}
+
+/// A measurement to add ([`crate::diagnose::effect::Effect::measurement`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SuggestedMeasurement {
+    /// The effect whose mark it reads.
+    pub effect: EffectId,
+    /// What to measure, and what it shows.
+    pub what: &'static str,
 }
 
 impl NextRuns {

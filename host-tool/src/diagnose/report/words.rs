@@ -150,8 +150,12 @@ fn named_conclusion(d: &Diagnosis, effect: EffectId) -> String {
     } else {
         ""
     };
+    let reliability = all
+        .and_then(|h| crate::diagnose::reliability::of(effect, h.shrink_pct))
+        .map_or(String::new(), |r| format!("; {}", r.describe(effect)));
     format!(
-        "diagnosis: {effect} @ {} (significant gap, its signature in the data); {h}{misfit}{}",
+        "diagnosis: {effect} @ {} (significant gap, its signature in the data); {h}{misfit}{}\
+         {reliability}",
         d.regime,
         untested(d)
     )
@@ -539,6 +543,12 @@ pub fn next_runs_lines(d: &Diagnosis) -> Vec<String> {
                 next_runs::TARGET_SIGMA
             ));
         }
+    }
+    for m in &n.measurements {
+        out.push(format!(
+            "measure: {} (reads `{}`'s mark directly)",
+            m.what, m.effect
+        ));
     }
     for s in &id.statements {
         out.push(format!("cannot tell apart: {s}"));

@@ -7,7 +7,7 @@
 
 use crate::diagnose::baseline::QUIESCENT_MAX_A;
 use crate::diagnose::effect::{
-    Context, Effect, MarkDrive, MarkSource, Marks, SignRule, MAX_PARAMS,
+    Context, Effect, MarkDrive, MarkSource, Marks, Measurement, SignRule, MAX_PARAMS,
 };
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA};
@@ -62,5 +62,11 @@ impl Effect for ExampleOffset {
     }
     fn drives_to_show_mark(&self) -> Vec<MarkDrive> {
         Vec::new()
+    }
+    fn measurement(&self) -> Measurement {
+        Measurement {
+            what: "each sensor's zero with the drivers switched off",
+            pose_track: false,
+        }
     }
 }
