@@ -183,37 +183,44 @@ pub(crate) fn asymmetry_slip(rows: &[TurnRow]) -> f64 {
 }
 
 /// Whether the runs were driven on a weaker supply than any the calibration ran on: their
-/// straights (the lightest load, driven alike in both) on a mean bus voltage below the lowest
-/// of any calibration manoeuvre (its heaviest load). Then every loaded manoeuvre of the runs
-/// had less headroom than was ever calibrated: the drives may not reach their commanded wheel
+/// straights (the lightest load, driven alike in both) on a mean bus voltage further below the
+/// calibration's most loaded manoeuvre than that sits below the calibration's own straights (the
+/// supply fell by more than the whole range the calibration spanned; within it, run-to-run
+/// charge and load are what the calibration saw). Then every loaded manoeuvre of the runs had
+/// less headroom than was ever calibrated: the drives may not reach their commanded wheel
 /// speeds, so a slower turn or a side drawing otherwise is the supply's doing, not the
-/// ground's. `Some((runs' straights, calibration's lowest))` [V] when so; `None` without
-/// calibration runs, straights or bus voltages.
+/// ground's. `Some((runs' straights, the limit))` [V] when so; `None` without calibration runs,
+/// straights or bus voltages.
 pub(crate) fn supply_below_calibration(
     rows: &[TurnRow],
     calibration: &[TurnRow],
 ) -> Option<(f64, f64)> {
+    let straights = |rows: &[TurnRow]| -> Option<f64> {
+        let v: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.is_straight() && r.bus_v > 0.0)
+            .map(|r| r.bus_v)
+            .collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
     let floor = calibration
         .iter()
         .map(|r| r.bus_v)
         .filter(|v| *v > 0.0)
         .min_by(f64::total_cmp)?;
-    let straights: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.is_straight() && r.bus_v > 0.0)
-        .map(|r| r.bus_v)
-        .collect();
-    let mean = straights.iter().sum::<f64>() / straights.len() as f64;
-    (!straights.is_empty() && mean < floor).then_some((mean, floor))
+    let span = straights(calibration).map_or(0.0, |s| (s - floor).max(0.0));
+    let limit = floor - span;
+    let runs = straights(rows)?;
+    (runs < limit).then_some((runs, limit))
 }
 
 /// Why marks are not read on a weaker supply than the calibration's.
 pub(crate) fn supply_words((runs_v, floor_v): (f64, f64)) -> String {
     format!(
-        "the runs' straights ran on a {runs_v:.2} V bus, below the {floor_v:.2} V of the \
-         calibration's most loaded manoeuvre: the drives may not reach their commanded speeds, \
-         so this mark would be the supply's, not the ground's (charge the battery, or calibrate \
-         on the same supply)"
+        "the runs' straights ran on a {runs_v:.2} V bus, below {floor_v:.2} V, further under the \
+         calibration's most loaded manoeuvre than the calibration's own range: the drives may \
+         not reach their commanded speeds, so this mark would be the supply's, not the \
+         ground's (charge the battery, or calibrate on the same supply)"
     )
 }
 
@@ -338,10 +345,11 @@ mod tests {
             turn(0, 0.0, 0.0, 24.0, 0.0),
             turn(0, f64::INFINITY, 0.0, 25.5, 0.0),
         ];
-        // The runs' straights on 24.5 V: above the calibration's most loaded 24.0 V.
+        // The calibration spans 25.5 → 24.0 V. The runs' straights on 23.0 V: 1 V under its
+        // most loaded manoeuvre, within the 1.5 V it spanned itself.
         let runs = [
-            turn(0, 0.0, 0.0, 23.0, 0.0),
-            turn(0, f64::INFINITY, 0.0, 24.5, 0.0),
+            turn(0, 0.0, 0.0, 21.5, 0.0),
+            turn(0, f64::INFINITY, 0.0, 23.0, 0.0),
         ];
         assert_eq!(supply_below_calibration(&runs, &cal), None);
         // A battery 40 % down: its straights on 15.5 V.
@@ -349,7 +357,7 @@ mod tests {
             turn(0, 0.0, 0.0, 14.0, 0.0),
             turn(0, f64::INFINITY, 0.0, 15.5, 0.0),
         ];
-        assert_eq!(supply_below_calibration(&flat, &cal), Some((15.5, 24.0)));
-        assert!(supply_words((15.5, 24.0)).contains("charge the battery"));
+        assert_eq!(supply_below_calibration(&flat, &cal), Some((15.5, 22.5)));
+        assert!(supply_words((15.5, 22.5)).contains("charge the battery"));
     }
 }
