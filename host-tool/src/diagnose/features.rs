@@ -199,24 +199,31 @@ pub const CALIBRATION_MIN_R_OVER_R_PRIME: f64 = 2.0;
 /// Time a run must have stood still before its current counts as the standstill draw [s].
 pub const STANDSTILL_SETTLE_S: f64 = 0.5;
 
-/// Mean current per side over the settled standstill samples of a run: of each standstill,
-/// the samples at least [`STANDSTILL_SETTLE_S`] after the stop and in its later half (a wheel
-/// whose speed loop lags still draws as it stops: the later half waits for it whatever the
-/// lag, without a constant tuned to one drive). `None` if there are fewer than 10.
+/// Mean current per side over the settled standstill samples of a run: those of the standstill
+/// before the run first moves, at least [`STANDSTILL_SETTLE_S`] after it starts (no wheel is
+/// stopping then); without 10 such samples, of each later standstill the samples at least
+/// [`STANDSTILL_SETTLE_S`] after the stop and in its later half (a wheel whose speed loop lags
+/// still draws as it stops). `None` if there are fewer than 10.
 pub fn standstill_current_a(samples: &[RunSample]) -> Option<Sides<f64>> {
     let mut still = StandstillCurrent::default();
     samples.iter().for_each(|s| still.push(s));
     still.mean_a()
 }
 
+/// Sums of settled standstill currents: (left, right, count).
+type Sums = (f64, f64, usize);
+
 /// [`standstill_current_a`] sample by sample: the standstill under way is held until it ends.
 #[derive(Debug, Clone, Default)]
 struct StandstillCurrent {
+    /// Whether the run has moved yet.
+    moved: bool,
     /// The current standstill's samples: (time, left, right).
     span: Vec<(f64, f64, f64)>,
-    sum_l: f64,
-    sum_r: f64,
-    n: usize,
+    /// The standstill before the first motion.
+    before_moving: Sums,
+    /// The later standstills.
+    after_moving: Sums,
 }
 
 impl StandstillCurrent {
@@ -224,31 +231,51 @@ impl StandstillCurrent {
         let still = s.cmd_mps.left == 0.0 && s.cmd_mps.right == 0.0;
         if still {
             self.span.push((s.t_s, s.current_a.left, s.current_a.right));
-        } else if !self.span.is_empty() {
-            let (l, r, n) = Self::settled(&self.span);
-            self.sum_l += l;
-            self.sum_r += r;
-            self.n += n;
-            self.span.clear();
+        } else {
+            self.close_span();
+            self.moved = true;
         }
     }
 
+    fn close_span(&mut self) {
+        if self.span.is_empty() {
+            return;
+        }
+        let (sums, later_half) = if self.moved {
+            (&mut self.after_moving, true)
+        } else {
+            (&mut self.before_moving, false)
+        };
+        let (l, r, n) = Self::settled(&self.span, later_half);
+        *sums = (sums.0 + l, sums.1 + r, sums.2 + n);
+        self.span.clear();
+    }
+
     /// Sums and count of the settled samples of one standstill.
-    fn settled(span: &[(f64, f64, f64)]) -> (f64, f64, usize) {
+    fn settled(span: &[(f64, f64, f64)], later_half: bool) -> Sums {
         let (Some(first), Some(last)) = (span.first(), span.last()) else {
             return (0.0, 0.0, 0);
         };
-        let from = first.0 + STANDSTILL_SETTLE_S.max(0.5 * (last.0 - first.0));
+        let wait = if later_half {
+            STANDSTILL_SETTLE_S.max(0.5 * (last.0 - first.0))
+        } else {
+            STANDSTILL_SETTLE_S
+        };
         span.iter()
-            .filter(|(t, _, _)| *t >= from)
+            .filter(|(t, _, _)| *t >= first.0 + wait)
             .fold((0.0, 0.0, 0), |(l, r, n), s| (l + s.1, r + s.2, n + 1))
     }
 
     fn mean_a(&self) -> Option<Sides<f64>> {
-        let (l, r, n) = Self::settled(&self.span);
-        let (sum_l, sum_r, n) = (self.sum_l + l, self.sum_r + r, self.n + n);
+        let mut all = self.clone();
+        all.close_span();
+        let (l, r, n) = if all.before_moving.2 >= 10 {
+            all.before_moving
+        } else {
+            all.after_moving
+        };
         let count = n as f64;
-        (n >= 10).then(|| Sides::new(sum_l / count, sum_r / count))
+        (n >= 10).then(|| Sides::new(l / count, r / count))
     }
 }
 
@@ -505,8 +532,9 @@ mod standstill_tests {
     use super::*;
 
     /// A drive whose speed loop lags still draws as it stops: 1 A decaying over the first
-    /// 0.9 s of each 2 s standstill, then its 0.05 A quiescent draw. The later half of each
-    /// standstill reads the quiescent draw; a fixed 0.5 s wait read the decay too.
+    /// 0.9 s of each 2 s standstill, then its 0.05 A quiescent draw. Without a standstill
+    /// before the first motion, the later half of each standstill reads the quiescent draw (a
+    /// fixed 0.5 s wait read the decay too); with one, that standstill is read alone.
     #[test]
     fn the_standstill_draw_waits_for_a_lagging_stop() {
         let mut samples = Vec::new();
@@ -532,5 +560,19 @@ mod standstill_tests {
         }
         let still = standstill_current_a(&samples).expect("settled samples");
         assert!((still.left - 0.05).abs() < 1e-9, "{still:?}");
+        // A standstill before the run moves, at a draw of 0.07 A: it alone is read.
+        let mut lead: Vec<RunSample> = (0..100)
+            .map(|i| {
+                RunSample::new(
+                    -1.0 + 0.01 * i as f64,
+                    Sides::new(24.0, 24.0),
+                    Sides::new(0.07, 0.07),
+                    Sides::new(0.0, 0.0),
+                )
+            })
+            .collect();
+        lead.extend(samples);
+        let still = standstill_current_a(&lead).expect("settled samples");
+        assert!((still.left - 0.07).abs() < 1e-9, "{still:?}");
     }
 }

@@ -3,7 +3,7 @@
 //! it, each under random nuisance structure; both parts, datasets and their twins). Strength is
 //! the share of the gap the named effect closes out of sample, by quarter. The table is the
 //! bench's own output (`score.py --reliability`, the parts merged): regenerate it after a change
-//! that moves verdicts (docs/diagnosis-reliability.md shows it).
+//! that moves verdicts (docs/diagnosing.md, *Verdicts*, shows it).
 
 use crate::effect_id::EffectId;
 use serde::Deserialize;
