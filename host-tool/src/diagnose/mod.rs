@@ -285,26 +285,24 @@ struct Conclusion {
     heldout_departure: Option<(EffectId, (f64, f64), f64)>,
 }
 
-/// Whether some catalogued effect could still be named for the departure: a candidate that
-/// improves the held-out fit (or one not testable out of sample) whose own mark is neither
-/// ruled out (looked for and missing, or hidden by another's) nor unobservable whatever is
-/// driven. Without one, the departure is outside the catalogue.
+/// Whether some catalogued effect could still explain the departure: one whose own mark is
+/// present (whatever its term closes), or a candidate that improves the held-out fit (or one
+/// not testable out of sample) whose mark is neither ruled out (looked for and missing, or
+/// hidden by another's) nor unobservable whatever is driven. Without one, the departure is
+/// outside the catalogue.
 fn catalogue_could_explain(
     ranked: &[CandidateScore],
     not_testable: &[CandidateScore],
     signatures: &[signature::Signature],
 ) -> bool {
-    let still_nameable = |e: EffectId| {
-        signatures
+    let mark = |e: EffectId| signatures.iter().find(|s| s.effect == e);
+    let still_nameable = |e: EffectId| mark(e).is_none_or(|s| !s.rules_out() && !s.masked);
+    signatures.iter().any(|s| s.present())
+        || ranked
             .iter()
-            .find(|s| s.effect == e)
-            .is_none_or(|s| !s.rules_out() && !s.masked)
-    };
-    ranked
-        .iter()
-        .filter(|c| c.shrink_pct > 0.0)
-        .chain(not_testable)
-        .any(|c| still_nameable(c.effect))
+            .filter(|c| c.shrink_pct > 0.0)
+            .chain(not_testable)
+            .any(|c| still_nameable(c.effect))
 }
 
 fn conclude(

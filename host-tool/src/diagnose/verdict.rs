@@ -16,9 +16,9 @@ pub enum Verdict {
     /// that improves the held-out fit could still be named (its mark present beside a rival,
     /// not yet beyond the noise, or not yet observed).
     Ambiguous,
-    /// A significant departure that no catalogued effect explains: every candidate improving
-    /// the held-out fit had its own mark looked for and missing, hidden, or unobservable
-    /// whatever is driven. The cause is one the catalogue does not hold.
+    /// A significant departure that no catalogued effect explains: no effect's mark is present,
+    /// and every candidate improving the held-out fit had its own mark looked for and missing,
+    /// hidden, or unobservable whatever is driven. The cause is one the catalogue does not hold.
     OutsideCatalogue,
     /// The baseline itself does not fit its calibration manoeuvres beyond their repeat noise:
     /// no effect can be named against it.
