@@ -267,12 +267,20 @@ impl StandstillCurrent {
     }
 
     fn mean_a(&self) -> Option<Sides<f64>> {
-        let mut all = self.clone();
-        all.close_span();
-        let (l, r, n) = if all.before_moving.2 >= 10 {
-            all.before_moving
+        // The standstill under way counts as if it ended here (without copying its samples).
+        let (pl, pr, pn) = Self::settled(&self.span, self.moved);
+        let with_pending = |sums: Sums, its: bool| {
+            if its {
+                (sums.0 + pl, sums.1 + pr, sums.2 + pn)
+            } else {
+                sums
+            }
+        };
+        let before = with_pending(self.before_moving, !self.moved);
+        let (l, r, n) = if before.2 >= 10 {
+            before
         } else {
-            all.after_moving
+            with_pending(self.after_moving, self.moved)
         };
         let count = n as f64;
         (n >= 10).then(|| Sides::new(l / count, r / count))
