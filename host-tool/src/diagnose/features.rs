@@ -21,7 +21,7 @@
 
 use super::winding_heat::{CopperHeat, WindingHeat};
 use crate::log::run_csv::RunSample;
-use crate::validate::{ManoeuvreKind, ValidationReport};
+use crate::validate::{ManoeuvreKind, PhaseStats, ValidationReport};
 use model_core::kinematics::{Regime, RegimeBounds, TurnDirection};
 use model_core::Sides;
 use serde::Serialize;
@@ -61,7 +61,9 @@ pub struct SideObs {
     pub energy_j: f64,
     /// Energy over the expected duration, E / T_expected [W] (the diagnosis' measured value).
     pub effective_power_w: f64,
-    /// Second minus first half of the steady part, average power [W]; `None` if too short.
+    /// Second minus first half of the steady part, average power [W], the first half's taken
+    /// at the second half's yaw rate where the yaw shows the rover still speeding up
+    /// ([`still_speeding_up`]); `None` if too short.
     pub growth_w: Option<f64>,
 }
 
@@ -389,6 +391,26 @@ impl RunSampleScan {
     }
 }
 
+/// How much faster a turn turns in the second half of its steady part than in the first,
+/// measured by its yaw: a speed loop that lags the command is still bringing the wheels up to
+/// speed after the settle time, and a turn's power (its tread couple times the wheels' speed)
+/// rises with them; growth is read at one speed, the second half's, so that a lag does not
+/// pass for power rising as the wheels sink. 1 for straights, without yaw, and when the halves
+/// turn in opposite senses or one more than twice as fast as the other (not a lag).
+pub fn still_speeding_up(phases: &PhaseStats, straight: bool) -> f64 {
+    match phases.yaw_rate_rad_s {
+        Some([first, second]) if !straight && first != 0.0 => {
+            let ratio = second / first;
+            if (0.5..=2.0).contains(&ratio) {
+                ratio
+            } else {
+                1.0
+            }
+        }
+        _ => 1.0,
+    }
+}
+
 /// The rows of `report` (turns and straights; standstill and too-short spans are not in it),
 /// with each run's samples for the standstill current and bus voltage. `runs[i]` must be the
 /// samples of the report's `runs[i]`.
@@ -444,6 +466,7 @@ pub fn rows_from_facts(report: &ValidationReport, facts: &[RunSampleFacts]) -> V
                 growth_w: s.phases.map(|p| {
                     pick(p.second_half_w.left, p.second_half_w.right)
                         - pick(p.first_half_w.left, p.first_half_w.right)
+                            * still_speeding_up(&p, straight)
                 }),
             }
         };

@@ -32,7 +32,7 @@ pub use fit::{Comparison, IcrFit, IcrFitError, DEFAULT_DEPARTURE_FRACTION};
 pub use report::{ManoeuvreRow, PlotData, RegimeSummary, RunReport, ValidationReport};
 pub use run::{FactsScan, RunFacts, RunValidation};
 pub use segment::{ManoeuvreKind, Segment, SegmentError, SegmentOptions};
-pub use turns::{ManoeuvreStats, DEFAULT_SETTLE_S, DEFAULT_TURN_DEG};
+pub use turns::{ManoeuvreStats, PhaseStats, DEFAULT_SETTLE_S, DEFAULT_TURN_DEG};
 
 /// One run to validate: its samples and, if it was recorded from the board, its wire frames and
 /// forwarded commands.

@@ -49,6 +49,9 @@ pub struct PhaseStats {
     /// Second minus first half, total power [W] (growth is in W everywhere: validate,
     /// diagnose, their tables, CSVs and JSON).
     pub growth_w: f64,
+    /// Mean yaw rate in the first and the second half [rad/s] (heading change over the half's
+    /// time); `None` without yaw.
+    pub yaw_rate_rad_s: Option<[f64; 2]>,
 }
 
 /// What one manoeuvre measured.
@@ -287,7 +290,34 @@ fn phases(steady: &[RunSample], gap_threshold_s: f64) -> Option<PhaseStats> {
         first_half_w,
         second_half_w,
         growth_w,
+        yaw_rate_rad_s: fitted_yaw_rate(a)
+            .zip(fitted_yaw_rate(b))
+            .map(|(a, b)| [a, b]),
     })
+}
+
+/// The least-squares slope of the heading (unwrapped sample to sample) over time [rad/s]: every
+/// sample counts, so an IMU's noise on the first and last readings does not set the rate (a
+/// rate still rising is read a little above its mean over the half).
+/// `None` without yaw on every sample or without spread in time.
+fn fitted_yaw_rate(samples: &[RunSample]) -> Option<f64> {
+    let first = samples.first()?;
+    let (mut heading, mut previous) = (0.0, first.yaw_rad?);
+    let mut points = Vec::with_capacity(samples.len());
+    for s in samples {
+        let yaw = s.yaw_rad.filter(|y| y.is_finite())?;
+        heading += tracking::wrap_angle_rad(yaw - previous);
+        previous = yaw;
+        points.push((s.t_s - first.t_s, heading));
+    }
+    let n = points.len() as f64;
+    let (mt, mh) = points
+        .iter()
+        .fold((0.0, 0.0), |(t, h), p| (t + p.0 / n, h + p.1 / n));
+    let (sth, stt) = points.iter().fold((0.0, 0.0), |(sth, stt), (t, h)| {
+        (sth + (t - mt) * (h - mh), stt + (t - mt) * (t - mt))
+    });
+    (stt > 0.0).then(|| sth / stt)
 }
 
 #[cfg(test)]
@@ -430,6 +460,55 @@ mod tests {
         assert!((ph.first_half_w.total - 110.0).abs() < 0.2, "{ph:?}");
         assert!((ph.second_half_w.total - 130.0).abs() < 0.2, "{ph:?}");
         assert!((ph.growth_w - 20.0).abs() < 0.2, "{ph:?}");
+    }
+
+    /// A point turn whose speed loop lags the command (first order, τ = 0.35 s): the yaw rate
+    /// and the power both rise as 1 − e^(−t/τ), so the first half of the steady part draws less
+    /// than the second although nothing sinks. The halves' yaw rates carry nearly the same
+    /// ratio, and growth read at one speed ([`still_speeding_up`]) is mostly gone; a power that rises at a steady
+    /// yaw rate keeps its growth.
+    #[test]
+    fn a_lagging_speed_loop_shows_in_the_halves_yaw_rates() {
+        use crate::diagnose::features::still_speeding_up;
+        let (tau, w_ss, p_ss) = (0.35, 0.55, 400.0);
+        let rising = |t: f64| 1.0 - (-t / tau).exp();
+        let mut samples = turn(SideSpeeds::new(-0.3, 0.3), 3.0, 0.01, Some(1.0), |t| {
+            (p_ss * rising(t), p_ss * rising(t))
+        });
+        for s in &mut samples {
+            let heading = w_ss * (s.t_s - tau * rising(s.t_s));
+            s.yaw_rad =
+                Some(heading - std::f64::consts::TAU * (heading / std::f64::consts::TAU).round());
+        }
+        let ph = analyse(&samples, &only_segment(&samples), &HUSKY, &opts())
+            .phases
+            .expect("long enough");
+        assert!(ph.growth_w > 10.0, "{ph:?}");
+        let scale = still_speeding_up(&ph, false);
+        let [first, second] = ph.yaw_rate_rad_s.expect("yaw");
+        assert!(first < second && second < w_ss, "{ph:?}");
+        let at_one_speed = ph.second_half_w.left - ph.first_half_w.left * scale;
+        // Per side, a sixth of the growth is left (the slope reads a rising rate a little high).
+        let per_side = 0.5 * ph.growth_w;
+        assert!(
+            at_one_speed.abs() < per_side / 5.0,
+            "{at_one_speed} of {ph:?}"
+        );
+        assert_eq!(
+            still_speeding_up(&ph, true),
+            1.0,
+            "straights have no yaw to read"
+        );
+
+        // Sinkage-like: the yaw rate steady from the start, power rising 20 W per side.
+        let samples = turn(SideSpeeds::new(-0.3, 0.3), 4.5, 0.01, Some(w_ss), |t| {
+            (100.0 + 40.0 * t / 4.5, 100.0 + 40.0 * t / 4.5)
+        });
+        let ph = analyse(&samples, &only_segment(&samples), &HUSKY, &opts())
+            .phases
+            .expect("long enough");
+        let scale = still_speeding_up(&ph, false);
+        assert!((scale - 1.0).abs() < 1e-6, "{ph:?}");
     }
 
     #[test]

@@ -105,7 +105,7 @@ fn check_period(dt_s: f64) -> Result<(), TrackingError> {
 }
 
 /// Wraps an angle to [−π, π].
-fn wrap_angle_rad(a: f64) -> f64 {
+pub fn wrap_angle_rad(a: f64) -> f64 {
     a - TAU * libm::round(a / TAU)
 }
 
