@@ -49,8 +49,8 @@ pub struct PhaseStats {
     /// Second minus first half, total power [W] (growth is in W everywhere: validate,
     /// diagnose, their tables, CSVs and JSON).
     pub growth_w: f64,
-    /// Mean yaw rate in the first and the second half [rad/s] (heading change over the half's
-    /// time); `None` without yaw.
+    /// Yaw rate in the first and the second half [rad/s] (the least-squares slope of the
+    /// heading over each half); `None` without yaw.
     pub yaw_rate_rad_s: Option<[f64; 2]>,
 }
 
@@ -465,8 +465,8 @@ mod tests {
     /// A point turn whose speed loop lags the command (first order, τ = 0.35 s): the yaw rate
     /// and the power both rise as 1 − e^(−t/τ), so the first half of the steady part draws less
     /// than the second although nothing sinks. The halves' yaw rates carry nearly the same
-    /// ratio, and growth read at one speed ([`still_speeding_up`]) is mostly gone; a power that rises at a steady
-    /// yaw rate keeps its growth.
+    /// ratio, and growth read at one speed ([`still_speeding_up`]) is mostly gone; a power that
+    /// rises at a steady yaw rate keeps its growth.
     #[test]
     fn a_lagging_speed_loop_shows_in_the_halves_yaw_rates() {
         use crate::diagnose::features::still_speeding_up;
