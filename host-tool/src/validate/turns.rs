@@ -15,6 +15,7 @@
 use super::segment::{ManoeuvreKind, Segment};
 use crate::log::run_csv::RunSample;
 use model_core::energy::{torque_proportional, DEFAULT_MIN_WHEEL_RATE_RAD_S};
+use model_core::fit::LinearFit;
 use model_core::kinematics::{self, SideSpeeds};
 use model_core::tracking;
 use model_core::{Rover, Sides};
@@ -298,26 +299,21 @@ fn phases(steady: &[RunSample], gap_threshold_s: f64) -> Option<PhaseStats> {
 
 /// The least-squares slope of the heading (unwrapped sample to sample) over time [rad/s]: every
 /// sample counts, so an IMU's noise on the first and last readings does not set the rate (a
-/// rate still rising is read a little above its mean over the half).
-/// `None` without yaw on every sample or without spread in time.
+/// rate still rising is read a little above its mean over the half). Streamed through
+/// [`LinearFit`], no allocation per manoeuvre. `None` without yaw on every sample or without
+/// spread in time.
 fn fitted_yaw_rate(samples: &[RunSample]) -> Option<f64> {
     let first = samples.first()?;
     let (mut heading, mut previous) = (0.0, first.yaw_rad?);
-    let mut points = Vec::with_capacity(samples.len());
+    let mut fit = LinearFit::<2>::new();
     for s in samples {
         let yaw = s.yaw_rad.filter(|y| y.is_finite())?;
         heading += tracking::wrap_angle_rad(yaw - previous);
         previous = yaw;
-        points.push((s.t_s - first.t_s, heading));
+        fit.add([1.0, s.t_s - first.t_s], heading).ok()?;
     }
-    let n = points.len() as f64;
-    let (mt, mh) = points
-        .iter()
-        .fold((0.0, 0.0), |(t, h), p| (t + p.0 / n, h + p.1 / n));
-    let (sth, stt) = points.iter().fold((0.0, 0.0), |(sth, stt), (t, h)| {
-        (sth + (t - mt) * (h - mh), stt + (t - mt) * (t - mt))
-    });
-    (stt > 0.0).then(|| sth / stt)
+    let [_, rate] = fit.coefficients().ok()?;
+    Some(rate)
 }
 
 #[cfg(test)]
