@@ -3,14 +3,17 @@
 
 use anyhow::Result;
 use host_tool::eprintln_best_effort;
-use host_tool::live::{resolve_addr, LiveOptions, LiveServer, LiveSummary, DEFAULT_ADDR};
+use host_tool::live::{
+    exposure_warning, resolve_addr, LiveOptions, LiveServer, LiveSummary, DEFAULT_ADDR,
+};
 use std::time::Duration;
 
 /// The `--serve` option.
 #[derive(clap::Args, Debug, Clone)]
 pub struct ServeArgs {
     /// Serve the data live to Foxglove (WebSocket protocol foxglove.websocket.v1) on ADDR
-    /// (default 127.0.0.1:8765; 0.0.0.0:8765 for viewers on the network). Read-only: viewers
+    /// (default 127.0.0.1:8765; 0.0.0.0:8765 for viewers on the network: no password, so on a
+    /// network you do not trust keep the default and use an SSH tunnel). Read-only: viewers
     /// subscribe, the board is not commanded from them. A slow viewer loses messages, never
     /// the log. `replay` and `demo` start when the first viewer subscribes.
     #[arg(
@@ -34,6 +37,9 @@ impl ServeArgs {
              foxglove/rover-power.json)",
             server.local_addr()
         );
+        if let Some(warning) = exposure_warning(server.local_addr()) {
+            eprintln_best_effort!("warning: {warning}");
+        }
         Ok(Some(server))
     }
 }

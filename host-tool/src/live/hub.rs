@@ -3,12 +3,14 @@
 //! slow or vanished viewer costs the recorder nothing.
 
 use super::channels::LiveChannel;
-use std::collections::VecDeque;
+use super::LiveOptions;
+use std::collections::{BTreeMap, VecDeque};
 use std::fmt;
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicI64, AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::time::Instant;
 
 /// A message on its way to a viewer (the payload shared by all viewers).
 #[derive(Debug, Clone)]
@@ -29,6 +31,11 @@ pub(super) struct ViewerCounters {
     pub(super) dropped: AtomicU64,
     /// Messages in the queue now (the viewer's thread counts down as it takes them).
     pub(super) queued: AtomicI64,
+    /// Most latched messages waiting for it at once, besides its queue (bounded by one
+    /// latched history per channel, however often it resubscribes).
+    pub(super) backlog_peak: AtomicUsize,
+    /// Set when a new viewer takes its place ([`Hub::join`]); its thread then ends.
+    pub(super) evicted: AtomicBool,
 }
 
 /// What one viewer got, for the summary.
@@ -58,20 +65,41 @@ impl fmt::Display for ViewerReport {
     }
 }
 
+/// Viewers beyond those reported one by one: counted together.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ViewerTally {
+    /// How many.
+    pub viewers: u64,
+    /// Messages sent to them.
+    pub sent: u64,
+    /// Messages dropped for them.
+    pub dropped: u64,
+}
+
 struct Slot {
     peer: SocketAddr,
+    joined: Instant,
     queue: SyncSender<Outgoing>,
     counters: Arc<ViewerCounters>,
 }
 
 /// Most latched messages kept (the stream's events; a damaged stream may have many).
-const LATCHED_MAX: usize = 1024;
+pub(super) const LATCHED_MAX: usize = 1024;
+/// Viewers that left reported one by one; later ones are counted ([`ViewerTally`]), so a
+/// connection flood costs neither memory nor summary lines.
+const LEFT_KEPT: usize = 64;
+/// Different reasons for refusing a connection kept apart; the rest are counted as "other".
+const REASONS_KEPT: usize = 32;
 
 /// Viewers connected now and those that left.
 #[derive(Default)]
 pub(super) struct Hub {
     slots: Mutex<Vec<Slot>>,
     left: Mutex<Vec<ViewerReport>>,
+    /// Viewers that left after the first [`LEFT_KEPT`].
+    left_more: Mutex<ViewerTally>,
+    /// Connections that never became viewers, by reason.
+    refused: Mutex<BTreeMap<String, u64>>,
     /// Messages offered to [`Hub::publish`] with at least one subscriber.
     published: AtomicU64,
     /// The messages of the latched channels ([`LiveChannel::latched`]) so far, oldest first;
@@ -93,20 +121,40 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl Hub {
-    /// Adds a viewer with a queue of `queue_len` messages; returns its end of the queue.
+    /// Adds a viewer with a queue of [`LiveOptions::queue_len`] messages; returns its end of
+    /// the queue. With [`LiveOptions::max_viewers`] connected, it takes the place of the one
+    /// that has subscribed to nothing the longest (told by [`ViewerCounters::evicted`]: an idle
+    /// connection must not lock the viewers out); `Err` (why) when every viewer subscribes.
     pub(super) fn join(
         &self,
         peer: SocketAddr,
-        queue_len: usize,
+        options: &LiveOptions,
         counters: Arc<ViewerCounters>,
-    ) -> Receiver<Outgoing> {
-        let (queue, rx) = std::sync::mpsc::sync_channel(queue_len.max(1));
-        lock(&self.slots).push(Slot {
+    ) -> Result<Receiver<Outgoing>, String> {
+        let mut slots = lock(&self.slots);
+        let staying = |s: &&Slot| !s.counters.evicted.load(Ordering::Relaxed);
+        if slots.iter().filter(staying).count() >= options.max_viewers {
+            let idle = slots
+                .iter()
+                .filter(staying)
+                .filter(|s| s.counters.subscribed.load(Ordering::Relaxed) == 0)
+                .min_by_key(|s| s.joined)
+                .ok_or_else(|| {
+                    format!(
+                        "{} viewers already, each subscribed: try again later",
+                        options.max_viewers
+                    )
+                })?;
+            idle.counters.evicted.store(true, Ordering::Relaxed);
+        }
+        let (queue, rx) = std::sync::mpsc::sync_channel(options.queue_len.max(1));
+        slots.push(Slot {
             peer,
+            joined: Instant::now(),
             queue,
             counters,
         });
-        rx
+        Ok(rx)
     }
 
     /// Removes a viewer, keeping its report.
@@ -118,19 +166,41 @@ impl Hub {
         {
             let slot = slots.swap_remove(i);
             let mut report = report_of(&slot);
-            report.ended = Some(why);
-            lock(&self.left).push(report);
+            let mut left = lock(&self.left);
+            if left.len() < LEFT_KEPT {
+                report.ended = Some(why);
+                left.push(report);
+            } else {
+                let mut more = lock(&self.left_more);
+                more.viewers += 1;
+                more.sent += report.sent;
+                more.dropped += report.dropped;
+            }
         }
     }
 
-    /// Reports a connection that never became a viewer.
-    pub(super) fn refused(&self, peer: SocketAddr, why: String) {
-        lock(&self.left).push(ViewerReport {
-            peer,
-            sent: 0,
-            dropped: 0,
-            ended: Some(why),
-        });
+    /// Counts a connection that never became a viewer.
+    pub(super) fn refused(&self, why: String) {
+        let mut refused = lock(&self.refused);
+        let key = if refused.len() < REASONS_KEPT || refused.contains_key(&why) {
+            why
+        } else {
+            "other reasons".to_owned()
+        };
+        *refused.entry(key).or_default() += 1;
+    }
+
+    /// Connections refused so far, by reason.
+    pub(super) fn refusals(&self) -> Vec<(String, u64)> {
+        lock(&self.refused)
+            .iter()
+            .map(|(why, n)| (why.clone(), *n))
+            .collect()
+    }
+
+    /// Viewers that left beyond those [`Hub::reports`] lists.
+    pub(super) fn more_viewers(&self) -> ViewerTally {
+        *lock(&self.left_more)
     }
 
     /// Number of viewers connected now.
@@ -204,6 +274,15 @@ impl Hub {
         self.published.load(Ordering::Relaxed)
     }
 
+    /// The most latched messages each connected viewer has had waiting at once.
+    #[cfg(test)]
+    pub(super) fn backlog_peaks(&self) -> Vec<usize> {
+        lock(&self.slots)
+            .iter()
+            .map(|s| s.counters.backlog_peak.load(Ordering::Relaxed))
+            .collect()
+    }
+
     /// Every viewer, those that left first.
     pub(super) fn reports(&self) -> Vec<ViewerReport> {
         let mut all = lock(&self.left).clone();
@@ -240,9 +319,13 @@ mod tests {
         let slow = Arc::new(ViewerCounters::default());
         slow.subscribed
             .store(LiveChannel::Sample.bit(), Ordering::Relaxed);
-        let rx = hub.join(peer, 3, slow.clone());
+        let three = LiveOptions {
+            queue_len: 3,
+            ..LiveOptions::default()
+        };
+        let rx = hub.join(peer, &three, slow.clone()).expect("a place");
         let idle = Arc::new(ViewerCounters::default());
-        let idle_rx = hub.join(peer, 3, idle.clone());
+        let idle_rx = hub.join(peer, &three, idle.clone()).expect("a place");
         for _ in 0..10 {
             hub.publish(message(LiveChannel::Sample));
         }
@@ -267,7 +350,11 @@ mod tests {
         let hub = Hub::default();
         let peer: SocketAddr = "127.0.0.1:1".parse().expect("addr");
         let viewer = Arc::new(ViewerCounters::default());
-        let rx = hub.join(peer, 16, viewer.clone());
+        let options = LiveOptions {
+            queue_len: 16,
+            ..LiveOptions::default()
+        };
+        let rx = hub.join(peer, &options, viewer.clone()).expect("a place");
         hub.publish(message(LiveChannel::Event));
         hub.publish(message(LiveChannel::Sample));
         hub.publish(message(LiveChannel::Event));
@@ -292,10 +379,53 @@ mod tests {
             hub.publish(message(LiveChannel::Event));
         }
         let other = Arc::new(ViewerCounters::default());
-        let _other_rx = hub.join(peer, 16, other.clone());
+        let _other_rx = hub.join(peer, &options, other.clone()).expect("a place");
         assert_eq!(
             hub.subscribe(&other, LiveChannel::Event.bit()).len(),
             LATCHED_MAX
         );
+    }
+
+    /// Idle connections (joined, subscribed to nothing) do not lock a new viewer out: it takes
+    /// the place of the oldest idle one; with every viewer subscribed it is refused. A flood of
+    /// refusals is counted by reason, not kept one by one.
+    #[test]
+    fn a_new_viewer_takes_the_place_of_the_oldest_idle_one_and_refusals_are_counted() {
+        let hub = Hub::default();
+        let peer: SocketAddr = "127.0.0.1:1".parse().expect("addr");
+        let two = LiveOptions {
+            max_viewers: 2,
+            ..LiveOptions::default()
+        };
+        let busy = Arc::new(ViewerCounters::default());
+        let _busy_rx = hub.join(peer, &two, busy.clone()).expect("a place");
+        hub.subscribe(&busy, LiveChannel::Sample.bit());
+        let idle = Arc::new(ViewerCounters::default());
+        let _idle_rx = hub.join(peer, &two, idle.clone()).expect("a place");
+        let newcomer = Arc::new(ViewerCounters::default());
+        let _new_rx = hub
+            .join(peer, &two, newcomer.clone())
+            .expect("the idle one's place");
+        assert!(idle.evicted.load(Ordering::Relaxed));
+        assert!(!busy.evicted.load(Ordering::Relaxed));
+        hub.subscribe(&newcomer, LiveChannel::Model.bit());
+        let refused = hub.join(peer, &two, Arc::new(ViewerCounters::default()));
+        assert!(refused.is_err_and(|why| why.contains("2 viewers already")));
+        for _ in 0..1000 {
+            hub.refused("refused: busy".into());
+        }
+        for i in 0..100 {
+            hub.refused(format!("handshake failed: {i}"));
+        }
+        let refusals = hub.refusals();
+        assert_eq!(refusals.len(), REASONS_KEPT + 1, "{refusals:?}");
+        assert_eq!(refusals.iter().map(|r| r.1).sum::<u64>(), 1100);
+        for _ in 0..LEFT_KEPT + 10 {
+            let c = Arc::new(ViewerCounters::default());
+            let _rx = hub.join(peer, &LiveOptions::default(), c.clone());
+            hub.leave(&c, "gone".into());
+        }
+        assert_eq!(hub.reports().len(), LEFT_KEPT + 3);
+        assert_eq!(hub.more_viewers().viewers, 10);
     }
 }

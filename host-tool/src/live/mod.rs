@@ -27,10 +27,10 @@ mod tests;
 mod viewer;
 
 pub use channels::LiveChannel;
-pub use hub::ViewerReport;
+pub use hub::{ViewerReport, ViewerTally};
 pub use replay::{serve_run, LiveReplayStats};
 pub(crate) use server::unix_now_ns;
-pub use server::{resolve_addr, LiveServer, LiveSummary};
+pub use server::{exposure_warning, resolve_addr, LiveServer, LiveSummary};
 pub use sink::{LiveClock, LiveSink, LiveTee};
 
 use std::io;
@@ -45,7 +45,8 @@ pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
 pub struct LiveOptions {
     /// Messages a viewer may have waiting; past it, new ones are dropped for it.
     pub queue_len: usize,
-    /// Most viewers at once.
+    /// Most viewers at once; past it a new viewer takes the place of one that subscribes to
+    /// nothing, or is refused.
     pub max_viewers: usize,
     /// A viewer whose socket takes nothing for this long is disconnected (a laptop that left
     /// the Wi-Fi without closing); it may reconnect.

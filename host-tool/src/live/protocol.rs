@@ -58,6 +58,8 @@ pub mod status_level {
     pub const INFO: u8 = 0;
     /// Something the viewer asked for was not done.
     pub const WARNING: u8 = 1;
+    /// The viewer cannot be served.
+    pub const ERROR: u8 = 2;
 }
 
 /// An advertised channel.

@@ -1,13 +1,13 @@
 //! [`LiveServer`]: the listening socket, its accept thread and one thread per viewer.
 
 use super::channels::LiveChannel;
-use super::hub::{Hub, ViewerReport};
+use super::hub::{Hub, ViewerReport, ViewerTally};
 use super::sink::{LiveClock, LiveSink};
 use super::viewer::{self, ViewerContext};
 use super::{LiveError, LiveOptions};
 use std::fmt;
-use std::io;
-use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
+use std::io::{self, Read, Write};
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
@@ -15,6 +15,9 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// How often the accept thread looks for new viewers and for the stop flag.
 const ACCEPT_POLL: Duration = Duration::from_millis(20);
+/// Connections in their handshake at once, besides the viewers: each is let go within the
+/// handshake's deadline, so a flood of silent connections delays a viewer by that at most.
+const HANDSHAKES: usize = 32;
 
 /// The Foxglove WebSocket server of the live view (see the [module docs](super)).
 pub struct LiveServer {
@@ -41,14 +44,18 @@ pub struct LiveSummary {
     pub addr: SocketAddr,
     /// Messages published to at least one subscribed viewer.
     pub published: u64,
-    /// Every viewer that connected.
+    /// The viewers that connected (the first that left, and those still connected).
     pub viewers: Vec<ViewerReport>,
+    /// Viewers that left beyond those listed in `viewers`.
+    pub more_viewers: ViewerTally,
+    /// Connections that never became viewers, by reason.
+    pub refused: Vec<(String, u64)>,
 }
 
 impl LiveSummary {
     /// Messages dropped for all viewers together.
     pub fn dropped(&self) -> u64 {
-        self.viewers.iter().map(|v| v.dropped).sum()
+        self.viewers.iter().map(|v| v.dropped).sum::<u64>() + self.more_viewers.dropped
     }
 }
 
@@ -58,12 +65,23 @@ impl fmt::Display for LiveSummary {
             f,
             "live view ws://{}: {} viewer(s), {} messages published, {} dropped for slow viewers",
             self.addr,
-            self.viewers.len(),
+            self.viewers.len() as u64 + self.more_viewers.viewers,
             self.published,
             self.dropped()
         )?;
         for v in &self.viewers {
             write!(f, "\n  {v}")?;
+        }
+        let more = &self.more_viewers;
+        if more.viewers > 0 {
+            write!(
+                f,
+                "\n  {} more viewers: {} messages sent, {} dropped",
+                more.viewers, more.sent, more.dropped
+            )?;
+        }
+        for (why, n) in &self.refused {
+            write!(f, "\n  {n} connection(s) refused: {why}")?;
         }
         Ok(())
     }
@@ -83,6 +101,21 @@ pub fn resolve_addr(text: &str) -> Result<SocketAddr, LiveError> {
         .map_err(|e| bad(e.to_string()))?
         .next()
         .ok_or_else(|| bad("names no address".into()))
+}
+
+/// What a user should know before serving on `addr`: beyond the loopback, anyone who can reach
+/// the port watches, with no password and no encryption. `None` on the loopback.
+pub fn exposure_warning(addr: SocketAddr) -> Option<String> {
+    if addr.ip().is_loopback() {
+        return None;
+    }
+    let port = addr.port();
+    Some(format!(
+        "live view on {addr}: every host that can reach port {port} here may watch (no password, \
+         no encryption). On a network you do not trust, serve on the loopback (the default) and \
+         tunnel from your laptop: ssh -L {port}:127.0.0.1:{port} USER@ROVER, then open \
+         ws://127.0.0.1:{port}"
+    ))
 }
 
 impl LiveServer {
@@ -192,6 +225,17 @@ impl LiveServer {
         self.hub.reports()
     }
 
+    /// The most latched messages each connected viewer has had waiting at once.
+    #[cfg(test)]
+    pub(super) fn backlog_peaks(&self) -> Vec<usize> {
+        self.hub.backlog_peaks()
+    }
+
+    /// Connections refused so far, by reason.
+    pub fn refusals(&self) -> Vec<(String, u64)> {
+        self.hub.refusals()
+    }
+
     /// Stops after the viewers' queues have drained (at most `drain`), tells every viewer
     /// `note` (an info status: why the stream ended), closes each connection normally (1000)
     /// and reports.
@@ -206,6 +250,8 @@ impl LiveServer {
             addr: self.addr,
             published: self.hub.published(),
             viewers: self.hub.reports(),
+            more_viewers: self.hub.more_viewers(),
+            refused: self.hub.refusals(),
         }
     }
 
@@ -231,11 +277,15 @@ fn accept_loop(listener: &TcpListener, cx: ViewerContext) {
         match listener.accept() {
             Ok((stream, peer)) => {
                 threads.retain(|t| !t.is_finished());
-                if threads.len() >= cx.options.max_viewers {
-                    cx.hub.refused(
-                        peer,
-                        format!("refused: {} viewers already", cx.options.max_viewers),
+                // Viewers are limited in the hub (an idle one gives its place); this bounds
+                // the threads of connections still in their handshake.
+                if threads.len() >= cx.options.max_viewers + HANDSHAKES {
+                    let why = format!(
+                        "busy: {} connections open already",
+                        cx.options.max_viewers + HANDSHAKES
                     );
+                    answer_busy(stream, &why);
+                    cx.hub.refused(why);
                     continue;
                 }
                 let viewer_cx = cx.clone();
@@ -250,7 +300,7 @@ fn accept_loop(listener: &TcpListener, cx: ViewerContext) {
                     });
                 match spawned {
                     Ok(t) => threads.push(t),
-                    Err(e) => cx.hub.refused(peer, format!("no thread for it: {e}")),
+                    Err(e) => cx.hub.refused(format!("no thread for it: {e}")),
                 }
             }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock => std::thread::sleep(ACCEPT_POLL),
@@ -263,9 +313,47 @@ fn accept_loop(listener: &TcpListener, cx: ViewerContext) {
     }
 }
 
+/// Answers a connection there is no thread for with HTTP 503 and its reason, never blocking
+/// the accept thread (a reset without an answer reads as a server that is down).
+fn answer_busy(mut stream: TcpStream, why: &str) {
+    if stream.set_nonblocking(true).is_err() {
+        return;
+    }
+    // The request read so far is taken, so that closing does not reset the connection before
+    // the answer is read.
+    let mut request = [0u8; 4096];
+    let _ = stream.read(&mut request);
+    let answer = format!(
+        "HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: {}\r\n\
+         Retry-After: 5\r\nConnection: close\r\n\r\n{why}",
+        why.len()
+    );
+    let _ = stream.write_all(answer.as_bytes());
+    let _ = stream.shutdown(Shutdown::Write);
+}
+
 /// The host's clock [ns since the Unix epoch].
 pub(crate) fn unix_now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn serving_beyond_the_loopback_says_who_may_watch_and_how_to_tunnel() {
+        for quiet in ["8765", "127.0.0.1:8765", "[::1]:8765"] {
+            let addr = resolve_addr(quiet).expect("an address");
+            assert_eq!(exposure_warning(addr), None, "{quiet}");
+        }
+        for open in ["0.0.0.0:8765", "[::]:8765", "10.0.0.7:8765"] {
+            let addr = resolve_addr(open).expect("an address");
+            let warning = exposure_warning(addr).expect("a warning");
+            assert!(warning.contains("no password"), "{warning}");
+            assert!(warning.contains("ssh -L 8765:127.0.0.1:8765"), "{warning}");
+        }
+    }
 }

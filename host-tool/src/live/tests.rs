@@ -2,6 +2,7 @@
 //! with a viewer that never reads.
 
 use super::client::{Incoming, LiveClient, Received};
+use super::hub;
 use super::protocol::{status_level, ServerOp, SUBPROTOCOL};
 use super::*;
 use crate::log::mcap::{read_mcap_run, SAMPLE_CHANNEL, TOPIC_EVENT, TOPIC_SAMPLE, TOPIC_STATUS};
@@ -206,14 +207,171 @@ fn a_client_without_the_foxglove_subprotocol_is_refused_and_reported() {
     let stream = TcpStream::connect(server.local_addr()).expect("connect");
     let refused = tungstenite::client(format!("ws://{}/", server.local_addr()), stream);
     assert!(refused.is_err());
-    wait_for("the report", || !server.reports().is_empty());
+    wait_for("the report", || !server.refusals().is_empty());
+    let refusals = server.refusals();
+    assert!(
+        refusals[0].0.contains(SUBPROTOCOL) && refusals[0].1 == 1,
+        "{refusals:?}"
+    );
+    assert!(server.reports().is_empty());
+}
+
+/// Publishes `n` events on the latched event channel.
+fn events(server: &LiveServer, n: u32) {
+    let mut sink = server.recording_sink();
+    for i in 0..n {
+        let lost = LogEvent::SamplesLost {
+            after_seq: i,
+            missing: 1,
+        };
+        sink.event(f64::from(i) * 1e-3, &lost).expect("event");
+    }
+}
+
+/// A viewer that subscribes and unsubscribes the latched events as fast as it can and never
+/// reads: it is owed one event history at most, whatever it asks, and is let go for the rate
+/// of its ops.
+#[test]
+fn a_subscribe_flood_that_never_reads_holds_one_history_and_is_let_go() {
+    let server = LiveServer::bind(loopback(), LiveOptions::default()).expect("bind");
+    events(&server, 2 * hub::LATCHED_MAX as u32);
+    let mut flood = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
+    let start = Instant::now();
+    let mut ops = 0u64;
+    let mut peak = 0;
+    while start.elapsed() < TIMEOUT {
+        let sent = flood
+            .subscribe(1, TOPIC_EVENT)
+            .and_then(|()| flood.unsubscribe(1));
+        peak = server.backlog_peaks().into_iter().fold(peak, usize::max);
+        if sent.is_err() {
+            break;
+        }
+        ops += 2;
+    }
+    wait_for("the viewer to be let go", || server.viewers() == 0);
     let report = &server.reports()[0];
     assert!(
         report
             .ended
             .as_deref()
-            .is_some_and(|e| e.contains(SUBPROTOCOL)),
-        "{report:?}"
+            .is_some_and(|e| e.contains("ops faster")),
+        "{report:?} after {ops} ops in {:?}",
+        start.elapsed()
+    );
+    assert!(
+        (1..=hub::LATCHED_MAX).contains(&peak),
+        "{peak} latched messages held for one viewer after {ops} ops"
+    );
+}
+
+/// Connections that never finish their handshake, and viewers that never subscribe, do not
+/// keep a viewer out: the silent ones hold no viewer's place, and an idle viewer gives its
+/// place to a new one.
+#[test]
+fn idle_connections_do_not_lock_a_new_viewer_out() {
+    let server = LiveServer::bind(loopback(), LiveOptions::default()).expect("bind");
+    let max = LiveOptions::default().max_viewers;
+    let silent: Vec<TcpStream> = (0..max)
+        .map(|_| TcpStream::connect(server.local_addr()).expect("connect"))
+        .collect();
+    let idle: Vec<LiveClient> = (0..max)
+        .map(|_| LiveClient::connect(server.local_addr(), TIMEOUT).expect("an idle viewer"))
+        .collect();
+    wait_for("the idle viewers", || server.viewers() == max);
+    let mut viewer = LiveClient::connect(server.local_addr(), TIMEOUT).expect("a place");
+    viewer.subscribe(1, TOPIC_EVENT).expect("subscribe");
+    events(&server, 1);
+    assert_eq!(data(&mut viewer).subscription_id, 1);
+    wait_for("the idle one's report", || {
+        server.reports().iter().any(|r| {
+            r.ended
+                .as_deref()
+                .is_some_and(|e| e.contains("subscribed to nothing"))
+        })
+    });
+    drop((silent, idle));
+}
+
+/// With every place taken by a subscribed viewer, a new one is told why (an error status and
+/// "try again later", 1013); past the connections the server keeps open, a new connection gets
+/// an HTTP 503 with the reason, not a reset. Each refusal is counted once.
+#[test]
+fn a_full_server_answers_why_it_refuses() {
+    let one = LiveOptions {
+        max_viewers: 1,
+        ..LiveOptions::default()
+    };
+    let server = LiveServer::bind(loopback(), one).expect("bind");
+    let mut first = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
+    first.subscribe(1, TOPIC_SAMPLE).expect("subscribe");
+    wait_for("the subscription", || {
+        !server.subscribed_channels().is_empty()
+    });
+    let mut second = LiveClient::connect(server.local_addr(), TIMEOUT).expect("handshake");
+    match second.read().expect("a status") {
+        Incoming::Op(ServerOp::Status { level, message }) => {
+            assert_eq!(level, status_level::ERROR);
+            assert!(message.contains("1 viewers already"), "{message}");
+        }
+        other => panic!("expected a status, got {other:?}"),
+    }
+    assert_eq!(
+        second.read().expect("a close"),
+        Incoming::Closed(Some(1013))
+    );
+
+    // More silent connections than the server keeps open for handshakes (33 here): the
+    // last ones are answered at once.
+    let silent: Vec<TcpStream> = (0..40)
+        .map(|_| TcpStream::connect(server.local_addr()).expect("connect"))
+        .collect();
+    let mut answer = String::new();
+    for mut stream in silent.iter().rev() {
+        stream
+            .set_read_timeout(Some(Duration::from_millis(200)))
+            .expect("timeout");
+        if stream.read_to_string(&mut answer).is_ok() && !answer.is_empty() {
+            break;
+        }
+    }
+    assert!(answer.starts_with("HTTP/1.1 503"), "{answer}");
+    assert!(answer.contains("busy"), "{answer}");
+    let refusals = server.refusals();
+    let busy = refusals
+        .iter()
+        .find(|r| r.0.contains("busy"))
+        .expect("counted");
+    // 33 open at once: the subscribed viewer's and 32 handshakes (the refused viewer's thread
+    // may not have ended yet).
+    assert!((7..=8).contains(&busy.1), "{refusals:?}");
+    drop(silent);
+}
+
+/// A client that sends its request a byte at a time (slower than tungstenite's own check of
+/// tiny packets catches) is let go at the handshake's deadline.
+#[test]
+fn a_handshake_dribbled_byte_by_byte_is_let_go() {
+    let server = LiveServer::bind(loopback(), LiveOptions::default()).expect("bind");
+    let mut stream = TcpStream::connect(server.local_addr()).expect("connect");
+    let start = Instant::now();
+    let request = b"GET / HTTP/1.1\r\n"
+        .iter()
+        .chain(b"X-Slow: 1\r\n".iter().cycle());
+    for byte in request {
+        if stream.write_all(&[*byte]).is_err() || !server.refusals().is_empty() {
+            break;
+        }
+        assert!(start.elapsed() < TIMEOUT, "still in its handshake");
+        std::thread::sleep(Duration::from_millis(150));
+    }
+    wait_for("the refusal", || !server.refusals().is_empty());
+    assert!(
+        server.refusals()[0]
+            .0
+            .contains("no complete WebSocket request"),
+        "{:?}",
+        server.refusals()
     );
 }
 

@@ -31,8 +31,22 @@ const BATCH: usize = 256;
 /// viewer draws at its frame rate, and each write is a syscall and a wake-up (at 2 kHz,
 /// a write per message cost the viewer threads 8× the CPU).
 const COALESCE: Duration = Duration::from_millis(10);
-/// Time allowed for the handshake and the first ops.
+/// Time allowed for the whole handshake: a client that sends its request a byte at a time, or
+/// never, is let go (a connection that is not yet a viewer holds no viewer's place).
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(5);
+/// How often a handshake that waits for bytes looks at its deadline.
+const HANDSHAKE_POLL: Duration = Duration::from_millis(100);
+/// Most ops read per turn of the loop: a viewer that floods ops cannot keep its thread from
+/// writing, or from noticing that its socket takes nothing.
+const OPS_PER_TURN: usize = 64;
+/// Ops a viewer may send at once, and per second after that. A viewer subscribes panel by
+/// panel (a few dozen ops); each subscription to the events copies their history, so a
+/// flood costs the recording's host CPU: a viewer past this rate is let go.
+const OPS_BURST: f64 = 256.0;
+const OPS_PER_S: f64 = 32.0;
+/// Most bytes the WebSocket may hold unsent for one viewer (a batch and the latched backlog
+/// need well under this); past it the viewer is let go.
+const MAX_UNSENT: usize = 2 * 1024 * 1024;
 
 /// What the viewer's thread needs from the server.
 pub(super) struct ViewerContext {
@@ -50,7 +64,14 @@ pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
     let counters = Arc::new(ViewerCounters::default());
     let why = match handshake(stream, cx) {
         Ok(mut ws) => {
-            let queue = cx.hub.join(peer, cx.options.queue_len, counters.clone());
+            let queue = match cx.hub.join(peer, &cx.options, counters.clone()) {
+                Ok(queue) => queue,
+                Err(full) => {
+                    refuse_after_handshake(&mut ws, &full);
+                    cx.hub.refused(full);
+                    return;
+                }
+            };
             let why = Connection {
                 ws: &mut ws,
                 counters: &counters,
@@ -58,6 +79,7 @@ pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
                 subscriptions: BTreeMap::new(),
                 backlog: Vec::new(),
                 unflushed: false,
+                ops: OpBudget::default(),
             }
             .run(&queue, cx);
             say_goodbye(&mut ws, cx, &why);
@@ -66,13 +88,44 @@ pub(super) fn serve(stream: TcpStream, peer: SocketAddr, cx: &ViewerContext) {
         Err(why) => {
             // Not a viewer (a port scan, a browser without the subprotocol): reported, so a
             // user whose viewer cannot connect sees why.
-            cx.hub.refused(peer, format!("handshake failed: {why}"));
+            cx.hub.refused(format!("handshake failed: {why}"));
             return;
         }
     };
     cx.hub.leave(&counters, why);
 }
 
+/// Tells a viewer there is no place for it (an error in its problems panel) and closes with
+/// "try again later" (1013).
+fn refuse_after_handshake(ws: &mut WebSocket<TcpStream>, why: &str) {
+    let _ = ws.get_ref().set_nonblocking(false);
+    let _ = ws.get_ref().set_write_timeout(Some(GOODBYE_TIMEOUT));
+    let op = ServerOp::Status {
+        level: status_level::ERROR,
+        message: why.to_owned(),
+    };
+    if let Ok(text) = serde_json::to_string(&op) {
+        let _ = ws.write(Message::text(text));
+    }
+    let _ = ws.close(Some(CloseFrame {
+        code: CloseCode::Again,
+        reason: close_reason(why).into(),
+    }));
+    let _ = ws.flush();
+}
+
+/// A close frame's reason holds at most 123 bytes.
+fn close_reason(reason: &str) -> String {
+    let mut end = reason.len().min(123);
+    while !reason.is_char_boundary(end) {
+        end -= 1;
+    }
+    reason[..end].to_owned()
+}
+
+/// Why [`Connection::run`] ends when a new viewer takes the place of this one, which subscribed
+/// to nothing ([`Hub::join`]).
+const EVICTED: &str = "subscribed to nothing while a new viewer needed its place";
 /// Why [`Connection::run`] ends when the server finishes.
 const SERVER_STOPPED: &str = "server stopped";
 /// Longest wait for the goodbye to leave the socket.
@@ -101,14 +154,9 @@ fn say_goodbye(ws: &mut WebSocket<TcpStream>, cx: &ViewerContext, why: &str) {
         }
         _ => (CloseCode::Away, why),
     };
-    // A close frame's reason holds at most 123 bytes.
-    let mut end = reason.len().min(123);
-    while !reason.is_char_boundary(end) {
-        end -= 1;
-    }
     let _ = ws.close(Some(CloseFrame {
         code,
-        reason: reason[..end].to_owned().into(),
+        reason: close_reason(reason).into(),
     }));
     if blocking {
         let _ = ws.flush();
@@ -117,26 +165,43 @@ fn say_goodbye(ws: &mut WebSocket<TcpStream>, cx: &ViewerContext, why: &str) {
 
 fn handshake(stream: TcpStream, cx: &ViewerContext) -> Result<WebSocket<TcpStream>, String> {
     let io = |e: io::Error| e.to_string();
+    let deadline = Instant::now() + HANDSHAKE_TIMEOUT;
     stream.set_nodelay(true).map_err(io)?;
-    stream
-        .set_read_timeout(Some(HANDSHAKE_TIMEOUT))
-        .map_err(io)?;
+    // Short waits, so that the deadline is looked at while a client dribbles its request.
+    stream.set_read_timeout(Some(HANDSHAKE_POLL)).map_err(io)?;
     stream
         .set_write_timeout(Some(HANDSHAKE_TIMEOUT))
         .map_err(io)?;
     let config = WebSocketConfig::default()
         .write_buffer_size(64 * 1024)
-        // Backpressure is our queue's job; this only bounds one batch plus control frames.
-        .max_write_buffer_size(16 * 1024 * 1024)
+        // Backpressure is our queue's job; this bounds one batch, the backlog and control
+        // frames (a viewer past it is let go: `write`).
+        .max_write_buffer_size(MAX_UNSENT)
         .max_message_size(Some(1024 * 1024));
-    let mut ws = tungstenite::accept_hdr_with_config(stream, choose_subprotocol, Some(config))
-        .map_err(|e| match e {
-            // Our refusal's body says why.
-            HandshakeError::Failure(tungstenite::Error::Http(response)) => {
-                String::from_utf8_lossy(response.body().as_deref().unwrap_or_default()).into_owned()
+    let refusal = |e: HandshakeError<_>| match e {
+        // Our refusal's body says why.
+        HandshakeError::Failure(tungstenite::Error::Http(response)) => {
+            String::from_utf8_lossy(response.body().as_deref().unwrap_or_default()).into_owned()
+        }
+        other => other.to_string(),
+    };
+    let mut attempt = tungstenite::accept_hdr_with_config(stream, choose_subprotocol, Some(config));
+    let mut ws = loop {
+        match attempt {
+            Ok(ws) => break ws,
+            // A read that waited HANDSHAKE_POLL for bytes.
+            Err(HandshakeError::Interrupted(mid)) => {
+                if Instant::now() >= deadline || cx.stop.load(Ordering::Relaxed) {
+                    return Err(format!(
+                        "no complete WebSocket request within {} s",
+                        HANDSHAKE_TIMEOUT.as_secs()
+                    ));
+                }
+                attempt = mid.handshake();
             }
-            other => other.to_string(),
-        })?;
+            Err(e) => return Err(refusal(e)),
+        }
+    };
     let info = ServerOp::ServerInfo {
         name: cx.options.name.clone(),
         capabilities: Vec::new(),
@@ -195,6 +260,32 @@ struct Connection<'a> {
     backlog: Vec<Outgoing>,
     /// Something (a status op) was written but not flushed yet.
     unflushed: bool,
+    ops: OpBudget,
+}
+
+/// The ops a viewer may still send ([`OPS_BURST`], refilled at [`OPS_PER_S`]).
+struct OpBudget {
+    left: f64,
+    at: Instant,
+}
+
+impl Default for OpBudget {
+    fn default() -> Self {
+        Self {
+            left: OPS_BURST,
+            at: Instant::now(),
+        }
+    }
+}
+
+impl OpBudget {
+    /// Takes one op; false when the viewer sends faster than the budget allows.
+    fn take(&mut self) -> bool {
+        let now = Instant::now();
+        let refill = now.duration_since(self.at).as_secs_f64() * OPS_PER_S;
+        (self.left, self.at) = ((self.left + refill).min(OPS_BURST) - 1.0, now);
+        self.left >= 0.0
+    }
 }
 
 impl Connection<'_> {
@@ -205,6 +296,9 @@ impl Connection<'_> {
         loop {
             if cx.stop.load(Ordering::Relaxed) {
                 return SERVER_STOPPED.into();
+            }
+            if self.counters.evicted.load(Ordering::Relaxed) {
+                return EVICTED.into();
             }
             if let Err(why) = self.read_ops() {
                 return why;
@@ -224,7 +318,7 @@ impl Connection<'_> {
                         std::thread::sleep(POLL);
                         continue;
                     }
-                    Err(e) => return format!("connection lost: {e}"),
+                    Err(e) => return lost(e),
                 }
             }
             if !self.backlog.is_empty() {
@@ -248,17 +342,25 @@ impl Connection<'_> {
         }
     }
 
-    /// Reads every op the viewer has sent; `Err` when it has gone.
+    /// Reads the ops the viewer has sent, [`OPS_PER_TURN`] at most; `Err` when it has gone.
     fn read_ops(&mut self) -> Result<(), String> {
-        loop {
+        for _ in 0..OPS_PER_TURN {
             match self.ws.read() {
-                Ok(Message::Text(text)) => self.on_op(text.as_str()),
+                Ok(Message::Text(text)) => {
+                    if !self.ops.take() {
+                        return Err(format!(
+                            "sent ops faster than {OPS_PER_S:.0} a second: disconnected"
+                        ));
+                    }
+                    self.on_op(text.as_str());
+                }
                 Ok(Message::Close(_)) => return Err("viewer closed the connection".into()),
                 Ok(_) => {}
                 Err(e) if would_block(&e) => return Ok(()),
-                Err(e) => return Err(format!("connection lost: {e}")),
+                Err(e) => return Err(lost(e)),
             }
         }
+        Ok(())
     }
 
     fn on_op(&mut self, text: &str) {
@@ -280,8 +382,14 @@ impl Connection<'_> {
             Err(e) => self.warn(e.to_string()),
         }
         let mask = self.subscriptions.keys().fold(0, |m, c| m | c.bit());
+        // What is still unsent of a channel no longer subscribed goes (it would not be sent),
+        // so a viewer holds one latched history per channel however often it resubscribes.
+        self.backlog.retain(|m| m.channel.bit() & mask != 0);
         let backlog = self.hub.subscribe(self.counters, mask);
         self.backlog.extend(backlog);
+        self.counters
+            .backlog_peak
+            .fetch_max(self.backlog.len(), Ordering::Relaxed);
     }
 
     /// A warning in the viewer's problems panel (dropped if the socket is full).
@@ -343,7 +451,7 @@ impl Connection<'_> {
         let taken = match self.ws.write(Message::binary(frame)) {
             Ok(()) => true,
             Err(e) if would_block(&e) => false,
-            Err(e) => return Err(format!("connection lost: {e}")),
+            Err(e) => return Err(lost(e)),
         };
         self.counters.sent.fetch_add(1, Ordering::Relaxed);
         Ok(taken)
@@ -353,8 +461,19 @@ impl Connection<'_> {
         match self.ws.flush() {
             Ok(()) => Ok(true),
             Err(e) if would_block(&e) => Ok(false),
-            Err(e) => Err(format!("connection lost: {e}")),
+            Err(e) => Err(lost(e)),
         }
+    }
+}
+
+/// Why a viewer is let go after a write or read failed.
+fn lost(e: tungstenite::Error) -> String {
+    match e {
+        tungstenite::Error::WriteBufferFull(_) => format!(
+            "more than {} MB unsent: disconnected",
+            MAX_UNSENT / (1024 * 1024)
+        ),
+        e => format!("connection lost: {e}"),
     }
 }
 
