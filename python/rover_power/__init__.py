@@ -18,7 +18,9 @@ current in A (positive drawn from the battery), commanded side speeds in m/s, ya
 Errors are ``RoverPowerError`` with the command line's message (file, line and column where
 there is one). What reading a run log found (a file cut short, a damaged stretch left out) is a
 ``RoverPowerWarning``; data lost to damage is an error unless ``salvage=True``, as the command
-line's exit code 4 is unless ``--salvage``.
+line's exit code 4 is unless ``--salvage``. A path that is not a regular file (a directory,
+a FIFO, a device such as ``/dev/urandom``) is refused with a ``RoverPowerError`` naming it,
+before anything is read: reading a FIFO waits for a writer, and a device may never end.
 """
 
 from __future__ import annotations
@@ -60,12 +62,16 @@ def read_run(
     reset, wall clock, ...) as dicts with ``t_s`` and ``kind``: an MCAP log's own, or a run
     CSV's ``RUN.events.jsonl`` when it lies beside it.
 
+    The frame's values are read-only (they are the reader's own memory, handed over without a
+    copy): setting a value raises ``ValueError``; ``df.copy()`` is a frame to change in place.
+    Adding, replacing or dropping whole columns works as on any frame.
+
     ``salvage`` and ``rig_range`` are the command line's ``--salvage`` and ``--rig-range``
     (``"physical"``, ``"board"`` or ``"BUS_V,CURRENT_A"``).
     """
     columns, events = _native.read_run(os.fspath(path), salvage, rig_range)
-    # Each column is the Rust side's own vector: numpy views it in place (the array's base
-    # keeps it alive) and pandas keeps the views, one block per column.
+    # Each column is the Rust side's own vector: numpy views it in place, read-only (the
+    # array's base keeps it alive) and pandas keeps the views, one block per column.
     values = [np.asarray(column) for column in columns]
     frame = pd.DataFrame(
         dict(zip(COLUMNS[1:], values[1:])),

@@ -3,15 +3,21 @@
 //! sequences as the CLI's (`host_tool::analysis`), so a report here is the CLI's `--json`.
 //! Each call reads and computes without the GIL; what reading found is warned about
 //! (`RoverPowerWarning`) once the call is back in Python; errors carry the CLI's message.
+//! Every path is refused up front unless it is a regular file (or missing, which the reader
+//! words): a FIFO would wait for a writer and a device may never end, and neither can be
+//! interrupted from Python while the call waits in Rust.
 
 use host_tool::analysis::{self, Reader};
+use host_tool::log::csv_sink::events_path;
+use host_tool::log::load::RunFormat;
 use host_tool::log::run_csv::{Column, RigRange};
 use host_tool::plan::{load_model, ModelSource, Preset};
 use pyo3::exceptions::{PyException, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ffi::CString;
-use std::path::PathBuf;
+use std::fs::Metadata;
+use std::path::{Path, PathBuf};
 
 pyo3::create_exception!(
     rover_power,
@@ -29,6 +35,67 @@ pyo3::create_exception!(
 /// The error as a Python exception, worded as the CLI prints it.
 fn error(e: anyhow::Error) -> PyErr {
     RoverPowerError::new_err(host_tool::stderr::error_text(&e))
+}
+
+/// Refuses each of `paths` that exists and is not a regular file (a directory, a FIFO, a
+/// device, a socket), naming it and what it is. Asked of the file system without opening the
+/// file: opening a FIFO waits for a writer. A path that cannot be looked at (missing, not
+/// permitted) passes: the reader's own error names it, as the CLI's does.
+fn regular_files<'a>(paths: impl IntoIterator<Item = &'a Path>) -> PyResult<()> {
+    for path in paths {
+        let Ok(metadata) = std::fs::metadata(path) else {
+            continue;
+        };
+        if metadata.is_dir() {
+            let shown = path.display();
+            return Err(RoverPowerError::new_err(format!(
+                "{shown}: is a directory, not a file"
+            )));
+        }
+        if !metadata.is_file() {
+            return Err(RoverPowerError::new_err(format!(
+                "{}: {}, not a regular file (reading it could wait for a writer or never end: \
+                 save its data to a file and pass that)",
+                path.display(),
+                what_it_is(&metadata)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// What a path that is neither a regular file nor a directory is, in words.
+#[cfg_attr(not(unix), allow(unused_variables))]
+fn what_it_is(metadata: &Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let kind = metadata.file_type();
+        if kind.is_fifo() {
+            return "is a named pipe (FIFO)";
+        }
+        if kind.is_char_device() {
+            return "is a character device";
+        }
+        if kind.is_block_device() {
+            return "is a block device";
+        }
+        if kind.is_socket() {
+            return "is a socket";
+        }
+    }
+    "is a special file"
+}
+
+/// Refuses an empty list of runs, which the analysis would word as a run set without
+/// manoeuvres.
+fn some_runs(runs: &[PathBuf], command: &str, takes: &str) -> PyResult<()> {
+    if runs.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "no runs given: {command} needs at least one {takes}"
+        )));
+    }
+    Ok(())
 }
 
 fn rig_range(text: &str) -> PyResult<RigRange> {
@@ -72,9 +139,11 @@ fn columns() -> Vec<&'static str> {
     Column::ALL.iter().map(|c| c.name()).collect()
 }
 
-/// One column of a run lent to numpy without a copy: numpy reads and writes `values` through
+/// One column of a run lent to numpy without a copy: numpy reads `values` through
 /// `__array_interface__` and keeps this object alive as the array's base, as rust-numpy's
-/// `PyArray::from_vec` does (that crate does not build for the stable ABI). Rust never reads
+/// `PyArray::from_vec` does (that crate does not build for the stable ABI). The array is
+/// read-only: this object is frozen (shared), so nothing may write through its vector; a
+/// copy (`array.copy()`, `DataFrame.copy()`) is numpy's own to change. Rust never reads
 /// `values` again; it only frees them with the last array.
 #[pyclass(frozen)]
 #[derive(Debug)]
@@ -85,7 +154,7 @@ struct ColumnBuffer {
 
 #[pymethods]
 impl ColumnBuffer {
-    /// numpy's array interface (version 3): a writable one-dimensional array of f64.
+    /// numpy's array interface (version 3): a read-only one-dimensional array of f64.
     #[getter]
     fn __array_interface__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let interface = PyDict::new(py);
@@ -97,7 +166,8 @@ impl ColumnBuffer {
             ">f8"
         };
         interface.set_item("typestr", typestr)?;
-        interface.set_item("data", (self.values.as_ptr() as usize, false))?;
+        // (address, read-only): `as_ptr` lends the values to be read, never written.
+        interface.set_item("data", (self.values.as_ptr() as usize, true))?;
         Ok(interface)
     }
 }
@@ -112,6 +182,9 @@ fn read_run(
     rig_range: &str,
 ) -> PyResult<(Vec<ColumnBuffer>, String)> {
     let range = self::rig_range(rig_range)?;
+    // A run CSV's events file beside it is read too.
+    let events = matches!(RunFormat::of(&path), Ok(RunFormat::Csv)).then(|| events_path(&path));
+    regular_files([path.as_path()].into_iter().chain(events.as_deref()))?;
     reading(py, salvage, range, |reader| {
         let columns = analysis::read_run_columns(&path, reader)?;
         let events = columns.events_json().to_string();
@@ -130,6 +203,8 @@ fn validate(
     rig_range: &str,
 ) -> PyResult<String> {
     let range = self::rig_range(rig_range)?;
+    some_runs(&runs, "validate", "run log (.csv or .mcap)")?;
+    regular_files(rover.iter().chain(&runs).map(PathBuf::as_path))?;
     reading(py, salvage, range, |reader| {
         let rover_file = host_tool::rover::load_rover_file_or_husky(rover.as_deref())?;
         let options = host_tool::validate::ValidateOptions {
@@ -154,6 +229,18 @@ fn diagnose(
     rig_range: &str,
 ) -> PyResult<String> {
     let range = self::rig_range(rig_range)?;
+    some_runs(
+        &runs,
+        "diagnose",
+        "run log (.csv or .mcap), per-turn summary CSV or path table",
+    )?;
+    regular_files(
+        rover
+            .iter()
+            .chain(&runs)
+            .chain(&calibration)
+            .map(PathBuf::as_path),
+    )?;
     reading(py, salvage, range, |reader| {
         let rover_file = host_tool::rover::load_rover_file_or_husky(rover.as_deref())?;
         let diagnosed = analysis::diagnose(&rover_file, &runs, &calibration, reader)?;
@@ -171,6 +258,7 @@ fn plan(
     distance_m: f64,
     model: Option<PathBuf>,
 ) -> PyResult<String> {
+    regular_files(model.as_deref())?;
     py.detach(|| -> anyhow::Result<String> {
         let (model, source) = match model {
             Some(path) => (load_model(&path)?, ModelSource::File(path)),

@@ -2,9 +2,13 @@
 with what the CLI writes (`--json`, `convert`) or what pandas reads from the same file, never
 with values written down here."""
 
+import gc
 import json
+import os
 import pathlib
 import random
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -46,11 +50,10 @@ def test_run_csv_reads_as_pandas_reads_it(demo_out):
     assert rp.COLUMNS == ["t_s", *df.columns]
 
 
-def test_a_frame_owns_its_memory_and_can_be_written(demo_out):
-    """The columns are the Rust side's vectors, lent to numpy: they outlive every other
-    reference to the call's result, and a frame can be changed in place like any other."""
-    import gc
-
+def test_a_frame_owns_its_memory_read_only(demo_out):
+    """The columns are the Rust side's vectors, lent to numpy read-only: they outlive every
+    other reference to the call's result, and setting a value raises ValueError instead of
+    writing into memory Rust lent to be read; a copy is a frame like any other."""
     path = demo_out / "run-1.csv"
     df = rp.read_run(path)
     expected = pd.read_csv(path, index_col="t_s")
@@ -60,15 +63,36 @@ def test_a_frame_owns_its_memory_and_can_be_written(demo_out):
     same_frame(df, expected)
     column = df["left_current_a"].to_numpy()
     assert column.dtype == np.float64 and column.flags["C_CONTIGUOUS"]
-    df.iloc[0, 0] = -1.0
-    df.loc[df.index[1], "right_current_a"] += 1.0
-    assert df.iloc[0, 0] == -1.0
-    assert df["right_current_a"].iloc[1] == expected["right_current_a"].iloc[1] + 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        df.iloc[0, 0] = -1.0
+    with pytest.raises(ValueError, match="read-only"):
+        df.loc[df.index[1], "right_current_a"] += 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        df.loc[df.index < df.index[10], "left_current_a"] = np.nan
+    same_frame(df, expected)
+    changed = df.copy()
+    changed.iloc[0, 0] = -1.0
+    changed.loc[changed.index[1], "right_current_a"] += 1.0
+    assert changed.iloc[0, 0] == -1.0
+    assert changed["right_current_a"].iloc[1] == expected["right_current_a"].iloc[1] + 1.0
+    df["power_w"] = df["left_bus_v"] * df["left_current_a"]  # a new column, as on any frame
     view = np.asarray(df["left_bus_v"])
-    del df
+    del df, changed
     gc.collect()
-    assert view[0] == -1.0
-    np.testing.assert_array_equal(view[1:], expected["left_bus_v"].to_numpy()[1:])
+    np.testing.assert_array_equal(view, expected["left_bus_v"].to_numpy())
+
+
+def test_the_native_columns_are_read_only(demo_out):
+    """What `_native.read_run` hands numpy cannot be written, nor made writable."""
+    columns, _ = rp._native.read_run(str(demo_out / "run-1.csv"), False, "physical")
+    assert len(columns) == len(rp.COLUMNS)
+    for column in columns:
+        array = np.asarray(column)
+        assert array.dtype == np.float64 and not array.flags.writeable
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 0.0
+        with pytest.raises(ValueError):
+            array.flags.writeable = True
 
 
 def test_mcap_log_reads_as_its_run_csv(host_tool, demo_runs, tmp_path):
@@ -197,6 +221,88 @@ def test_bad_arguments_are_value_errors(demo_runs):
         rp.read_run(demo_runs[0], rig_range="huge")
     with pytest.raises(rp.RoverPowerError, match="distance"):
         rp.plan(45, 45, -5)
+
+
+def test_no_runs_is_a_value_error_that_says_so(demo_runs):
+    """An empty list of runs (the command line requires --runs) is named as such, not as a
+    run set without manoeuvres."""
+    with pytest.raises(ValueError, match=r"^no runs given: diagnose needs at least one run log"):
+        rp.diagnose(None, [])
+    with pytest.raises(ValueError, match=r"^no runs given: diagnose needs"):
+        rp.diagnose(None, [], calibration=demo_runs[0])
+    with pytest.raises(ValueError, match=r"^no runs given: validate needs at least one run log"):
+        rp.validate(None, [])
+
+
+# Runs one call in a fresh Python (a call that hangs, as reading a FIFO without a writer did,
+# is killed there rather than hanging the suite) and prints how long it took and how it ended.
+CALL_IN_A_CHILD = """
+import sys, time
+import rover_power as rp
+start = time.monotonic()
+try:
+    eval(sys.argv[1], {"rp": rp})
+    outcome = "returned"
+except rp.RoverPowerError as e:
+    outcome = "RoverPowerError: " + str(e)
+print(time.monotonic() - start)
+print(outcome)
+"""
+
+
+# Each Python entry point with a path, that path a FIFO without a writer (made by the test),
+# a device or a directory: the call, the path's name, and what the error must say it is.
+NOT_A_FILE = [
+    pytest.param("rp.read_run({path!r})", "run.csv", "is a named pipe (FIFO)", id="read_run"),
+    pytest.param("rp.read_run({path!r})", "run.mcap", "is a named pipe (FIFO)", id="read_run-mcap"),
+    pytest.param("rp.read_run({csv!r})", "copy.events.jsonl", "is a named pipe", id="events"),
+    pytest.param("rp.read_run({path!r})", "dir.csv", "is a directory, not a file", id="dir"),
+    pytest.param("rp.validate(None, [{run!r}, {path!r}])", "run.csv", "is a named", id="validate"),
+    pytest.param("rp.validate({path!r}, {run!r})", "rover.toml", "is a named", id="validate-rover"),
+    pytest.param("rp.diagnose(None, [{run!r}, {path!r}])", "run.mcap", "is a named", id="diagnose"),
+    pytest.param("rp.diagnose({path!r}, {run!r})", "rover.toml", "is a named", id="diagnose-rover"),
+    pytest.param(
+        "rp.diagnose(None, {run!r}, calibration={path!r})",
+        "run.csv",
+        "is a named",
+        id="calibration",
+    ),
+    pytest.param("rp.plan(90, 90, 10, model={path!r})", "model.toml", "is a named", id="plan"),
+    pytest.param(
+        "rp.plan(90, 90, 10, model={path!r})",
+        "/dev/urandom",
+        "is a character device",
+        id="plan-urandom",
+    ),
+]
+
+
+@pytest.mark.parametrize("call,name,kind", NOT_A_FILE)
+def test_what_is_not_a_regular_file_is_refused_at_once(demo_runs, tmp_path, call, name, kind):
+    """A FIFO without a writer once hung the call (opened twice, and Ctrl-C could not stop it),
+    /dev/urandom as a model file was read forever: each is refused within 5 s, naming the
+    path and what it is."""
+    path = name if name.startswith("/") else str(tmp_path / name)
+    if name == "dir.csv":
+        os.mkdir(path)
+    elif not name.startswith("/"):
+        os.mkfifo(path)
+    csv = tmp_path / "copy.csv"  # a regular run CSV with a FIFO for its events file
+    csv.write_bytes(pathlib.Path(demo_runs[0]).with_suffix(".csv").read_bytes())
+    code = call.format(path=path, csv=str(csv), run=demo_runs[0])
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", CALL_IN_A_CHILD, code],
+            capture_output=True,
+            text=True,
+            timeout=30,  # the import too, on a busy machine; the call itself must take < 5 s
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{code} still running after 30 s")
+    assert done.returncode == 0, done.stderr
+    seconds, outcome = done.stdout.splitlines()
+    assert float(seconds) < 5, (code, seconds)
+    assert outcome.startswith(f"RoverPowerError: {path}: {kind}"), (code, outcome)
 
 
 def test_an_mcap_log_cut_short_reads_to_the_cut_with_a_warning(demo_runs, tmp_path):
