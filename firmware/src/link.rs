@@ -7,7 +7,7 @@
 //! A suspended bus is not a closed port: the host keeps DTR set through suspend and resume and
 //! sends no new line state, so suspend is neither an edge nor a reason to reset the USB class.
 //! A new connection (DTR's rising edge) owes nothing to the one before: the host-to-board
-//! decoder and the commands not yet applied start afresh.
+//! decoder, the commands not yet applied and the link's counters start afresh.
 //!
 //! [`Link::service_usb`] is the USB interrupt's whole use of the port, on the board (usbd-serial
 //! behind [`CdcPort`] in `main.rs`) and in the tests (a fake port) alike.
@@ -90,11 +90,15 @@ impl Link {
 
     /// A new connection: nothing of an earlier one reaches its host. The transmit queue is
     /// already empty (cleared on the falling edge; `send` refuses while no host is connected).
-    /// A frame cut by the previous host's close would swallow this host's first command, and a
-    /// command the previous host left queued would be answered to this one.
+    /// A frame cut by the previous host's close would swallow this host's first command, a
+    /// command the previous host left queued would be answered to this one, and drops counted
+    /// while an unplugged board sat suspended (without VBUS sensing a pulled cable reads as a
+    /// suspend) would show in this host's status.
     fn start(&mut self) {
         self.rx = FrameDecoder::new();
         self.commands.clear();
+        self.queue_drops = 0;
+        self.rx_errors = 0;
         // Ends a stale frame the host may still receive from the previous connection; an empty
         // frame decodes to nothing. Cannot fail: the queue is empty.
         let _ = self.tx.push_back(0);
@@ -500,6 +504,59 @@ mod tests {
         assert_eq!(port.resets, 1, "usbd-serial's buffers dropped too");
         assert_eq!((link.queued(), port.to_host.len()), (0, 0));
         assert!(!link.send(&ack(2)));
+    }
+
+    /// A self-powered board whose cable is pulled: no VBUS sensing, so usb-device reports a
+    /// suspend and the link keeps the connection while its queue fills and drops. The next
+    /// host's bus reset ends it; the new connection's counts and bytes are its own.
+    #[test]
+    fn the_next_host_sees_nothing_of_a_connection_that_ended_in_a_pulled_cable() {
+        let mut link = Link::new();
+        let mut port = FakePort {
+            dtr: true,
+            ..FakePort::default()
+        };
+        link.service_usb(UsbState::Configured, &mut port);
+        assert!(link.take_hello_due());
+        port.send_from_host(&[0x13, 0x37, 0x00]);
+        link.service_usb(UsbState::Configured, &mut port);
+        assert_eq!(link.rx_errors(), 1);
+
+        // Unplugged: a suspend that lasts, with frames queued at the sampling rate.
+        assert_eq!(link.service_usb(UsbState::Suspended, &mut port), None);
+        for k in 0..1_000 {
+            link.send(&ack(k));
+        }
+        assert!(link.queue_drops() > 0);
+        assert!(
+            link.connected(),
+            "still connected, as far as the board knows"
+        );
+
+        // Plugged into the next host: bus reset (usb-device resets the class), enumeration,
+        // the host opens the port.
+        port.dtr = false;
+        assert_eq!(
+            link.service_usb(UsbState::Unconfigured, &mut port),
+            Some(DtrEdge::Falling)
+        );
+        assert_eq!(link.service_usb(UsbState::Configured, &mut port), None);
+        port.take_to_host(); // what the first host was sent before the pull
+        port.dtr = true;
+        assert_eq!(
+            link.service_usb(UsbState::Configured, &mut port),
+            Some(DtrEdge::Rising)
+        );
+        assert_eq!(
+            (link.queue_drops(), link.rx_errors()),
+            (0, 0),
+            "the previous connection's counts are not this host's"
+        );
+        assert_eq!(
+            port.take_to_host(),
+            [0],
+            "only the delimiter: nothing stale"
+        );
     }
 
     #[test]

@@ -147,6 +147,13 @@ mod app {
             .expect("init runs once");
         let serial_number: &'static str = identity.usb_serial(serial_buf);
 
+        // VBUS sensing stays off: the WeAct Black Pill leaves PA9 (OTG_FS_VBUS) unconnected to
+        // the USB connector's VBUS, and with sensing on the core keeps D+'s pull-up off until
+        // PA9 sees VBUS, so the board would not enumerate. (synopsys-usb-otg 0.4.0 sets
+        // GCCFG.NOVBUSSENS for this core in `enable`, with no option; stm32f4xx-hal's `USB`
+        // takes no VBUS pin.) A pulled cable therefore reads as a suspend: the link keeps the
+        // port open and queues (dropping once full) until the next host's bus reset and DTR
+        // start a fresh connection (`Link::set_connected`).
         let usb = USB {
             usb_global: dp.OTG_FS_GLOBAL,
             usb_device: dp.OTG_FS_DEVICE,

@@ -185,9 +185,11 @@ pub struct Status {
     pub skipped_results: Sides<u32>,
     /// The latest fault per chip (`None` once the chip reads fine again).
     pub last_fault: Sides<Option<ChipFault>>,
-    /// Frames dropped because the USB transmit queue was full.
+    /// Frames dropped because the USB transmit queue was full, since this connection began
+    /// (the host's DTR rising edge).
     pub queue_drops: u32,
-    /// Host frames that failed to decode (bad COBS, CRC, version or content).
+    /// Host frames that failed to decode (bad COBS, CRC, version or content), since this
+    /// connection began.
     pub rx_errors: u32,
     pub adc: AdcConfig,
     pub sample_period_us: u32,
