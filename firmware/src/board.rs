@@ -12,6 +12,11 @@ use model_core::wire::{BoardFrame, Command, Status};
 pub const MODEL_PERIOD_US: u64 = 100_000;
 /// Status frames every second.
 pub const STATUS_PERIOD_US: u64 = 1_000_000;
+/// Host commands applied per tick at most; the rest wait in the link's queue for the next tick.
+/// The USB interrupt refills the queue while the tick awaits the bus, so without a bound a
+/// flooding host would keep the tick from ending until the watchdog reset the board. One full
+/// queue: a burst the queue accepted is still answered within one tick.
+pub const COMMANDS_PER_TICK: usize = crate::link::COMMAND_CAPACITY;
 
 /// Access to the link, which the USB interrupt shares: on the board a short RTIC lock, on the
 /// host a plain `&mut Link`.
@@ -91,7 +96,10 @@ impl Board {
             let hello = self.sampler.hello();
             link.with_link(|l| l.send(&BoardFrame::Hello(hello)));
         }
-        while let Some(frame) = link.with_link(|l| l.next_command()) {
+        for _ in 0..COMMANDS_PER_TICK {
+            let Some(frame) = link.with_link(|l| l.next_command()) else {
+                break;
+            };
             let outcome = self.sampler.apply_async(i2c, &frame.command).await;
             // Read outside the link's lock: I²C time must not hold off the USB interrupt.
             let hello = if outcome.is_ok() && matches!(frame.command, Command::GetHello) {

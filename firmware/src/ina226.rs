@@ -148,8 +148,9 @@ pub fn fault_of<E: embedded_hal::i2c::Error>(e: &E) -> ChipFault {
 /// One sample's reading of a chip ([`Ina226::read_measurement`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Measurement {
-    /// Shunt and bus as read; current and power computed as the chip does.
-    pub registers: Registers,
+    /// Shunt and bus as read; current and power computed as the chip does. `None`: the bus
+    /// voltage read had bit 15 set, not a value the chip holds ([`Registers::derived`]).
+    pub registers: Option<Registers>,
     /// The calibration register, when the read-back was asked for.
     pub calibration: Option<CalibrationRaw>,
     /// The short read returned the configuration register's power-on value: a chip that reset
@@ -433,7 +434,7 @@ mod tests {
         // The chip's own arithmetic (datasheet Eq 3 and 4) reproduces its registers.
         assert_eq!(
             Registers::derived(regs.shunt, regs.bus, chip.calibration().raw()),
-            regs
+            Some(regs)
         );
         i2c.done();
     }
@@ -465,25 +466,22 @@ mod tests {
         let m = chip.read_measurement(&mut i2c, false).expect("read");
         assert_eq!(
             m.registers,
-            Registers {
+            Some(Registers {
                 shunt: ShuntVoltageRaw(0x1F40),
                 bus: BusVoltageRaw(0x2570),
                 current: CurrentRaw(0x2710),
                 power: PowerRaw(0x12B8),
-            }
+            })
         );
         assert_eq!((m.calibration, m.suspect_reset), (None, false));
         let m = chip.read_measurement(&mut i2c, false).expect("read");
-        assert_eq!(m.registers.shunt, ShuntVoltageRaw(-8000));
-        assert_eq!(
-            m.registers.current,
-            CurrentRaw(-10_000),
-            "sign of the shunt"
-        );
-        assert_eq!(m.registers.bus, BusVoltageRaw(0x2571));
+        let r = m.registers.expect("valid bus");
+        assert_eq!(r.shunt, ShuntVoltageRaw(-8000));
+        assert_eq!(r.current, CurrentRaw(-10_000), "sign of the shunt");
+        assert_eq!(r.bus, BusVoltageRaw(0x2571));
         let m = chip.read_measurement(&mut i2c, true).expect("read");
         assert_eq!(m.calibration, Some(CalibrationRaw(0x0A00)));
-        assert_eq!(m.registers.power, PowerRaw(0x12B8));
+        assert_eq!(m.registers.map(|r| r.power), Some(PowerRaw(0x12B8)));
         assert!(chip.read_measurement(&mut i2c, false).is_err());
         chip.read_measurement(&mut i2c, false).expect("read");
         let m = chip.read_measurement(&mut i2c, false).expect("read");

@@ -69,7 +69,8 @@ fn is_failing(fault: Option<ChipFault>) -> bool {
             | ChipFault::Bus
             | ChipFault::Overrun
             | ChipFault::Other
-            | ChipFault::WrongId,
+            | ChipFault::WrongId
+            | ChipFault::InvalidReading,
         ) => true,
     }
 }

@@ -27,7 +27,7 @@ mod app {
     use firmware::board::{Board, LinkAccess, Watchdog};
     use firmware::bus_recovery::Recovery;
     use firmware::led::LedPattern;
-    use firmware::link::{DtrEdge, Link, UsbState};
+    use firmware::link::{CdcPort, DtrEdge, Link, UsbState};
     use firmware::sampler::SamplerConfig;
     use firmware::stm32_i2c::{BusControl, I2c1};
     use model_core::board_id::{BoardIdentity, SERIAL_LEN, UID_LEN};
@@ -52,8 +52,6 @@ mod app {
     type Instant = <Mono as Monotonic>::Instant;
     type Duration = <Mono as Monotonic>::Duration;
 
-    /// USB full-speed bulk packet size.
-    const USB_PACKET: usize = 64;
     /// `Board::tick` feeds the watchdog once per completed tick, i.e. every period (at most 1 s,
     /// `wire::MAX_SAMPLE_PERIOD_US`) plus the tick's own few ms. The HAL sizes the IWDG for a
     /// 32 kHz LSI (PR ÷256, RL 374); the F411's LSI spans 17–47 kHz (datasheet), so 3 s nominal
@@ -149,6 +147,13 @@ mod app {
             .expect("init runs once");
         let serial_number: &'static str = identity.usb_serial(serial_buf);
 
+        // VBUS sensing stays off: the WeAct Black Pill leaves PA9 (OTG_FS_VBUS) unconnected to
+        // the USB connector's VBUS, and with sensing on the core keeps D+'s pull-up off until
+        // PA9 sees VBUS, so the board would not enumerate. (synopsys-usb-otg 0.4.0 sets
+        // GCCFG.NOVBUSSENS for this core in `enable`, with no option; stm32f4xx-hal's `USB`
+        // takes no VBUS pin.) A pulled cable therefore reads as a suspend: the link keeps the
+        // port open and queues (dropping once full) until the next host's bus reset and DTR
+        // start a fresh connection (`Link::set_connected`).
         let usb = USB {
             usb_global: dp.OTG_FS_GLOBAL,
             usb_device: dp.OTG_FS_DEVICE,
@@ -411,16 +416,35 @@ mod app {
         }
     }
 
-    /// USB CDC-ACM: enumerate, take host bytes, send queued frames while DTR is held.
+    /// usbd-serial's port as the link drives it ([`Link::service_usb`]).
+    struct Cdc<'a>(&'a mut SerialPort<'static, UsbBusType>);
+
+    impl CdcPort for Cdc<'_> {
+        fn dtr(&self) -> bool {
+            self.0.dtr()
+        }
+
+        fn reset(&mut self) {
+            UsbClass::reset(&mut *self.0);
+        }
+
+        /// `WouldBlock` (nothing received) and any other error read as nothing.
+        fn read(&mut self, buf: &mut [u8]) -> usize {
+            self.0.read(buf).unwrap_or(0)
+        }
+
+        /// `WouldBlock` (endpoint busy, write buffer full) and any other error take nothing.
+        fn write(&mut self, bytes: &[u8]) -> usize {
+            self.0.write(bytes).unwrap_or(0)
+        }
+    }
+
+    /// USB CDC-ACM: enumerate, then the link takes host bytes and sends queued frames while DTR
+    /// is held.
     #[task(binds = OTG_FS, priority = 2, local = [usb_dev, serial, usb_state: UsbState = UsbState::Unconfigured], shared = [link])]
     fn usb(mut cx: usb::Context) {
         let (usb_dev, serial) = (cx.local.usb_dev, cx.local.serial);
-        if usb_dev.poll(&mut [&mut *serial]) {
-            let mut buf = [0u8; USB_PACKET];
-            while let Ok(n @ 1..) = serial.read(&mut buf) {
-                cx.shared.link.lock(|link| link.receive(&buf[..n]));
-            }
-        }
+        usb_dev.poll(&mut [&mut *serial]);
         // usb-device 0.3.2: `Suspend` on the bus's suspend, the state before it back on resume
         // (or `Default` if the bus was reset meanwhile); a bus reset also resets the class.
         let usb = match usb_dev.state() {
@@ -442,33 +466,18 @@ mod app {
             }
             *cx.local.usb_state = usb;
         }
-        cx.shared.link.lock(|link| {
-            match link.update_usb(usb, serial.dtr()) {
-                Some(DtrEdge::Rising) => {
-                    defmt::info!("host connected (DTR raised): hello, then the stream")
-                }
-                Some(DtrEdge::Falling) => {
-                    // The host closed the port: drop usbd-serial's 128-byte write buffer too
-                    // (only a USB reset would), so the next connection starts nearer its hello.
-                    // A packet already in the endpoint FIFO still goes out first on the next
-                    // connection, usually cut mid-frame: the link starts every connection with
-                    // a lone delimiter that ends it. The class reset also clears DTR/RTS and
-                    // the line coding, which the host sets again on open.
-                    UsbClass::reset(serial);
-                    defmt::info!("host disconnected (DTR dropped): sending stops");
-                }
-                None => {}
+        match cx
+            .shared
+            .link
+            .lock(|link| link.service_usb(usb, &mut Cdc(serial)))
+        {
+            Some(DtrEdge::Rising) => {
+                defmt::info!("host connected (DTR raised): hello, then the stream")
             }
-            // Not while suspended: frames wait in the link's queue (whole frames dropped and
-            // counted once it is full) and go out after the resume.
-            while usb == UsbState::Configured && link.connected() && !link.pending().is_empty() {
-                let chunk = &link.pending()[..link.pending().len().min(USB_PACKET)];
-                match serial.write(chunk) {
-                    Ok(n) if n > 0 => link.consume(n),
-                    // Endpoint busy: the transfer-complete interrupt brings us back.
-                    _ => break,
-                }
+            Some(DtrEdge::Falling) => {
+                defmt::info!("host disconnected (DTR dropped): sending stops")
             }
-        });
+            None => {}
+        }
     }
 }

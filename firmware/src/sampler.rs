@@ -194,6 +194,12 @@ impl Chip {
         if lost {
             return self.lost_calibration();
         }
+        let Some(registers) = measurement.registers else {
+            // A bus voltage the chip cannot hold: not its reading, so neither reported nor fed
+            // to the energy. The pointer is kept: the read itself went through, and a chip that
+            // did reset is still caught by its next short read or calibration check.
+            return self.fail(ChipFault::InvalidReading);
+        };
         let update_us = u64::from(adc.update_period_us().max(1));
         let results_by = |t: u64| t.saturating_sub(start) / update_us;
         if let Some(previous) = self.last_read_us {
@@ -203,7 +209,7 @@ impl Chip {
         }
         self.last_read_us = Some(t_us);
         self.last_fault = None;
-        ChipReading::Fresh(measurement.registers)
+        ChipReading::Fresh(registers)
     }
 
     /// The chip reset: its settings are the power-on defaults until it is set up again (next

@@ -11,6 +11,15 @@ pub struct ShuntVoltageRaw(pub i16);
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct BusVoltageRaw(pub u16);
 
+impl BusVoltageRaw {
+    /// Whether the chip can hold this value: bit 15 of register 02h always reads 0 (datasheet,
+    /// Bus Voltage Register; full scale 40.96 V is 0x7FFF). A read with it set did not come from the register:
+    /// 0xFFFF is SDA left high, as by a chip browning out mid-read.
+    pub const fn is_valid(self) -> bool {
+        self.0 & 0x8000 == 0
+    }
+}
+
 /// Current register (04h): signed, LSB set by the calibration register.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct CurrentRaw(pub i16);
@@ -59,16 +68,27 @@ impl Registers {
     /// Datasheet Eq 3: current = shunt × CAL / 2048, an integer division truncating toward zero
     /// (−1 × 2047 / 2048 = 0), clamped to the register's i16 range (the chip sets OVF there).
     /// Eq 4: power = |current| × bus / 20000, truncated; at most 32768 × 32767 / 20000, a u16.
-    pub fn derived(shunt: ShuntVoltageRaw, bus: BusVoltageRaw, cal: CalibrationRaw) -> Registers {
+    /// `None` for a bus voltage the chip cannot hold ([`BusVoltageRaw::is_valid`]): the reading
+    /// is not the chip's, and its power would not fit the register (0xFFFF at 10 A and more
+    /// wrapped to a small power).
+    pub fn derived(
+        shunt: ShuntVoltageRaw,
+        bus: BusVoltageRaw,
+        cal: CalibrationRaw,
+    ) -> Option<Registers> {
+        if !bus.is_valid() {
+            return None;
+        }
         let current = i32::from(shunt.0) * i32::from(cal.0) / 2048;
         let current = current.clamp(i32::from(i16::MIN), i32::from(i16::MAX));
         let power = current.unsigned_abs() * u32::from(bus.0) / 20_000;
-        Registers {
+        Some(Registers {
             shunt,
             bus,
             current: CurrentRaw(current as i16),
-            power: PowerRaw(power as u16),
-        }
+            // Fits for every valid bus voltage (above); never wrapped.
+            power: PowerRaw(u16::try_from(power).ok()?),
+        })
     }
 
     /// Power with its sign taken from the current register, in power LSBs (the power register
@@ -320,32 +340,43 @@ mod tests {
             ShuntVoltageRaw(0x1F40),
             BusVoltageRaw(0x2570),
             CalibrationRaw(0x0A00),
-        );
+        )
+        .expect("valid bus");
         assert_eq!(example.current, CurrentRaw(0x2710));
         assert_eq!(example.power, PowerRaw(0x12B8));
         // Truncation toward zero, not flooring: −1 × 2047 / 2048 is 0, −3 × 2049 / 2048 is −3.
         let cal = |c| CalibrationRaw(c);
         let bus = BusVoltageRaw(19_200);
-        assert_eq!(
-            Registers::derived(ShuntVoltageRaw(-1), bus, cal(2047)).current,
-            CurrentRaw(0)
-        );
-        assert_eq!(
-            Registers::derived(ShuntVoltageRaw(-3), bus, cal(2049)).current,
-            CurrentRaw(-3)
-        );
+        let current =
+            |shunt, c| Registers::derived(ShuntVoltageRaw(shunt), bus, cal(c)).map(|r| r.current);
+        assert_eq!(current(-1, 2047), Some(CurrentRaw(0)));
+        assert_eq!(current(-3, 2049), Some(CurrentRaw(-3)));
         // Overflow clamps; power of the clamped current, never wrapped.
         let full = Registers::derived(
             ShuntVoltageRaw(i16::MIN),
             BusVoltageRaw(0x7FFF),
             cal(0x7FFF),
-        );
+        )
+        .expect("valid bus");
         assert_eq!(full.current, CurrentRaw(i16::MIN));
         assert_eq!(full.power, PowerRaw((32_768u32 * 0x7FFF / 20_000) as u16));
         assert_eq!(full.signed_power_lsb(), -53_685);
         // A chip that lost its calibration (CAL 0) computes nothing.
-        let lost = Registers::derived(ShuntVoltageRaw(4000), bus, cal(0));
+        let lost = Registers::derived(ShuntVoltageRaw(4000), bus, cal(0)).expect("valid bus");
         assert_eq!((lost.current, lost.power), (CurrentRaw(0), PowerRaw(0)));
+    }
+
+    #[test]
+    fn a_bus_voltage_with_bit_15_set_is_no_reading() {
+        // 0xFFFF (SDA high through the read) at 12 A: |I| × V / 20000 = 24000 × 65535 / 20000
+        // would be 78 642, which the power register cannot hold (it wrapped to 13 106).
+        let (shunt, cal) = (ShuntVoltageRaw(24_000), CalibrationRaw(2048));
+        for bus in [0x8000, 0xA570, 0xFFFF] {
+            assert!(!BusVoltageRaw(bus).is_valid());
+            assert_eq!(Registers::derived(shunt, BusVoltageRaw(bus), cal), None);
+        }
+        let top = Registers::derived(shunt, BusVoltageRaw(0x7FFF), cal).expect("full scale");
+        assert_eq!(top.power, PowerRaw(39_320), "24000 × 32767 / 20000");
     }
 
     #[test]

@@ -106,6 +106,9 @@ pub enum ChipFault {
     /// Just (re-)initialised: its registers still hold a result computed with the old settings,
     /// so none is reported until the first conversion with the new ones completes.
     AwaitingConversion,
+    /// Read, but not a value the chip holds: a bus voltage with bit 15 set (e.g. 0xFFFF, SDA left
+    /// high as by a chip browning out mid-read); the reading is discarded.
+    InvalidReading,
 }
 
 impl ChipFault {
@@ -121,6 +124,9 @@ impl ChipFault {
             ChipFault::WrongId => "not an INA226 (manufacturer/die ID is not 0x5449/0x2260)",
             ChipFault::ResetDetected => "reset, re-initialising",
             ChipFault::AwaitingConversion => "waiting for its first conversion",
+            ChipFault::InvalidReading => {
+                "bus voltage read with bit 15 set (brown-out? interference on SDA?)"
+            }
         }
     }
 }
@@ -185,9 +191,11 @@ pub struct Status {
     pub skipped_results: Sides<u32>,
     /// The latest fault per chip (`None` once the chip reads fine again).
     pub last_fault: Sides<Option<ChipFault>>,
-    /// Frames dropped because the USB transmit queue was full.
+    /// Frames dropped because the USB transmit queue was full, since this connection began
+    /// (the host's DTR rising edge).
     pub queue_drops: u32,
-    /// Host frames that failed to decode (bad COBS, CRC, version or content).
+    /// Host frames that failed to decode (bad COBS, CRC, version or content), since this
+    /// connection began.
     pub rx_errors: u32,
     pub adc: AdcConfig,
     pub sample_period_us: u32,

@@ -207,36 +207,34 @@ mod target {
         // Datasheet Eq 3–4 on the M4, worked example (7.5.1): CAL 0x0A00, shunt 0x1F40 (20 mV),
         // bus 0x2570 (11.98 V) → current 0x2710 (10 A), power 0x12B8 (119.8 W); −1 × 2047 /
         // 2048 truncates to 0; full scale clamps to −32768 with power 32768 × 32767 / 20000.
-        let example = Registers::derived(
-            ShuntVoltageRaw(0x1F40),
-            BusVoltageRaw(0x2570),
-            CalibrationRaw(0x0A00),
-        );
-        let truncated = Registers::derived(
-            ShuntVoltageRaw(-1),
-            BusVoltageRaw(19_200),
-            CalibrationRaw(2047),
-        );
-        let clamped = Registers::derived(
-            ShuntVoltageRaw(i16::MIN),
-            BusVoltageRaw(0x7FFF),
-            CalibrationRaw(0x7FFF),
-        );
+        let derived = |shunt: i16, bus: u16, cal: u16| {
+            Registers::derived(
+                ShuntVoltageRaw(shunt),
+                BusVoltageRaw(bus),
+                CalibrationRaw(cal),
+            )
+            .map(|r| (r.current.0, r.power.0))
+        };
+        let example = derived(0x1F40, 0x2570, 0x0A00);
+        let truncated = derived(-1, 19_200, 2047).map(|(current, _)| current);
+        let clamped = derived(i16::MIN, 0x7FFF, 0x7FFF);
         c.check(
             "derived current and power (Eq 3-4)",
-            example.current.0 == 0x2710
-                && example.power.0 == 0x12B8
-                && truncated.current.0 == 0
-                && clamped.current.0 == i16::MIN
-                && clamped.power.0 == 53_685,
+            example == Some((0x2710, 0x12B8))
+                && truncated == Some(0)
+                && clamped == Some((i16::MIN, 53_685)),
             format_args!(
-                "{} / {}, {}, {} / {} (want 10000 / 4792, 0, -32768 / 53685)",
-                example.current.0,
-                example.power.0,
-                truncated.current.0,
-                clamped.current.0,
-                clamped.power.0
+                "{:?}, {:?}, {:?} (want Some((10000, 4792)), Some(0), Some((-32768, 53685)))",
+                example, truncated, clamped
             ),
+        );
+        // Bit 15 of the bus register is always 0: 0xFFFF at 12 A is no reading, not a power
+        // wrapped to 13 106.
+        let bad_bus = derived(24_000, 0xFFFF, 2048);
+        c.check(
+            "bus voltage with bit 15 set rejected",
+            bad_bus.is_none(),
+            format_args!("{:?} (want None)", bad_bus),
         );
 
         // u64 µs counter wrapping on a 32-bit core: (u64::MAX − 999) → 1000 is 2000 µs at 10 LSB.
@@ -374,7 +372,7 @@ mod target {
     /// arithmetic), as the sampler computes them every sample.
     #[inline(always)]
     fn varying(k: u32) -> Sides<Option<Registers>> {
-        reads(k).map(|(shunt, bus)| Some(Registers::derived(shunt, bus, BOARD_CAL)))
+        reads(k).map(|(shunt, bus)| Registers::derived(shunt, bus, BOARD_CAL))
     }
 
     #[allow(unsafe_code)]

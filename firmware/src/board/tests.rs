@@ -156,3 +156,88 @@ fn a_connection_starts_with_a_lone_delimiter_then_the_hello_then_the_stream() {
     FrameDecoder::new().feed(&bytes[1 + n..], |f: Result<BoardFrame, _>| frames.push(f));
     assert!(matches!(frames[..], [Ok(BoardFrame::Sample(s)), ..] if s.seq == 1));
 }
+
+/// A host flooding commands: whenever the tick takes the link, another command has arrived (the
+/// USB interrupt runs while the tick awaits the bus), until `limit` were sent.
+struct Flood {
+    link: Link,
+    sent: u16,
+    limit: u16,
+}
+
+impl LinkAccess for Flood {
+    fn with_link<R>(&mut self, f: impl FnOnce(&mut Link) -> R) -> R {
+        if self.sent < self.limit {
+            let frame = model_core::wire::HostFrame {
+                id: self.sent,
+                command: Command::ResetEnergy,
+            };
+            let mut buf = [0u8; model_core::wire::MAX_FRAME];
+            let n = model_core::wire::encode(&frame, &mut buf).expect("fits");
+            self.link.receive(&buf[..n]);
+            self.sent += 1;
+        }
+        f(&mut self.link)
+    }
+}
+
+#[test]
+fn a_flooding_host_cannot_keep_a_tick_from_ending() {
+    use model_core::wire::{FrameDecoder, Rejection};
+    let mut board = Board::new(SamplerConfig::BOARD);
+    let mut flood = Flood {
+        link: Link::new(),
+        sent: 0,
+        limit: 200,
+    };
+    flood.link.set_connected(true);
+    let dog = Counter::default();
+    let mut acked = Vec::new();
+    let mut refused = Vec::new();
+    for tick in 0..100u64 {
+        board.tick(
+            &mut Failing(ErrorKind::Bus),
+            &mut flood,
+            &mut dog.clone(),
+            tick * 5_000,
+        );
+        assert_eq!(dog.feeds(), tick as u32 + 1, "every tick ends and feeds");
+        let mut bytes = Vec::new();
+        while !flood.link.pending().is_empty() {
+            let n = flood.link.pending().len();
+            bytes.extend_from_slice(flood.link.pending());
+            flood.link.consume(n);
+        }
+        let mut acks_this_tick = 0;
+        FrameDecoder::new().feed(&bytes, |f: Result<BoardFrame, _>| match f {
+            Ok(BoardFrame::Ack { id }) => {
+                acks_this_tick += 1;
+                acked.push(id);
+            }
+            Ok(BoardFrame::Rejected {
+                id: Some(id),
+                reason: Rejection::OutOfRange,
+            }) => refused.push(id),
+            Ok(_) => {}
+            Err(e) => panic!("bad frame from the board: {e:?}"),
+        });
+        assert!(
+            acks_this_tick <= COMMANDS_PER_TICK,
+            "tick {tick} applied {acks_this_tick} commands"
+        );
+        if acked.len() + refused.len() == usize::from(flood.limit) {
+            break;
+        }
+    }
+    assert_eq!(flood.link.next_command(), None, "the queue drained");
+    // Nothing the queue accepted was lost: every command was applied or refused when it came
+    // (the queue full), and the applied ones in the order they were sent.
+    assert!(acked.windows(2).all(|w| w[0] < w[1]), "in order: {acked:?}");
+    let mut answered: Vec<u16> = acked.iter().chain(&refused).copied().collect();
+    answered.sort_unstable();
+    assert_eq!(answered, (0..flood.limit).collect::<Vec<_>>());
+    assert!(
+        acked.len() > COMMANDS_PER_TICK,
+        "later ticks applied the commands left queued"
+    );
+}

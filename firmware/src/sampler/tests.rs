@@ -56,6 +56,11 @@ impl Script {
     /// A sample's reads of `amps` at 24 V (on our board the shunt register counts current
     /// LSBs), the calibration read-back between them when given.
     fn measure(&mut self, amps: f64, calibration: Option<u16>) -> Vec<T> {
+        self.measure_bus(amps, 19_200, calibration)
+    }
+
+    /// [`Self::measure`] with the bus register reading `bus`.
+    fn measure_bus(&mut self, amps: f64, bus: u16, calibration: Option<u16>) -> Vec<T> {
         let shunt = (amps / 0.0005).round() as i16 as u16;
         let (first, second) = match self.pointer {
             Some(Register::BusVoltage) => (Register::BusVoltage, Register::ShuntVoltage),
@@ -63,7 +68,7 @@ impl Script {
         };
         let value = |reg| {
             if reg == Register::BusVoltage {
-                19_200
+                bus
             } else {
                 shunt
             }
@@ -100,7 +105,8 @@ fn first_sample_initialises_both_chips_and_counts() {
         model_core::ina226::ShuntVoltageRaw(4000),
         model_core::ina226::BusVoltageRaw(19_200),
         crate::ina226::BOARD_CALIBRATION.raw(),
-    );
+    )
+    .expect("valid bus");
     assert_eq!(second.chips.left, ChipReading::Fresh(want));
     assert_eq!(want.power.0, 3840, "48 W in 12.5 mW LSBs");
     assert!(matches!(second.chips.right, ChipReading::Fresh(r) if r.current.0 == -2000));
@@ -227,6 +233,40 @@ fn a_reading_that_looks_like_a_reset_is_checked_and_kept() {
     );
     assert_eq!(s.reinits(), Sides::new(0, 0));
     assert_eq!(s.last_faults(), Sides::new(None, None));
+    i2c.done();
+}
+
+#[test]
+fn a_bus_voltage_with_bit_15_set_is_a_fault_not_a_wrapped_power() {
+    // Left draws 12 A at 24 V (23 040 power LSBs); once its bus register reads 0xFFFF (SDA high
+    // through the read: a chip browning out). 24 000 × 65 535 / 20 000 does not fit the power
+    // register: cast to u16 it was 13 106, a plausible 164 W.
+    let (mut l, mut r, mut tx) = both_set_up();
+    tx.extend(l.measure(12.0, None));
+    tx.extend(r.measure(1.0, None));
+    tx.extend(l.measure_bus(12.0, 0xFFFF, None));
+    tx.extend(r.measure(1.0, None));
+    tx.extend(l.measure(12.0, None));
+    tx.extend(r.measure(1.0, None));
+    let (mut i2c, mut s) = sampled_twice(&tx);
+    let bad = s.sample(&mut i2c, 2 * P).expect("running");
+    assert_eq!(
+        bad.chips.left,
+        ChipReading::Failed(ChipFault::InvalidReading)
+    );
+    assert!(matches!(bad.chips.right, ChipReading::Fresh(_)));
+    // Counted and reported as the other faults are; the chip is not set up again.
+    assert_eq!(s.i2c_errors(), Sides::new(1, 0));
+    assert_eq!(s.last_faults().left, Some(ChipFault::InvalidReading));
+    let back = s.sample(&mut i2c, 3 * P).expect("running");
+    assert!(matches!(back.chips.left, ChipReading::Fresh(r) if r.power.0 == 23_040));
+    assert_eq!(s.last_faults().left, None);
+    assert_eq!(s.reinits(), Sides::new(0, 0));
+    // No energy from the discarded reading: the good one at 3P covers the interval since P.
+    let snap = s.model().expect("sampled").snapshot;
+    assert_eq!(snap.energy_lsb_us.left, 23_040 * 2 * P as i64);
+    // Its result was not read: one skipped, as for any lost read.
+    assert_eq!(s.skipped_results(), Sides::new(1, 0));
     i2c.done();
 }
 
