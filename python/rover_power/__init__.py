@@ -62,16 +62,15 @@ def read_run(
     reset, wall clock, ...) as dicts with ``t_s`` and ``kind``: an MCAP log's own, or a run
     CSV's ``RUN.events.jsonl`` when it lies beside it.
 
-    The frame's values are read-only (they are the reader's own memory, handed over without a
-    copy): setting a value raises ``ValueError``; ``df.copy()`` is a frame to change in place.
-    Adding, replacing or dropping whole columns works as on any frame.
+    The frame's values are handed over without a copy, and the frame is yours: change it in
+    place as any other.
 
     ``salvage`` and ``rig_range`` are the command line's ``--salvage`` and ``--rig-range``
     (``"physical"``, ``"board"`` or ``"BUS_V,CURRENT_A"``).
     """
     columns, events = _native.read_run(os.fspath(path), salvage, rig_range)
-    # Each column is the Rust side's own vector: numpy views it in place, read-only (the
-    # array's base keeps it alive) and pandas keeps the views, one block per column.
+    # Each column is a vector the reader handed over: numpy views it in place (the array's
+    # base owns it) and pandas keeps the views, one block per column.
     values = [np.asarray(column) for column in columns]
     frame = pd.DataFrame(
         dict(zip(COLUMNS[1:], values[1:])),

@@ -139,13 +139,14 @@ fn columns() -> Vec<&'static str> {
     Column::ALL.iter().map(|c| c.name()).collect()
 }
 
-/// One column of a run lent to numpy without a copy: numpy reads `values` through
+/// One column of a run handed to numpy without a copy: numpy reads and writes `values` through
 /// `__array_interface__` and keeps this object alive as the array's base, as rust-numpy's
-/// `PyArray::from_vec` does (that crate does not build for the stable ABI). The array is
-/// read-only: this object is frozen (shared), so nothing may write through its vector; a
-/// copy (`array.copy()`, `DataFrame.copy()`) is numpy's own to change. Rust never reads
-/// `values` again; it only frees them with the last array.
-#[pyclass(frozen)]
+/// `PyArray::from_vec` does (that crate does not build for the stable ABI). The vector is this
+/// object's own, and numpy writes through a pointer taken from a mutable borrow
+/// (`Vec::as_mut_ptr`, which makes no reference to the values): Rust never reads the values
+/// again, it only frees them with the last array, so a frame can be changed in place like any
+/// other without writing into memory Rust lent to be read.
+#[pyclass]
 #[derive(Debug)]
 struct ColumnBuffer {
     /// A value per sample.
@@ -154,9 +155,9 @@ struct ColumnBuffer {
 
 #[pymethods]
 impl ColumnBuffer {
-    /// numpy's array interface (version 3): a read-only one-dimensional array of f64.
+    /// numpy's array interface (version 3): a writable one-dimensional array of f64.
     #[getter]
-    fn __array_interface__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn __array_interface__<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let interface = PyDict::new(py);
         interface.set_item("version", 3)?;
         interface.set_item("shape", (self.values.len(),))?;
@@ -166,8 +167,8 @@ impl ColumnBuffer {
             ">f8"
         };
         interface.set_item("typestr", typestr)?;
-        // (address, read-only): `as_ptr` lends the values to be read, never written.
-        interface.set_item("data", (self.values.as_ptr() as usize, true))?;
+        // (address, read-only = false): numpy owns the values through this object.
+        interface.set_item("data", (self.values.as_mut_ptr() as usize, false))?;
         Ok(interface)
     }
 }
