@@ -399,9 +399,15 @@ fn ensure_log(files: &Files, seconds: f64) -> Result<()> {
     );
     let capture = std::mem::take(&mut *capture.lock().map_err(|_| anyhow::anyhow!("poisoned"))?);
 
-    write_atomically(&files.bin, |out| out.write_all(&capture))?;
-    write_commands_csv_atomically(&files.commands, &commands)?;
-    write_run_csv_atomically(&files.csv, &sink.samples)?;
+    write_atomically(&files.bin, host_tool::log::Existing::Replace, |out| {
+        out.write_all(&capture)
+    })?;
+    write_commands_csv_atomically(
+        &files.commands,
+        host_tool::log::Existing::Replace,
+        &commands,
+    )?;
+    write_run_csv_atomically(&files.csv, host_tool::log::Existing::Replace, &sink.samples)?;
     std::fs::write(&files.stamp, want)?;
     println!(
         "  {} repeats of the turn set, {:.1} min, {} samples, {} commands forwarded ({} acked), {:.1} s",

@@ -448,7 +448,7 @@ mod tests {
                 s
             })
             .collect();
-        write_run_csv_atomically(&path, &samples).expect("written");
+        write_run_csv_atomically(&path, crate::log::Existing::Replace, &samples).expect("written");
         std::fs::write(
             events_path(&path),
             "{\"t_s\":0.1,\"kind\":\"samples-lost\",\"after_seq\":3,\"missing\":2}\n",
@@ -504,7 +504,7 @@ mod tests {
                 )
             })
             .collect();
-        write_run_csv_atomically(&path, &samples).expect("written");
+        write_run_csv_atomically(&path, crate::log::Existing::Replace, &samples).expect("written");
         let estimate = estimated_csv_rows(&path);
         assert!((20_000..=24_000 + 1024).contains(&estimate), "{estimate}");
         assert_eq!(estimated_csv_rows(&dir.join("missing.csv")), 0);

@@ -22,7 +22,7 @@ use crate::log::convert::{convert, ConvertError};
 use crate::log::load::{load_run, LoadError};
 use crate::log::run_csv::RunCsvFileError;
 use crate::log::run_log::RunLog;
-use crate::log::{write_atomically, AtomicWriteError};
+use crate::log::{write_atomically, AtomicWriteError, Existing};
 use crate::plan::sweep::{SweepGrid, SweepReport, TABLE_6_1_PATH};
 use crate::plan::{self, ModelFileError, ModelSource, PlanError, PlanReport};
 use crate::plot::{Format, PlotError};
@@ -291,7 +291,7 @@ pub fn run(
     })?;
     files.push(write_file(&out.join("report.json"), &json)?);
     let turns = out.join("turns.csv");
-    write_atomically(&turns, |w| report.write_csv(w))?;
+    write_atomically(&turns, Existing::Replace, |w| report.write_csv(w))?;
     files.push(turns);
     let samples: Vec<RunSamples<'_>> = runs
         .iter()
@@ -394,7 +394,7 @@ fn record_run(
             .simulate(&options.scenario, options.seed.wrapping_add(u64::from(k)))?,
     );
     let commands = timeline.commands(TRACKER_HZ);
-    write_commands_csv_atomically(&commands_path, &commands)?;
+    write_commands_csv_atomically(&commands_path, Existing::Replace, &commands)?;
 
     let config = options.sampler;
     let steps = timeline.duration_us() / u64::from(config.sample_period_us) + 1;
@@ -527,6 +527,6 @@ fn write_robot_bag(
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<PathBuf, DemoError> {
-    write_atomically(path, |w| w.write_all(bytes))?;
+    write_atomically(path, Existing::Replace, |w| w.write_all(bytes))?;
     Ok(path.to_owned())
 }

@@ -529,7 +529,12 @@ mod tests {
                     )
                 })
                 .collect();
-            crate::log::run_csv::write_run_csv_atomically(&path, &samples).expect("write");
+            crate::log::run_csv::write_run_csv_atomically(
+                &path,
+                crate::log::Existing::Replace,
+                &samples,
+            )
+            .expect("write");
             let paths = [path.clone()];
             let want = Runs::load(&paths, false, RigRange::default())
                 .expect("loads")
@@ -547,6 +552,7 @@ mod tests {
         // A run that cannot be segmented: the in-memory path's error.
         crate::log::run_csv::write_run_csv_atomically(
             &path,
+            crate::log::Existing::Replace,
             &[RunSample::new(
                 0.0,
                 Sides::new(24.0, 24.0),

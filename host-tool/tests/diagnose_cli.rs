@@ -30,7 +30,7 @@ fn scenario() -> Scenario {
 fn write_run(world: &WorldConfig, seed: u64, path: &Path) {
     let timeline = world.simulate(&scenario(), seed).expect("scenario runs");
     let samples = host_tool::diagnose_bench::sample_run(&timeline, 200);
-    write_run_csv_atomically(path, &samples).expect("write run");
+    write_run_csv_atomically(path, host_tool::log::Existing::Replace, &samples).expect("write run");
 }
 
 /// Three runs of hard ground with the inner wheels dragged (`inner-drag` at its default
@@ -243,7 +243,7 @@ fn diagnose_fails_clearly_on_bad_input() {
             )
         })
         .collect();
-    write_run_csv_atomically(&still, &samples).expect("write");
+    write_run_csv_atomically(&still, host_tool::log::Existing::Replace, &samples).expect("write");
     let stderr = failed(&diagnose(&[
         os("--calibration"),
         still.as_os_str(),

@@ -191,7 +191,12 @@ fn record_serve_shows_the_recording_live_and_the_log_is_whole() {
             y_m: None,
         })
         .collect();
-    host_tool::log::run_csv::write_run_csv_atomically(&source, &samples).expect("source");
+    host_tool::log::run_csv::write_run_csv_atomically(
+        &source,
+        host_tool::log::Existing::Replace,
+        &samples,
+    )
+    .expect("source");
     let mut replay = Server(
         host_tool()
             .arg("replay")

@@ -25,7 +25,7 @@ fn board_only(log: &Path, out: &Path) {
         s.y_m = None;
     }
     run.commands.clear();
-    save_run(out, &run).expect("board-only log written");
+    save_run(out, host_tool::log::Existing::Replace, &run).expect("board-only log written");
 }
 
 /// `demo --robot-bag` into DIR/demo with the robot's clock `offset_s` ahead (`extra` options

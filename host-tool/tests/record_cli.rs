@@ -25,7 +25,8 @@ fn write_source(path: &std::path::Path) {
             y_m: None,
         })
         .collect();
-    write_run_csv_atomically(path, &samples).expect("source csv");
+    write_run_csv_atomically(path, host_tool::log::Existing::Replace, &samples)
+        .expect("source csv");
 }
 
 fn stops_cleanly_on(signal: &str) {

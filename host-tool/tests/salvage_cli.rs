@@ -28,7 +28,7 @@ fn write_mcap(dir: &Path) -> (std::path::PathBuf, usize) {
         })
         .collect();
     let csv = dir.join("source.csv");
-    write_run_csv_atomically(&csv, &samples).expect("csv");
+    write_run_csv_atomically(&csv, host_tool::log::Existing::Replace, &samples).expect("csv");
     let mcap = dir.join("run.mcap");
     let out = host_tool()
         .arg("convert")

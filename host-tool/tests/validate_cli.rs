@@ -46,7 +46,7 @@ fn write_run(path: &Path, standstill_only: bool) {
             }
         }
     }
-    write_run_csv_atomically(path, &samples).expect("write run");
+    write_run_csv_atomically(path, host_tool::log::Existing::Replace, &samples).expect("write run");
 }
 
 #[test]
@@ -152,7 +152,7 @@ fn validate_reads_another_rigs_currents_unless_held_to_the_boards_range() {
             ..*s
         })
         .collect();
-    write_run_csv_atomically(&run, &rig).expect("write");
+    write_run_csv_atomically(&run, host_tool::log::Existing::Replace, &rig).expect("write");
     let (first, column) = rig
         .iter()
         .enumerate()

@@ -7,6 +7,7 @@ use host_tool::eprintln_best_effort;
 use host_tool::log::convert::{convert_salvaging, same_file};
 use host_tool::log::load::{load_salvaging, lost_data, RunFormat};
 use host_tool::log::run_csv::RigRange;
+use host_tool::log::Existing;
 use host_tool::out_dir::is_missing_or_empty;
 use host_tool::ros2::from_log::{save_bag, BagOptions, LogClock};
 use host_tool::runs::{damage_warnings, truncation_warning};
@@ -59,7 +60,12 @@ impl ConvertArgs {
         }
         check_new_file(&self.output, self.force)?;
         create_parent(&self.output)?;
-        let done = convert_salvaging(&self.input, &self.output, super::salvage())?;
+        let done = convert_salvaging(
+            &self.input,
+            &self.output,
+            super::salvage(),
+            Existing::from_force(self.force),
+        )?;
         if let Some(t) = &done.truncated {
             eprintln_best_effort!("{}", truncation_warning(&self.input, t));
         }

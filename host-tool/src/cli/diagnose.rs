@@ -7,6 +7,7 @@ use anyhow::{bail, Context, Result};
 use host_tool::analysis::{self, Diagnosed};
 use host_tool::diagnose::path_table::PathDiagnosis;
 use host_tool::diagnose::{self, calibration::Calibration, report};
+use host_tool::log::Existing;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -109,7 +110,7 @@ impl DiagnoseArgs {
         };
         let next_runs_note = match &self.next_runs {
             Some(path) if !diagnosis.next.runs.is_empty() => {
-                host_tool::log::write_atomically(path, |w| {
+                host_tool::log::write_atomically(path, Existing::from_force(self.force), |w| {
                     w.write_all(diagnosis.next.scenario_toml().as_bytes())
                 })
                 .with_context(|| format!("writing {}", path.display()))?;

@@ -5,6 +5,7 @@ use anyhow::{bail, Context, Result};
 use host_tool::eprintln_best_effort;
 use host_tool::log::convert::save_run;
 use host_tool::log::load::load_run;
+use host_tool::log::Existing;
 use host_tool::merge::merge;
 use host_tool::ros2::read::{read_bag, BagTopics};
 use std::path::PathBuf;
@@ -72,7 +73,8 @@ impl MergeArgs {
             )
         })?;
         create_parent(&self.out)?;
-        save_run(&self.out, &merged.log).map_err(|e| output::naming(&self.out, e))?;
+        save_run(&self.out, Existing::from_force(self.force), &merged.log)
+            .map_err(|e| output::naming(&self.out, e))?;
 
         let a = merged.alignment;
         let n = merged.log.samples.len();

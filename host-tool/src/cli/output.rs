@@ -4,6 +4,7 @@
 
 use anyhow::{bail, Context, Result};
 use host_tool::log::write_atomically;
+use host_tool::log::Existing;
 use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -81,7 +82,7 @@ pub fn write_file(path: &Path, bytes: &[u8], force: bool) -> Result<()> {
     check_new_file(path, force)?;
     create_parent(path)?;
     // The error names the file (either part of AtomicWriteError).
-    write_atomically(path, |w| w.write_all(bytes))?;
+    write_atomically(path, Existing::from_force(force), |w| w.write_all(bytes))?;
     Ok(())
 }
 

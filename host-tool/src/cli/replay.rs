@@ -9,6 +9,7 @@ use host_tool::log::load::{load_salvaging, Loaded};
 use host_tool::log::run_csv::RigRange;
 use host_tool::log::run_log::RunLog;
 use host_tool::log::write_atomically;
+use host_tool::log::Existing;
 use host_tool::record::stop_signal;
 use host_tool::replay::{ReplayPacing, ReplayPty, ReplaySource};
 use host_tool::runs::{damage_warnings, truncation_warning};
@@ -108,7 +109,9 @@ impl ReplayArgs {
         // Before the stream: a recorder started on the pty needs the file at once.
         if let Some(out) = &self.commands_out {
             create_parent(out)?;
-            let rows = write_atomically(out, |w| source.write_robot_side(w))?;
+            let rows = write_atomically(out, Existing::from_force(self.force), |w| {
+                source.write_robot_side(w)
+            })?;
             eprintln_best_effort!(
                 "{}: {rows} rows (commanded speeds and tracker pose); record with \
                  --merge-commands {}",
@@ -119,7 +122,9 @@ impl ReplayArgs {
         if let Some(out) = &self.to {
             create_parent(out)?;
             // The error names the file (either part of AtomicWriteError).
-            let stats = write_atomically(out, |w| source.write_stream(w))?;
+            let stats = write_atomically(out, Existing::from_force(self.force), |w| {
+                source.write_stream(w)
+            })?;
             output::print(format_args!(
                 "{}: {} frames, {} bytes\n",
                 out.display(),

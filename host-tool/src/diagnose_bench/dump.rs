@@ -73,9 +73,13 @@ pub fn dump_dataset(spec: &DatasetSpec, dir: &Path, poses: bool) -> Result<Dumpe
         for (k, samples) in runs.iter().enumerate() {
             let name = format!("{prefix}-{k}.csv");
             if poses {
-                write_run_csv_atomically(&dir.join(&name), samples)?;
+                write_run_csv_atomically(&dir.join(&name), crate::log::Existing::Replace, samples)?;
             } else {
-                write_run_csv_atomically(&dir.join(&name), &without_positions(samples))?;
+                write_run_csv_atomically(
+                    &dir.join(&name),
+                    crate::log::Existing::Replace,
+                    &without_positions(samples),
+                )?;
             }
             names.push(name);
         }

@@ -178,13 +178,14 @@ pub fn read_commands_csv(path: &Path) -> Result<Vec<CommandRow>, RunCsvFileError
 /// Writes `rows` to a commands CSV at `path`, all or nothing (see [`super::write_atomically`]).
 pub fn write_commands_csv_atomically<'a>(
     path: &Path,
+    existing: super::Existing,
     rows: impl IntoIterator<Item = &'a CommandRow>,
 ) -> Result<(), RunCsvFileError> {
     let err = |e: RunCsvError| RunCsvFileError {
         path: path.to_owned(),
         source: e,
     };
-    super::write_atomically(path, |out| {
+    super::write_atomically(path, existing, |out| {
         let mut writer = CommandsCsvWriter::new(out).map_err(err)?;
         for row in rows {
             writer.write(row).map_err(err)?;
@@ -271,11 +272,13 @@ mod tests {
             },
             row(2.0, 1.0 / 3.0, 0.55),
         ];
-        write_commands_csv_atomically(&path, &rows).expect("written");
+        write_commands_csv_atomically(&path, crate::log::Existing::Replace, &rows)
+            .expect("written");
         assert_eq!(read_commands_csv(&path).expect("read"), rows);
         let bad = [row(1.0, 0.0, 0.0), row(0.5, 0.0, 0.0)];
         let other = dir.path().join("bad.csv");
-        let e = write_commands_csv_atomically(&other, &bad).expect_err("time goes back");
+        let e = write_commands_csv_atomically(&other, crate::log::Existing::Replace, &bad)
+            .expect_err("time goes back");
         assert!(e.to_string().contains("line 3"), "{e}");
         assert!(!other.exists());
     }

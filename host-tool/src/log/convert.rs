@@ -18,7 +18,7 @@ use super::mcap::{write_mcap_run, Loss, McapError, Truncation};
 use super::run_csv::{write_run_csv_atomically, RunCsvFileError};
 use super::run_csv::{DroppedRow, RigRange};
 use super::run_log::RunLog;
-use super::{write_atomically, AtomicWriteError};
+use super::{write_atomically, AtomicWriteError, Existing};
 use std::path::{Path, PathBuf};
 
 /// Why a conversion produced no output.
@@ -69,33 +69,37 @@ pub struct Converted {
 }
 
 /// Writes `run` to `path` in the format its extension names, all or nothing. A run CSV keeps
-/// the samples only.
-pub fn save_run(path: &Path, run: &RunLog) -> Result<RunFormat, ConvertError> {
+/// the samples only. `existing`: what to do with a file at `path` when it is written
+/// ([`Existing`]).
+pub fn save_run(path: &Path, existing: Existing, run: &RunLog) -> Result<RunFormat, ConvertError> {
     let format = RunFormat::of(path)?;
     match format {
         RunFormat::Csv => {
-            write_run_csv_atomically(path, &run.samples)?;
+            write_run_csv_atomically(path, existing, &run.samples)?;
         }
         RunFormat::Mcap => {
-            write_atomically(path, |out| write_mcap_run(out, run).map(|_| ())).map_err(|e| {
-                let source = match e {
-                    AtomicWriteError::Io { source, path } => McapError::Io { path, source },
-                    AtomicWriteError::Content { source, .. } => source,
-                };
-                ConvertError::Mcap {
-                    path: path.to_owned(),
-                    source,
-                }
-            })?;
+            write_atomically(path, existing, |out| write_mcap_run(out, run).map(|_| ())).map_err(
+                |e| {
+                    let source = match e {
+                        AtomicWriteError::Io { source, path } => McapError::Io { path, source },
+                        AtomicWriteError::Content { source, .. } => source,
+                    };
+                    ConvertError::Mcap {
+                        path: path.to_owned(),
+                        source,
+                    }
+                },
+            )?;
         }
     }
     Ok(format)
 }
 
 /// Converts the run log `input` into `output` (formats by extension, see the module docs).
-/// Refuses to write over the input; leaves `output` untouched on any error.
+/// Refuses to write over the input; leaves `output` untouched on any error, and fails rather
+/// than replace a file that appears there meanwhile.
 pub fn convert(input: &Path, output: &Path) -> Result<Converted, ConvertError> {
-    convert_salvaging(input, output, false)
+    convert_salvaging(input, output, false, Existing::Keep)
 }
 
 /// [`convert`]; with `salvage`, damaged rows of an input run CSV are left out instead of
@@ -106,6 +110,7 @@ pub fn convert_salvaging(
     input: &Path,
     output: &Path,
     salvage: bool,
+    existing: Existing,
 ) -> Result<Converted, ConvertError> {
     let to = RunFormat::of(output)?;
     if same_file(input, output) {
@@ -127,7 +132,7 @@ pub fn convert_salvaging(
             Some(&model_core::Rover::HUSKY_A200),
         );
     }
-    save_run(output, &run)?;
+    save_run(output, existing, &run)?;
     Ok(Converted {
         from: loaded.format,
         to,
@@ -198,7 +203,7 @@ mod tests {
         let csv = dir.path().join("in.csv");
         let mcap = dir.path().join("run.mcap");
         let back = dir.path().join("back.csv");
-        write_run_csv_atomically(&csv, &samples()).expect("csv");
+        write_run_csv_atomically(&csv, Existing::Replace, &samples()).expect("csv");
         let original = read_run_csv(&csv).expect("read");
 
         let done = convert(&csv, &mcap).expect("csv -> mcap");
@@ -252,7 +257,7 @@ mod tests {
         let csv = dir.path().join("argo.csv");
         let mut rows = samples();
         rows[3].current_a.left = 27.5;
-        write_run_csv_atomically(&csv, &rows).expect("csv");
+        write_run_csv_atomically(&csv, Existing::Replace, &rows).expect("csv");
         let back = dir.path().join("back.csv");
         convert(&csv, &back).expect("csv -> csv");
         assert_eq!(read_run_csv(&back).expect("back"), rows);
@@ -275,7 +280,7 @@ mod tests {
         let dir = TempDir::new("convert-repair");
         let (run, _) = sim_run(80);
         let whole = dir.path().join("whole.mcap");
-        save_run(&whole, &run).expect("mcap");
+        save_run(&whole, Existing::Replace, &run).expect("mcap");
         let bytes = std::fs::read(&whole).expect("read");
         let cut = dir.path().join("cut.mcap");
         // Cut inside the summary section: the data are all there, the footer is not.
@@ -292,7 +297,7 @@ mod tests {
     fn refuses_to_overwrite_the_input_and_unknown_formats_write_nothing() {
         let dir = TempDir::new("convert-same");
         let csv = dir.path().join("in.csv");
-        write_run_csv_atomically(&csv, &samples()[..3]).expect("csv");
+        write_run_csv_atomically(&csv, Existing::Replace, &samples()[..3]).expect("csv");
         let before = std::fs::read(&csv).expect("read");
         let e = convert(&csv, &csv).expect_err("same file");
         assert!(matches!(e, ConvertError::SameFile { .. }), "{e}");
@@ -330,7 +335,7 @@ mod tests {
         let csv = dir.path().join("in.csv");
         let mut s = samples();
         s[0].t_s = -0.5;
-        write_run_csv_atomically(&csv, &s).expect("csv");
+        write_run_csv_atomically(&csv, Existing::Replace, &s).expect("csv");
         let out = dir.path().join("out.mcap");
         let e = convert(&csv, &out).expect_err("negative time");
         assert!(e.to_string().contains("run time -0.5 s"), "{e}");

@@ -42,15 +42,43 @@ pub enum AtomicWriteError<E> {
     },
 }
 
+/// What [`write_atomically`] does with a file at its path when it is done.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Existing {
+    /// Replace it: the user asked to (`--force`), or the path is in a directory of this
+    /// program's own making.
+    Replace,
+    /// Keep it and fail: the caller found no file there (or refused one), so a file there now
+    /// is another program's.
+    Keep,
+}
+
+impl Existing {
+    /// `--force` replaces, its absence keeps.
+    pub fn from_force(force: bool) -> Self {
+        if force {
+            Self::Replace
+        } else {
+            Self::Keep
+        }
+    }
+}
+
 /// Writes a whole file or nothing: `write` fills a temporary file in the target's directory,
-/// which is then flushed, fsynced and renamed over `path` (and the directory fsynced on Unix).
+/// which is then flushed, fsynced and moved to `path` (and the directory fsynced on Unix).
 /// If `write` fails (or panics), or any step fails, the temporary file is removed and `path` is
 /// left as it was — absent, or with its previous complete content.
+///
+/// With [`Existing::Keep`] (a caller that found no file there, or refuses one without
+/// `--force`) a file that appeared at `path` meanwhile — another program's finished
+/// recording, a second `convert` to the same name — is kept, and this write fails with
+/// [`io::ErrorKind::AlreadyExists`] ([`place_new`]); with [`Existing::Replace`] it is replaced.
 ///
 /// An existing target that is not a regular file (`/dev/null`, a FIFO, a terminal) is written
 /// in place: renaming over it would replace the device with a regular file.
 pub fn write_atomically<T, E>(
     path: &Path,
+    existing: Existing,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<T, E>,
 ) -> Result<T, AtomicWriteError<E>> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
@@ -102,13 +130,37 @@ pub fn write_atomically<T, E>(
         .map_err(|e| io_err(&tmp_path)(e.into_error()))?;
     file.sync_all().map_err(io_err(&tmp_path))?;
     drop(file);
-    fs::rename(&tmp_path, path).map_err(io_err(path))?;
-    tmp.0 = None; // renamed: nothing left to clean up
+    if existing == Existing::Replace {
+        fs::rename(&tmp_path, path).map_err(io_err(path))?;
+        tmp.0 = None; // renamed: nothing left to clean up
+    } else {
+        place_new(&tmp_path, path).map_err(io_err(path))?;
+        // Linked into place: the temporary name goes when `tmp` drops.
+    }
     #[cfg(unix)]
     File::open(&dir)
         .and_then(|d| d.sync_all())
         .map_err(io_err(&dir))?;
     Ok(value)
+}
+
+/// Gives the finished temporary file `tmp` the name `path` only if no file has that name: a
+/// hard link fails when the name exists, atomically, where a rename would replace it. On a
+/// file system without hard links, the rename after a check (a window of microseconds, not the
+/// whole write). The temporary name is left for the caller to remove.
+fn place_new(tmp: &Path, path: &Path) -> io::Result<()> {
+    let appeared = || {
+        io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            "a file appeared there while this one was being written (another program writing              the same name?): it was kept, and this output was not written",
+        )
+    };
+    match fs::hard_link(tmp, path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == io::ErrorKind::AlreadyExists => Err(appeared()),
+        Err(_) if fs::symlink_metadata(path).is_ok() => Err(appeared()),
+        Err(_) => fs::rename(tmp, path),
+    }
 }
 
 /// Removes the temporary file unless it was renamed into place.
@@ -184,7 +236,8 @@ mod tests {
     fn success_leaves_only_the_file() {
         let dir = TempDir::new("atomic-ok");
         let path = dir.path().join("out.txt");
-        write_atomically::<_, io::Error>(&path, |w| w.write_all(b"hello")).expect("written");
+        write_atomically::<_, io::Error>(&path, Existing::Replace, |w| w.write_all(b"hello"))
+            .expect("written");
         assert_eq!(fs::read(&path).expect("read"), b"hello");
         assert_eq!(dir.entries(), ["out.txt"]);
     }
@@ -193,7 +246,7 @@ mod tests {
     fn failure_leaves_nothing_and_keeps_the_old_file() {
         let dir = TempDir::new("atomic-fail");
         let path = dir.path().join("out.txt");
-        let e = write_atomically(&path, |w| {
+        let e = write_atomically(&path, Existing::Replace, |w| {
             w.write_all(b"half")?;
             Err::<(), _>(io::Error::other("input broke"))
         })
@@ -203,7 +256,7 @@ mod tests {
         assert!(dir.entries().is_empty(), "{:?}", dir.entries());
 
         fs::write(&path, b"old").expect("write");
-        let _ = write_atomically(&path, |w| {
+        let _ = write_atomically(&path, Existing::Replace, |w| {
             w.write_all(b"new but broken")?;
             Err::<(), _>(io::Error::other("input broke"))
         });
@@ -211,11 +264,77 @@ mod tests {
         assert_eq!(dir.entries(), ["out.txt"]);
     }
 
+    /// `convert big.csv out.mcap` (no `--force`) started just before `record --out out.mcap`
+    /// once replaced the finished recording with its own output, both exiting 0. A file that
+    /// appears while one is written is kept, and the later writer fails; a file that was there
+    /// at the start (the caller's `--force`) is still replaced.
+    #[test]
+    fn a_file_that_appears_while_writing_is_kept() {
+        let dir = TempDir::new("atomic-race");
+        let path = dir.path().join("out.mcap");
+        let e = write_atomically::<_, io::Error>(&path, Existing::Keep, |w| {
+            fs::write(&path, b"the recording").expect("the other program");
+            w.write_all(b"the conversion")
+        })
+        .expect_err("refused");
+        assert!(
+            matches!(&e, AtomicWriteError::Io { source, path: p }
+                if source.kind() == io::ErrorKind::AlreadyExists && *p == path),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("was kept"), "{e}");
+        assert_eq!(fs::read(&path).expect("read"), b"the recording");
+        assert_eq!(dir.entries(), ["out.mcap"], "no temporary file left");
+
+        // The caller was given --force: replaced.
+        write_atomically::<_, io::Error>(&path, Existing::Replace, |w| w.write_all(b"forced"))
+            .expect("replaced");
+        assert_eq!(fs::read(&path).expect("read"), b"forced");
+        assert_eq!(dir.entries(), ["out.mcap"]);
+    }
+
+    /// Two writers to one new name at once: exactly one wins, whole; the other fails.
+    #[test]
+    fn two_writers_to_one_new_name_one_wins() {
+        let dir = TempDir::new("atomic-two");
+        let path = dir.path().join("out.csv");
+        let barrier = std::sync::Barrier::new(2);
+        let results: Vec<bool> = std::thread::scope(|s| {
+            let writers: Vec<_> = [b"first".as_slice(), b"second".as_slice()]
+                .into_iter()
+                .map(|text| {
+                    let (path, barrier) = (&path, &barrier);
+                    s.spawn(move || {
+                        write_atomically::<_, io::Error>(path, Existing::Keep, |w| {
+                            w.write_all(text)?;
+                            barrier.wait();
+                            Ok(())
+                        })
+                        .is_ok()
+                    })
+                })
+                .collect();
+            writers
+                .into_iter()
+                .map(|w| w.join().expect("thread"))
+                .collect()
+        });
+        assert_eq!(results.iter().filter(|ok| **ok).count(), 1, "{results:?}");
+        let winner = if results[0] {
+            b"first".as_slice()
+        } else {
+            b"second"
+        };
+        assert_eq!(fs::read(&path).expect("read"), winner);
+        assert_eq!(dir.entries(), ["out.csv"]);
+    }
+
     #[test]
     fn missing_directory_is_an_io_error_naming_it() {
         let dir = TempDir::new("atomic-nodir");
         let path = dir.path().join("no/such/dir/out.txt");
-        let e = write_atomically::<_, io::Error>(&path, |_| Ok(())).expect_err("no dir");
+        let e = write_atomically::<_, io::Error>(&path, Existing::Replace, |_| Ok(()))
+            .expect_err("no dir");
         assert!(matches!(e, AtomicWriteError::Io { .. }));
         assert!(e.to_string().contains("no/such/dir"), "{e}");
     }
@@ -231,7 +350,8 @@ mod tests {
         if !is_device(null) {
             return; // not a Unix machine with a /dev/null device: nothing to check
         }
-        write_atomically::<_, io::Error>(null, |w| w.write_all(b"discarded")).expect("writes");
+        write_atomically::<_, io::Error>(null, Existing::Replace, |w| w.write_all(b"discarded"))
+            .expect("writes");
         assert!(is_device(null), "/dev/null is no longer a device");
     }
 
@@ -245,14 +365,17 @@ mod tests {
             return; // no /dev/full here: nothing to check
         }
         // Larger than BufWriter's buffer: the write itself fails (Content), not the flush (Io).
-        let e = write_atomically::<_, io::Error>(full, |w| w.write_all(&[0; 1 << 16]))
-            .expect_err("disk full");
+        let e = write_atomically::<_, io::Error>(full, Existing::Replace, |w| {
+            w.write_all(&[0; 1 << 16])
+        })
+        .expect_err("disk full");
         assert!(matches!(e, AtomicWriteError::Content { .. }), "{e:?}");
         let shown = e.to_string();
         assert!(shown.starts_with("/dev/full: "), "{shown}");
         assert!(shown.contains("No space left on device"), "{shown}");
         // A small write fails at the flush: also named.
-        let e = write_atomically::<_, io::Error>(full, |w| w.write_all(b"x")).expect_err("full");
+        let e = write_atomically::<_, io::Error>(full, Existing::Replace, |w| w.write_all(b"x"))
+            .expect_err("full");
         assert!(e.to_string().starts_with("/dev/full: "), "{e}");
     }
 }

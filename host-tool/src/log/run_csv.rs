@@ -33,7 +33,7 @@
 //! row, with the column's name) and the reason, e.g.
 //! `line 7, column 3 (left_current_a): "abc" is not a number`.
 
-use super::{write_atomically, AtomicWriteError};
+use super::{write_atomically, AtomicWriteError, Existing};
 use crate::excerpt::{cut, Number};
 use model_core::Sides;
 use std::fmt;
@@ -407,9 +407,10 @@ pub fn visit_own_run_csv(
 /// Returns the number of rows written.
 pub fn write_run_csv_atomically<'a>(
     path: &Path,
+    existing: Existing,
     samples: impl IntoIterator<Item = &'a RunSample>,
 ) -> Result<u64, RunCsvFileError> {
-    try_write_run_csv_atomically(path, samples.into_iter().map(|s| Ok(*s)))
+    try_write_run_csv_atomically(path, existing, samples.into_iter().map(|s| Ok(*s)))
 }
 
 /// Like [`write_run_csv_atomically`] for samples that may fail on the way (e.g. a reader): the
@@ -417,9 +418,10 @@ pub fn write_run_csv_atomically<'a>(
 /// (so it names the input file, not the output).
 pub fn try_write_run_csv_atomically(
     path: &Path,
+    existing: Existing,
     samples: impl IntoIterator<Item = Result<RunSample, RunCsvFileError>>,
 ) -> Result<u64, RunCsvFileError> {
-    let written = write_atomically(path, |out| {
+    let written = write_atomically(path, existing, |out| {
         let mut writer = RunCsvWriter::new(out).map_err(|e| RunCsvFileError::new(path, e))?;
         for sample in samples {
             writer
@@ -441,12 +443,17 @@ pub fn try_write_run_csv_atomically(
 /// Rewrites the run CSV `input` as a canonical run CSV at `output` (this tool's column order,
 /// extra columns dropped, shortest round-trip numbers). Nothing is created at `output` unless all
 /// of `input` is valid. Returns the number of rows.
-pub fn normalize_run_csv(input: &Path, output: &Path) -> Result<u64, RunCsvFileError> {
+pub fn normalize_run_csv(
+    input: &Path,
+    output: &Path,
+    existing: Existing,
+) -> Result<u64, RunCsvFileError> {
     let file = std::fs::File::open(input).map_err(|e| RunCsvFileError::new(input, e))?;
     let reader =
         RunCsvReader::new(io::BufReader::new(file)).map_err(|e| RunCsvFileError::new(input, e))?;
     try_write_run_csv_atomically(
         output,
+        existing,
         reader.map(|r| r.map_err(|e| RunCsvFileError::new(input, e))),
     )
 }

@@ -5,7 +5,7 @@ use super::chart::{Chart, Figure};
 use super::draw::draw_chart;
 use super::glyphs::Glyphs;
 use super::{Format, PlotError, FAMILY, FONT_TTF};
-use crate::log::write_atomically;
+use crate::log::{write_atomically, Existing};
 use plotters::backend::RGBPixel;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -23,7 +23,7 @@ pub fn render(chart: &Chart, path: &Path) -> Result<(), PlotError> {
 pub fn render_figure(figure: &Figure, path: &Path) -> Result<(), PlotError> {
     let format = Format::from_path(path)?;
     let bytes = render_bytes(figure, format)?;
-    write_atomically(path, |w| w.write_all(&bytes))?;
+    write_atomically(path, Existing::Replace, |w| w.write_all(&bytes))?;
     Ok(())
 }
 

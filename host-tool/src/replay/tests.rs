@@ -418,7 +418,12 @@ fn a_streamed_replay_is_the_loaded_replay_byte_for_byte() {
         streams_as_loaded(&path);
     }
     let csv = dir.path().join("run.csv");
-    crate::log::run_csv::write_run_csv_atomically(&csv, &run.samples).expect("csv");
+    crate::log::run_csv::write_run_csv_atomically(
+        &csv,
+        crate::log::Existing::Replace,
+        &run.samples,
+    )
+    .expect("csv");
     streams_as_loaded(&csv);
 }
 
@@ -431,7 +436,8 @@ fn a_run_csv_beyond_the_boards_registers_is_refused_naming_the_cell() {
     let mut samples = run.samples.clone();
     samples[7].current_a.right = -30.0;
     let csv = dir.path().join("argo.csv");
-    crate::log::run_csv::write_run_csv_atomically(&csv, &samples).expect("csv");
+    crate::log::run_csv::write_run_csv_atomically(&csv, crate::log::Existing::Replace, &samples)
+        .expect("csv");
     assert_eq!(
         crate::log::run_csv::read_run_csv(&csv).expect("another rig's file"),
         samples

@@ -10,8 +10,8 @@ use crate::diagnose::cv;
 use crate::diagnose::features::TurnRow;
 use crate::diagnose::model_file::ModelFileError;
 use crate::diagnose::{figures, model_file, Diagnosis};
-use crate::log::write_atomically;
 use crate::log::AtomicWriteError;
+use crate::log::{write_atomically, Existing};
 use crate::plan::ModelError;
 use crate::plot::render_figure;
 use crate::plot::PlotError;
@@ -54,7 +54,7 @@ pub enum ReportError {
 
 /// Writes `d.to_json()` (pretty) to `path`.
 pub fn write_json(path: &Path, d: &Diagnosis) -> Result<(), ReportError> {
-    write_atomically(path, |w| {
+    write_atomically(path, Existing::Replace, |w| {
         serde_json::to_writer_pretty(&mut *w, &d.to_json()).map_err(io::Error::from)?;
         writeln!(w)
     })?;
@@ -134,7 +134,7 @@ pub fn write_out_dir(
     if let Some(model) = &model {
         let text = model.to_toml()?;
         let path = dir.join(MODEL_FILE);
-        write_atomically(&path, |w| w.write_all(text.as_bytes()))?;
+        write_atomically(&path, Existing::Replace, |w| w.write_all(text.as_bytes()))?;
         files.push(path);
     }
     let path = dir.join(REPORT_FILE);
@@ -146,7 +146,7 @@ pub fn write_out_dir(
              plan model ({e})."
         );
     }
-    write_atomically(&path, |w| w.write_all(md.as_bytes()))?;
+    write_atomically(&path, Existing::Replace, |w| w.write_all(md.as_bytes()))?;
     files.push(path);
     Ok(files)
 }

@@ -279,7 +279,7 @@ fn malformed_last_row_creates_no_output() {
     let input = dir.path().join("in.csv");
     let output = dir.path().join("out.csv");
     std::fs::write(&input, csv_with_bad_row(1000, 1000)).expect("write input");
-    let e = normalize_run_csv(&input, &output).expect_err("malformed");
+    let e = normalize_run_csv(&input, &output, Existing::Replace).expect_err("malformed");
     assert_eq!(
         e.to_string(),
         format!(
@@ -292,7 +292,7 @@ fn malformed_last_row_creates_no_output() {
 
     // An existing output keeps its content.
     std::fs::write(&output, b"previous").expect("write");
-    normalize_run_csv(&input, &output).expect_err("malformed");
+    normalize_run_csv(&input, &output, Existing::Replace).expect_err("malformed");
     assert_eq!(std::fs::read(&output).expect("read"), b"previous");
     assert_eq!(dir.entries(), ["in.csv", "out.csv"]);
 }
@@ -306,7 +306,10 @@ fn normalize_reorders_and_drops_extra_columns() {
                 0.2,x,2,24.5,0.1,1,24,0\r\n\
                 0.2,y,2.5,24.5,0.1,1.5,24,0.005\r\n";
     std::fs::write(&input, text).expect("write");
-    assert_eq!(normalize_run_csv(&input, &output).expect("valid"), 2);
+    assert_eq!(
+        normalize_run_csv(&input, &output, Existing::Replace).expect("valid"),
+        2
+    );
     assert_eq!(
         std::fs::read_to_string(&output).expect("read"),
         format!(
@@ -327,14 +330,14 @@ fn write_atomically_then_read_back() {
     let path = dir.path().join("run.csv");
     let samples: Vec<_> = (0..100).map(|i| sample(f64::from(i) * 0.005)).collect();
     assert_eq!(
-        write_run_csv_atomically(&path, &samples).expect("written"),
+        write_run_csv_atomically(&path, Existing::Replace, &samples).expect("written"),
         100
     );
     assert_eq!(read_run_csv(&path).expect("read"), samples);
 
     let mut bad = samples.clone();
     bad[99].t_s = 0.0;
-    let e = write_run_csv_atomically(&path, &bad).expect_err("time goes back");
+    let e = write_run_csv_atomically(&path, Existing::Replace, &bad).expect_err("time goes back");
     assert!(e.to_string().contains("line 101, column 1 (t_s)"), "{e}");
     assert_eq!(read_run_csv(&path).expect("old file intact"), samples);
     assert_eq!(dir.entries(), ["run.csv"]);
@@ -618,7 +621,7 @@ fn other_rigs_readings_beyond_the_boards_range_are_read_by_default() {
     // The same through the fast path (a file in this tool's layout) and the writer.
     let dir = TempDir::new("other-rig");
     let path = dir.path().join("argo.csv");
-    write_run_csv_atomically(&path, &got).expect("written");
+    write_run_csv_atomically(&path, Existing::Replace, &got).expect("written");
     assert!(read_own_run_csv(&path, RigRange::default())
         .expect("read")
         .is_some_and(|own| own == got));
@@ -632,7 +635,7 @@ fn the_board_range_refuses_another_rigs_reading_naming_file_line_column_and_the_
     let rows = [sample(0.0), sample(0.01), sample(0.02)];
     let mut argo = rows;
     argo[1].current_a.left = 20.0;
-    write_run_csv_atomically(&own, &argo).expect("written");
+    write_run_csv_atomically(&own, Existing::Replace, &argo).expect("written");
     // A foreign layout too (columns reordered, CRLF): the general reader.
     let foreign = dir.path().join("foreign.csv");
     let text = String::from_utf8(to_csv(&argo)).expect("utf8");
