@@ -400,12 +400,14 @@ fn record_run(
     let steps = timeline.duration_us() / u64::from(config.sample_period_us) + 1;
     let mut board = SimBoard::new(config);
     board.set_load(timeline.load_source());
-    // The board waits for each command the recorder will send: a loaded machine slows the run
-    // down, it does not let the board run ahead of its commands.
+    // The board waits for each command the recorder will send, and for the recorder to read,
+    // as long as the recorder runs: a loaded machine slows the run down, it neither lets the
+    // board run ahead of its commands nor closes the pty on bytes the recorder has not read.
     let period_us = u64::from(config.sample_period_us);
     let hooks = PtyHooks {
         commands_due_us: CommandTimeline::new(commands.clone())
             .sends_us((0..steps).map(|k| k * period_us)),
+        wait_for_host: true,
         ..PtyHooks::default()
     };
     let pacing = Pacing::Scaled(options.speed);
@@ -439,6 +441,9 @@ fn record_run(
         &mut |status| on_status(duration_s, status),
     )?;
     drop(file);
+    // The recorder is done: the board waits for it no longer (on an error, dropping `pty`
+    // stops it too).
+    pty.stop();
     let board_run = pty.join().map_err(|source| DemoError::Io {
         what: "running the simulated board".into(),
         source,
@@ -449,14 +454,26 @@ fn record_run(
         run: name.clone(),
         what,
     };
-    if summary.samples != steps
-        || summary.stream.lost_samples != 0
-        || summary.stream.bad_frames != 0
-    {
+    if summary.stream.lost_samples != 0 || summary.stream.bad_frames != 0 {
         return Err(check(format!(
-            "{} of {steps} samples arrived ({} lost, {} bad frames)",
+            "{} of {steps} samples arrived: {} lost on the way, {} bad frames",
             summary.samples, summary.stream.lost_samples, summary.stream.bad_frames
         )));
+    }
+    if summary.samples != steps {
+        let what = if board_run.steps < steps {
+            format!(
+                "the simulated board stopped after {} of {steps} steps",
+                board_run.steps
+            )
+        } else {
+            format!(
+                "the recorder read {} of the board's {steps} samples before the pty closed \
+                 (none lost on the way)",
+                summary.samples
+            )
+        };
+        return Err(check(what));
     }
     // The board waits for each command, but not for a recorder that stopped sending (at most
     // `COMMAND_WAIT` per command): then it answers commands late or never. Fail, do not report.

@@ -288,6 +288,11 @@ pub struct PtyWriter {
     master: TTYPort,
     slave: TTYPort,
     path: String,
+    /// How long a write or the hang-up waits for a host that reads nothing; `None`: as long as
+    /// the host runs, until [`PtyWriter::stop`] is set ([`PtyWriter::wait_for_host`]).
+    patience: Option<Duration>,
+    /// Set when the writer is to stop ([`PtyTask::stop`]).
+    stop: Arc<AtomicBool>,
 }
 
 impl fmt::Debug for PtyWriter {
@@ -312,7 +317,25 @@ impl PtyWriter {
             master,
             slave,
             path,
+            patience: Some(WRITER_STALL),
+            stop: Arc::new(AtomicBool::new(false)),
         })
+    }
+
+    /// The host is this process's own (the demo's recorder): wait for it however slow it is
+    /// (a disk that blocks its writes for seconds under load, a starved thread), until the
+    /// task is stopped, never on a wall clock.
+    pub fn wait_for_host(&mut self) {
+        self.patience = None;
+    }
+
+    /// Whether waiting for the host is over: past `patience` without progress since `since`,
+    /// or, without patience, the task was stopped.
+    fn given_up(&self, since: Instant) -> bool {
+        match self.patience {
+            Some(limit) => since.elapsed() > limit,
+            None => self.stop.load(Ordering::Relaxed),
+        }
     }
 
     /// The slave's path (`/dev/pts/N`), to open like a serial port.
@@ -327,18 +350,24 @@ impl PtyWriter {
 
     /// Waits until the host has read everything written: the slave's queue stays empty for
     /// [`HANG_UP_QUIET`] (the kernel moves written bytes to the slave asynchronously, so empty
-    /// once is not enough). Gives up after `limit` (`None`: waits as long as it takes). Returns
-    /// whether everything was read.
+    /// once is not enough). Gives up after `limit` without the host reading a byte (`None`:
+    /// waits as long as it takes). Returns whether everything was read.
     pub fn wait_until_read(&self, limit: Option<Duration>) -> io::Result<bool> {
-        let start = Instant::now();
+        let mut progress_at = Instant::now();
         let mut quiet_since = Instant::now();
+        let mut unread = self.unread()?;
         loop {
-            if self.unread()? > 0 {
+            let now = self.unread()?;
+            if now < unread {
+                progress_at = Instant::now();
+            }
+            unread = now;
+            if unread > 0 {
                 quiet_since = Instant::now();
             } else if quiet_since.elapsed() >= HANG_UP_QUIET {
                 return Ok(true);
             }
-            if limit.is_some_and(|limit| start.elapsed() >= limit) {
+            if limit.is_some_and(|limit| progress_at.elapsed() >= limit) {
                 return Ok(false);
             }
             std::thread::sleep(Duration::from_millis(1));
@@ -360,10 +389,23 @@ impl PtyWriter {
         }
     }
 
-    /// Waits (at most [`WRITER_STALL`]) for the host to read everything, then closes both ends:
-    /// the host sees the device vanish with nothing left unread.
+    /// Waits for the host to read everything, then closes both ends: the host sees the device
+    /// vanish with nothing left unread. Gives up (and what is unread is lost) after
+    /// [`WRITER_STALL`] without the host reading a byte, or, [waiting for the
+    /// host](PtyWriter::wait_for_host), when the task is stopped.
     pub fn hang_up(self) -> io::Result<()> {
-        self.wait_until_read(Some(WRITER_STALL))?;
+        let mut progress_at = Instant::now();
+        let mut unread = self.unread()?;
+        while !self.wait_until_read(Some(Duration::from_millis(20)))? {
+            let now = self.unread()?;
+            if now < unread {
+                progress_at = Instant::now();
+            }
+            unread = now;
+            if self.given_up(progress_at) {
+                break;
+            }
+        }
         Ok(())
     }
 }
@@ -387,7 +429,7 @@ impl<T: Send + 'static> PtyTask<T> {
     ) -> io::Result<PtyTask<T>> {
         let pty = PtyWriter::open()?;
         let path = pty.path().to_owned();
-        let stop = Arc::new(AtomicBool::new(false));
+        let stop = Arc::clone(&pty.stop);
         let stop_flag = Arc::clone(&stop);
         let thread = std::thread::Builder::new()
             .name(name.into())
@@ -435,18 +477,21 @@ impl<T> Drop for PtyTask<T> {
 
 impl Write for PtyWriter {
     /// Writes some of `buf`, waiting while the pty is full; `TimedOut` after [`WRITER_STALL`]
-    /// without progress.
+    /// without progress (or, [waiting for the host](PtyWriter::wait_for_host), once stopped).
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         let start = Instant::now();
         loop {
             match self.master.write(buf) {
                 Ok(n) => return Ok(n),
                 Err(e) if is_transient(&e) => {
-                    if start.elapsed() > WRITER_STALL {
-                        return Err(io::Error::new(
-                            io::ErrorKind::TimedOut,
-                            format!("nobody read {} for {} s", self.path, WRITER_STALL.as_secs()),
-                        ));
+                    if self.given_up(start) {
+                        let why = match self.patience {
+                            Some(limit) => {
+                                format!("nobody read {} for {} s", self.path, limit.as_secs())
+                            }
+                            None => format!("stopped while the host read nothing of {}", self.path),
+                        };
+                        return Err(io::Error::new(io::ErrorKind::TimedOut, why));
                     }
                 }
                 Err(e) => return Err(e),

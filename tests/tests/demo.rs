@@ -284,3 +284,38 @@ fn demo_at_2_khz_loses_nothing_and_reports_its_rate() {
     assert!((field("sample_rate_hz") - 2_000.0).abs() < 0.01);
     assert_eq!(field("lost_samples"), 0.0);
 }
+
+/// A recorder that stalls for seconds (a disk that blocks its writes under a compiler's load,
+/// a starved thread) slows the demo down and fails nothing: the simulated board waits for its
+/// host while the host runs, as a board's USB queue does, never on a wall clock. Stalled 3 s
+/// mid-run, then 11 s near the end, where the board, done stepping, once closed the pty after
+/// 10 s with the last samples unread ("9205 of 9601 samples arrived (0 lost, 0 bad frames)").
+#[test]
+fn demo_survives_a_recorder_that_stalls_for_seconds() {
+    let _one = ONE_DEMO_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = TempDir::new("demo-stall");
+    let mut options = DemoOptions::new(&dir.0);
+    // A long lead-out: the last stretch carries no command the board would wait for.
+    let scenario = SHORT_SCENARIO.replace("lead_out_s = 1.0", "lead_out_s = 8.0");
+    options.scenario = parse_scenario(&scenario).expect("scenario");
+    options.runs = 1;
+    options.speed = 4.0;
+    let period_s = f64::from(options.sampler.sample_period_us) * 1e-6;
+    let mut stalls = Vec::new();
+    let outcome = demo::run(&options, &mut |_, duration_s, status| {
+        // The status comes from the recorder's own loop: sleeping here stalls it.
+        let done = status.samples as f64 * period_s / duration_s;
+        let stall_s = match stalls.len() {
+            0 if done > 0.3 => 3.0,
+            1 if done > 0.88 && done < 0.98 => 11.0,
+            _ => return,
+        };
+        stalls.push(done);
+        std::thread::sleep(std::time::Duration::from_secs_f64(stall_s));
+    })
+    .expect("the demo waits for its stalled recorder");
+    assert_eq!(stalls.len(), 2, "stalled at {stalls:?} of the run");
+    let s = &outcome.runs[0].summary;
+    assert_eq!(s.stream.lost_samples, 0);
+    assert_eq!(s.commands_acked, s.commands_sent);
+}

@@ -450,7 +450,8 @@ fn forwarded_commands_are_acked_and_the_host_tau_equals_the_boards() {
         row(2.0, 0.55, 0.0, None), // inner wheel stopped: its τ is undefined
         row(3.0, -0.3, 0.3, Some(1.0)),
     ];
-    write_commands_csv_atomically(&commands, &rows).expect("commands file");
+    write_commands_csv_atomically(&commands, host_tool::log::Existing::Replace, &rows)
+        .expect("commands file");
     let pty = PtyBoard::spawn(sim_board(), 1_000, Pacing::Scaled(20.0)).expect("pty");
     let options = RecordOptions {
         commands: host_tool::log::commands::read_commands_csv(&commands).expect("read"),

@@ -243,6 +243,11 @@ pub struct PtyHooks {
     /// [`COMMAND_WAIT`] (a host that is gone does not hang it): on a loaded machine the run
     /// slows down instead of running ahead of its host's commands.
     pub commands_due_us: Vec<u64>,
+    /// The host is this process's own recorder (the demo's): wait for its commands and reads
+    /// as long as it takes, until the board is stopped, not for [`COMMAND_WAIT`] or
+    /// [`WRITER_STALL`] ([`PtyWriter::wait_for_host`](crate::serial::PtyWriter::wait_for_host)):
+    /// a recorder stalled for seconds on a busy machine slows the run, it does not cut it.
+    pub wait_for_host: bool,
 }
 
 /// Run time a [`PtyBoard`] may run past a command's time before it waits for the command: the
@@ -258,6 +263,7 @@ impl fmt::Debug for PtyHooks {
             .field("before_step", &self.before_step.is_some())
             .field("line", &self.line.is_some())
             .field("commands_due_us", &self.commands_due_us.len())
+            .field("wait_for_host", &self.wait_for_host)
             .finish()
     }
 }
@@ -353,6 +359,9 @@ impl PtyTask<PtyRun> {
         }
         board.set_host_connected(true);
         PtyTask::run("simulated board", move |mut pty, stop_flag| {
+            if hooks.wait_for_host {
+                pty.wait_for_host();
+            }
             let start = Instant::now();
             let mut bytes = 0u64;
             let mut done = 0u64;
@@ -380,7 +389,10 @@ impl PtyTask<PtyRun> {
                     if n > 0 {
                         host.feed(&from_host[..n]);
                         board.receive(&from_host[..n]);
-                    } else if host.wheel_rates >= due || waiting_since.elapsed() > COMMAND_WAIT {
+                    } else if host.wheel_rates >= due
+                        || stop_flag.load(Ordering::Relaxed)
+                        || (!hooks.wait_for_host && waiting_since.elapsed() > COMMAND_WAIT)
+                    {
                         break;
                     } else {
                         std::thread::sleep(Duration::from_micros(200));
