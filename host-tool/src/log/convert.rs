@@ -7,7 +7,8 @@
 //!   board would have sent for them ([`crate::log::synthesis::synthesise_frames`]: a hello, sample
 //!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
 //!   frames, and the board's status report of the commanded wheel rates wherever `cmd_*`
-//!   changes, on the Husky's wheels as `record` assumes), so the file replays like a recording.
+//!   changes, on the Husky's wheels as `record` assumes), so the file replays like a recording;
+//!   and the recorder's events from the CSV's events file (`RUN.events.jsonl`) when it is there.
 //! - MCAP → MCAP: a clean, finished copy (also the way to repair a file cut short by a killed
 //!   recorder: everything before the cut is kept, with a summary and footer; or a damaged one:
 //!   everything outside the damage is kept, and [`Converted::losses`] says what was not).
@@ -194,6 +195,87 @@ mod tests {
                     y_m: None,
                 }
             })
+            .collect()
+    }
+
+    /// A recorded run CSV's events (its `RUN.events.jsonl`) reach the MCAP file, in time
+    /// order among the samples, and a stream of the CSV carries them as the load does.
+    #[test]
+    fn a_run_csvs_events_survive_its_conversion_to_mcap() {
+        use crate::log::csv_sink::CsvRunSink;
+        use crate::log::load::{load, stream_salvaging};
+        use crate::log::run_log::{LogEvent, RunLogSink};
+        let dir = TempDir::new("convert-events");
+        let csv = dir.path().join("rec.csv");
+        let mcap = dir.path().join("rec.mcap");
+        let events = [
+            (
+                0.0,
+                LogEvent::Started {
+                    port: "/dev/ttyACM0".into(),
+                },
+            ),
+            (
+                0.5,
+                LogEvent::SamplesLost {
+                    after_seq: 100,
+                    missing: 3,
+                },
+            ),
+            (
+                0.9,
+                LogEvent::DeviceVanished {
+                    port: "/dev/ttyACM0".into(),
+                },
+            ),
+        ];
+        let mut sink = CsvRunSink::create(&csv, false).expect("sink");
+        let mut next = events.iter().peekable();
+        for s in samples() {
+            while let Some((t, e)) = next.next_if(|(t, _)| *t <= s.t_s) {
+                sink.event(*t, e).expect("event");
+            }
+            sink.sample(&s).expect("sample");
+        }
+        sink.finish().expect("finish");
+        drop(sink);
+
+        let loaded = load(&csv).expect("csv");
+        assert_eq!(loaded.run.events, events);
+        convert(&csv, &mcap).expect("csv -> mcap");
+        let back = load(&mcap).expect("mcap");
+        assert_eq!(back.run.events, events);
+        assert_eq!(back.run.samples, loaded.run.samples);
+
+        #[derive(Default)]
+        struct Kinds(Vec<(f64, String)>, usize);
+        impl RunLogSink for Kinds {
+            fn sample(&mut self, _: &RunSample) -> std::io::Result<()> {
+                self.1 += 1;
+                Ok(())
+            }
+            fn event(&mut self, t_s: f64, e: &LogEvent) -> std::io::Result<()> {
+                self.0
+                    .push((t_s, format!("{e:?} after {} samples", self.1)));
+                Ok(())
+            }
+        }
+        let mut streamed = Kinds::default();
+        stream_salvaging(&csv, false, RigRange::Physical, &mut streamed).expect("stream");
+        assert_eq!(streamed.0.len(), 3);
+        let after: Vec<usize> = samples_before(&loaded.run.samples, &events);
+        for ((_, text), n) in streamed.0.iter().zip(after) {
+            assert!(text.ends_with(&format!("after {n} samples")), "{text}");
+        }
+    }
+
+    fn samples_before(
+        samples: &[RunSample],
+        events: &[(f64, crate::log::run_log::LogEvent)],
+    ) -> Vec<usize> {
+        events
+            .iter()
+            .map(|(t, _)| samples.iter().filter(|s| s.t_s < *t).count())
             .collect()
     }
 

@@ -1,11 +1,12 @@
 //! Reading a run log whatever its format, chosen by the file's extension: `.mcap` (see
 //! [`super::mcap`]) or `.csv` (the run CSV, [`super::run_csv`]).
 
+use super::csv_sink::{events_path, read_events, EventsFileError};
 use super::mcap::{read_mcap_run, stream_mcap_run, Loss, McapError, Truncation};
 use super::run_csv::{
     read_run_csv_salvaging, DroppedRow, RigRange, RunCsvFileError, RunCsvReader, RunSample,
 };
-use super::run_log::{RunLog, RunLogSink};
+use super::run_log::{LogEvent, RunLog, RunLogSink};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -59,6 +60,9 @@ pub enum LoadError {
     /// The MCAP file is unreadable, damaged or not a rover-power run.
     #[error(transparent)]
     Mcap(#[from] McapError),
+    /// The events file beside a run CSV (`RUN.events.jsonl`) is unreadable or invalid.
+    #[error(transparent)]
+    Events(#[from] EventsFileError),
     /// Two inputs hold the same run (the same file passed twice, or a copy or conversion of
     /// it): counted twice, it would pose as an independent repeat.
     #[error("{second} holds the same run as {first} (identical samples); pass each run once")]
@@ -205,9 +209,17 @@ pub fn stream_salvaging(
                 .map_err(file_err)?
                 .salvaging(salvage)
                 .within(range);
+            // The events in time order among the samples, as an MCAP file holds them.
+            let mut events = csv_events(path)?.into_iter().peekable();
             for sample in reader.by_ref() {
                 let sample = sample.map_err(file_err)?;
+                while let Some((t_s, event)) = events.next_if(|(t_s, _)| *t_s <= sample.t_s) {
+                    sink.event(t_s, &event).map_err(|e| file_err(e.into()))?;
+                }
                 sink.sample(&sample).map_err(|e| file_err(e.into()))?;
+            }
+            for (t_s, event) in events {
+                sink.event(t_s, &event).map_err(|e| file_err(e.into()))?;
             }
             Ok(StreamFound {
                 run: (),
@@ -299,9 +311,11 @@ pub fn load_salvaging(path: &Path, salvage: bool, range: RigRange) -> Result<Loa
     match RunFormat::of(path)? {
         RunFormat::Csv => {
             let (samples, dropped_rows) = read_run_csv_salvaging(path, salvage, range)?;
+            let events = csv_events(path)?;
             Ok(LoadedRun {
                 run: RunLog {
                     samples,
+                    events,
                     ..RunLog::default()
                 },
                 format: RunFormat::Csv,
@@ -320,6 +334,18 @@ pub fn load_salvaging(path: &Path, salvage: bool, range: RigRange) -> Result<Loa
                 dropped_rows: Vec::new(),
             })
         }
+    }
+}
+
+/// The events of the run CSV at `path`: the recorder's marks (device vanished, samples lost,
+/// wall clock, ...) in its events file (`RUN.events.jsonl`) when there is one, so that a
+/// conversion to MCAP or a live replay carries them.
+fn csv_events(path: &Path) -> Result<Vec<(f64, LogEvent)>, EventsFileError> {
+    let events = events_path(path);
+    if events.is_file() {
+        read_events(&events)
+    } else {
+        Ok(Vec::new())
     }
 }
 
