@@ -28,5 +28,6 @@ pub mod scenario;
 pub mod serial;
 pub mod sim;
 pub mod stderr;
+pub mod temp_paths;
 pub mod toml_syntax;
 pub mod validate;

@@ -9,6 +9,12 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A stop signal removes the temporary files of the writes under way before exiting.
+    if let Err(e) = host_tool::record::stop_signal::install_for_every_command() {
+        host_tool::eprintln_best_effort!(
+            "warning: no stop-signal handler ({e}): a stop leaves temporary files"
+        );
+    }
     host_tool::progress::set_quiet(cli.quiet);
     cli::set_salvage(cli.command.salvage());
     let result = match cli.command {

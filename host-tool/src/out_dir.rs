@@ -3,6 +3,7 @@
 //! when every file is written. A command that fails half-way leaves the old directory as it was
 //! (no new figures beside an old `model.toml`), and no partial one.
 
+use crate::temp_paths::TempPath;
 use std::ffi::OsString;
 use std::fs;
 use std::io;
@@ -61,10 +62,20 @@ pub fn write_dir_whole<T, E>(
         _ => PathBuf::from("."),
     };
     fs::create_dir_all(&parent).map_err(io_err(&parent))?;
+    // What a killed writer of this directory left (a SIGKILL cannot be caught).
+    if let Some(name) = dir.file_name() {
+        // Only staging directories: a `.old-PID` one holds the previous output of a writer
+        // killed between its two renames.
+        crate::temp_paths::sweep_dead(&parent, name, |rest| {
+            rest.strip_prefix("partial-")?.parse().ok()
+        });
+    }
     let staging = sibling(dir, &parent, "partial");
     if staging.exists() {
         fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
     }
+    // Registered while it exists: a stop signal removes it ([`crate::temp_paths`]).
+    let _registered = TempPath::new(staging.clone());
     fs::create_dir(&staging).map_err(io_err(&staging))?;
     let value = match write(&staging) {
         Ok(value) => value,

@@ -12,6 +12,7 @@ pub mod run_csv;
 pub mod run_log;
 pub mod synthesis;
 
+use crate::temp_paths::TempPath;
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -108,6 +109,10 @@ pub fn write_atomically<T, E>(
         path: path.to_owned(),
         source: io::Error::new(io::ErrorKind::InvalidInput, "not a file path"),
     })?;
+    // What a killed writer of this name left (a SIGKILL cannot be caught).
+    crate::temp_paths::sweep_dead(&dir, name, |rest| {
+        rest.strip_suffix(".tmp")?.split('-').next()?.parse().ok()
+    });
     let mut tmp_name = std::ffi::OsString::from(".");
     tmp_name.push(name);
     tmp_name.push(format!(
@@ -116,13 +121,19 @@ pub fn write_atomically<T, E>(
         COUNTER.fetch_add(1, Ordering::Relaxed)
     ));
     let tmp_path = dir.join(tmp_name);
-    let mut tmp = TempFile(None);
-    let file = OpenOptions::new()
+    let mut tmp = TempFile(Some(TempPath::new(tmp_path.clone())));
+    let file = match OpenOptions::new()
         .write(true)
         .create_new(true)
         .open(&tmp_path)
-        .map_err(io_err(&tmp_path))?;
-    tmp.0 = Some(tmp_path.clone());
+    {
+        Ok(file) => file,
+        Err(e) => {
+            // Not created: not ours to remove.
+            drop(tmp.0.take());
+            return Err(io_err(&tmp_path)(e));
+        }
+    };
     let mut out = BufWriter::new(file);
     let value = write(&mut out).map_err(content_err(path))?;
     let file = out
@@ -152,7 +163,8 @@ fn place_new(tmp: &Path, path: &Path) -> io::Result<()> {
     let appeared = || {
         io::Error::new(
             io::ErrorKind::AlreadyExists,
-            "a file appeared there while this one was being written (another program writing              the same name?): it was kept, and this output was not written",
+            "a file appeared there while this one was being written (another program writing \
+             the same name?): it was kept, and this output was not written",
         )
     };
     match fs::hard_link(tmp, path) {
@@ -163,13 +175,14 @@ fn place_new(tmp: &Path, path: &Path) -> io::Result<()> {
     }
 }
 
-/// Removes the temporary file unless it was renamed into place.
-struct TempFile(Option<PathBuf>);
+/// Removes the temporary file unless it was renamed into place; registered meanwhile, so
+/// that a stop signal removes it too ([`crate::temp_paths`]).
+struct TempFile(Option<TempPath>);
 
 impl Drop for TempFile {
     fn drop(&mut self) {
-        if let Some(path) = &self.0 {
-            let _ = fs::remove_file(path);
+        if let Some(tmp) = self.0.take() {
+            let _ = fs::remove_file(tmp.path());
         }
     }
 }

@@ -1,24 +1,47 @@
-//! The recorder's stop request: Ctrl-C (SIGINT), SIGTERM (a service manager, `kill`) and SIGHUP
-//! (the terminal closed) all ask for the same clean stop — final flush, MCAP summary and footer,
-//! exit 0. One portable handler (`ctrlc` with its `termination` feature) rather than platform
-//! signal code: std has none and `unsafe_code` is denied.
+//! Stop signals: Ctrl-C (SIGINT), SIGTERM (a service manager, `kill`) and SIGHUP (the terminal
+//! closed). One portable handler (`ctrlc` with its `termination` feature) rather than platform
+//! signal code: std has none and `unsafe_code` is denied. Installed once per process by
+//! [`install_for_every_command`]:
+//! - a command that stops cleanly (`record`, `replay`, `decode`) asks for a flag with
+//!   [`install`]: the first signal sets it (final flush, MCAP summary and footer, exit 0), a
+//!   second one exits at once;
+//! - every other command exits at the first signal;
+//!
+//! and either way, before exiting, the temporary files and staging directories of the writes
+//! under way are removed ([`crate::temp_paths`]).
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
-/// Exit code of a second stop request while the first one is still being honoured (the user
-/// wants out now; the log holds what was flushed): 128 + SIGINT, as a shell reports it.
+/// Exit code of a stop by signal (the user wants out now; a log holds what was flushed):
+/// 128 + SIGINT, as a shell reports it.
 pub const FORCED_EXIT_CODE: i32 = 130;
 
-/// Installs the handler once per process; the returned flag turns `true` at the first SIGINT,
-/// SIGTERM or SIGHUP, and a second one exits at once with [`FORCED_EXIT_CODE`].
-pub fn install() -> Result<Arc<AtomicBool>, ctrlc::Error> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::Relaxed) {
-            std::process::exit(FORCED_EXIT_CODE);
+/// The flag of a command that stops cleanly, once it asked for one.
+static CLEAN_STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// Installs the process's handler; installing it again is harmless.
+pub fn install_for_every_command() -> Result<(), ctrlc::Error> {
+    let handled = ctrlc::set_handler(|| {
+        if let Some(flag) = CLEAN_STOP.get() {
+            if !flag.swap(true, Ordering::Relaxed) {
+                return;
+            }
         }
-    })?;
-    Ok(stop)
+        crate::temp_paths::remove_all();
+        std::process::exit(FORCED_EXIT_CODE);
+    });
+    match handled {
+        Ok(()) | Err(ctrlc::Error::MultipleHandlers) => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
+/// The stop flag of a command that stops cleanly: `true` from the first SIGINT, SIGTERM or
+/// SIGHUP on; a second one exits at once with [`FORCED_EXIT_CODE`].
+pub fn install() -> Result<Arc<AtomicBool>, ctrlc::Error> {
+    install_for_every_command()?;
+    Ok(Arc::clone(
+        CLEAN_STOP.get_or_init(|| Arc::new(AtomicBool::new(false))),
+    ))
 }
