@@ -14,6 +14,7 @@ pub mod figures;
 pub mod file_error;
 pub mod live;
 pub mod log;
+pub mod mcap_damage;
 pub mod merge;
 pub mod out_dir;
 pub mod plan;

@@ -53,7 +53,7 @@ pub mod sweep;
 
 use crate::excerpt::{self, Number};
 use crate::file_error::{read_and_parse, FileError};
-use crate::rover::{decimal_f64, parse_rover};
+use crate::rover::{decimal_f64, rover_of_table};
 use crate::toml_syntax::TomlSyntaxError;
 use model_core::paths::{optimise_clc, ClcEnds, ClcPath, PathError, SegmentEnergy};
 use model_core::power::IcrHardGround;
@@ -207,7 +207,7 @@ pub struct EnergyModel {
 
 fn rover_from_table<'de, D: Deserializer<'de>>(d: D) -> Result<Rover, D::Error> {
     let table = toml::Table::deserialize(d)?;
-    parse_rover(&table.to_string()).map_err(|e| serde::de::Error::custom(format!("rover: {e}")))
+    rover_of_table(&table).map_err(|e| serde::de::Error::custom(format!("rover: {e}")))
 }
 
 fn rover_as_decimals<S: Serializer>(rover: &Rover, s: S) -> Result<S::Ok, S::Error> {

@@ -19,7 +19,7 @@
 
 use crate::excerpt::{self, Number};
 use crate::file_error::{read_and_parse, FileError};
-use crate::toml_syntax::TomlSyntaxError;
+use crate::toml_syntax::{self, TomlSyntaxError};
 use model_core::Rover;
 use std::path::Path;
 
@@ -71,12 +71,14 @@ pub enum RoverTomlError {
         key: &'static str,
     },
     /// The key holds something other than a number (a string, table, ...).
-    #[error("`{key}` must be a number, found a {found}")]
+    #[error("{}`{key}` must be a number, found {found}", line.map_or(String::new(), |l| format!("line {l}: ")))]
     NotANumber {
         /// The key.
         key: &'static str,
-        /// The TOML type found instead.
-        found: &'static str,
+        /// What was found instead, with its type ([`crate::toml_syntax::found`]).
+        found: String,
+        /// The 1-based line of the key.
+        line: Option<usize>,
     },
     /// The number is not finite, not > 0, or does not fit the model's `f32`.
     #[error("`{key}` = {} must be finite and > 0", Number(*.value))]
@@ -104,8 +106,12 @@ pub fn parse_rover(text: &str) -> Result<Rover, RoverTomlError> {
     parse_rover_file(text).map(|f| f.rover)
 }
 
-/// The number at `key` of `table`; `None` when absent.
-fn number(table: &toml::Table, key: &'static str) -> Result<Option<f64>, RoverTomlError> {
+/// The number at `key` of `table` (parsed from `text`, if known); `None` when absent.
+fn number(
+    text: Option<&str>,
+    table: &toml::Table,
+    key: &'static str,
+) -> Result<Option<f64>, RoverTomlError> {
     match table.get(key) {
         None => Ok(None),
         Some(toml::Value::Float(x)) => Ok(Some(*x)),
@@ -113,7 +119,8 @@ fn number(table: &toml::Table, key: &'static str) -> Result<Option<f64>, RoverTo
         Some(toml::Value::Integer(i)) => Ok(Some(*i as f64)),
         Some(other) => Err(RoverTomlError::NotANumber {
             key,
-            found: other.type_str(),
+            found: toml_syntax::found(other),
+            line: text.and_then(|text| toml_syntax::key_line(text, key)),
         }),
     }
 }
@@ -123,6 +130,17 @@ pub fn parse_rover_file(text: &str) -> Result<RoverFile, RoverTomlError> {
     let table: toml::Table = text
         .parse()
         .map_err(|e| RoverTomlError::Syntax(TomlSyntaxError::new(text, &e)))?;
+    rover_file_of(&table, Some(text))
+}
+
+/// The rover of a table read from a larger file (the plan model's `[rover]`): validated as a
+/// rover TOML, but an error names no line (the table's own text is not the file's).
+pub fn rover_of_table(table: &toml::Table) -> Result<Rover, RoverTomlError> {
+    rover_file_of(table, None).map(|f| f.rover)
+}
+
+/// `table` as a rover file; `text` is the whole file it was parsed from, to locate a key.
+fn rover_file_of(table: &toml::Table, text: Option<&str>) -> Result<RoverFile, RoverTomlError> {
     if let Some(key) = table
         .keys()
         .find(|k| !ROVER_KEYS.contains(&k.as_str()) && k.as_str() != TRACKER_OFFSET_KEY)
@@ -130,7 +148,7 @@ pub fn parse_rover_file(text: &str) -> Result<RoverFile, RoverTomlError> {
         return Err(RoverTomlError::UnknownKey { key: key.clone() });
     }
     let get = |key: &'static str| -> Result<f32, RoverTomlError> {
-        let value = number(&table, key)?.ok_or(RoverTomlError::MissingKey { key })?;
+        let value = number(text, table, key)?.ok_or(RoverTomlError::MissingKey { key })?;
         let narrow = value as f32;
         if value.is_finite() && value > 0.0 && narrow.is_finite() && narrow > 0.0 {
             Ok(narrow)
@@ -145,7 +163,7 @@ pub fn parse_rover_file(text: &str) -> Result<RoverFile, RoverTomlError> {
         mass_kg: get("mass_kg")?,
         slip_track_m: get("slip_track_m")?,
     };
-    let tracker_offset_m = number(&table, TRACKER_OFFSET_KEY)?.unwrap_or(0.0);
+    let tracker_offset_m = number(text, table, TRACKER_OFFSET_KEY)?.unwrap_or(0.0);
     if !tracker_offset_m.is_finite() {
         return Err(RoverTomlError::NotFinite {
             key: TRACKER_OFFSET_KEY,
@@ -275,13 +293,23 @@ mod tests {
     }
 
     #[test]
-    fn non_numbers_are_named_with_their_type() {
-        let text = HUSKY.replace("0.165", "\"0.165\"");
-        let e = parse_rover(&text).expect_err("string");
-        assert_eq!(
-            e.to_string(),
-            "`wheel_radius_m` must be a number, found a string"
-        );
+    fn non_numbers_are_named_with_their_type_value_and_line() {
+        for (value, found) in [
+            ("\"0.165\"", "a string (\"0.165\")"),
+            ("[0.5, 0.6]", "an array ([0.5, 0.6])"),
+            ("{ r = 0.165 }", "a table ({ r = 0.165 })"),
+            ("true", "a boolean (true)"),
+            ("1979-05-27", "a datetime (1979-05-27)"),
+        ] {
+            let text = HUSKY.replace("0.165", value);
+            let e = parse_rover(&text).expect_err(value);
+            assert_eq!(
+                e.to_string(),
+                format!("line 3: `wheel_radius_m` must be a number, found {found}")
+            );
+        }
+        // Integers and floats are numbers: the type error never names them.
+        assert!(parse_rover(&HUSKY.replace("0.165", "1")).is_ok());
     }
 
     #[test]

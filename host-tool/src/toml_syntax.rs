@@ -48,6 +48,40 @@ impl TomlSyntaxError {
     }
 }
 
+/// Characters of a value shown after its type in a type error.
+const MAX_VALUE_CHARS: usize = 40;
+
+/// What was found where another type belongs, as a sentence says it: the type with its article
+/// and the value as written, cut if long ("an array ([0.5, 0.6])").
+pub fn found(value: &toml::Value) -> String {
+    // Every type here, with its own article: "a array" is what `type_str` alone gave.
+    let kind = match value {
+        toml::Value::String(_) => "a string",
+        toml::Value::Integer(_) => "an integer",
+        toml::Value::Float(_) => "a float",
+        toml::Value::Boolean(_) => "a boolean",
+        toml::Value::Datetime(_) => "a datetime",
+        toml::Value::Array(_) => "an array",
+        toml::Value::Table(_) => "a table",
+    };
+    let shown = value.to_string();
+    format!(
+        "{kind} ({})",
+        excerpt::cut_to(shown.trim(), MAX_VALUE_CHARS)
+    )
+}
+
+/// The 1-based line where the top-level `key` of `text` is written, if `text` parses.
+pub fn key_line(text: &str, key: &str) -> Option<usize> {
+    let table = toml::de::DeTable::parse(text).ok()?;
+    let (written, _) = table
+        .get_ref()
+        .iter()
+        .find(|(k, _)| k.get_ref().as_ref() == key)?;
+    let before = text.get(..written.span().start)?;
+    Some(before.matches('\n').count() + 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -67,5 +101,35 @@ mod tests {
         let e = syntax(&long);
         assert!(e.to_string().len() < 300, "{} bytes", e.to_string().len());
         assert!(e.to_string().starts_with("line 2, column "), "{e}");
+    }
+
+    #[test]
+    fn found_says_each_type_with_its_article_and_value() {
+        let table: toml::Table = "s = \"x\"\ni = 3\nf = 0.5\nb = true\nd = 1979-05-27\n\
+                                  a = [0.5, 0.6]\nt = { x = 1 }\nlong = \"\
+                                  0123456789012345678901234567890123456789xyz\""
+            .parse()
+            .expect("TOML");
+        let found_at = |key: &str| found(&table[key]);
+        assert_eq!(found_at("s"), "a string (\"x\")");
+        assert_eq!(found_at("i"), "an integer (3)");
+        assert_eq!(found_at("f"), "a float (0.5)");
+        assert_eq!(found_at("b"), "a boolean (true)");
+        assert_eq!(found_at("d"), "a datetime (1979-05-27)");
+        assert_eq!(found_at("a"), "an array ([0.5, 0.6])");
+        assert_eq!(found_at("t"), "a table ({ x = 1 })");
+        assert_eq!(
+            found_at("long"),
+            "a string (\"012345678901234567890123456789012345678…)"
+        );
+    }
+
+    #[test]
+    fn key_line_finds_a_top_level_key() {
+        let text = "# rover\na = 1\n\nb = [\n  1,\n]\n";
+        assert_eq!(key_line(text, "a"), Some(2));
+        assert_eq!(key_line(text, "b"), Some(4));
+        assert_eq!(key_line(text, "c"), None);
+        assert_eq!(key_line("a = = 1", "a"), None);
     }
 }

@@ -242,6 +242,20 @@ fn bad_model_files_are_clear_errors() {
     }
 }
 
+/// The `[rover]` table is checked as a rover file, but its own text is not the model's: the
+/// error's line is the model file's (the table's), never one counted in the table alone.
+#[test]
+fn a_rover_type_error_in_a_model_names_the_models_line() {
+    let text = PRESET_FILE.replace("wheel_radius_m = 0.165", "wheel_radius_m = [0.165]");
+    let e = parse_model(&text).expect_err("array").to_string();
+    assert!(
+        e.starts_with(
+            "line 4, column 1: rover: `wheel_radius_m` must be a number, found an array ([0.165])"
+        ),
+        "{e}"
+    );
+}
+
 #[test]
 fn missing_model_file_names_the_path() {
     let e = load_model(Path::new("/nonexistent/model.toml")).expect_err("missing");

@@ -20,11 +20,15 @@ pub enum BagReadError {
     Storage { path: PathBuf, storage: String },
     #[error("{}: no MCAP file in the bag directory (its metadata.yaml lists {listed:?})", path.display())]
     NoMcap { path: PathBuf, listed: Vec<String> },
-    #[error("{}: not a readable MCAP file: {source}", path.display())]
+    /// `what` is [`crate::mcap_damage::describe`]'s: `mcap`'s own text of a record that does
+    /// not parse is a coloured backtrace.
+    #[error("{}: not a readable MCAP file, damaged before byte {read_bytes} of {len}: {what}", path.display())]
     Mcap {
         path: PathBuf,
-        #[source]
-        source: ::mcap::McapError,
+        /// How far the reader got: the damage is in the record read last.
+        read_bytes: u64,
+        len: u64,
+        what: String,
     },
     #[error("{}: topic {topic} is not in the bag; it has: {}", path.display(), topics.join(", "))]
     NoTopic {
@@ -56,6 +60,9 @@ pub enum BagReadError {
         source: CdrError,
     },
 }
+
+/// The largest record read from a bag smaller than this (larger files: their size).
+const MAX_RECORD_BYTES: usize = 64 << 20;
 
 /// The topics to read; `None` leaves that part out.
 #[derive(Debug, Clone)]
@@ -157,11 +164,14 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RobotBag, BagReadErro
         path: file.clone(),
         source,
     })?;
-    let mcap_err = |source| BagReadError::Mcap {
-        path: file.clone(),
-        source,
-    };
-    let stream = ::mcap::MessageStream::new(&bytes).map_err(mcap_err)?;
+    // `MessageStream` sets no record length limit: a damaged length inside a compressed chunk
+    // made it allocate that many bytes (exabytes) and abort. Any record up to the file's size
+    // (or 64 MiB, for highly compressible ones) still reads; chunk CRCs are checked.
+    let options = ::mcap::sans_io::LinearReaderOptions::default()
+        .with_record_length_limit(bytes.len().max(MAX_RECORD_BYTES))
+        .with_validate_chunk_crcs(true);
+    let mut unread = bytes.as_slice();
+    let mut stream = ::mcap::io::MessageReader::new_with_options(&mut unread, options);
     let mut bag = RobotBag {
         file: file.clone(),
         ..RobotBag::default()
@@ -185,8 +195,19 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RobotBag, BagReadErro
             None
         }
     };
-    for message in stream {
-        let message = message.map_err(mcap_err)?;
+    while let Some(message) = stream.next() {
+        let message = match message {
+            Ok(m) => m,
+            Err(e) => {
+                let unread = stream.into_inner().len();
+                return Err(BagReadError::Mcap {
+                    path: file.clone(),
+                    read_bytes: (bytes.len() - unread) as u64,
+                    len: bytes.len() as u64,
+                    what: crate::mcap_damage::describe(&e),
+                });
+            }
+        };
         let channel = &message.channel;
         let topic = channel.topic.as_str();
         let ty = match checked.iter().find(|(t, _)| t == topic) {
@@ -286,6 +307,89 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RobotBag, BagReadErro
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::log::commands::CommandRow;
+    use crate::log::tests_support::TempDir;
+    use model_core::{Rover, Sides};
+
+    /// The robot bag's twists alone.
+    fn cmd_only() -> BagTopics {
+        BagTopics {
+            cmd: crate::ros2::robot_bag::CMD_TOPIC.into(),
+            imu: None,
+            pose: None,
+        }
+    }
+
+    /// A robot bag of `n` twists in `dir`; its MCAP file.
+    fn robot_bag(dir: &TempDir, n: u32) -> PathBuf {
+        let bag = dir.path().join("robot");
+        let rows: Vec<CommandRow> = (0..n)
+            .map(|i| CommandRow::new(f64::from(i) * 0.1, Sides::new(0.3, 0.4)))
+            .collect();
+        let unix_ns_at = |t_s: f64| 1_700_000_000_000_000_000 + (t_s * 1e9) as u64;
+        crate::ros2::robot_bag::write_robot_bag(
+            &bag,
+            false,
+            &rows,
+            &Rover::HUSKY_A200,
+            unix_ns_at,
+            0.0,
+        )
+        .expect("bag");
+        bag_file(&bag).expect("its MCAP file")
+    }
+
+    /// How the error reads on stderr (the whole chain).
+    fn shown(e: BagReadError) -> String {
+        crate::stderr::error_text(&anyhow::Error::new(e))
+    }
+
+    #[test]
+    fn a_damaged_record_is_named_without_a_backtrace() {
+        let dir = TempDir::new("bag-damaged-header");
+        let file = robot_bag(&dir, 5);
+        let mut bytes = std::fs::read(&file).expect("read");
+        // The Header record (opcode 0x01 after the 8-byte magic, body from byte 17): its profile
+        // string claims more bytes than the record holds.
+        assert_eq!(bytes[8], 0x01);
+        bytes[17..21].copy_from_slice(&0xffffu32.to_le_bytes());
+        std::fs::write(&file, &bytes).expect("write");
+        let text = shown(read_bag(&file, &cmd_only()).expect_err("damaged"));
+        let header_end = 17 + u64::from_le_bytes(bytes[9..17].try_into().expect("8 bytes"));
+        assert_eq!(
+            text,
+            format!(
+                "{}: not a readable MCAP file, damaged before byte {header_end} of {}: the Header \
+                 record's field `profile`: the record ends before this field does (a damaged length)",
+                file.display(),
+                bytes.len()
+            )
+        );
+    }
+
+    /// Every byte of a small bag flipped in turn: the read fails or succeeds, never aborts (a
+    /// damaged length in a compressed chunk made `mcap`'s stream allocate exabytes), and every
+    /// error names the file in plain words.
+    #[test]
+    fn any_flipped_byte_gives_a_plain_error_naming_the_file() {
+        let dir = TempDir::new("bag-flipped");
+        let file = robot_bag(&dir, 5);
+        let good = std::fs::read(&file).expect("read");
+        let name = file.display().to_string();
+        for at in 0..good.len() {
+            let mut bytes = good.clone();
+            bytes[at] ^= 0xff;
+            std::fs::write(&file, &bytes).expect("write");
+            if let Err(e) = read_bag(&file, &cmd_only()) {
+                let text = shown(e);
+                assert!(text.starts_with(&name), "byte {at}: {text:?}");
+                assert!(
+                    !text.contains('\x1b') && !text.contains(".rs:") && !text.contains('\n'),
+                    "byte {at}: {text:?}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn metadata_yaml_names_storage_and_files() {

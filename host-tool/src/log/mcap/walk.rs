@@ -429,7 +429,10 @@ pub(super) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::R
             body.len()
         ));
     }
-    ::mcap::parse_record(opcode, body).map_err(|e| format!("record {opcode:#04x}: {e}"))
+    ::mcap::parse_record(opcode, body).map_err(|e| {
+        // `mcap`'s own text of this error is "Record parse failed", its cause a backtrace.
+        format!("record {opcode:#04x}: {}", crate::mcap_damage::describe(&e))
+    })
 }
 
 /// Whether each length-prefixed string of the record types this reader parses (chunk: its
@@ -564,5 +567,24 @@ impl ChunkDecoder {
             }
         }
         Ok(&self.chunk)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A loss's detail says which field of which record is damaged.
+    #[test]
+    fn a_record_that_does_not_parse_says_which_field() {
+        // A Schema record: id 1, then a name claiming 200 bytes of the 1 left.
+        let e = parse_record(op::SCHEMA, &[1, 0, 200, 0, 0, 0, b'a']).err();
+        assert_eq!(
+            e.as_deref(),
+            Some(
+                "record 0x03: the Schema record's field `name`: the record ends before this \
+                 field does (a damaged length)"
+            )
+        );
     }
 }

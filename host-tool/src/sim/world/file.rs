@@ -76,7 +76,10 @@ fn effect_table<T: serde::de::DeserializeOwned + Serialize + Copy>(
             return Err(WorldError::Invalid {
                 origin: origin.to_string(),
                 key: format!("{id}.enabled"),
-                reason: format!("must be true or false, found a {}", other.type_str()),
+                reason: format!(
+                    "must be true or false, found {}",
+                    crate::toml_syntax::found(&other)
+                ),
             })
         }
     };

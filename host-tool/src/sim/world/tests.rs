@@ -506,6 +506,11 @@ fn world_toml_defaults_errors_and_files() {
     assert!(e.to_string().contains("icr.mu"), "{e}");
     let e = parse_world("[angular-slip]\nenabled = 1\n").expect_err("not a bool");
     assert!(e.to_string().contains("angular-slip.enabled"), "{e}");
+    assert!(
+        e.to_string()
+            .ends_with("must be true or false, found an integer (1)"),
+        "{e}"
+    );
     let e = parse_world("[wheels]\nn = 4\n").expect_err("unknown table");
     assert!(e.to_string().contains("wheels"), "{e}");
 
