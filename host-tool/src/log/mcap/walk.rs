@@ -1,7 +1,8 @@
 //! Walking an MCAP file's top-level records in order from any `Read + Seek`, with bounded memory
 //! (one record at a time), and salvaging damaged files: a chunk whose CRC or compression does
 //! not check out is skipped, and bytes that hold no record header are skipped up to the next
-//! place where a record header parses and is followed by another one (resync). Each skipped
+//! place where a plausible record header stands and is followed by another one (resync; from
+//! inside a chunk that failed, as inserted or deleted bytes move its end). Each skipped
 //! stretch is reported as a [`Skipped`] for the reader to turn into a loss report.
 
 use ::mcap::records::op;
