@@ -43,9 +43,12 @@
 //!
 //! # Salvage
 //!
-//! A damaged file (a flipped bit, a zeroed block) is read around the damage: a chunk whose
-//! CRC, compression or sizes do not check out is skipped whole, and bytes holding no record
-//! header are skipped up to the next record header that parses and is followed by another.
+//! A damaged file (a flipped bit, a zeroed block, bytes inserted or deleted) is read around the
+//! damage: a chunk whose CRC, compression or sizes do not check out is skipped whole, and bytes
+//! holding no record header are skipped up to the next plausible record header that is followed
+//! by another (searched from inside a chunk that failed, whose length may be what moved). The
+//! summary's channel records stand in for ones lost with a chunk, found after the data end
+//! record when bytes inserted or deleted before it moved it off the footer's offset.
 //! Each skipped stretch is a [`Loss`] in [`McapRun::losses`]: bytes, the run times around it and
 //! the samples lost (counted from the chunk's message index when it survived, else estimated).
 

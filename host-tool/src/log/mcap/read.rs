@@ -218,6 +218,7 @@ fn read_mcap<R: Read + Seek>(
                         skip.indexed = Some(Indexed::default());
                     }
                     pending = Some(state.skipped.len() - 1);
+                    walker.chunk_failed(offset);
                 }
             },
             Step::Record {
@@ -249,6 +250,22 @@ fn read_mcap<R: Read + Seek>(
     }
     if truncated.is_none() && !state.ours && !summary_is_ours {
         let topics: Vec<&str> = state.foreign_topics.iter().map(String::as_str).collect();
+        if let (true, Some(first)) = (topics.is_empty(), state.skipped.first()) {
+            // No channel record at all in a damaged file: damage took them, the file may well
+            // be ours.
+            let orphans = match state.orphan_channels.len() {
+                0 => String::new(),
+                n => format!(
+                    " (messages on {n} channels remain, with no channel record to say what they \
+                     hold)"
+                ),
+            };
+            return Err(McapError::Corrupt {
+                path: path.to_owned(),
+                offset: first.skipped.start_byte,
+                detail: format!("the file's channel records were lost to damage{orphans}"),
+            });
+        }
         return Err(McapError::Foreign {
             path: path.to_owned(),
             detail: if topics.is_empty() {
@@ -354,16 +371,18 @@ impl RecentTimes {
     }
 }
 
-/// Joins stretches that touch (a damaged chunk and the bad headers after it) into one loss.
+/// Joins stretches that touch or overlap (a damaged chunk and the bad headers after it, or the
+/// resync from inside it that found its true end) into one loss.
 fn merge(skips: Vec<Skip>) -> Vec<Skip> {
     let mut out: Vec<Skip> = Vec::with_capacity(skips.len());
     for s in skips {
         match out.last_mut() {
             Some(last)
-                if last.skipped.end_byte == s.skipped.start_byte
+                if (last.skipped.start_byte..=last.skipped.end_byte)
+                    .contains(&s.skipped.start_byte)
                     && last.at_sample == s.at_sample =>
             {
-                last.skipped.end_byte = s.skipped.end_byte;
+                last.skipped.end_byte = last.skipped.end_byte.max(s.skipped.end_byte);
                 last.skipped.detail = format!("{}; {}", last.skipped.detail, s.skipped.detail);
                 last.indexed = None;
             }
@@ -439,6 +458,8 @@ struct State<'s> {
     /// Whether any rover-power channel was seen.
     ours: bool,
     foreign_topics: BTreeSet<String>,
+    /// Channel ids of messages that no channel record defines (it was lost to damage).
+    orphan_channels: BTreeSet<u16>,
     /// Channels of the summary section, for messages whose channel record was lost.
     fallback: HashMap<u16, ::mcap::records::Channel>,
     /// Where the records go.
@@ -460,6 +481,7 @@ impl<'s> State<'s> {
             channels: HashMap::new(),
             ours: false,
             foreign_topics: BTreeSet::new(),
+            orphan_channels: BTreeSet::new(),
             fallback: HashMap::new(),
             sink,
             samples: 0,
@@ -597,6 +619,7 @@ impl<'s> State<'s> {
                     }
                 }
                 let Some(&(topic, _)) = self.channels.get(&header.channel_id) else {
+                    self.orphan_channels.insert(header.channel_id);
                     return Err(self.corrupt(
                         offset,
                         format!(

@@ -1,7 +1,8 @@
 //! Walking an MCAP file's top-level records in order from any `Read + Seek`, with bounded memory
 //! (one record at a time), and salvaging damaged files: a chunk whose CRC or compression does
 //! not check out is skipped, and bytes that hold no record header are skipped up to the next
-//! place where a record header parses and is followed by another one (resync). Each skipped
+//! place where a plausible record header stands and is followed by another one (resync; from
+//! inside a chunk that failed, as inserted or deleted bytes move its end). Each skipped
 //! stretch is reported as a [`Skipped`] for the reader to turn into a loss report.
 
 use ::mcap::records::op;
@@ -75,14 +76,51 @@ fn looks_like_chunk(prefix: &[u8], body_len: u64) -> bool {
             .is_some_and(|records| (name_end as u64 + 8).checked_add(records) == Some(body_len))
 }
 
-/// Whether `body` is exactly a message index: channel id (2), the entries' byte length (4),
-/// then that many bytes of (log time, offset) pairs of 16 bytes.
-fn is_message_index(body: &[u8]) -> bool {
-    body.get(2..6)
+/// Whether a record body of `body_len` bytes starting with `prefix` is exactly a message index:
+/// channel id (2), the entries' byte length (4), then that many bytes of (log time, offset)
+/// pairs of 16 bytes.
+fn is_message_index(prefix: &[u8], body_len: u64) -> bool {
+    prefix
+        .get(2..6)
         .and_then(|b| b.try_into().ok())
         .map(|b: [u8; 4]| u64::from(u32::from_le_bytes(b)))
-        .is_some_and(|n| n % 16 == 0 && 6 + n == body.len() as u64)
+        .is_some_and(|n| n % 16 == 0 && 6 + n == body_len)
 }
+
+/// Bytes from a record's start that [`plausible_header`] looks at: its header and the start of
+/// its body (a chunk's fields up to its records).
+const LOOKAHEAD: usize = (HEADER_BYTES + CHUNK_PREFIX_BYTES) as usize;
+
+/// Whether `bytes` (a record's first [`LOOKAHEAD`] bytes, fewer where the file ends) start a
+/// record a resync may land on, with `room` bytes of the file after its header: an opcode of
+/// the top level, a length that fits, and for a chunk or a message index (the records a resync
+/// usually lands on) a body whose first fields agree with that length. Bytes inserted into or
+/// deleted from a chunk make the resync scan its compressed bytes, where only such a check
+/// keeps a false start unlikely.
+fn plausible_header(bytes: &[u8], room: u64) -> bool {
+    let Some((&opcode, rest)) = bytes.split_first() else {
+        return false;
+    };
+    let Some((len, prefix)) = rest.split_first_chunk::<8>() else {
+        return false;
+    };
+    let len = u64::from_le_bytes(*len);
+    if !resync_opcode(opcode) || len > room {
+        return false;
+    }
+    match opcode {
+        op::CHUNK => looks_like_chunk(prefix, len),
+        op::MESSAGE_INDEX => is_message_index(prefix, len),
+        _ => true,
+    }
+}
+
+/// The data end record's header (opcode, length 4): the summary section starts after its body.
+const DATA_END_HEADER: [u8; HEADER_BYTES as usize] = [op::DATA_END, 4, 0, 0, 0, 0, 0, 0, 0];
+
+/// How far before the footer a summary section is looked for when the footer's offset to it
+/// does not hold (bytes inserted or deleted before it) [bytes]: an hour's log has ~100 KiB.
+const SUMMARY_SCAN_BYTES: u64 = 64 << 20;
 
 /// A stretch of the file the walker could not trust.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -207,7 +245,7 @@ impl<R: Read + Seek> Walker<R> {
                 // A message index's length is checked by nothing else: one whose body does not
                 // hold exactly its entries has a damaged header (a damaged length would swallow
                 // the chunks after it).
-                if opcode == op::MESSAGE_INDEX && !is_message_index(&self.body) {
+                if opcode == op::MESSAGE_INDEX && !is_message_index(&self.body, body_len) {
                     self.last_unchecked = None;
                     let detail = format!(
                         "message index of {body_len} bytes does not hold its entries (damaged \
@@ -296,40 +334,54 @@ impl<R: Read + Seek> Walker<R> {
         }
     }
 
+    /// The chunk at `offset` did not decode: its length is checked by nothing either, so a bad
+    /// header after it resyncs from inside it (bytes inserted into or deleted from a chunk move
+    /// its end, and its length then points into the middle of a record).
+    pub(super) fn chunk_failed(&mut self, offset: u64) {
+        self.last_unchecked = Some(offset);
+    }
+
     pub(super) fn seek(&mut self, to: u64) -> io::Result<()> {
-        self.input.seek(SeekFrom::Start(to))?;
+        self.goto(to)?;
         self.pos = to;
         Ok(())
     }
 
-    /// The first offset ≥ `from` where a top-level record header parses, fits in the file and is
-    /// followed by another record header that does (or by the end of the file: the footer and
-    /// its magic). Checking two headers in a row makes a false sync in damaged bytes unlikely
-    /// (a length's high bytes must all be zero, twice).
+    /// Positions the input at `to`, within the buffer when it holds `to` (a resync steps back
+    /// and forth by a few bytes; a plain seek would read the buffer's MiB again each time).
+    fn goto(&mut self, to: u64) -> io::Result<()> {
+        let here = self.input.stream_position()?;
+        match i64::try_from(i128::from(to) - i128::from(here)) {
+            Ok(by) => self.input.seek_relative(by),
+            Err(_) => self.input.seek(SeekFrom::Start(to)).map(drop),
+        }
+    }
+
+    /// The first offset ≥ `from` where a [`plausible_header`] stands, followed by another one
+    /// (or by the end of the file: the footer and its magic). Checking two records in a row
+    /// makes a false sync in damaged bytes unlikely (a length's high bytes must all be zero,
+    /// twice). Each byte is looked at once, plus one header read per candidate that passes.
     pub(super) fn resync(&mut self, from: u64) -> io::Result<Option<u64>> {
         const WINDOW: usize = 1 << 16;
-        let mut window = vec![0u8; WINDOW + HEADER_BYTES as usize];
+        let mut window = vec![0u8; WINDOW + LOOKAHEAD];
         let mut at = from;
         while at + HEADER_BYTES <= self.len {
-            self.input.seek(SeekFrom::Start(at))?;
+            self.goto(at)?;
             let want = usize::try_from((self.len - at).min(window.len() as u64))
                 .map_err(io::Error::other)?;
             self.input.read_exact(&mut window[..want])?;
+            // Up to the last header that fits, where the window ends with the file.
             let scan = want.saturating_sub(HEADER_BYTES as usize - 1).min(WINDOW);
             for i in 0..scan {
-                if !resync_opcode(window[i]) {
-                    continue;
-                }
                 let candidate = at + i as u64;
-                let len = u64::from_le_bytes(
-                    window[i + 1..i + HEADER_BYTES as usize]
-                        .try_into()
-                        .unwrap_or_default(),
-                );
-                if len > self.len - candidate - HEADER_BYTES {
+                let room = self.len - candidate - HEADER_BYTES;
+                let bytes = &window[i..want.min(i + LOOKAHEAD)];
+                if !plausible_header(bytes, room) {
                     continue;
                 }
-                if self.followed_by_a_record(window[i], candidate + HEADER_BYTES + len)? {
+                let len = u64::from_le_bytes(bytes[1..9].try_into().unwrap_or_default());
+                let opcode = bytes[0];
+                if self.followed_by_a_record(opcode, candidate + HEADER_BYTES + len)? {
                     return Ok(Some(candidate));
                 }
             }
@@ -338,8 +390,8 @@ impl<R: Read + Seek> Walker<R> {
         Ok(None)
     }
 
-    /// Whether a record of `opcode` ending at `end` is followed by a plausible record header
-    /// (or, for the footer, by the closing magic at the end of the file).
+    /// Whether a record of `opcode` ending at `end` is followed by a [`plausible_header`] (or,
+    /// for the footer, by the closing magic at the end of the file).
     fn followed_by_a_record(&mut self, opcode: u8, end: u64) -> io::Result<bool> {
         if opcode == op::FOOTER {
             return Ok(end + ::mcap::MAGIC.len() as u64 == self.len);
@@ -351,11 +403,12 @@ impl<R: Read + Seek> Walker<R> {
         if end + HEADER_BYTES > self.len {
             return Ok(false);
         }
-        self.input.seek(SeekFrom::Start(end))?;
-        let mut header = [0u8; HEADER_BYTES as usize];
-        self.input.read_exact(&mut header)?;
-        let len = u64::from_le_bytes(header[1..].try_into().unwrap_or_default());
-        Ok(resync_opcode(header[0]) && len <= self.len - end - HEADER_BYTES)
+        self.goto(end)?;
+        let mut next = [0u8; LOOKAHEAD];
+        let n =
+            usize::try_from((self.len - end).min(LOOKAHEAD as u64)).map_err(io::Error::other)?;
+        self.input.read_exact(&mut next[..n])?;
+        Ok(plausible_header(&next[..n], self.len - end - HEADER_BYTES))
     }
 
     /// Channel records of the summary section, found through the footer (empty when the footer
@@ -389,8 +442,13 @@ impl<R: Read + Seek> Walker<R> {
         {
             return Ok(());
         }
-        let start = u64::from_le_bytes(footer[9..17].try_into().unwrap_or_default());
+        let stated = u64::from_le_bytes(footer[9..17].try_into().unwrap_or_default());
+        if stated == 0 {
+            // The file has no summary section.
+            return Ok(());
+        }
         let summary_end = self.len - FOOTER;
+        let start = self.summary_start(stated, summary_end)?.unwrap_or(stated);
         if start < 8 || start >= summary_end {
             return Ok(());
         }
@@ -416,6 +474,68 @@ impl<R: Read + Seek> Walker<R> {
             at += HEADER_BYTES + len;
         }
         Ok(())
+    }
+
+    /// Where the summary section ending at `summary_end` starts: at `stated` (the footer's
+    /// word) if its records end exactly there, else after the last data end record before it
+    /// whose following records do (bytes inserted or deleted before the summary moved it off
+    /// the footer's offset). `None` if neither.
+    fn summary_start(&mut self, stated: u64, summary_end: u64) -> io::Result<Option<u64>> {
+        if self.records_end_at(stated, summary_end)? {
+            return Ok(Some(stated));
+        }
+        const WINDOW: u64 = 1 << 16;
+        const DATA_END_BYTES: u64 = HEADER_BYTES + DATA_END_BODY_BYTES;
+        let floor = summary_end.saturating_sub(SUMMARY_SCAN_BYTES).max(8);
+        // Backwards, window by window; each window overlaps the next by a data end record less
+        // one byte, so one across their border is seen whole.
+        let mut window = Vec::new();
+        let mut hi = summary_end;
+        while hi >= floor + DATA_END_BYTES {
+            let lo = hi.saturating_sub(WINDOW).max(floor);
+            window.resize(usize::try_from(hi - lo).map_err(io::Error::other)?, 0);
+            self.goto(lo)?;
+            self.input.read_exact(&mut window)?;
+            let last = window.len() - DATA_END_BYTES as usize;
+            for i in (0..=last).rev() {
+                if window[i..i + HEADER_BYTES as usize] == DATA_END_HEADER {
+                    let start = lo + i as u64 + DATA_END_BYTES;
+                    if self.records_end_at(start, summary_end)? {
+                        return Ok(Some(start));
+                    }
+                }
+            }
+            if lo == floor {
+                break;
+            }
+            hi = lo + DATA_END_BYTES - 1;
+        }
+        Ok(None)
+    }
+
+    /// Whether the records from `from` on, each a valid opcode with a length that fits, end
+    /// exactly at `end`.
+    fn records_end_at(&mut self, from: u64, end: u64) -> io::Result<bool> {
+        if from < 8 || from >= end {
+            return Ok(false);
+        }
+        self.goto(from)?;
+        let mut at = from;
+        while at < end {
+            if end - at < HEADER_BYTES {
+                return Ok(false);
+            }
+            let mut header = [0u8; HEADER_BYTES as usize];
+            self.input.read_exact(&mut header)?;
+            let len = u64::from_le_bytes(header[1..].try_into().unwrap_or_default());
+            if !valid_opcode(header[0]) || len > end - at - HEADER_BYTES {
+                return Ok(false);
+            }
+            self.input
+                .seek_relative(i64::try_from(len).map_err(io::Error::other)?)?;
+            at += HEADER_BYTES + len;
+        }
+        Ok(true)
     }
 }
 
