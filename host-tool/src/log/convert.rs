@@ -37,6 +37,16 @@ pub enum ConvertError {
     /// Writing the run CSV failed.
     #[error(transparent)]
     Csv(#[from] RunCsvFileError),
+    /// Creating, syncing or placing the output file failed (a file that appeared there
+    /// meanwhile is kept: see [`Existing::Keep`]).
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The output file (or the temporary file beside it).
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
     /// Writing the MCAP file failed.
     #[error("{}: {source}", path.display())]
     Mcap {
@@ -80,15 +90,12 @@ pub fn save_run(path: &Path, existing: Existing, run: &RunLog) -> Result<RunForm
         }
         RunFormat::Mcap => {
             write_atomically(path, existing, |out| write_mcap_run(out, run).map(|_| ())).map_err(
-                |e| {
-                    let source = match e {
-                        AtomicWriteError::Io { source, path } => McapError::Io { path, source },
-                        AtomicWriteError::Content { source, .. } => source,
-                    };
-                    ConvertError::Mcap {
+                |e| match e {
+                    AtomicWriteError::Io { source, path } => ConvertError::Io { path, source },
+                    AtomicWriteError::Content { source, .. } => ConvertError::Mcap {
                         path: path.to_owned(),
                         source,
-                    }
+                    },
                 },
             )?;
         }
