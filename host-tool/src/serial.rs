@@ -358,7 +358,8 @@ impl PtyWriter {
         let mut unread = self.unread()?;
         loop {
             let now = self.unread()?;
-            if now < unread {
+            // Nothing left to read is not a stalled host.
+            if now < unread || now == 0 {
                 progress_at = Instant::now();
             }
             unread = now;
@@ -637,5 +638,31 @@ mod tests {
         // Whatever this machine has (often nothing), listing works.
         let ports = list_ports().expect("list");
         assert!(ports.iter().all(|p| !p.name.is_empty()));
+    }
+
+    /// Once the host has read everything, the hang-up comes at once (it once waited the whole
+    /// stall limit: an empty pty read as a host making no progress); bytes left unread are
+    /// waited for while the host reads them.
+    #[test]
+    fn the_hang_up_follows_the_hosts_last_read_at_once() {
+        let mut pty = PtyWriter::open().expect("pty");
+        let mut host = open(pty.path(), Duration::from_millis(100)).expect("host end");
+        pty.write_all(&[7u8; 4096]).expect("written");
+        let reader = std::thread::spawn(move || {
+            let mut got = 0;
+            let mut buf = [0u8; 512];
+            while got < 4096 {
+                // A slow host: a read every 5 ms.
+                std::thread::sleep(Duration::from_millis(5));
+                got += host.read(&mut buf).unwrap_or(0);
+            }
+            (got, host)
+        });
+        let start = Instant::now();
+        pty.hang_up().expect("hung up");
+        let waited = start.elapsed();
+        let (got, _host) = reader.join().expect("reader");
+        assert_eq!(got, 4096);
+        assert!(waited < Duration::from_secs(3), "{waited:?}");
     }
 }
