@@ -225,13 +225,13 @@ pub(crate) fn supply_words((runs_v, floor_v): (f64, f64)) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::diagnose::features::{Observed, SideObs, SideRole};
     use model_core::kinematics::Regime;
 
     /// A yaw-timed turn (or straight) of run `run` at R/R′ `rho` with slip `slip`.
-    fn turn(run: usize, rho: f64, slip: f64, bus_v: f64, yaw_rate: f64) -> TurnRow {
+    pub(crate) fn turn(run: usize, rho: f64, slip: f64, bus_v: f64, yaw_rate: f64) -> TurnRow {
         let side = |role| SideObs {
             role,
             cmd_mps: 0.3,

@@ -41,6 +41,7 @@ pub mod report;
 pub(crate) mod select;
 pub mod signature;
 mod significance;
+pub(crate) mod speed_ceiling;
 pub mod stats;
 pub mod summary;
 pub mod verdict;

@@ -5,6 +5,7 @@
 //!   straights.
 //! - Mark: the yaw-timed slip of the turns with 0 < R ≤ R′ beyond the point turns': one-sided
 //!   t ≥ 0, rise ≥ 2 %, per regime, Bonferroni ×3; measured without the power model.
+//!   Inconclusive when a drive's top speed explains those turns as well ([`speed_ceiling`]).
 
 use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, MAX_PARAMS,
@@ -14,6 +15,7 @@ use crate::diagnose::matched_slip::{
     asymmetry_slip, supply_below_calibration, supply_words, yaw_slips,
 };
 use crate::diagnose::signature::{Evidence, Signature, SignatureTest, ALPHA, MIN_SLIP_EXCESS};
+use crate::diagnose::speed_ceiling;
 use crate::diagnose::stats::{moments, one_sample_upper, welch_upper};
 use crate::effect_id::EffectId;
 use model_core::kinematics::Regime;
@@ -161,7 +163,18 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
         }
     }
     match best {
-        Some((test, detail)) => Signature::tested(e, test, detail),
+        Some((mut test, mut detail)) => {
+            // R′ commands the fastest wheel of the drive set: a drive's top speed is the rival.
+            if test.sized {
+                if let Some(ceiling) =
+                    speed_ceiling::explains(ev.rows, ev.calibration_rows, point_mean)
+                {
+                    test.present = false;
+                    detail = format!("{detail}; {}", ceiling.words());
+                }
+            }
+            Signature::tested(e, test, detail)
+        }
         None => Signature::unobservable(
             e,
             "fewer than 2 turns timed by yaw in each regime between the point turn and R′",
