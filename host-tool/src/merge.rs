@@ -37,6 +37,16 @@ pub enum MergeError {
         bag: String,
         max_offset_s: f64,
     },
+    #[error("the clocks drift apart by {drift_ppm:+.0} ppm (offset {start_s:+.3} s at the start of the overlap, {end_s:+.3} s at its end), beyond the {MAX_DRIFT_PPM} ppm clocks drift: the logs are not of one drive, or a clock was set during it")]
+    Drift {
+        drift_ppm: f64,
+        start_s: f64,
+        end_s: f64,
+    },
+    #[error("the bag turns the other way: {0}; left and right are swapped somewhere (a mirrored twist or IMU frame)")]
+    Mirrored(String),
+    #[error("the IMU reports no orientation (orientation_covariance[0] = -1 or a zero quaternion) and no angular_velocity.z to integrate: give --imu-topic none, or a topic with orientation")]
+    ImuUnusable,
     #[error("the board's power does not step where the bag's commands do at any offset within ±{max_offset_s} s (best R² {r2:.2} at {offset_s:+.3} s): wrong bag, wrong --cmd-topic, or clocks further apart")]
     NoMatch {
         r2: f64,
@@ -48,8 +58,15 @@ pub enum MergeError {
 /// How the bag was lined up with the board log.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Alignment {
-    /// The bag's clock minus the board log's [s]: a bag time minus this is board wall time.
+    /// The bag's clock minus the board log's at the board's wall-clock anchor [s].
     pub offset_s: f64,
+    /// How fast the bag's clock gains on the board's [ppm]: the offset at board run time t
+    /// (from the anchor) is `offset_s + drift_ppm·1e-6·t`. 0 when not beyond twice its
+    /// standard error, or not measured.
+    pub drift_ppm: f64,
+    /// Whether the drift was measured: at least three windows of the overlap, each with three
+    /// steps or more, lined up alone.
+    pub drift_measured: bool,
     /// R² of the step fit there: the share of the power's variance the commands' steps explain.
     pub r2: f64,
     /// Steps of the commanded power that lined the logs up.
@@ -62,11 +79,24 @@ pub struct Alignment {
     pub board_s: f64,
 }
 
+/// Where the merged yaw came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum YawSource {
+    /// No IMU messages.
+    None,
+    /// The IMU's orientation (yaw and pitch).
+    Orientation,
+    /// `angular_velocity.z` integrated over the messages' log times (an IMU without
+    /// orientation); no pitch.
+    IntegratedRate,
+}
+
 /// What was merged.
 #[derive(Debug, Clone)]
 pub struct Merged {
     pub log: RunLog,
     pub alignment: Alignment,
+    pub yaw_source: YawSource,
     /// Samples given a commanded speed, a yaw and a position fix from the bag.
     pub samples_with_cmd: usize,
     pub samples_with_yaw: usize,
@@ -92,6 +122,13 @@ pub fn side_speeds(rover: &Rover, linear_x: f64, angular_z: f64) -> Sides<f64> {
 
 /// A change of the commanded power smaller than this is no step [W].
 const STEP_W: f64 = 5.0;
+
+/// The largest clock drift accepted [ppm]: crystals are specified to ±20–100 ppm over
+/// temperature (a RealSense's is reported at 75 ppm); more is not a clock running free.
+pub const MAX_DRIFT_PPM: f64 = 500.0;
+
+/// Windows of the overlap lined up alone to measure the drift.
+const DRIFT_WINDOWS: usize = 4;
 
 /// How well "power is constant between the commands' steps" fits the board's samples when the
 /// steps are `lag` later on the board's clock: the least-squares fit of one free level per
@@ -213,16 +250,27 @@ pub fn align(
         })
         .filter(|w| *w > 0.0)
         .unwrap_or(period);
-    let min_n = n / 2;
     let (bag_first, bag_last) = (
         since_anchor(bag.cmd[0].0),
         since_anchor(bag.cmd[bag.cmd.len() - 1].0),
     );
     let span = (bag_first, bag_last);
     let say = |a: f64, b: f64| format!("{a:+.1} … {b:+.1} s from the board's anchor");
+    // Apart by more than the search reaches: say so before anything about the commands.
+    if bag_last < t[0] - max_offset_s || bag_first > t[n - 1] + max_offset_s {
+        return Err(MergeError::NoOverlap {
+            board: say(t[0], t[n - 1]),
+            bag: say(bag_first, bag_last),
+            max_offset_s,
+        });
+    }
     if steps.len() < 2 {
         return Err(MergeError::NoSteps(steps.len()));
     }
+    // A bag may cover part of the run: the fit needs most of the samples the bag's span can
+    // cover, not most of the run.
+    let coverable = (((bag_last - bag_first) / period) as usize).min(n);
+    let min_n = (coverable * 4 / 5).max(20);
 
     let lags = (max_offset_s / period).ceil() as i64;
     let fit = |lag: f64| step_fit(&t, &power, &steps, span, lag, window, min_n);
@@ -239,16 +287,8 @@ pub fn align(
             max_offset_s,
         });
     };
-    // To 0.25 ms within a sample period either side.
-    let fine_step = 0.25e-3;
-    let fine = (period / fine_step).ceil() as i64;
-    let (offset_s, mse, variance) = (-fine..=fine)
-        .filter_map(|k| {
-            let lag = coarse + k as f64 * fine_step;
-            fit(lag).map(|(mse, var)| (lag, mse, var))
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap_or((coarse, f64::INFINITY, 0.0));
+    let (offset_s, mse, variance) =
+        refine(&fit, coarse, period).unwrap_or((coarse, f64::INFINITY, 0.0));
     let r2 = 1.0 - mse / variance;
     let mut others: Vec<f64> = scores.iter().map(|s| s.1).collect();
     others.sort_by(f64::total_cmp);
@@ -267,9 +307,56 @@ pub fn align(
         .filter(|(lag, _)| (lag - offset_s).abs() > 0.5)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|&(lag, other)| (lag, 1.0 - other / variance));
-    let overlap_s = (t[n - 1].min(bag_last - offset_s) - t[0].max(bag_first - offset_s)).max(0.0);
+    let covered = (
+        t[0].max(bag_first - offset_s),
+        t[n - 1].min(bag_last - offset_s),
+    );
+    let overlap_s = (covered.1 - covered.0).max(0.0);
+
+    // Drift: each window of the overlap lined up alone near the whole's offset, then the
+    // offsets' straight line over board time.
+    let window_s = overlap_s / DRIFT_WINDOWS as f64;
+    let reach = 0.02 + MAX_DRIFT_PPM * 1e-6 * overlap_s;
+    let mut lined: Vec<(f64, f64)> = Vec::new();
+    for w in 0..DRIFT_WINDOWS {
+        let a = covered.0 + w as f64 * window_s;
+        let part = (a + offset_s, a + window_s + offset_s);
+        if steps.iter().filter(|&&x| x > part.0 && x < part.1).count() < 3 {
+            continue;
+        }
+        let min_w = ((window_s / period) as usize * 4 / 5).max(20);
+        let fit_w = |lag: f64| step_fit(&t, &power, &steps, part, lag, window, min_w);
+        let k = (reach / period).ceil() as i64;
+        let best = (-k..=k)
+            .filter_map(|j| {
+                let lag = offset_s + j as f64 * period;
+                fit_w(lag).map(|(mse, _)| (lag, mse))
+            })
+            .min_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((lag, _, _)) = best.and_then(|(lag, _)| refine(&fit_w, lag, period)) {
+            lined.push((a + window_s / 2.0, lag));
+        }
+    }
+    // A slope within twice its standard error is no drift: the offset stays the whole's.
+    let (offset_s, drift_ppm, drift_measured) = match straight_line(&lined) {
+        Some((at_anchor, slope, se)) if lined.len() >= 3 && slope.abs() > 2.0 * se => {
+            (at_anchor, slope * 1e6, true)
+        }
+        Some(_) if lined.len() >= 3 => (offset_s, 0.0, true),
+        _ => (offset_s, 0.0, false),
+    };
+    if drift_ppm.abs() > MAX_DRIFT_PPM {
+        let at = |t: f64| offset_s + drift_ppm * 1e-6 * t;
+        return Err(MergeError::Drift {
+            drift_ppm,
+            start_s: at(covered.0),
+            end_s: at(covered.1),
+        });
+    }
     Ok(Alignment {
         offset_s,
+        drift_ppm,
+        drift_measured,
         r2,
         steps: steps.len(),
         runner_up,
@@ -278,11 +365,94 @@ pub fn align(
     })
 }
 
-/// The board's run time [s] of a bag time [Unix ns], the bag's clock `offset_s` ahead.
-fn run_time_of(log: &RunLog, offset_s: f64) -> Result<impl Fn(u64) -> f64, MergeError> {
+/// The best lag to 0.25 ms within a sample period either side of `coarse`: (lag, mean squared
+/// misfit, variance).
+fn refine(
+    fit: &dyn Fn(f64) -> Option<(f64, f64)>,
+    coarse: f64,
+    period: f64,
+) -> Option<(f64, f64, f64)> {
+    let fine_step = 0.25e-3;
+    let fine = (period / fine_step).ceil() as i64;
+    (-fine..=fine)
+        .filter_map(|k| {
+            let lag = coarse + k as f64 * fine_step;
+            fit(lag).map(|(mse, var)| (lag, mse, var))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Least-squares line through (x, y) points: (intercept at x = 0, slope, the slope's standard
+/// error: infinite with two points); `None` with fewer than two distinct x.
+fn straight_line(points: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+    if points.len() < 2 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx;
+    let intercept = my - slope * mx;
+    let ss: f64 = points
+        .iter()
+        .map(|p| (p.1 - intercept - slope * p.0).powi(2))
+        .sum();
+    let se = if points.len() > 2 {
+        (ss / (n - 2.0) / sxx).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    Some((intercept, slope, se))
+}
+
+/// The board's run time [s] of a bag time [Unix ns]: the bag's clock `offset_s` ahead at the
+/// board's anchor and gaining `drift_ppm`.
+fn run_time_of(log: &RunLog, a: &Alignment) -> Result<impl Fn(u64) -> f64, MergeError> {
     let (t_anchor, unix_anchor) = log.wall_clock().ok_or(MergeError::NoWallClock)?;
-    let offset_ns = (offset_s * 1e9).round() as i128;
-    Ok(move |ns: u64| t_anchor + (ns as i128 - offset_ns - unix_anchor as i128) as f64 * 1e-9)
+    let (offset_s, rate) = (a.offset_s, 1.0 + a.drift_ppm * 1e-6);
+    Ok(move |ns: u64| {
+        let bag_s = (ns as i128 - unix_anchor as i128) as f64 * 1e-9;
+        t_anchor + (bag_s - offset_s) / rate
+    })
+}
+
+/// Yaw [rad] and pitch [deg] (when known) at an IMU message.
+type YawPitch = (f64, Option<f64>);
+
+/// The IMU's yaw (and pitch, when it has an orientation) at each message, and where it came
+/// from: the orientation when every message has one, else `angular_velocity.z` integrated over
+/// the log times (trapezoids) when every message has that.
+fn imu_yaw(bag: &RobotBag) -> Result<(Vec<YawPitch>, YawSource), MergeError> {
+    if bag.imu.is_empty() {
+        return Ok((Vec::new(), YawSource::None));
+    }
+    if bag.imu.iter().all(|(_, m)| m.orientation_known) {
+        let yaw = bag
+            .imu
+            .iter()
+            .map(|(_, m)| {
+                let (yaw, pitch) = yaw_pitch_of(m.orientation);
+                (yaw, Some(pitch))
+            })
+            .collect();
+        return Ok((yaw, YawSource::Orientation));
+    }
+    let rates: Option<Vec<f64>> = bag.imu.iter().map(|(_, m)| m.yaw_rate_rad_s).collect();
+    let rates = rates.ok_or(MergeError::ImuUnusable)?;
+    let mut yaw = 0.0;
+    let mut out = Vec::with_capacity(rates.len());
+    for (i, rate) in rates.iter().enumerate() {
+        if i > 0 {
+            let dt = (bag.imu[i].0 - bag.imu[i - 1].0) as f64 * 1e-9;
+            yaw += 0.5 * (rates[i - 1] + rate) * dt;
+        }
+        out.push((yaw, None));
+    }
+    Ok((out, YawSource::IntegratedRate))
 }
 
 /// The bag's commands, yaw, pitch and fixes as commands rows on the board's run time.
@@ -290,9 +460,10 @@ pub fn command_rows(
     log: &RunLog,
     bag: &RobotBag,
     rover: &Rover,
-    offset_s: f64,
+    alignment: &Alignment,
 ) -> Result<Vec<CommandRow>, MergeError> {
-    let run_time = run_time_of(log, offset_s)?;
+    let run_time = run_time_of(log, alignment)?;
+    let (yaw, _) = imu_yaw(bag)?;
     // Every message a row, in time order; rows at the same instant are one row.
     let mut rows: Vec<CommandRow> = Vec::new();
     let mut events: Vec<(u64, u8, usize)> = Vec::new();
@@ -314,9 +485,8 @@ pub fn command_rows(
                 row.cmd_mps = cmd;
             }
             1 => {
-                let (yaw, pitch) = yaw_pitch_of(bag.imu[i].1.orientation);
-                row.yaw_rad = Some(yaw);
-                row.pitch_deg = Some(pitch);
+                row.yaw_rad = Some(yaw[i].0);
+                row.pitch_deg = yaw[i].1;
             }
             _ => {
                 let p = bag.pose[i].1;
@@ -328,9 +498,67 @@ pub fn command_rows(
     Ok(rows)
 }
 
-/// Merges `bag` into `log`: lines them up, then gives every sample the bag's commanded side
-/// speeds, yaw, pitch and position fixes (the log's own values where the bag says nothing;
-/// with a pose topic, the bag's fixes only).
+/// The span of a topic's messages on the board's run time, to one message period past the
+/// last (a message holds until the next would have come).
+fn held_span(times: impl ExactSizeIterator<Item = f64> + Clone) -> Option<(f64, f64)> {
+    let n = times.len();
+    let first = times.clone().next()?;
+    let last = times.last()?;
+    let period = (last - first) / (n.max(2) - 1) as f64;
+    Some((first, last + period))
+}
+
+/// Whether the bag turns the way the board log does: where the commands turn, the side they
+/// make the outer one draws more power, and the IMU's yaw turns the commanded way. Mirrored
+/// twists or a mirrored IMU frame (left and right swapped) fail this.
+fn check_turn_sense(log: &RunLog, rows: &[CommandRow], yaw_known: bool) -> Result<(), MergeError> {
+    let timeline = CommandTimeline::new(rows.to_vec());
+    // Sum over turning samples of sign(commanded yaw) x (right − left power), and of
+    // sign(commanded yaw) x the yaw's change: both positive for a left turn done left.
+    let (mut power_agree, mut power_n) = (0.0, 0usize);
+    let (mut yaw_agree, mut yaw_n) = (0.0, 0usize);
+    let mut last: Option<(f64, f64)> = None;
+    for s in &log.samples {
+        let cmd = timeline.cmd_mps(s.t_s);
+        let turn = cmd.right - cmd.left;
+        let yaw = timeline.yaw_rad(s.t_s);
+        if turn.abs() > 0.05 {
+            let sense = turn.signum();
+            let right_more = s.bus_v.right * s.current_a.right - s.bus_v.left * s.current_a.left;
+            power_agree += sense * right_more.signum();
+            power_n += 1;
+            if let (Some(y), Some((t0, y0))) = (yaw.filter(|_| yaw_known), last) {
+                if s.t_s > t0 {
+                    let d = (y - y0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                        - std::f64::consts::PI;
+                    if d != 0.0 {
+                        yaw_agree += sense * d.signum();
+                        yaw_n += 1;
+                    }
+                }
+            }
+        }
+        last = yaw.map(|y| (s.t_s, y));
+    }
+    // A clear majority the other way; a mixed record (forward turns, reverse, sand) is left be.
+    if power_n >= 50 && power_agree < -0.5 * power_n as f64 {
+        return Err(MergeError::Mirrored(format!(
+            "where its commands turn left the board's left side draws more power on {:.0} % of {power_n} samples (the outer side draws more)",
+            50.0 * (1.0 - power_agree / power_n as f64)
+        )));
+    }
+    if yaw_n >= 50 && yaw_agree < -0.5 * yaw_n as f64 {
+        return Err(MergeError::Mirrored(format!(
+            "its IMU's yaw turns against its commands on {:.0} % of {yaw_n} turning samples",
+            50.0 * (1.0 - yaw_agree / yaw_n as f64)
+        )));
+    }
+    Ok(())
+}
+
+/// Merges `bag` into `log`: lines them up, then gives every sample the bag covers the bag's
+/// commanded side speeds, yaw, pitch and position fixes; samples outside keep the log's own
+/// values (with a pose topic, the bag's fixes only).
 pub fn merge(
     mut log: RunLog,
     bag: &RobotBag,
@@ -338,23 +566,18 @@ pub fn merge(
     max_offset_s: f64,
 ) -> Result<Merged, MergeError> {
     let alignment = align(&log, bag, rover, max_offset_s)?;
-    let rows = command_rows(&log, bag, rover, alignment.offset_s)?;
-    let run_time = run_time_of(&log, alignment.offset_s)?;
-    // Commands hold from the first on (as a controller holds the last twist); yaw and pitch
-    // are known from the first IMU message to one message period past the last.
-    let first_cmd = bag.cmd.first().map(|m| run_time(m.0));
-    let imu_span = match (bag.imu.first(), bag.imu.last()) {
-        (Some(a), Some(b)) => {
-            let (a, b) = (run_time(a.0), run_time(b.0));
-            let period = (b - a) / (bag.imu.len().max(2) - 1) as f64;
-            Some((a, b + period))
-        }
-        _ => None,
-    };
+    let rows = command_rows(&log, bag, rover, &alignment)?;
+    let (_, yaw_source) = imu_yaw(bag)?;
+    check_turn_sense(&log, &rows, yaw_source != YawSource::None)?;
+    let run_time = run_time_of(&log, &alignment)?;
+    // Commands hold from the first to one twist period past the last (a controller holds the
+    // last twist; beyond the bag's end it is not known); yaw and pitch likewise.
+    let cmd_span = held_span(bag.cmd.iter().map(|m| run_time(m.0)));
+    let imu_span = held_span(bag.imu.iter().map(|m| run_time(m.0)));
     let timeline = CommandTimeline::new(rows.clone());
     let (mut with_cmd, mut with_yaw, mut fixes) = (0, 0, 0);
     for s in &mut log.samples {
-        if first_cmd.is_some_and(|t0| s.t_s >= t0) {
+        if cmd_span.is_some_and(|(a, b)| (a..=b).contains(&s.t_s)) {
             s.cmd_mps = timeline.cmd_mps(s.t_s);
             with_cmd += 1;
         }
@@ -378,6 +601,7 @@ pub fn merge(
     Ok(Merged {
         log,
         alignment,
+        yaw_source,
         samples_with_cmd: with_cmd,
         samples_with_yaw: with_yaw,
         fixes,
@@ -397,6 +621,12 @@ mod tests {
     /// that average 4.48 ms and are read at a random age every 5 ms, with 3 W of noise; the
     /// robot's clock `offset_s` ahead.
     fn drive(offset_s: f64, seed: u64) -> (RunLog, RobotBag) {
+        drive_drifting(offset_s, 0.0, seed)
+    }
+
+    /// [`drive`] with the robot's clock gaining `drift_ppm`, and the outer side of a turn
+    /// drawing 150 W per rad/s more than the inner.
+    fn drive_drifting(offset_s: f64, drift_ppm: f64, seed: u64) -> (RunLog, RobotBag) {
         let mut rng = SplitMix64::new(seed);
         let unix0: u64 = 1_764_000_000_000_000_000;
         // A twist every 50 ms: stops, straights and turns of 1–4 s each, in a random order
@@ -425,7 +655,7 @@ mod tests {
         let power_at = |t: f64| {
             let tick = (t / 0.05).floor().max(0.0) as u64;
             let (v, w): (f64, f64) = twist_of_tick(tick);
-            40.0 + 600.0 * w.abs() + 90.0 * v.abs()
+            (40.0 + 600.0 * w.abs() + 90.0 * v.abs(), 150.0 * w)
         };
         let cmd = (0..800u64)
             .map(|tick| {
@@ -436,7 +666,11 @@ mod tests {
                     linear_x: v,
                     angular_z: w,
                 };
-                (ns.saturating_add_signed((offset_s * 1e9) as i64), twist)
+                let drifted = (tick as f64 * 0.05 * drift_ppm * 1e-6 * 1e9) as i64;
+                (
+                    ns.saturating_add_signed((offset_s * 1e9) as i64 + drifted),
+                    twist,
+                )
             })
             .collect();
         let (window, period) = (4.48e-3, 5e-3);
@@ -444,15 +678,14 @@ mod tests {
             .map(|k| {
                 let t = k as f64 * period;
                 let age = rng.uniform() * window;
-                let mean = (0..16)
+                let (mean, outer) = (0..16)
                     .map(|j| power_at(t - age - window * (j as f64 + 0.5) / 16.0))
-                    .sum::<f64>()
-                    / 16.0;
+                    .fold((0.0, 0.0), |(a, b), (p, o)| (a + p / 16.0, b + o / 16.0));
                 let p = mean + 3.0 * rng.normal();
                 RunSample::new(
                     t,
                     Sides::new(24.0, 24.0),
-                    Sides::new(p / 48.0, p / 48.0),
+                    Sides::new((p / 2.0 - outer) / 24.0, (p / 2.0 + outer) / 24.0),
                     Sides::new(0.0, 0.0),
                 )
             })
@@ -505,6 +738,110 @@ mod tests {
                 30.0
             ),
             Err(MergeError::NoWallClock)
+        );
+    }
+
+    #[test]
+    fn a_drifting_clock_is_measured_and_one_beyond_what_clocks_do_is_refused() {
+        // 300 ppm: 12 ms over the 40 s drive, the offset given at the board's anchor.
+        let (log, bag) = drive_drifting(4.2, 300.0, 7);
+        let a = align(&log, &bag, &Rover::HUSKY_A200, 30.0).expect("aligns");
+        assert!(a.drift_measured);
+        assert!((a.drift_ppm - 300.0).abs() < 60.0, "{a:?}");
+        assert!((a.offset_s - 4.2).abs() < 0.004, "{a:?}");
+        let (log, bag) = drive_drifting(4.2, 5000.0, 7);
+        assert!(matches!(
+            align(&log, &bag, &Rover::HUSKY_A200, 30.0),
+            Err(MergeError::Drift { .. } | MergeError::NoMatch { .. })
+        ));
+    }
+
+    #[test]
+    fn a_bag_covering_part_of_the_run_lines_up_and_leaves_the_rest_alone() {
+        let (mut log, mut bag) = drive(2.5, 9);
+        // The robot recorded 20 s in the middle of the 40 s run.
+        let from = bag.cmd[0].0 + 10_000_000_000;
+        bag.cmd
+            .retain(|(ns, _)| (from..from + 20_000_000_000).contains(ns));
+        let marker = Sides::new(9.0, 9.0);
+        for s in &mut log.samples {
+            s.cmd_mps = marker;
+        }
+        let merged = merge(log, &bag, &Rover::HUSKY_A200, 30.0).expect("merges");
+        let a = merged.alignment;
+        assert!((a.offset_s - 2.5).abs() < 0.004, "{a:?}");
+        assert!((a.overlap_s - 20.0).abs() < 0.2, "{a:?}");
+        // Before and after the bag's span the board log's values stay.
+        let first = merged.log.samples.first().expect("samples");
+        let last = merged.log.samples.last().expect("samples");
+        assert_eq!((first.cmd_mps, last.cmd_mps), (marker, marker));
+        let n = merged.log.samples.len();
+        assert!(
+            (merged.samples_with_cmd as f64 - n as f64 / 2.0).abs() < 0.02 * n as f64,
+            "{} of {n}",
+            merged.samples_with_cmd
+        );
+    }
+
+    #[test]
+    fn a_bag_far_from_the_board_log_says_they_do_not_overlap() {
+        let (log, bag) = drive(2.0 * 365.25 * 86_400.0, 10);
+        assert!(matches!(
+            align(&log, &bag, &Rover::HUSKY_A200, 30.0),
+            Err(MergeError::NoOverlap { .. })
+        ));
+    }
+
+    #[test]
+    fn a_mirrored_bag_is_refused() {
+        let (log, mut bag) = drive(0.0, 11);
+        for (_, m) in &mut bag.cmd {
+            m.angular_z = -m.angular_z;
+        }
+        let e = merge(log, &bag, &Rover::HUSKY_A200, 30.0).expect_err("mirrored");
+        assert!(matches!(e, MergeError::Mirrored(_)), "{e}");
+        let (log, bag) = drive(0.0, 11);
+        merge(log, &bag, &Rover::HUSKY_A200, 30.0).expect("the same bag unmirrored merges");
+    }
+
+    #[test]
+    fn an_imu_without_orientation_gives_yaw_integrated_from_its_rate() {
+        use crate::ros2::msgs::ImuMsg;
+        let (log, mut bag) = drive(0.0, 12);
+        // A raw IMU at 50 Hz turning at 0.2 rad/s: no orientation, its rate only.
+        let t0 = bag.cmd[0].0;
+        bag.imu = (0..2000u64)
+            .map(|i| {
+                let m = ImuMsg {
+                    stamp_ns: 0,
+                    orientation: [0.0; 4],
+                    orientation_known: false,
+                    yaw_rate_rad_s: Some(0.2),
+                };
+                (t0 + i * 20_000_000, m)
+            })
+            .collect();
+        let merged = merge(log, &bag, &Rover::HUSKY_A200, 30.0).expect("merges");
+        assert_eq!(merged.yaw_source, YawSource::IntegratedRate);
+        let run_time = run_time_of(&merged.log, &merged.alignment).expect("anchor");
+        let t_first = run_time(t0);
+        let s = merged
+            .log
+            .samples
+            .iter()
+            .find(|s| s.t_s >= t_first + 10.0)
+            .expect("a sample 10 s in");
+        let yaw = s.yaw_rad.expect("yaw");
+        assert!((yaw - 0.2 * (s.t_s - t_first)).abs() < 0.01, "{yaw}");
+        assert_eq!(s.pitch_deg, None);
+        // Neither an orientation nor a rate: refused, naming the orientation.
+        for (_, m) in &mut bag.imu {
+            m.yaw_rate_rad_s = None;
+        }
+        let (log, _) = drive(0.0, 12);
+        assert_eq!(
+            merge(log, &bag, &Rover::HUSKY_A200, 30.0).map(|_| ()),
+            Err(MergeError::ImuUnusable)
         );
     }
 

@@ -6,7 +6,7 @@ use host_tool::eprintln_best_effort;
 use host_tool::log::convert::save_run;
 use host_tool::log::load::load_run;
 use host_tool::log::Existing;
-use host_tool::merge::merge;
+use host_tool::merge::{merge, YawSource};
 use host_tool::ros2::read::{read_bag, BagTopics};
 use std::path::PathBuf;
 
@@ -32,8 +32,10 @@ pub struct MergeArgs {
     /// rover's controller slip track, V = v ∓ ω·B_s/2.
     #[arg(long, default_value = "/cmd_vel", value_name = "TOPIC")]
     cmd_topic: String,
-    /// The IMU (sensor_msgs/msg/Imu): yaw and pitch from its orientation. Left out when the bag
-    /// has no such topic and this is the default; `none` leaves it out.
+    /// The IMU (sensor_msgs/msg/Imu): yaw and pitch from its orientation; an IMU without one
+    /// (orientation_covariance[0] = -1, as raw drivers publish) gives yaw integrated from
+    /// angular_velocity.z and no pitch. Left out when the bag has no such topic and this is the
+    /// default; `none` leaves it out.
     #[arg(long, default_value = "/imu/data", value_name = "TOPIC")]
     imu_topic: String,
     /// The tracked point's pose (nav_msgs/msg/Odometry or geometry_msgs/msg/PoseStamped): x, y
@@ -53,6 +55,23 @@ impl MergeArgs {
             && self.max_offset_s <= 3600.0)
         {
             bail!("--max-offset-s {} must be in (0, 3600]", self.max_offset_s);
+        }
+        let roles = [
+            ("--cmd-topic", Some(&self.cmd_topic)),
+            (
+                "--imu-topic",
+                Some(&self.imu_topic).filter(|t| *t != "none"),
+            ),
+            ("--pose-topic", self.pose_topic.as_ref()),
+        ];
+        for (i, (a, ta)) in roles.iter().enumerate() {
+            for (b, tb) in &roles[i + 1..] {
+                if let (Some(ta), Some(tb)) = (ta, tb) {
+                    if ta == tb {
+                        bail!("{a} and {b} both name {ta}: one topic cannot be two of the commanded twist, the IMU and the pose");
+                    }
+                }
+            }
         }
         check_new_file(&self.out, self.force)?;
         let rover = self.rover.load()?.rover;
@@ -81,6 +100,12 @@ impl MergeArgs {
         if bag.imu.is_empty() && topics.imu.is_some() {
             eprintln_best_effort!("note: the bag has no {}: no yaw or pitch", self.imu_topic);
         }
+        if merged.yaw_source == YawSource::IntegratedRate {
+            eprintln_best_effort!(
+                "note: {} reports no orientation (orientation_covariance[0] = -1): yaw integrated from angular_velocity.z (it drifts with the gyro's bias), no pitch",
+                self.imu_topic
+            );
+        }
         if a.overlap_s < 0.9 * a.board_s {
             eprintln_best_effort!(
                 "warning: the bag covers {:.1} s of the board's {:.1} s run; samples outside keep the board log's values",
@@ -95,13 +120,18 @@ impl MergeArgs {
             );
         }
         output::print(format_args!(
-            "{} + {} -> {}: {n} samples\n  clock offset: the bag's clock is {:+.3} s ahead of the board log's (the power steps where the commands do, {} steps: R² = {:.3})\n  overlap: {:.1} s of the board's {:.1} s run\n  from the bag: commanded speeds on {} samples ({} twists on {}), yaw and pitch on {} ({}), {} position fixes{}\n",
+            "{} + {} -> {}: {n} samples\n  clock offset: the bag's clock is {:+.3} s ahead of the board log's at its start (the power steps where the commands do, {} steps: R² = {:.3}); {}\n  overlap: {:.1} s of the board's {:.1} s run\n  from the bag: commanded speeds on {} samples ({} twists on {}), yaw and pitch on {} ({}), {} position fixes{}\n",
             self.board.display(),
             bag.file.display(),
             self.out.display(),
             a.offset_s,
             a.steps,
             a.r2,
+            if a.drift_measured {
+                format!("drift {:+.0} ppm ({:+.1} ms over the overlap)", a.drift_ppm, a.drift_ppm * 1e-3 * a.overlap_s)
+            } else {
+                "drift not measured (too few steps in parts of the overlap)".to_owned()
+            },
             a.overlap_s,
             a.board_s,
             merged.samples_with_cmd,

@@ -168,6 +168,12 @@ pub struct ImuMsg {
     pub stamp_ns: i64,
     /// Orientation quaternion (x, y, z, w).
     pub orientation: [f64; 4],
+    /// Whether the IMU reports an orientation: REP 145 says a driver without one sets
+    /// `orientation_covariance[0]` to -1 (most raw IMU drivers, `/imu/data_raw`); a zero
+    /// quaternion is no orientation either.
+    pub orientation_known: bool,
+    /// `angular_velocity.z` [rad/s], `None` when its covariance says it is not reported.
+    pub yaw_rate_rad_s: Option<f64>,
 }
 
 /// What `merge` takes from a pose (Odometry or PoseStamped): its stamp and position.
@@ -221,9 +227,16 @@ pub fn decode_imu(message: &[u8]) -> Result<ImuMsg, CdrError> {
     let mut r = CdrReader::new(message)?;
     let stamp_ns = header(&mut r)?;
     let orientation = quaternion(&mut r, "orientation")?;
+    let orientation_unset = r.f64("orientation_covariance")? == -1.0;
+    r.skip_f64s(8, "orientation_covariance")?;
+    let rate = vector3(&mut r, "angular_velocity")?;
+    let rate_unset = r.f64("angular_velocity_covariance")? == -1.0;
+    let norm = orientation.iter().map(|q| q * q).sum::<f64>().sqrt();
     Ok(ImuMsg {
         stamp_ns,
         orientation,
+        orientation_known: !orientation_unset && norm > 0.5,
+        yaw_rate_rad_s: (!rate_unset && rate[2].is_finite()).then_some(rate[2]),
     })
 }
 
