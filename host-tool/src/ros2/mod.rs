@@ -4,6 +4,7 @@
 
 pub mod cdr;
 pub mod from_log;
+pub mod layout;
 pub mod msgs;
 pub mod read;
 pub mod robot_bag;
