@@ -451,7 +451,7 @@ fn read_sqlite(
             if bytes.is_empty() {
                 return Err(SqliteRead::Sqlite("the file is empty".into()));
             }
-            let mut db = Connection::open_in_memory_with_flags(read_only)?;
+            let mut db = Connection::open_in_memory()?;
             // `decompress` bounds `bytes` to 1 GiB: within SQLite's int sizes.
             db.deserialize_read_exact("main", bytes.as_slice(), bytes.len(), true)?;
             (db, bytes.len())
@@ -538,7 +538,11 @@ fn read_sqlite(
             })
             .map_err(SqliteRead::Bag)?;
         if let Some(ty) = ty {
-            let data = row.get_ref(3)?.as_blob().map_err(rusqlite::Error::from)?;
+            let Ok(data) = row.get_ref(3)?.as_blob() else {
+                return Err(SqliteRead::Sqlite(format!(
+                    "message {id}'s data is not a blob"
+                )));
+            };
             gather
                 .message(file, topic, ty, t, data)
                 .map_err(SqliteRead::Bag)?;
