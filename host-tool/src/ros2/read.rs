@@ -374,54 +374,169 @@ fn read_file(file: &BagFile, gather: &mut Gather) -> Result<(), BagReadError> {
     }
 }
 
+/// Reads an MCAP storage file record by record: `mcap`'s raw reader for the top-level records
+/// (bounded lengths), chunks decoded and walked here (the crate's chunk walk underflows on a
+/// record longer than its chunk), each record parsed once its string lengths are known to fit
+/// (the crate's parser allocates a string's claimed length first: 4 GiB for one damaged length).
 fn read_mcap(
     file: &BagFile,
     bytes: &[u8],
     decompressed: bool,
     gather: &mut Gather,
 ) -> Result<(), BagReadError> {
-    // `MessageStream` sets no record length limit: a damaged length inside a compressed chunk
-    // made it allocate that many bytes (exabytes) and abort. Any record up to the file's size
-    // (or 64 MiB, for highly compressible ones) still reads; chunk CRCs are checked.
-    let options = ::mcap::sans_io::LinearReaderOptions::default()
+    use ::mcap::records::op;
+    use ::mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+    // Any record up to the file's size (or 64 MiB) reads: a damaged length cannot claim more.
+    let options = LinearReaderOptions::default()
         .with_record_length_limit(bytes.len().max(MAX_RECORD_BYTES))
-        .with_validate_chunk_crcs(true);
-    let mut unread = bytes;
-    let mut stream = ::mcap::io::MessageReader::new_with_options(&mut unread, options);
-    while let Some(message) = stream.next() {
-        let message = match message {
-            Ok(m) => m,
-            Err(e) => {
-                let unread = stream.into_inner().len();
-                return Err(BagReadError::Mcap {
-                    path: file.path.clone(),
-                    read_bytes: (bytes.len() - unread) as u64,
-                    len: bytes.len() as u64,
-                    decompressed,
-                    what: crate::mcap_damage::describe(&e),
-                });
+        .with_emit_chunks(true);
+    let mut reader = LinearReader::new_with_options(options);
+    let mut fed = 0;
+    let damaged = |fed: usize, what: String| BagReadError::Mcap {
+        path: file.path.clone(),
+        read_bytes: fed as u64,
+        len: bytes.len() as u64,
+        decompressed,
+        what,
+    };
+    let mut records = McapRecords::default();
+    let mut chunks = crate::log::mcap::ChunkDecoder::default();
+    while let Some(event) = reader.next_event() {
+        match event {
+            Err(e) => return Err(damaged(fed, crate::mcap_damage::describe(&e))),
+            Ok(LinearReadEvent::ReadRequest(n)) => {
+                let n = n.min(bytes.len() - fed);
+                reader.insert(n).copy_from_slice(&bytes[fed..fed + n]);
+                reader.notify_read(n);
+                fed += n;
             }
-        };
-        let channel = &message.channel;
-        let ty = gather.type_of(&file.path, &channel.topic, || match &channel.schema {
-            Some(s) => Channel {
-                type_name: s.name.clone(),
-                message_encoding: channel.message_encoding.clone(),
-                definition_encoding: s.encoding.clone(),
-                definition: String::from_utf8_lossy(&s.data).into_owned(),
-            },
-            None => Channel {
-                type_name: String::new(),
-                message_encoding: channel.message_encoding.clone(),
-                definition_encoding: String::new(),
-                definition: String::new(),
-            },
-        })?;
-        if let Some(ty) = ty {
-            gather.message(file, &channel.topic, ty, message.log_time, &message.data)?;
+            Ok(LinearReadEvent::Record { opcode, data }) if opcode == op::CHUNK => {
+                let inner = chunks.decode(data).map_err(|problem| {
+                    damaged(
+                        fed,
+                        match problem {
+                            crate::log::mcap::ChunkProblem::Damaged(what) => {
+                                format!("a damaged chunk: {what}")
+                            }
+                            crate::log::mcap::ChunkProblem::Unsupported(c) => {
+                                format!("a chunk with compression `{c}`, not read here")
+                            }
+                        },
+                    )
+                })?;
+                let mut rest = inner;
+                while !rest.is_empty() {
+                    let record = rest
+                        .get(..9)
+                        .map(|h| {
+                            (
+                                h[0],
+                                u64::from_le_bytes(h[1..9].try_into().unwrap_or_default()),
+                            )
+                        })
+                        .and_then(|(opcode, len)| {
+                            let end = 9usize.checked_add(usize::try_from(len).ok()?)?;
+                            Some((opcode, rest.get(9..end)?, end))
+                        });
+                    let Some((opcode, body, end)) = record else {
+                        return Err(damaged(
+                            fed,
+                            "a record runs past the end of its chunk".into(),
+                        ));
+                    };
+                    records
+                        .record(file, opcode, body, gather)
+                        .map_err(|e| e.or_damage(|what| damaged(fed, what)))?;
+                    rest = &rest[end..];
+                }
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => records
+                .record(file, opcode, data, gather)
+                .map_err(|e| e.or_damage(|what| damaged(fed, what)))?,
         }
     }
     Ok(())
+}
+
+/// The schemas and channels an MCAP file has defined so far.
+#[derive(Default)]
+struct McapRecords {
+    /// (id, name, encoding, definition)
+    schemas: Vec<(u16, String, String, String)>,
+    /// (id, topic, schema id, message encoding)
+    channels: Vec<(u16, String, u16, String)>,
+}
+
+/// A record that did not read: the bag's own error, or damage in plain words.
+enum RecordError {
+    Bag(BagReadError),
+    Damage(String),
+}
+
+impl RecordError {
+    fn or_damage(self, damaged: impl FnOnce(String) -> BagReadError) -> BagReadError {
+        match self {
+            RecordError::Bag(e) => e,
+            RecordError::Damage(what) => damaged(what),
+        }
+    }
+}
+
+impl McapRecords {
+    /// Takes in one record (schema, channel and message records; the rest are skipped).
+    fn record(
+        &mut self,
+        file: &BagFile,
+        opcode: u8,
+        body: &[u8],
+        gather: &mut Gather,
+    ) -> Result<(), RecordError> {
+        use ::mcap::records::{op, Record};
+        if !matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE) {
+            return Ok(());
+        }
+        match crate::log::mcap::parse_record(opcode, body).map_err(RecordError::Damage)? {
+            Record::Schema { header, data } => self.schemas.push((
+                header.id,
+                header.name,
+                header.encoding,
+                String::from_utf8_lossy(&data).into_owned(),
+            )),
+            Record::Channel(c) => {
+                self.channels
+                    .push((c.id, c.topic, c.schema_id, c.message_encoding));
+            }
+            Record::Message { header, data } => {
+                let Some((_, topic, schema_id, encoding)) =
+                    self.channels.iter().find(|c| c.0 == header.channel_id)
+                else {
+                    return Err(RecordError::Damage(format!(
+                        "a message on channel {}, which no channel record defines",
+                        header.channel_id
+                    )));
+                };
+                let schemas = &self.schemas;
+                let ty = gather
+                    .type_of(&file.path, topic, || {
+                        let schema = schemas.iter().find(|s| s.0 == *schema_id);
+                        Channel {
+                            type_name: schema.map(|s| s.1.clone()).unwrap_or_default(),
+                            message_encoding: encoding.clone(),
+                            definition_encoding: schema.map(|s| s.2.clone()).unwrap_or_default(),
+                            definition: schema.map(|s| s.3.clone()).unwrap_or_default(),
+                        }
+                    })
+                    .map_err(RecordError::Bag)?;
+                if let Some(ty) = ty {
+                    gather
+                        .message(file, topic, ty, header.log_time, &data)
+                        .map_err(RecordError::Bag)?;
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
 }
 
 /// A sqlite3 bag file that did not read: the bag's own error (a type, a message), or SQLite's

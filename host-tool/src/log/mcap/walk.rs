@@ -542,7 +542,7 @@ impl<R: Read + Seek> Walker<R> {
 /// `mcap::parse_record`, once every string length in `body` is known to fit in it: the parser
 /// allocates a string's claimed length before reading it, so one damaged length (0xffffffff)
 /// asked for 4 GiB and aborted the process where memory is bounded.
-pub(super) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::Record<'_>, String> {
+pub(crate) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::Record<'_>, String> {
     if !strings_fit(opcode, body) {
         return Err(format!(
             "record {opcode:#04x}: a string's length exceeds the record's {} bytes",
@@ -555,8 +555,9 @@ pub(super) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::R
     })
 }
 
-/// Whether each length-prefixed string of the record types this reader parses (chunk: its
-/// compression; channel: topic, encoding and the metadata's keys and values) fits in `body`.
+/// Whether each length-prefixed string of the record types this reader and the ROS 2 bag reader
+/// parse (chunk: its compression; schema: name, encoding and data; channel: topic, encoding and
+/// the metadata's keys and values) fits in `body`.
 fn strings_fit(opcode: u8, body: &[u8]) -> bool {
     let u32_at = |at: usize| {
         body.get(at..at + 4)
@@ -570,6 +571,8 @@ fn strings_fit(opcode: u8, body: &[u8]) -> bool {
     match opcode {
         // Start time, end time, uncompressed size (8 each), CRC (4), then the compression.
         op::CHUNK => string(28).is_some(),
+        // Schema id (2), name, encoding, data (a u32 length as the strings have).
+        op::SCHEMA => string(2).and_then(string).and_then(string).is_some(),
         // Channel id, schema id (2 each), topic, encoding, metadata (byte length, string pairs).
         op::CHANNEL => {
             let Some(mut at) = string(4).and_then(string) else {
@@ -593,7 +596,7 @@ fn strings_fit(opcode: u8, body: &[u8]) -> bool {
 
 /// Why a chunk's records were not read.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(super) enum ChunkProblem {
+pub(crate) enum ChunkProblem {
     /// CRC mismatch, decompression failure, inconsistent sizes: the chunk is skipped.
     Damaged(String),
     /// A compression this tool does not read.
@@ -602,7 +605,7 @@ pub(super) enum ChunkProblem {
 
 /// Decodes chunk records, reusing its buffers from one chunk to the next.
 #[derive(Default)]
-pub(super) struct ChunkDecoder {
+pub(crate) struct ChunkDecoder {
     chunk: Vec<u8>,
     zstd: Option<zstd::bulk::Decompressor<'static>>,
 }
@@ -610,7 +613,7 @@ pub(super) struct ChunkDecoder {
 impl ChunkDecoder {
     /// A chunk record's records, decompressed and CRC-checked; `Err` with why the chunk cannot
     /// be trusted. An unknown compression is `Ok(Err)` too (the caller decides).
-    pub(super) fn decode(&mut self, body: &[u8]) -> Result<&[u8], ChunkProblem> {
+    pub(crate) fn decode(&mut self, body: &[u8]) -> Result<&[u8], ChunkProblem> {
         let (header, data) = match parse_record(op::CHUNK, body) {
             Ok(::mcap::records::Record::Chunk { header, data }) => (header, data),
             Ok(_) => return Err(ChunkProblem::Damaged("chunk record did not parse".into())),
