@@ -483,7 +483,8 @@ impl RecordError {
 }
 
 impl McapRecords {
-    /// Takes in one record (schema, channel and message records; the rest are skipped).
+    /// Takes in one record (header, schema, channel and message records are parsed; the rest,
+    /// which the reader does not need, are skipped).
     fn record(
         &mut self,
         file: &BagFile,
@@ -492,7 +493,7 @@ impl McapRecords {
         gather: &mut Gather,
     ) -> Result<(), RecordError> {
         use ::mcap::records::{op, Record};
-        if !matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE) {
+        if !matches!(opcode, op::HEADER | op::SCHEMA | op::CHANNEL | op::MESSAGE) {
             return Ok(());
         }
         match crate::log::mcap::parse_record(opcode, body).map_err(RecordError::Damage)? {
@@ -547,8 +548,17 @@ enum SqliteRead {
 }
 
 impl From<rusqlite::Error> for SqliteRead {
+    /// SQLite's sentence on one line: a damaged schema's error quotes its SQL, newlines and all.
     fn from(e: rusqlite::Error) -> Self {
-        SqliteRead::Sqlite(e.to_string())
+        let text = e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
+        SqliteRead::Sqlite(match text.char_indices().nth(200) {
+            Some((cut, _)) => format!("{}…", &text[..cut]),
+            None => text,
+        })
     }
 }
 
@@ -734,7 +744,7 @@ mod tests {
         assert_eq!(
             text,
             format!(
-                "{}: not a readable MCAP file, damaged before byte {header_end} of {}: the Header \
+                "{}: not a readable MCAP file, damaged before byte {header_end} of {}: record 0x01: the Header \
                  record's field `profile`: the record ends before this field does (a damaged length)",
                 file.display(),
                 bytes.len()

@@ -543,6 +543,12 @@ impl<R: Read + Seek> Walker<R> {
 /// allocates a string's claimed length before reading it, so one damaged length (0xffffffff)
 /// asked for 4 GiB and aborted the process where memory is bounded.
 pub(crate) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::Record<'_>, String> {
+    if let Some((record, field)) = overrun_field(opcode, body) {
+        return Err(format!(
+            "record {opcode:#04x}: the {record} record's field `{field}`: the record ends before \
+             this field does (a damaged length)"
+        ));
+    }
     if !strings_fit(opcode, body) {
         return Err(format!(
             "record {opcode:#04x}: a string's length exceeds the record's {} bytes",
@@ -555,9 +561,33 @@ pub(crate) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::R
     })
 }
 
-/// Whether each length-prefixed string of the record types this reader and the ROS 2 bag reader
-/// parse (chunk: its compression; schema: name, encoding and data; channel: topic, encoding and
-/// the metadata's keys and values) fits in `body`.
+/// The record and field of the first length-prefixed string in a header or schema record (which
+/// the ROS 2 bag reader parses) that does not fit in `body`, in the words `mcap_damage` uses.
+fn overrun_field(opcode: u8, body: &[u8]) -> Option<(&'static str, &'static str)> {
+    // The end of the string (or bytes) at `at`, if it fits.
+    let string = |at: usize| {
+        let len = u32::from_le_bytes(body.get(at..at.checked_add(4)?)?.try_into().ok()?);
+        let end = at.checked_add(4)?.checked_add(len as usize)?;
+        (end <= body.len()).then_some(end)
+    };
+    let (record, start, fields): (_, _, &[&'static str]) = match opcode {
+        op::HEADER => ("Header", 0, &["profile", "library"]),
+        // After the schema id (2 bytes); the data has a u32 length as the strings do.
+        op::SCHEMA => ("Schema", 2, &["name", "encoding", "data"]),
+        _ => return None,
+    };
+    let mut at = start;
+    for field in fields {
+        at = match string(at) {
+            Some(end) => end,
+            None => return Some((record, field)),
+        };
+    }
+    None
+}
+
+/// Whether each length-prefixed string of the record types this reader parses (chunk: its
+/// compression; channel: topic, encoding and the metadata's keys and values) fits in `body`.
 fn strings_fit(opcode: u8, body: &[u8]) -> bool {
     let u32_at = |at: usize| {
         body.get(at..at + 4)
@@ -571,8 +601,6 @@ fn strings_fit(opcode: u8, body: &[u8]) -> bool {
     match opcode {
         // Start time, end time, uncompressed size (8 each), CRC (4), then the compression.
         op::CHUNK => string(28).is_some(),
-        // Schema id (2), name, encoding, data (a u32 length as the strings have).
-        op::SCHEMA => string(2).and_then(string).and_then(string).is_some(),
         // Channel id, schema id (2 each), topic, encoding, metadata (byte length, string pairs).
         op::CHANNEL => {
             let Some(mut at) = string(4).and_then(string) else {
