@@ -17,7 +17,7 @@ pub struct MergeArgs {
     #[arg(long, value_name = "LOG")]
     board: PathBuf,
     /// The robot's rosbag2 bag of the same drive: its directory (with metadata.yaml) or its
-    /// .mcap file. MCAP storage, CDR messages.
+    /// storage file. MCAP or sqlite3 storage, split or not, zstd or lz4 compressed or not; CDR.
     #[arg(long, value_name = "BAG")]
     bag: PathBuf,
     #[command(flatten)]

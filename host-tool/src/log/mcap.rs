@@ -62,6 +62,8 @@ pub mod studio;
 #[cfg(test)]
 pub(crate) mod tests;
 mod walk;
+// The ROS 2 bag reader parses records and decodes chunks with the same guards.
+pub(crate) use walk::{parse_record, ChunkDecoder, ChunkProblem};
 
 pub use read::{
     read_mcap_bytes, read_mcap_run, stream_mcap_run, Loss, LostSamples, McapFound, McapRun,

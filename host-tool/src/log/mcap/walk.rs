@@ -542,7 +542,13 @@ impl<R: Read + Seek> Walker<R> {
 /// `mcap::parse_record`, once every string length in `body` is known to fit in it: the parser
 /// allocates a string's claimed length before reading it, so one damaged length (0xffffffff)
 /// asked for 4 GiB and aborted the process where memory is bounded.
-pub(super) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::Record<'_>, String> {
+pub(crate) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::Record<'_>, String> {
+    if let Some((record, field)) = overrun_field(opcode, body) {
+        return Err(format!(
+            "record {opcode:#04x}: the {record} record's field `{field}`: the record ends before \
+             this field does (a damaged length)"
+        ));
+    }
     if !strings_fit(opcode, body) {
         return Err(format!(
             "record {opcode:#04x}: a string's length exceeds the record's {} bytes",
@@ -553,6 +559,31 @@ pub(super) fn parse_record(opcode: u8, body: &[u8]) -> Result<::mcap::records::R
         // `mcap`'s own text of this error is "Record parse failed", its cause a backtrace.
         format!("record {opcode:#04x}: {}", crate::mcap_damage::describe(&e))
     })
+}
+
+/// The record and field of the first length-prefixed string in a header or schema record (which
+/// the ROS 2 bag reader parses) that does not fit in `body`, in the words `mcap_damage` uses.
+fn overrun_field(opcode: u8, body: &[u8]) -> Option<(&'static str, &'static str)> {
+    // The end of the string (or bytes) at `at`, if it fits.
+    let string = |at: usize| {
+        let len = u32::from_le_bytes(body.get(at..at.checked_add(4)?)?.try_into().ok()?);
+        let end = at.checked_add(4)?.checked_add(len as usize)?;
+        (end <= body.len()).then_some(end)
+    };
+    let (record, start, fields): (_, _, &[&'static str]) = match opcode {
+        op::HEADER => ("Header", 0, &["profile", "library"]),
+        // After the schema id (2 bytes); the data has a u32 length as the strings do.
+        op::SCHEMA => ("Schema", 2, &["name", "encoding", "data"]),
+        _ => return None,
+    };
+    let mut at = start;
+    for field in fields {
+        at = match string(at) {
+            Some(end) => end,
+            None => return Some((record, field)),
+        };
+    }
+    None
 }
 
 /// Whether each length-prefixed string of the record types this reader parses (chunk: its
@@ -593,7 +624,7 @@ fn strings_fit(opcode: u8, body: &[u8]) -> bool {
 
 /// Why a chunk's records were not read.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(super) enum ChunkProblem {
+pub(crate) enum ChunkProblem {
     /// CRC mismatch, decompression failure, inconsistent sizes: the chunk is skipped.
     Damaged(String),
     /// A compression this tool does not read.
@@ -602,7 +633,7 @@ pub(super) enum ChunkProblem {
 
 /// Decodes chunk records, reusing its buffers from one chunk to the next.
 #[derive(Default)]
-pub(super) struct ChunkDecoder {
+pub(crate) struct ChunkDecoder {
     chunk: Vec<u8>,
     zstd: Option<zstd::bulk::Decompressor<'static>>,
 }
@@ -610,7 +641,7 @@ pub(super) struct ChunkDecoder {
 impl ChunkDecoder {
     /// A chunk record's records, decompressed and CRC-checked; `Err` with why the chunk cannot
     /// be trusted. An unknown compression is `Ok(Err)` too (the caller decides).
-    pub(super) fn decode(&mut self, body: &[u8]) -> Result<&[u8], ChunkProblem> {
+    pub(crate) fn decode(&mut self, body: &[u8]) -> Result<&[u8], ChunkProblem> {
         let (header, data) = match parse_record(op::CHUNK, body) {
             Ok(::mcap::records::Record::Chunk { header, data }) => (header, data),
             Ok(_) => return Err(ChunkProblem::Damaged("chunk record did not parse".into())),
