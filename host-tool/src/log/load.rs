@@ -66,7 +66,7 @@ fn is_bag_dir(path: &Path) -> bool {
 /// The MCAP file of the run log at `path`: `path` itself, or a bag directory's file.
 fn mcap_file(path: &Path) -> Result<Cow<'_, Path>, LoadError> {
     if is_bag_dir(path) {
-        Ok(Cow::Owned(bag_file(path)?))
+        Ok(Cow::Owned(bag_file(path).map_err(Box::new)?))
     } else {
         Ok(Cow::Borrowed(path))
     }
@@ -87,9 +87,10 @@ pub enum LoadError {
     /// The MCAP file is unreadable, damaged or not a rover-power run.
     #[error(transparent)]
     Mcap(#[from] McapError),
-    /// A bag directory whose MCAP file cannot be found.
+    /// A bag directory whose MCAP file cannot be found (boxed: the bag reader's errors are
+    /// large, and every load returns this type).
     #[error(transparent)]
-    Bag(#[from] BagReadError),
+    Bag(#[from] Box<BagReadError>),
     /// The events file beside a run CSV (`RUN.events.jsonl`) is unreadable or invalid.
     #[error(transparent)]
     Events(#[from] EventsFileError),
