@@ -12,7 +12,7 @@ use super::{
     frame_encoding, frame_proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
     TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
 };
-use crate::log::run_csv::{RigRange, BUS_V_MAX, CURRENT_A_MAX};
+use crate::log::run_csv::RigRange;
 use crate::log::run_log::{RunLog, RunLogSink};
 use crate::ros2::from_log::{decode_sample, SAMPLE_TYPE};
 use ::mcap::records::{op, Record};
@@ -752,13 +752,19 @@ impl<'s> State<'s> {
                     }
                     .sample()
                 };
-                // The board's registers: its range, not a foreign rig's.
-                if let Some((column, value)) = sample.out_of_range(RigRange::Board) {
+                // The board's registers: its range, not a foreign rig's. A bag may hold any
+                // rig's run CSV (`convert run.csv bag --to ros2-bag`): any physical reading.
+                let (range, which) = match topic {
+                    Topic::BagSample => (RigRange::Physical, "physical"),
+                    _ => (RigRange::Board, "the board's measuring"),
+                };
+                if let Some((column, value)) = sample.out_of_range(range) {
+                    let (bus_v_max, current_a_max) = range.limits();
                     return Err(bad(
                         self,
                         format!(
-                            "{column} = {value} is outside the board's measuring range \
-                             (bus 0 to {BUS_V_MAX} V, current ±{CURRENT_A_MAX} A, all finite)"
+                            "{column} = {value} is outside {which} range (bus 0 to {bus_v_max} \
+                             V, current ±{current_a_max} A, all finite)"
                         ),
                     ));
                 }

@@ -387,7 +387,9 @@ fn a_foreign_type_on_the_sample_topic_is_refused_and_a_cut_message_is_a_loss() {
     let channel = bag
         .topic(TOPIC_SAMPLE, SAMPLE_TYPE, &sample_definition())
         .expect("topic");
-    let samples = &run(3, None).samples;
+    let mut samples = run(3, None).samples;
+    // Beyond the board's ±40.96 A but physical: a bag may hold another rig's run CSV.
+    samples[2].current_a.left = 150.0;
     for (i, s) in samples.iter().enumerate() {
         let mut cdr = encode_sample(i as i64, s);
         if i == 1 {
