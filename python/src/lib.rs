@@ -47,7 +47,10 @@ fn regular_files<'a>(paths: impl IntoIterator<Item = &'a Path>) -> PyResult<()> 
         let Ok(metadata) = std::fs::metadata(path) else {
             continue;
         };
-        if metadata.is_dir() && !path.join("metadata.yaml").is_file() {
+        if metadata.is_dir() && path.join("metadata.yaml").is_file() {
+            continue;
+        }
+        if metadata.is_dir() {
             let shown = path.display();
             return Err(RoverPowerError::new_err(format!(
                 "{shown}: is a directory, not a file"
