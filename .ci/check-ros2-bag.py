@@ -7,7 +7,8 @@ Converts DEMO_OUT/run-1.mcap into a bag in a temporary directory, opens it with
 rosbags.highlevel.AnyReader using only the definitions the bag carries, deserialises every
 message of every topic, and checks the samples against the run CSV of the same log: the count,
 the first sample's currents and run time exactly, and the yaw (on /rover_power/sample and
-/imu/data) to 1e-12. Prints one line per topic. Installs rosbags==0.11.9 with pip when it is not
+/imu/data) to 1e-12; and every standard type's stored definition against the text rosbags
+itself generates for it (rosbag2's form, which Foxglove parses). Prints one line per topic. Installs rosbags==0.11.9 with pip when it is not
 importable. Writes nothing outside the temporary directory.
 """
 
@@ -31,6 +32,27 @@ def import_rosbags():
         )
         from rosbags.highlevel import AnyReader
     return AnyReader
+
+
+def check_definitions(connections):
+    """Each standard type's definition in the bag is, byte for byte, the one rosbags generates
+    (`MSG: std_msgs/Header`, not `MSG: std_msgs/msg/Header`); our own type is checked by
+    Foxglove's parser (foxglove/check/ros2msg-schemas.mjs)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    checked = 0
+    for c in connections:
+        if c.msgtype not in store.types:
+            continue
+        want, _ = store.generate_msgdef(c.msgtype, ros_version=2)
+        if c.msgdef.data != want:
+            fail(f"{c.topic}: {c.msgtype}'s stored definition differs from rosbags':\n"
+                 f"{c.msgdef.data}\n---- rosbags:\n{want}")
+        checked += 1
+    if checked == 0:
+        fail("no standard type in the bag to check")
+    return checked
 
 
 def fail(message):
@@ -86,6 +108,7 @@ def main():
         with AnyReader([bag]) as reader:
             types = {c.topic: c.msgtype for c in reader.connections}
             declared = {c.topic: c.msgcount for c in reader.connections}
+            definitions = check_definitions(reader.connections)
             for connection, log_time, raw in reader.messages():
                 # Raises on any message that does not decode as its stored definition.
                 msg = reader.deserialize(raw, connection.msgtype)
@@ -127,7 +150,8 @@ def main():
             print(f"check-ros2-bag: {topic} ({types[topic]}): {counts[topic]} messages decoded")
         print(
             f"check-ros2-bag: ok, {len(samples)} samples as in {log.name}, "
-            f"{len(want_yaws)} yaws within 1e-12"
+            f"{len(want_yaws)} yaws within 1e-12, {definitions} standard definitions as rosbags "
+            "writes them"
         )
 
 

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Our layout (foxglove/rover-power.json) in the real Foxglove Studio, in a real browser: the
 # open-source Studio 1.48 from the npm registry (@foxglove/studio-base's built bundle), served on
-# 127.0.0.1 and driven by Debian's Chromium through Playwright. Three checks, each bounded in time:
+# 127.0.0.1 and driven by Debian's Chromium through Playwright. First, every ros2msg schema of the
+# ROS 2 bags we write (`convert --to ros2-bag` of the demo's log, `demo --robot-bag`) through
+# Foxglove's own parser (ros2msg-schemas.mjs). Then three checks, each bounded in time:
 #   1. a demo run's MCAP log opened in Studio as a file;
 #   2. the same log served by `host-tool replay --serve` to Foxglove's own client library, which
 #      must receive every message and a normal close;
@@ -28,6 +30,14 @@ rm -rf "$OUT/demo"
 "$HOST_TOOL" demo --runs 1 --out "$OUT/demo" >"$OUT/demo.log" 2>&1
 LOG="$OUT/demo/run-1.mcap"
 LAYOUT="$ROOT/foxglove/rover-power.json"
+
+rm -rf "$OUT/ros2-bag" "$OUT/robot-bags"
+"$HOST_TOOL" convert "$LOG" "$OUT/ros2-bag" --to ros2-bag >"$OUT/ros2-bag.log" 2>&1 ||
+    { cat "$OUT/ros2-bag.log"; exit 1; }
+"$HOST_TOOL" demo --runs 1 --robot-bag --out "$OUT/robot-bags" >"$OUT/robot-bags.log" 2>&1 ||
+    { cat "$OUT/robot-bags.log"; exit 1; }
+echo "ros2msg schemas, @foxglove/rosmsg (ROS 2 mode): $OUT/ros2-bag $OUT/robot-bags"
+node "$HERE/ros2msg-schemas.mjs" "$OUT/ros2-bag" "$OUT/robot-bags"
 
 echo "Foxglove Studio, file: $LOG"
 node "$HERE/check.mjs" --mcap "$LOG" --layout "$LAYOUT" --screenshot "$OUT/studio-file.png" \

@@ -174,3 +174,65 @@ fn an_existing_output_is_refused_without_force_and_a_file_name_is_not_a_bag() {
         assert!(!out.exists());
     }
 }
+
+/// `validate --json -` of `runs`, parsed.
+fn validate_json(runs: &Path) -> serde_json::Value {
+    let done = host_tool()
+        .args(["--quiet", "validate", "--runs"])
+        .arg(runs)
+        .args(["--json", "-"])
+        .output()
+        .expect("runs");
+    assert!(
+        done.status.success(),
+        "{}: {}",
+        runs.display(),
+        String::from_utf8_lossy(&done.stderr)
+    );
+    serde_json::from_slice(&done.stdout).expect("json")
+}
+
+/// Issue 56: a user who keeps only the bag `convert --to ros2-bag` wrote can analyse it. The
+/// bag directory and its MCAP file give `validate` the report the log gives (every turn's
+/// power, energy and fit), but for the file's name and what only the board's wire frames tell
+/// (the bag holds none, as a run CSV): the cross-check of the board's own model and the
+/// count of samples lost on the wire.
+#[test]
+fn validate_reads_the_bag_as_it_reads_the_log() {
+    let dir = temp_dir("ros2-bag-validate");
+    let log = demo_once(&dir).join("run-1.mcap");
+    let bag = dir.join("drive");
+    let done = host_tool()
+        .arg("convert")
+        .arg(&log)
+        .arg(&bag)
+        .args(["--to", "ros2-bag"])
+        .output()
+        .expect("runs");
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+
+    let mut expected = validate_json(&log);
+    let runs = expected["runs"].as_array_mut().expect("runs");
+    assert_eq!(runs.len(), 1);
+    let run = &mut runs[0];
+    assert!(run["cross_check"].is_object(), "{run}");
+    assert_eq!(run["lost_samples"], 0, "{run}");
+    run["cross_check"] = serde_json::Value::Null;
+    run["lost_samples"] = serde_json::Value::Null;
+    let expected = expected.to_string();
+    assert!(expected.contains("energy_j"), "{expected}");
+    let name = serde_json::Value::from(log.display().to_string()).to_string();
+    for runs in [bag.clone(), bag.join("drive_0.mcap")] {
+        let shown = serde_json::Value::from(runs.display().to_string()).to_string();
+        let report = validate_json(&runs).to_string().replace(&shown, &name);
+        assert!(
+            report == expected,
+            "{}:\n{report}\n!=\n{expected}",
+            runs.display()
+        );
+    }
+}

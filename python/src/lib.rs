@@ -38,7 +38,8 @@ fn error(e: anyhow::Error) -> PyErr {
 }
 
 /// Refuses each of `paths` that exists and is not a regular file (a directory, a FIFO, a
-/// device, a socket), naming it and what it is. Asked of the file system without opening the
+/// device, a socket), naming it and what it is; a ROS 2 bag directory (with its
+/// `metadata.yaml`) is read as its MCAP file, as the CLI reads it. Asked of the file system without opening the
 /// file: opening a FIFO waits for a writer. A path that cannot be looked at (missing, not
 /// permitted) passes: the reader's own error names it, as the CLI's does.
 fn regular_files<'a>(paths: impl IntoIterator<Item = &'a Path>) -> PyResult<()> {
@@ -46,6 +47,9 @@ fn regular_files<'a>(paths: impl IntoIterator<Item = &'a Path>) -> PyResult<()> 
         let Ok(metadata) = std::fs::metadata(path) else {
             continue;
         };
+        if metadata.is_dir() && path.join("metadata.yaml").is_file() {
+            continue;
+        }
         if metadata.is_dir() {
             let shown = path.display();
             return Err(RoverPowerError::new_err(format!(

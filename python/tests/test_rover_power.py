@@ -101,6 +101,16 @@ def test_mcap_log_reads_as_its_run_csv(host_tool, demo_runs, tmp_path):
     assert len(df) > 1000
 
 
+def test_a_ros2_bag_reads_as_its_log(host_tool, demo_runs, tmp_path):
+    """A user who keeps only the bag `convert --to ros2-bag` wrote reads the same samples from
+    the bag directory and from its MCAP file as from the log."""
+    bag = tmp_path / "drive"
+    cli(host_tool, "convert", demo_runs[0], str(bag), "--to", "ros2-bag")
+    expected = rp.read_run(demo_runs[0])
+    for run in [bag, bag / "drive_0.mcap"]:
+        same_frame(rp.read_run(str(run)), expected)
+
+
 def test_mcap_events_are_the_logs(demo_runs):
     events = rp.read_run(demo_runs[0]).attrs["events"]
     kinds = [e["kind"] for e in events]

@@ -95,7 +95,7 @@ impl ConvertArgs {
     /// `--to ros2-bag`: the log as a bag directory.
     fn run_ros2_bag(self) -> Result<()> {
         let out = &self.output;
-        if RunFormat::of(out).is_ok() {
+        if RunFormat::of_name(out).is_ok() {
             bail!(
                 "{}: --to ros2-bag writes a bag directory, but .{} is a run log file's \
                  extension; name the directory without it",

@@ -83,7 +83,7 @@ pub struct Converted {
 /// the samples only. `existing`: what to do with a file at `path` when it is written
 /// ([`Existing`]).
 pub fn save_run(path: &Path, existing: Existing, run: &RunLog) -> Result<RunFormat, ConvertError> {
-    let format = RunFormat::of(path)?;
+    let format = RunFormat::of_name(path)?;
     match format {
         RunFormat::Csv => {
             write_run_csv_atomically(path, existing, &run.samples)?;
@@ -120,7 +120,7 @@ pub fn convert_salvaging(
     salvage: bool,
     existing: Existing,
 ) -> Result<Converted, ConvertError> {
-    let to = RunFormat::of(output)?;
+    let to = RunFormat::of_name(output)?;
     if same_file(input, output) {
         return Err(ConvertError::SameFile {
             path: output.to_owned(),

@@ -1,5 +1,6 @@
 //! Reading a run log whatever its format, chosen by the file's extension: `.mcap` (see
-//! [`super::mcap`]) or `.csv` (the run CSV, [`super::run_csv`]).
+//! [`super::mcap`]) or `.csv` (the run CSV, [`super::run_csv`]). A ROS 2 bag directory from
+//! `convert --to ros2-bag` reads as its MCAP file.
 
 use super::csv_sink::{events_path, read_events, EventsFileError};
 use super::mcap::{read_mcap_run, stream_mcap_run, Loss, McapError, Truncation};
@@ -7,6 +8,8 @@ use super::run_csv::{
     read_run_csv_salvaging, DroppedRow, RigRange, RunCsvFileError, RunCsvReader, RunSample,
 };
 use super::run_log::{LogEvent, RunLog, RunLogSink};
+use crate::ros2::read::{bag_file, BagReadError};
+use std::borrow::Cow;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -20,8 +23,18 @@ pub enum RunFormat {
 }
 
 impl RunFormat {
-    /// The format of `path` by its extension (case-insensitive).
+    /// The format of the run log at `path`: by its extension (case-insensitive), or MCAP for a
+    /// ROS 2 bag directory (one holding `metadata.yaml`, as `convert --to ros2-bag` writes it).
     pub fn of(path: &Path) -> Result<RunFormat, LoadError> {
+        if is_bag_dir(path) {
+            return Ok(RunFormat::Mcap);
+        }
+        RunFormat::of_name(path)
+    }
+
+    /// The format a run log written to `path` takes: by its extension alone (an output path is
+    /// never read as a bag directory).
+    pub fn of_name(path: &Path) -> Result<RunFormat, LoadError> {
         let extension = path
             .extension()
             .and_then(|e| e.to_str())
@@ -45,6 +58,20 @@ impl fmt::Display for RunFormat {
     }
 }
 
+/// Whether `path` is a rosbag2 bag directory.
+fn is_bag_dir(path: &Path) -> bool {
+    path.join("metadata.yaml").is_file()
+}
+
+/// The MCAP file of the run log at `path`: `path` itself, or a bag directory's file.
+fn mcap_file(path: &Path) -> Result<Cow<'_, Path>, LoadError> {
+    if is_bag_dir(path) {
+        Ok(Cow::Owned(bag_file(path).map_err(Box::new)?))
+    } else {
+        Ok(Cow::Borrowed(path))
+    }
+}
+
 /// Why a run log could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
@@ -60,6 +87,10 @@ pub enum LoadError {
     /// The MCAP file is unreadable, damaged or not a rover-power run.
     #[error(transparent)]
     Mcap(#[from] McapError),
+    /// A bag directory whose MCAP file cannot be found (boxed: the bag reader's errors are
+    /// large, and every load returns this type).
+    #[error(transparent)]
+    Bag(#[from] Box<BagReadError>),
     /// The events file beside a run CSV (`RUN.events.jsonl`) is unreadable or invalid.
     #[error(transparent)]
     Events(#[from] EventsFileError),
@@ -230,7 +261,7 @@ pub fn stream_salvaging(
             })
         }
         RunFormat::Mcap => {
-            let found = stream_mcap_run(path, sink)?;
+            let found = stream_mcap_run(&mcap_file(path)?, sink)?;
             Ok(StreamFound {
                 run: (),
                 format: RunFormat::Mcap,
@@ -325,7 +356,7 @@ pub fn load_salvaging(path: &Path, salvage: bool, range: RigRange) -> Result<Loa
             })
         }
         RunFormat::Mcap => {
-            let mcap = read_mcap_run(path)?;
+            let mcap = read_mcap_run(&mcap_file(path)?)?;
             Ok(LoadedRun {
                 run: mcap.run,
                 format: RunFormat::Mcap,

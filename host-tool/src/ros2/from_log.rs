@@ -13,10 +13,10 @@
 //! the same record ([`LogClock`]); run time for a log without a wall clock, as in MCAP. A topic
 //! without messages is left out.
 
-use super::cdr::CdrWriter;
+use super::cdr::{CdrError, CdrReader, CdrWriter};
 use super::msgs::{
     complete_definition, encode_imu, encode_log, encode_pose_stamped, encode_twist, quaternion_of,
-    write_stamp, StdType,
+    write_stamp, StdType, TIME,
 };
 use super::write::{BagWriteError, BagWriter};
 // Past HELD_MAX messages before the first sample without a wall clock, the MCAP log goes on
@@ -50,7 +50,7 @@ const IMU_FRAME: &str = "base_link";
 /// Frame of the tracked pose.
 const POSE_FRAME: &str = "map";
 
-/// The ros2msg definition of `rover_power/msg/Sample` (with `builtin_interfaces/msg/Time`), as
+/// The ros2msg definition of `rover_power/msg/Sample` (with `builtin_interfaces/Time`), as
 /// the bag stores it so that readers decode it without our package.
 pub fn sample_definition() -> String {
     const SAMPLE: &str = "\
@@ -70,10 +70,7 @@ float64 x_m                   # tracked point in the fixed frame [m]; NaN = no f
 float64 y_m                   # [m]; NaN with x_m
 float64 t_s                   # run time [s], since the recording started
 ";
-    complete_definition(
-        SAMPLE,
-        &[("builtin_interfaces/msg/Time", "int32 sec\nuint32 nanosec\n")],
-    )
+    complete_definition(SAMPLE, &[TIME])
 }
 
 /// Where the log times come from: the MCAP sink's rule, so that a record has the same log time
@@ -291,6 +288,35 @@ fn encode_sample(stamp_ns: i64, s: &RunSample) -> Vec<u8> {
         w.f64(v);
     }
     w.finish()
+}
+
+/// A `rover_power/msg/Sample` back into the sample it was written from ([`encode_sample`]): the
+/// stamp is skipped (the run time is `t_s`), NaN is "not measured".
+pub fn decode_sample(message: &[u8]) -> Result<RunSample, CdrError> {
+    let mut r = CdrReader::new(message)?;
+    r.i32("stamp.sec")?;
+    r.u32("stamp.nanosec")?;
+    let bus_left = r.f64("left_bus_v")?;
+    let current_left = r.f64("left_current_a")?;
+    let bus_right = r.f64("right_bus_v")?;
+    let current_right = r.f64("right_current_a")?;
+    let cmd_left = r.f64("cmd_left_mps")?;
+    let cmd_right = r.f64("cmd_right_mps")?;
+    let measured = |v: f64| (!v.is_nan()).then_some(v);
+    let yaw_rad = measured(r.f64("yaw_rad")?);
+    let pitch_deg = measured(r.f64("pitch_deg")?);
+    let x_m = measured(r.f64("x_m")?);
+    let y_m = measured(r.f64("y_m")?);
+    Ok(RunSample {
+        t_s: r.f64("t_s")?,
+        bus_v: Sides::new(bus_left, bus_right),
+        current_a: Sides::new(current_left, current_right),
+        cmd_mps: Sides::new(cmd_left, cmd_right),
+        yaw_rad,
+        pitch_deg,
+        x_m,
+        y_m,
+    })
 }
 
 /// A header stamp of a log time (a u64 beyond i64 is past the year 2262).

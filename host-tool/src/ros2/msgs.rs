@@ -1,6 +1,9 @@
 //! The standard ROS 2 messages a rover's bag carries that `merge` reads and the bags we write
-//! hold: their `ros2msg` definitions (as `ros2 bag record` stores them: the type's fields, then
-//! each nested type after a line of 80 `=` and `MSG: pkg/msg/Type`) and their CDR layouts.
+//! hold: their `ros2msg` definitions and their CDR layouts.
+//!
+//! A definition is written as rosbag2 and rosbags write it (rosbags' `generate_msgdef`, byte for
+//! byte): the type's fields with package-qualified types, then each nested type after a line of
+//! 80 `=` and `MSG: pkg/Type` — without `/msg/`, which Foxglove's parser cannot resolve.
 //!
 //! The layouts are those of the ROS 2 interfaces, unchanged since Foxy. A bag's stored definition
 //! is checked against them field by field before a message is decoded, so a custom type that
@@ -9,15 +12,35 @@
 use super::cdr::{CdrError, CdrReader, CdrWriter};
 use std::fmt::Write as _;
 
-const TIME: &str = "int32 sec\nuint32 nanosec\n";
-const HEADER: &str = "builtin_interfaces/Time stamp\nstring frame_id\n";
-const VECTOR3: &str = "float64 x\nfloat64 y\nfloat64 z\n";
-const POINT: &str = "float64 x\nfloat64 y\nfloat64 z\n";
-const QUATERNION: &str = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
-const TWIST: &str = "Vector3 linear\nVector3 angular\n";
-const POSE: &str = "Point position\nQuaternion orientation\n";
-const POSE_WITH_COVARIANCE: &str = "Pose pose\nfloat64[36] covariance\n";
-const TWIST_WITH_COVARIANCE: &str = "Twist twist\nfloat64[36] covariance\n";
+/// `builtin_interfaces/Time` as a nested type: `(pkg/Type, definition)` as it follows `MSG:`
+/// (and so the other nested types below).
+pub const TIME: (&str, &str) = ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n");
+const HEADER: (&str, &str) = (
+    "std_msgs/Header",
+    "builtin_interfaces/Time stamp\nstring frame_id\n",
+);
+const VECTOR3: (&str, &str) = ("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n");
+const POINT: (&str, &str) = ("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n");
+const QUATERNION: (&str, &str) = (
+    "geometry_msgs/Quaternion",
+    "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
+);
+const TWIST: (&str, &str) = (
+    "geometry_msgs/Twist",
+    "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
+);
+const POSE: (&str, &str) = (
+    "geometry_msgs/Pose",
+    "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
+);
+const POSE_WITH_COVARIANCE: (&str, &str) = (
+    "geometry_msgs/PoseWithCovariance",
+    "geometry_msgs/Pose pose\nfloat64[36] covariance\n",
+);
+const TWIST_WITH_COVARIANCE: (&str, &str) = (
+    "geometry_msgs/TwistWithCovariance",
+    "geometry_msgs/Twist twist\nfloat64[36] covariance\n",
+);
 
 /// A standard message type: its name and complete `ros2msg` definition.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,18 +82,15 @@ impl StdType {
             .find(|t| t.name() == name || t.name().replace("/msg/", "/") == name)
     }
 
-    /// The top-level definition, then the nested ones.
+    /// The top-level definition, then the nested ones in the order rosbags writes them (depth
+    /// first, each once).
     fn parts(self) -> (&'static str, &'static [(&'static str, &'static str)]) {
-        const V3: (&str, &str) = ("geometry_msgs/msg/Vector3", VECTOR3);
-        const TW: (&str, &str) = ("geometry_msgs/msg/Twist", TWIST);
-        const HD: (&str, &str) = ("std_msgs/msg/Header", HEADER);
-        const TM: (&str, &str) = ("builtin_interfaces/msg/Time", TIME);
-        const PT: (&str, &str) = ("geometry_msgs/msg/Point", POINT);
-        const QT: (&str, &str) = ("geometry_msgs/msg/Quaternion", QUATERNION);
-        const PS: (&str, &str) = ("geometry_msgs/msg/Pose", POSE);
         match self {
-            StdType::Twist => (TWIST, &[V3]),
-            StdType::TwistStamped => ("std_msgs/Header header\nTwist twist\n", &[HD, TM, TW, V3]),
+            StdType::Twist => (TWIST.1, &[VECTOR3]),
+            StdType::TwistStamped => (
+                "std_msgs/Header header\ngeometry_msgs/Twist twist\n",
+                &[HEADER, TIME, TWIST, VECTOR3],
+            ),
             StdType::Imu => (
                 "std_msgs/Header header\n\
                  geometry_msgs/Quaternion orientation\n\
@@ -79,7 +99,7 @@ impl StdType {
                  float64[9] angular_velocity_covariance\n\
                  geometry_msgs/Vector3 linear_acceleration\n\
                  float64[9] linear_acceleration_covariance\n",
-                &[HD, TM, QT, V3],
+                &[HEADER, TIME, QUATERNION, VECTOR3],
             ),
             StdType::Odometry => (
                 "std_msgs/Header header\n\
@@ -87,21 +107,21 @@ impl StdType {
                  geometry_msgs/PoseWithCovariance pose\n\
                  geometry_msgs/TwistWithCovariance twist\n",
                 &[
-                    HD,
-                    TM,
-                    ("geometry_msgs/msg/PoseWithCovariance", POSE_WITH_COVARIANCE),
-                    PS,
-                    PT,
-                    QT,
-                    (
-                        "geometry_msgs/msg/TwistWithCovariance",
-                        TWIST_WITH_COVARIANCE,
-                    ),
-                    TW,
-                    V3,
+                    HEADER,
+                    TIME,
+                    POSE_WITH_COVARIANCE,
+                    POSE,
+                    POINT,
+                    QUATERNION,
+                    TWIST_WITH_COVARIANCE,
+                    TWIST,
+                    VECTOR3,
                 ],
             ),
-            StdType::PoseStamped => ("std_msgs/Header header\nPose pose\n", &[HD, TM, PS, PT, QT]),
+            StdType::PoseStamped => (
+                "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
+                &[HEADER, TIME, POSE, POINT, QUATERNION],
+            ),
             StdType::Log => (
                 "byte DEBUG=10\nbyte INFO=20\nbyte WARN=30\nbyte ERROR=40\nbyte FATAL=50\n\
                  builtin_interfaces/Time stamp\n\
@@ -111,7 +131,7 @@ impl StdType {
                  string file\n\
                  string function\n\
                  uint32 line\n",
-                &[TM],
+                &[TIME],
             ),
         }
     }
@@ -123,14 +143,15 @@ impl StdType {
     }
 
     /// Whether a bag's stored definition has this type's fields (names, in order, at the top
-    /// level; comments, constants and type spellings aside). An empty definition (a bag written
-    /// without them) is taken on the name alone.
+    /// level; comments, constants and type spellings aside: `MSG: std_msgs/Header` as rosbag2
+    /// writes it and `MSG: std_msgs/msg/Header` as this tool once did both match). An empty
+    /// definition (a bag written without them) is taken on the name alone.
     pub fn matches_definition(self, stored: &str) -> bool {
         stored.trim().is_empty() || field_names(stored) == field_names(self.parts().0)
     }
 }
 
-/// `top`, then each `(name, definition)` after the `ros2msg` delimiter.
+/// `top`, then each `(pkg/Type, definition)` after the `ros2msg` delimiter.
 pub fn complete_definition(top: &str, nested: &[(&str, &str)]) -> String {
     let mut text = top.to_string();
     for (name, definition) in nested {
@@ -351,7 +372,7 @@ pub fn quaternion_of(yaw_rad: f64, pitch_deg: f64) -> [f64; 4] {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -399,6 +420,83 @@ mod tests {
                       float64[9] linear_acceleration_covariance\n";
         assert!(StdType::Imu.matches_definition(stored));
         assert!(!StdType::Imu.matches_definition("float64 yaw\nfloat64 pitch\n"));
+        // The form this tool wrote before (`MSG: pkg/msg/Type`, types relative to the package)
+        // still reads.
+        let old = format!(
+            "std_msgs/Header header\nPose pose\n{}\nMSG: std_msgs/msg/Header\n\
+             builtin_interfaces/Time stamp\nstring frame_id\n",
+            "=".repeat(80)
+        );
+        assert!(StdType::PoseStamped.matches_definition(&old));
         assert_eq!(StdType::named("sensor_msgs/Imu"), Some(StdType::Imu));
+    }
+
+    /// rosbags 0.11.9's `generate_msgdef("sensor_msgs/msg/Imu", ros_version=2)`, as rosbag2
+    /// stores it: the form Foxglove's parser resolves.
+    const ROSBAGS_IMU: &str = "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n\
+        float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n\
+        float64[9] angular_velocity_covariance\ngeometry_msgs/Vector3 linear_acceleration\n\
+        float64[9] linear_acceleration_covariance\n\
+        ================================================================================\n\
+        MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n\
+        ================================================================================\n\
+        MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
+        ================================================================================\n\
+        MSG: geometry_msgs/Quaternion\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w\n\
+        ================================================================================\n\
+        MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n";
+
+    #[test]
+    fn definitions_are_written_as_rosbag2_writes_them() {
+        assert_eq!(StdType::Imu.definition(), ROSBAGS_IMU);
+        for ty in StdType::ALL {
+            assert_eq!(
+                unresolved_types(&ty.definition()),
+                Vec::<String>::new(),
+                "{ty:?}"
+            );
+        }
+        // The check finds what Foxglove rejected: a `/msg/` separator, a relative type.
+        let old = format!(
+            "std_msgs/Header header\nPose pose\n{}\nMSG: std_msgs/msg/Header\nint32 a\n",
+            "=".repeat(80)
+        );
+        assert_eq!(
+            unresolved_types(&old),
+            ["std_msgs/Header", "Pose", "MSG: std_msgs/msg/Header"]
+        );
+    }
+
+    /// What Foxglove's parser would fail to resolve in `definition` (a field type that is not a
+    /// primitive and has no `MSG: pkg/Type` section of its exact name, or a section named
+    /// with `/msg/`), in the order found.
+    pub(crate) fn unresolved_types(definition: &str) -> Vec<String> {
+        const PRIMITIVES: [&str; 17] = [
+            "bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
+            "uint64", "float32", "float64", "string", "wstring", "time", "duration",
+        ];
+        let sections: Vec<&str> = definition.split(&"=".repeat(80)).collect();
+        let names: Vec<&str> = sections[1..]
+            .iter()
+            .filter_map(|s| s.trim_start().lines().next()?.strip_prefix("MSG: "))
+            .collect();
+        let mut unresolved = Vec::new();
+        for section in &sections {
+            for line in section.lines() {
+                let line = line.split('#').next().unwrap_or("").trim();
+                if line.is_empty() || line.starts_with("MSG: ") || line.contains('=') {
+                    continue;
+                }
+                let ty = line.split_whitespace().next().unwrap_or("");
+                let base = ty.split(['[', '<']).next().unwrap_or("");
+                let resolved = PRIMITIVES.contains(&base) || names.contains(&base);
+                if !resolved && !unresolved.iter().any(|u| u == base) {
+                    unresolved.push(base.to_owned());
+                }
+            }
+        }
+        let separators = names.iter().filter(|n| n.contains("/msg/"));
+        unresolved.extend(separators.map(|n| format!("MSG: {n}")));
+        unresolved
     }
 }

@@ -12,8 +12,9 @@ use super::{
     frame_encoding, frame_proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
     TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
 };
-use crate::log::run_csv::{RigRange, BUS_V_MAX, CURRENT_A_MAX};
+use crate::log::run_csv::RigRange;
 use crate::log::run_log::{RunLog, RunLogSink};
+use crate::ros2::from_log::{decode_sample, SAMPLE_TYPE};
 use ::mcap::records::{op, Record};
 use model_core::wire::{self, BoardFrame, MAX_FRAME};
 use std::collections::{BTreeSet, HashMap, VecDeque};
@@ -442,6 +443,8 @@ fn typical_period_s(times: &SkipTimes) -> Option<f64> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Topic {
     Sample,
+    /// Samples of a ROS 2 bag (`convert --to ros2-bag`): CDR `rover_power/msg/Sample`.
+    BagSample,
     Command,
     Event,
     /// Wire frames wrapped in `rover_power.Frame` protobuf messages.
@@ -455,6 +458,8 @@ enum Topic {
 struct State<'s> {
     path: PathBuf,
     channels: HashMap<u16, (Topic, String)>,
+    /// Schema names by id, to tell our bag's sample type from another type on its topic.
+    schema_names: HashMap<u16, String>,
     /// Whether any rover-power channel was seen.
     ours: bool,
     foreign_topics: BTreeSet<String>,
@@ -479,6 +484,7 @@ impl<'s> State<'s> {
         State {
             path: path.to_owned(),
             channels: HashMap::new(),
+            schema_names: HashMap::new(),
             ours: false,
             foreign_topics: BTreeSet::new(),
             orphan_channels: BTreeSet::new(),
@@ -591,7 +597,7 @@ impl<'s> State<'s> {
         let is_sample = self
             .channels
             .get(&index.channel_id)
-            .is_some_and(|(topic, _)| *topic == Topic::Sample);
+            .is_some_and(|(topic, _)| matches!(topic, Topic::Sample | Topic::BagSample));
         let Some(indexed) = self.skipped.get_mut(skip).and_then(|s| s.indexed.as_mut()) else {
             return;
         };
@@ -605,6 +611,14 @@ impl<'s> State<'s> {
     /// A record that is not a chunk (in a chunk or at the top level). Records this reader has
     /// no use for (indexes, statistics, attachments, unknown opcodes) are skipped unparsed.
     fn inner_record(&mut self, opcode: u8, data: &[u8], offset: u64) -> Result<(), McapError> {
+        if opcode == op::SCHEMA {
+            // Only its id and name are needed; a schema too damaged to name is left out, and
+            // its channel taken on its topic and encoding.
+            if let Some((id, name)) = schema_name(data) {
+                self.schema_names.insert(id, name.to_owned());
+            }
+            return Ok(());
+        }
         if opcode != op::CHANNEL && opcode != op::MESSAGE {
             return Ok(());
         }
@@ -638,6 +652,23 @@ impl<'s> State<'s> {
 
     fn channel(&mut self, channel: ::mcap::records::Channel, offset: u64) -> Result<(), McapError> {
         let (topic, expected, found) = match channel.topic.as_str() {
+            TOPIC_SAMPLE if channel.message_encoding == "cdr" => {
+                let schema = self.schema_names.get(&channel.schema_id);
+                if let Some(name) = schema.filter(|name| *name != SAMPLE_TYPE) {
+                    return Err(McapError::Foreign {
+                        path: self.path.clone(),
+                        detail: format!(
+                            "byte {offset}: {TOPIC_SAMPLE} holds `{name}` messages; this tool \
+                             reads `{SAMPLE_TYPE}` (convert --to ros2-bag)"
+                        ),
+                    });
+                }
+                (
+                    Topic::BagSample,
+                    "cdr".to_owned(),
+                    &channel.message_encoding,
+                )
+            }
             TOPIC_SAMPLE => (Topic::Sample, "json".to_owned(), &channel.message_encoding),
             TOPIC_COMMAND => (Topic::Command, "json".to_owned(), &channel.message_encoding),
             TOPIC_EVENT => (Topic::Event, "json".to_owned(), &channel.message_encoding),
@@ -710,20 +741,30 @@ impl<'s> State<'s> {
             detail,
         };
         match topic {
-            Topic::Sample => {
-                let msg = match parse_sample_msg(data) {
-                    Some(msg) => msg,
-                    None => serde_json::from_slice::<SampleMsg>(data)
-                        .map_err(|e| bad(self, e.to_string()))?,
+            Topic::Sample | Topic::BagSample => {
+                let sample = if topic == Topic::BagSample {
+                    decode_sample(data).map_err(|e| bad(self, e.to_string()))?
+                } else {
+                    match parse_sample_msg(data) {
+                        Some(msg) => msg,
+                        None => serde_json::from_slice::<SampleMsg>(data)
+                            .map_err(|e| bad(self, e.to_string()))?,
+                    }
+                    .sample()
                 };
-                let sample = msg.sample();
-                // The board's registers: its range, not a foreign rig's.
-                if let Some((column, value)) = sample.out_of_range(RigRange::Board) {
+                // The board's registers: its range, not a foreign rig's. A bag may hold any
+                // rig's run CSV (`convert run.csv bag --to ros2-bag`): any physical reading.
+                let (range, which) = match topic {
+                    Topic::BagSample => (RigRange::Physical, "physical"),
+                    _ => (RigRange::Board, "the board's measuring"),
+                };
+                if let Some((column, value)) = sample.out_of_range(range) {
+                    let (bus_v_max, current_a_max) = range.limits();
                     return Err(bad(
                         self,
                         format!(
-                            "{column} = {value} is outside the board's measuring range \
-                             (bus 0 to {BUS_V_MAX} V, current ±{CURRENT_A_MAX} A, all finite)"
+                            "{column} = {value} is outside {which} range (bus 0 to {bus_v_max} \
+                             V, current ±{current_a_max} A, all finite)"
                         ),
                     ));
                 }
@@ -794,4 +835,13 @@ impl<'s> State<'s> {
         }
         Ok(())
     }
+}
+
+/// The id and name of a schema record (id u16, then the name as a u32 length and its bytes),
+/// read without the `mcap` crate's parser, which trusts the length.
+fn schema_name(body: &[u8]) -> Option<(u16, &str)> {
+    let (id, rest) = body.split_first_chunk::<2>()?;
+    let (len, rest) = rest.split_first_chunk::<4>()?;
+    let name = rest.get(..usize::try_from(u32::from_le_bytes(*len)).ok()?)?;
+    Some((u16::from_le_bytes(*id), std::str::from_utf8(name).ok()?))
 }

@@ -307,9 +307,14 @@ fn the_sample_definition_lists_the_fields_in_message_order() {
             "float64 t_s",
         ]
     );
+    // `MSG: pkg/Type` as rosbag2 writes it: Foxglove resolves no `pkg/msg/Type` separator.
     assert_eq!(
         nested,
-        "\nMSG: builtin_interfaces/msg/Time\nint32 sec\nuint32 nanosec\n"
+        "\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
+    );
+    assert_eq!(
+        crate::ros2::msgs::tests::unresolved_types(&text),
+        Vec::<String>::new()
     );
 }
 
@@ -341,4 +346,64 @@ fn negative_run_times_without_a_wall_clock_are_refused() {
     let e = save_bag(&dir.path().join("bag"), false, &run, &HUSKY).expect_err("negative");
     assert!(e.to_string().contains("run time -0.5 s"), "{e}");
     assert_eq!(dir.entries(), Vec::<String>::new());
+}
+
+/// Issue 56: the bag is a run log too. Its directory (and its MCAP file) loads as the samples
+/// it was written from, bit for bit, NaN back to "not measured".
+#[test]
+fn the_bag_loads_as_the_run_it_was_written_from() {
+    let run = run(250, Some(0.1));
+    let (dir, bag, _) = bag_of(&run);
+    for path in [dir.path(), bag.mcap.as_path()] {
+        let loaded = crate::log::load::load(path).expect("loads");
+        assert_eq!(loaded.run.samples, run.samples, "{}", path.display());
+        assert!(loaded.losses.is_empty() && loaded.truncated.is_none());
+    }
+}
+
+/// Another type on our sample topic is refused by its name, not misread; a sample message cut
+/// short is a loss, not a panic.
+#[test]
+fn a_foreign_type_on_the_sample_topic_is_refused_and_a_cut_message_is_a_loss() {
+    let dir = TempDir::new("ros2-foreign-sample");
+    let mut bag = BagWriter::create(dir.path(), "b").expect("create");
+    let twist = StdType::Twist;
+    let channel = bag
+        .topic(TOPIC_SAMPLE, twist.name(), &twist.definition())
+        .expect("topic");
+    bag.write(channel, 1, &encode_twist(0.1, 0.2))
+        .expect("write");
+    bag.finish(dir.path()).expect("finish");
+    let e = crate::log::load::load(dir.path()).expect_err("foreign");
+    assert!(
+        e.to_string().contains(
+            "holds `geometry_msgs/msg/Twist` messages; this tool reads `rover_power/msg/Sample`"
+        ),
+        "{e}"
+    );
+
+    let dir = TempDir::new("ros2-cut-sample");
+    let mut bag = BagWriter::create(dir.path(), "b").expect("create");
+    let channel = bag
+        .topic(TOPIC_SAMPLE, SAMPLE_TYPE, &sample_definition())
+        .expect("topic");
+    let mut samples = run(3, None).samples;
+    // Beyond the board's ±40.96 A but physical: a bag may hold another rig's run CSV.
+    samples[2].current_a.left = 150.0;
+    for (i, s) in samples.iter().enumerate() {
+        let mut cdr = encode_sample(i as i64, s);
+        if i == 1 {
+            cdr.truncate(50);
+        }
+        bag.write(channel, i as u64, &cdr).expect("write");
+    }
+    bag.finish(dir.path()).expect("finish");
+    let loaded = crate::log::load::load(dir.path()).expect("salvaged");
+    assert_eq!(loaded.run.samples, [samples[0], samples[2]]);
+    assert_eq!(loaded.losses.len(), 1, "{:?}", loaded.losses);
+    assert!(
+        loaded.losses[0].detail.contains("inside `"),
+        "{}",
+        loaded.losses[0]
+    );
 }
