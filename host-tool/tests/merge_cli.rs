@@ -189,3 +189,20 @@ fn a_bag_that_does_not_overlap_the_board_log_is_refused() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn one_topic_given_for_two_roles_is_refused_naming_both_options() {
+    let dir = temp_dir("merge-cli-two-roles");
+    let (code, _, stderr) = merge(
+        &dir.join("board.mcap"),
+        &dir.join("bag"),
+        &dir.join("m.mcap"),
+        &["--cmd-topic", "/cmd_vel", "--pose-topic", "/cmd_vel"],
+    );
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--cmd-topic and --pose-topic both name /cmd_vel"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
