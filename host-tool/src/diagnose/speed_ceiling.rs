@@ -47,6 +47,12 @@ impl SpeedCeiling {
     pub(crate) fn words(&self) -> String {
         let fit = if self.p_lack_of_fit.is_nan() {
             "too few conditions to test its shape".to_owned()
+        } else if self.p_lack_of_fit < ALPHA {
+            format!(
+                "an ideal clip misses them (lack of fit p = {}), by less than 2 % at every radius, \
+                 and the turns on a lower bus are slower",
+                super::signature::format_p(self.p_lack_of_fit)
+            )
         } else {
             format!("its shape fits, lack of fit p = {:.2}", self.p_lack_of_fit)
         };
