@@ -510,8 +510,9 @@ fn held_span(times: impl ExactSizeIterator<Item = f64> + Clone) -> Option<(f64, 
 /// twists or a mirrored IMU frame (left and right swapped) fail this.
 fn check_turn_sense(log: &RunLog, rows: &[CommandRow], yaw_known: bool) -> Result<(), MergeError> {
     let timeline = CommandTimeline::new(rows.to_vec());
-    // Sum over turning samples of sign(commanded yaw) x (right − left power), and of
-    // sign(commanded yaw) x the yaw's change: both positive for a left turn done left.
+    // Sum over turning samples of sign(right side commanded faster) x sign(right − left
+    // power), and of sign(commanded yaw) x the yaw's change: both positive when the bag's
+    // left is the board's.
     let (mut power_agree, mut power_n) = (0.0, 0usize);
     let (mut yaw_agree, mut yaw_n) = (0.0, 0usize);
     let mut last: Option<(f64, f64)> = None;
@@ -521,9 +522,14 @@ fn check_turn_sense(log: &RunLog, rows: &[CommandRow], yaw_known: bool) -> Resul
         let yaw = timeline.yaw_rad(s.t_s);
         if turn.abs() > 0.05 {
             let sense = turn.signum();
-            let right_more = s.bus_v.right * s.current_a.right - s.bus_v.left * s.current_a.left;
-            power_agree += sense * right_more.signum();
-            power_n += 1;
+            // The outer side is the one commanded faster (backwards too); a point turn has none.
+            let faster = cmd.right.abs() - cmd.left.abs();
+            if faster.abs() > 0.02 {
+                let right_more =
+                    s.bus_v.right * s.current_a.right - s.bus_v.left * s.current_a.left;
+                power_agree += faster.signum() * right_more.signum();
+                power_n += 1;
+            }
             if let (Some(y), Some((t0, y0))) = (yaw.filter(|_| yaw_known), last) {
                 if s.t_s > t0 {
                     let d = (y - y0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
@@ -540,7 +546,7 @@ fn check_turn_sense(log: &RunLog, rows: &[CommandRow], yaw_known: bool) -> Resul
     // A clear majority the other way; a mixed record (forward turns, reverse, sand) is left be.
     if power_n >= 50 && power_agree < -0.5 * power_n as f64 {
         return Err(MergeError::Mirrored(format!(
-            "where its commands turn left the board's left side draws more power on {:.0} % of {power_n} samples (the outer side draws more)",
+            "where its commands turn, the side they make the inner one draws more power on {:.0} % of {power_n} samples (the outer side draws more)",
             50.0 * (1.0 - power_agree / power_n as f64)
         )));
     }
