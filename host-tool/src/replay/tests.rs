@@ -111,7 +111,7 @@ fn a_recordings_commands_travel_as_the_boards_status_reports() {
     let commanded: Vec<Sides<f64>> = run.commands.iter().map(|c| c.cmd_mps).collect();
     assert_eq!(reported, commanded);
     // (sim_run's commands never reached its board, so its τ is not checked here: the loop
-    // test in tests/loop_cli.rs checks it on a real recording.)
+    // test in host-tool/tests/cli/loop_cli.rs checks it on a real recording.)
 }
 
 #[test]

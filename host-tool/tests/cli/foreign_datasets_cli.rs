@@ -2,7 +2,7 @@
 //! run as a user runs them: an effect is named only when its own signature is in the data, and
 //! a baseline that misfits its calibration is not absorbed by an effect whose mark is absent.
 
-mod common;
+use crate::common;
 use common::host_tool;
 
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! `convert LOG OUT --to ros2-bag`, read back with the `mcap` crate (rosbags reads it in CI:
 //! .ci/check-ros2-bag.py).
 
-mod common;
+use crate::common;
 
 use common::{demo_once, host_tool, temp_dir};
 use std::collections::BTreeMap;

@@ -2,7 +2,7 @@
 //! validated, plotted and diagnosed, with no extra flags — the recording must give the same
 //! manoeuvres as the original (issue 11). Plus the conventions every command shares.
 
-mod common;
+use crate::common;
 use common::{host_tool, rover_toml, temp_dir};
 
 use serde_json::Value;

@@ -1,5 +1,5 @@
 //! What the CLI tests share: the binary under test, a scratch directory, the Husky rover file.
-#![allow(dead_code)] // each test binary uses its own subset
+#![allow(dead_code)] // not every helper is used by every build of the tests
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

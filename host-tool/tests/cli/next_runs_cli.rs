@@ -2,7 +2,7 @@
 //! `demo --scenario` drives unchanged, on datasets of an independent simulator
 //! (`tests/fixtures/foreign/`).
 
-mod common;
+use crate::common;
 use common::{host_tool, temp_dir};
 
 use std::path::{Path, PathBuf};

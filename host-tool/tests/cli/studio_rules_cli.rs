@@ -3,7 +3,7 @@
 //! Studio's reader rules ([`host_tool::log::mcap::studio`]) channel by channel and message by
 //! message. `foxglove/check/run.sh` opens the demo's log in the real Studio.
 
-mod common;
+use crate::common;
 use common::{demo_once, host_tool, temp_dir};
 
 use host_tool::log::mcap::studio;

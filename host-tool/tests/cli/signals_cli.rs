@@ -1,7 +1,7 @@
 //! A stop signal during a write leaves no temporary file or staging directory behind, and what
 //! a SIGKILL leaves (it cannot be caught) is swept by the next writer of the same name.
 
-mod common;
+use crate::common;
 
 use common::{host_tool, temp_dir};
 use host_tool::log::run_csv::{write_run_csv_atomically, RunSample};

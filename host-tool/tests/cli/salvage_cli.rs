@@ -2,7 +2,7 @@
 //! lost and exits 4 (0 with `--salvage`); a run CSV cut inside its last row converts with a
 //! warning naming the line.
 
-mod common;
+use crate::common;
 use common::{host_tool, temp_dir};
 
 use host_tool::log::mcap::read_mcap_run;

@@ -1,7 +1,7 @@
 //! `host-tool record` stopped by a service manager or a closed terminal: SIGTERM and SIGHUP stop
 //! it as cleanly as Ctrl-C (final flush, MCAP summary and footer, exit 0).
 
-mod common;
+use crate::common;
 use common::{host_tool, temp_dir};
 
 use host_tool::log::mcap::read_mcap_run;

@@ -2,7 +2,7 @@
 //! `foxglove.websocket.v1` as the spec writes it (its JSON and byte layout spelt out here, not
 //! borrowed from the server's code): serverInfo, advertise, subscribe, binary message data.
 
-mod common;
+use crate::common;
 use common::{demo_once, host_tool, temp_dir};
 
 use host_tool::live::client::{Incoming, LiveClient};

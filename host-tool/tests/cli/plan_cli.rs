@@ -1,7 +1,7 @@
 //! `host-tool plan` from the command line: the preset's table and JSON (paper Table 3), a model
 //! file equal to the preset, clear errors.
 
-mod common;
+use crate::common;
 use common::temp_dir;
 
 use std::process::Output;

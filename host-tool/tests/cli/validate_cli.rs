@@ -1,7 +1,7 @@
 //! `host-tool validate` from the command line: run CSVs in, table out, JSON and CSV exports,
 //! clear errors.
 
-mod common;
+use crate::common;
 use common::{host_tool, rover_toml, temp_dir};
 
 use host_tool::log::run_csv::{write_run_csv_atomically, RunSample};

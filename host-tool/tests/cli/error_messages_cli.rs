@@ -1,7 +1,7 @@
 //! What the user reads when a command fails (issue 34, item 5): each cause once, the file named
 //! (inputs and outputs, a full disk included), quoted input and numbers short.
 
-mod common;
+use crate::common;
 use common::{host_tool, rover_toml, temp_dir};
 
 use std::io::{BufRead, BufReader};

@@ -2,7 +2,7 @@
 //! stderr are dropped (no panic, exit 101), and a byte stream to a closed stdout given as a file
 //! (`replay --to /dev/stdout | head`) ends quietly with 0, as `--json -` does.
 
-mod common;
+use crate::common;
 use common::{host_tool, rover_toml, temp_dir};
 
 use std::fmt::Write as _;

@@ -1,6 +1,6 @@
 //! `host-tool check` end to end: the simulated board through a pty, JSON and exit codes.
 
-mod common;
+use crate::common;
 
 use common::{host_tool, temp_dir};
 

@@ -2,7 +2,7 @@
 //! `demo --robot-bag` wrote with the robot's clock 7.3 s ahead, merge back into runs that
 //! validate and diagnose as the demo's own.
 
-mod common;
+use crate::common;
 
 use common::{host_tool, rover_toml, temp_dir};
 use host_tool::log::convert::save_run;
