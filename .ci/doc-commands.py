@@ -59,6 +59,9 @@ NOT_HERE = {
     "sudo udevadm control --reload-rules && sudo udevadm trigger": "reloads udev (root)",
     "pip install ./python": "installs into the machine's Python from the repository's root; "
         "CI's Python step runs it as written",
+    "pip install matplotlib": "CI's Python step installs it",
+    "cargo install --locked --path host-tool": "installs into ~/.cargo/bin; CI puts its release "
+        "build on PATH as `host-tool` instead",
 }
 
 # Exit codes other than 0 that a command is documented to give.
