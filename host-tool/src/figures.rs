@@ -5,8 +5,9 @@
 
 use crate::log::run_csv::RunSample;
 use crate::plot::{
-    render_figure, Chart, Figure, Format, Legend, Marker, PlotError, Series, SeriesStyle,
+    render_figure, Chart, Figure, Format, Legend, Marker, PlotError, Series, SeriesStyle, Shape,
 };
+use crate::validate::report::PlotPoint;
 use crate::validate::turns::sample_power_w;
 use crate::validate::{ManoeuvreKind, ValidationReport};
 use model_core::kinematics::TurnDirection;
@@ -103,7 +104,6 @@ pub fn power_trace_chart(
             .series
             .push(Series::new(label, points, SeriesStyle::Line, i));
     }
-    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -116,11 +116,6 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
         "R / R′",
         "power [W]",
     );
-    let max = plot
-        .points
-        .iter()
-        .map(|p| (p.r_over_r_prime, p.max_power_w))
-        .collect();
     let curve = |f: &dyn Fn(&crate::validate::report::CurvePoint) -> Option<f64>| {
         plot.model_curve
             .iter()
@@ -136,34 +131,51 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
             }
         }
     }
-    const RUN_COLOURS: [usize; 4] = [0, 4, 5, 6];
+    // Runs side by side at each radius (repeats sit on top of each other otherwise), each its
+    // colour and shape; the maxima as rings beside their run's average.
+    const RUN_COLOURS: [usize; 4] = [0, 4, 5, 3];
+    const RUN_SHAPES: [Shape; 3] = [Shape::Dot, Shape::Square, Shape::Triangle];
+    let (lo, hi) = data_x_range(report).unwrap_or((0.0, 1.0));
+    let dodge = |k: usize| (k as f64 - (runs.len() as f64 - 1.0) / 2.0) * 0.012 * (hi - lo);
+    let run_of = |p: &&PlotPoint| {
+        report
+            .manoeuvres
+            .get(p.manoeuvre)
+            .and_then(|m| runs.iter().position(|r| *r == m.run))
+    };
+    let max = plot
+        .points
+        .iter()
+        .map(|p| {
+            let dx = run_of(&p).map_or(0.0, dodge);
+            (p.r_over_r_prime + dx, p.max_power_w)
+        })
+        .collect();
     for (k, run) in runs.iter().enumerate() {
         let avg = plot
             .points
             .iter()
-            .filter(|p| {
-                report
-                    .manoeuvres
-                    .get(p.manoeuvre)
-                    .is_some_and(|m| m.run == *run)
-            })
-            .map(|p| (p.r_over_r_prime, p.avg_power_w.total))
+            .filter(|p| run_of(p) == Some(k))
+            .map(|p| (p.r_over_r_prime + dodge(k), p.avg_power_w.total))
             .collect();
         let name = if runs.len() == 1 {
             "measured average".to_owned()
         } else {
             format!("average, {}", short_name(run))
         };
-        chart.series.push(Series::new(
-            name,
-            avg,
-            SeriesStyle::Points,
-            RUN_COLOURS[k % RUN_COLOURS.len()],
-        ));
+        chart.series.push(
+            Series::new(
+                name,
+                avg,
+                SeriesStyle::Points,
+                RUN_COLOURS[k % RUN_COLOURS.len()],
+            )
+            .with_shape(RUN_SHAPES[k % RUN_SHAPES.len()]),
+        );
     }
     chart
         .series
-        .push(Series::new("measured maximum", max, SeriesStyle::Points, 1));
+        .push(Series::new("measured maximum", max, SeriesStyle::Points, 6).with_shape(Shape::Ring));
     chart.series.push(Series::new(
         "fitted Eq 2.12",
         curve(&|c| c.fit_w),
@@ -188,7 +200,6 @@ pub fn power_vs_radius(report: &ValidationReport) -> Chart {
     ));
     add_regime_markers(&mut chart, report);
     chart.x_range = data_x_range(report);
-    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -246,7 +257,6 @@ pub fn torque_per_side(report: &ValidationReport) -> Chart {
         1,
     ));
     add_regime_markers(&mut chart, report);
-    chart.legend = chart.least_crowded_corner();
     chart
 }
 
@@ -437,22 +447,5 @@ mod tests {
         );
         assert_eq!(power_vs_time_names(&runs[..1]), ["power-vs-time"]);
         assert!(power_vs_time_names(&[]).is_empty());
-    }
-
-    #[test]
-    fn the_legend_goes_where_the_data_is_not() {
-        let mut chart = Chart::new("t", "x", "y");
-        // Data along the top and on the right: the lower left is free.
-        let points = vec![
-            (0.0, 10.0),
-            (5.0, 10.0),
-            (10.0, 10.0),
-            (10.0, 0.0),
-            (10.0, 5.0),
-        ];
-        chart
-            .series
-            .push(Series::new("a", points, SeriesStyle::Points, 0));
-        assert_eq!(chart.least_crowded_corner(), Legend::LowerLeft);
     }
 }

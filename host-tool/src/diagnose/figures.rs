@@ -155,7 +155,6 @@ pub fn residuals_vs_radius(
             chart.series.push(gap_series(rows, gaps, role, baseline));
             chart.series.push(zero_line(rows, ""));
             chart.markers = regime_markers(rover);
-            chart.place_legend();
             chart
         })
         .collect();
@@ -204,7 +203,6 @@ pub fn growth_vs_radius(rover: &Rover, rows: &[TurnRow], phases: &[GroupStat]) -
                 .series
                 .push(zero_line(rows, "models (constant power)"));
             chart.markers = regime_markers(rover);
-            chart.place_legend();
             chart
         })
         .collect();

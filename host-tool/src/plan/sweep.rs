@@ -4,7 +4,7 @@
 //! Table 3); a model with effects moves it (Fig. 6.3b: 2R' < R < 2.5R' on sand).
 
 use super::{EnergyModel, ModelLaw, ModelSource, PlanError};
-use crate::plot::{Chart, Legend, Marker, Series, SeriesStyle};
+use crate::plot::{Chart, Marker, Series, SeriesStyle};
 use model_core::paths::{ClcEnds, ClcPath, PathError};
 use serde::Serialize;
 use std::fmt;
@@ -297,7 +297,6 @@ impl SweepReport {
             self.optimum.r_over_r_prime,
             format!("optimum {:.2} R′", self.optimum.r_over_r_prime),
         ));
-        chart.legend = Legend::LowerLeft;
         chart
     }
 }

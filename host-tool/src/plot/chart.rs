@@ -15,6 +15,20 @@ pub enum SeriesStyle {
     LineAndPoints,
 }
 
+/// The mark of each point of a points series.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Shape {
+    /// A filled circle (default).
+    #[default]
+    Dot,
+    /// A hollow circle: reads apart from dots of any colour.
+    Ring,
+    /// A filled square.
+    Square,
+    /// A filled triangle, point up.
+    Triangle,
+}
+
 /// One data series.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
@@ -29,6 +43,8 @@ pub struct Series {
     /// Vertical interval (low, high) of each point, drawn as a bar with caps (empty: none;
     /// otherwise one per point, a non-finite end draws no bar).
     pub intervals: Vec<(f64, f64)>,
+    /// The mark of each point (points styles).
+    pub shape: Shape,
 }
 
 impl Series {
@@ -45,7 +61,14 @@ impl Series {
             style,
             colour,
             intervals: Vec::new(),
+            shape: Shape::Dot,
         }
+    }
+
+    /// The same series with `shape` for its points.
+    pub fn with_shape(mut self, shape: Shape) -> Self {
+        self.shape = shape;
+        self
     }
 
     /// The same series with a vertical interval per point (e.g. a 95 % CI).
@@ -74,11 +97,15 @@ impl Marker {
     }
 }
 
-/// Where the legend goes inside the plotting area.
+/// Where the legend goes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Legend {
-    /// Top right (default).
+    /// The first corner of the plot (upper right, upper left, lower right, lower left) where
+    /// it covers no point, line, interval or marker label; a strip below the chart when every
+    /// corner would (default).
     #[default]
+    Auto,
+    /// Top right of the plot, whatever it covers.
     UpperRight,
     /// Top left.
     UpperLeft,
@@ -86,6 +113,8 @@ pub enum Legend {
     LowerRight,
     /// Bottom left.
     LowerLeft,
+    /// A strip below the chart, entries side by side.
+    Below,
     /// No legend.
     Hidden,
 }
@@ -157,45 +186,6 @@ pub const PANEL_PX: (u32, u32) = (800, 560);
 pub(super) const FIGURE_TITLE_PX: u32 = 40;
 
 impl Chart {
-    /// The legend corner whose quarter of the plot holds the fewest data points.
-    pub fn least_crowded_corner(&self) -> Legend {
-        let points: Vec<(f64, f64)> = self
-            .series
-            .iter()
-            .flat_map(|s| s.points.iter().copied())
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
-            .filter(|(x, _)| self.x_range.is_none_or(|(lo, hi)| (lo..=hi).contains(x)))
-            .collect();
-        let bounds = |f: fn(&(f64, f64)) -> f64| {
-            points
-                .iter()
-                .map(f)
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(v), hi.max(v))
-                })
-        };
-        let (x0, x1) = self.x_range.unwrap_or_else(|| bounds(|p| p.0));
-        let (y0, y1) = bounds(|p| p.1);
-        let (xm, ym) = (x0 + 0.6 * (x1 - x0), y0 + 0.6 * (y1 - y0));
-        let (xl, yl) = (x0 + 0.4 * (x1 - x0), y0 + 0.4 * (y1 - y0));
-        let count = |f: &dyn Fn(f64, f64) -> bool| points.iter().filter(|(x, y)| f(*x, *y)).count();
-        let corners = [
-            (Legend::UpperRight, count(&|x, y| x >= xm && y >= ym)),
-            (Legend::UpperLeft, count(&|x, y| x <= xl && y >= ym)),
-            (Legend::LowerRight, count(&|x, y| x >= xm && y <= yl)),
-            (Legend::LowerLeft, count(&|x, y| x <= xl && y <= yl)),
-        ];
-        corners
-            .into_iter()
-            .min_by_key(|(_, n)| *n)
-            .map_or(Legend::UpperRight, |(corner, _)| corner)
-    }
-
-    /// Puts the legend in [`Chart::least_crowded_corner`].
-    pub fn place_legend(&mut self) {
-        self.legend = self.least_crowded_corner();
-    }
-
     /// The y extent of the finite points (inside the x range, if fixed).
     fn y_extent(&self) -> Option<(f64, f64)> {
         let ys = self

@@ -1,7 +1,7 @@
 //! Drawing one chart into a panel with plotters: mesh, markers, series, notes and legend.
 
 use super::axes::{clip_segment, drawable, inside, polylines, ranges, tick_label, Span};
-use super::chart::{Chart, Legend, Series, SeriesStyle};
+use super::chart::{Chart, Legend, Series, SeriesStyle, Shape};
 use super::render::DrawResult;
 use super::{palette_rgb, FAMILY};
 use plotters::coord::types::RangedCoordf64;
@@ -23,6 +23,7 @@ struct LegendGlyph {
     at: BackendCoord,
     colour: RGBColor,
     style: SeriesStyle,
+    shape: Shape,
 }
 
 impl<'b> PointCollection<'b, BackendCoord> for &'b LegendGlyph {
@@ -47,9 +48,61 @@ impl<DB: DrawingBackend> Drawable<DB> for LegendGlyph {
             backend.draw_path([(x, y), (x + 20, y)], &self.colour.stroke_width(2))?;
         }
         if matches!(self.style, SeriesStyle::Points | SeriesStyle::LineAndPoints) {
-            backend.draw_circle((x + 10, y), 3, &self.colour.filled(), true)?;
+            draw_mark(backend, (x + 10, y), self.shape, self.colour)?;
         }
         Ok(())
+    }
+}
+
+/// Radius of a point's mark [px].
+const MARK_PX: i32 = 4;
+
+/// One point's mark at `at`, in backend pixels.
+fn draw_mark<DB: DrawingBackend>(
+    backend: &mut DB,
+    (x, y): BackendCoord,
+    shape: Shape,
+    colour: RGBColor,
+) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+    let r = MARK_PX;
+    match shape {
+        Shape::Dot => backend.draw_circle((x, y), r as u32, &colour.filled(), true),
+        Shape::Ring => backend.draw_circle((x, y), r as u32, &colour.stroke_width(2), false),
+        Shape::Square => backend.draw_rect((x - r, y - r), (x + r, y + r), &colour.filled(), true),
+        Shape::Triangle => backend.fill_polygon(
+            [(x, y - r - 1), (x - r - 1, y + r), (x + r + 1, y + r)],
+            &colour.filled(),
+        ),
+    }
+}
+
+/// A point's mark as a plotters element, drawn by [`draw_mark`].
+#[derive(Debug, Clone, Copy)]
+struct Mark {
+    at: (f64, f64),
+    shape: Shape,
+    colour: RGBColor,
+}
+
+impl<'b> PointCollection<'b, (f64, f64)> for &'b Mark {
+    type Point = &'b (f64, f64);
+    type IntoIter = std::iter::Once<&'b (f64, f64)>;
+    fn point_iter(self) -> Self::IntoIter {
+        std::iter::once(&self.at)
+    }
+}
+
+impl<DB: DrawingBackend> Drawable<DB> for Mark {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        mut pos: I,
+        backend: &mut DB,
+        _parent_dim: (u32, u32),
+    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+        match pos.next() {
+            Some(at) => draw_mark(backend, at, self.shape, self.colour),
+            None => Ok(()),
+        }
     }
 }
 
@@ -78,15 +131,27 @@ pub(super) fn draw_chart<DB: DrawingBackend>(
             return Ok(());
         }
     };
-    let mut builder = ChartBuilder::on(area);
-    builder
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(72);
+    // The margin and title as plotters' ChartBuilder lays them out, drawn here once, so the
+    // chart can be laid out twice: where the legend covers nothing, or above its strip.
+    let mut area = area.margin(12, 12, 12, 12);
     if !chart.title.is_empty() {
-        builder.caption(&chart.title, (FAMILY, 20));
+        area = area.titled(&chart.title, (FAMILY, 20))?;
     }
-    let mut ctx = builder.build_cartesian_2d(x.0..x.1, y.0..y.1)?;
+    let entries = legend_entries(chart, &area)?;
+    let mut ctx = build(&area, x, y)?;
+    let mut place = legend_place(chart, &ctx, &entries, x, y);
+    let mut strip = None;
+    if place == Place::Below {
+        let (w, h) = area.dim_in_pixel();
+        let strip_h = strip_rows(&entries, w) * LEGEND_ROW_PX + 2 * LEGEND_PAD_PX;
+        if strip_h + 200 < h {
+            let (top, bottom) = area.split_vertically(h - strip_h);
+            ctx = build(&top, x, y)?;
+            strip = Some(bottom);
+        } else {
+            place = Place::Corner(corner_rect(&ctx, &entries, Legend::UpperRight));
+        }
+    }
     ctx.configure_mesh()
         .x_desc(&chart.x_label)
         .y_desc(&chart.y_label)
@@ -105,7 +170,23 @@ pub(super) fn draw_chart<DB: DrawingBackend>(
         has_data |= draw_series(&mut ctx, s, x, y)?;
     }
     draw_notes(&ctx, chart, has_data, x, y)?;
-    draw_legend(&mut ctx, chart)
+    match (place, strip) {
+        (Place::Corner(rect), _) => draw_legend_box(&area, &entries, rect),
+        (Place::Below, Some(strip)) => draw_legend_strip(&strip, &entries),
+        _ => Ok(()),
+    }
+}
+
+/// The plotting context on `area`, with the label areas of every panel.
+fn build<'a, DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    x: Span,
+    y: Span,
+) -> Result<Ctx<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    ChartBuilder::on(area)
+        .x_label_area_size(48)
+        .y_label_area_size(72)
+        .build_cartesian_2d(x.0..x.1, y.0..y.1)
 }
 
 /// The chart's vertical markers inside the x range, labels stacked down from the top.
@@ -170,7 +251,12 @@ fn draw_series<DB: DrawingBackend>(
             .filter(|&p| drawable(p) && inside(p, x, y))
             .collect();
         has_data |= !dots.is_empty();
-        ctx.draw_series(dots.into_iter().map(|p| Circle::new(p, 3, dot)))?;
+        let shape = s.shape;
+        ctx.draw_series(dots.into_iter().map(|at| Mark {
+            at,
+            shape,
+            colour: c,
+        }))?;
         draw_intervals(ctx, s, c, x, y)?;
     }
     Ok(has_data)
@@ -248,35 +334,256 @@ fn draw_notes<DB: DrawingBackend>(
     Ok(())
 }
 
-/// The legend of the named series, in the chart's corner (none when hidden or nothing is named).
-fn draw_legend<'a, DB: DrawingBackend + 'a>(
-    ctx: &mut Ctx<'a, DB>,
+/// Height of a legend row and the padding around the rows [px].
+const LEGEND_ROW_PX: u32 = 20;
+const LEGEND_PAD_PX: u32 = 6;
+/// Width of an entry's sample and the gap before its text [px].
+const LEGEND_GLYPH_PX: u32 = 30;
+
+/// One legend entry: its sample and its text's width.
+struct Entry {
+    name: String,
+    glyph: LegendGlyph,
+    text_w: u32,
+}
+
+/// The legend's font.
+fn legend_font() -> TextStyle<'static> {
+    (FAMILY, 14).into_font().color(&BLACK)
+}
+
+/// The named series' entries (none when the legend is hidden or nothing is named).
+fn legend_entries<DB: DrawingBackend>(
     chart: &Chart,
-) -> DrawResult<DB> {
-    if chart.legend == Legend::Hidden || chart.series.iter().all(|s| s.name.is_empty()) {
-        return Ok(());
+    area: &DrawingArea<DB, Shift>,
+) -> Result<Vec<Entry>, DrawingAreaErrorKind<DB::ErrorType>> {
+    if chart.legend == Legend::Hidden {
+        return Ok(Vec::new());
     }
-    for s in chart.series.iter().filter(|s| !s.name.is_empty()) {
-        let c = colour(s.colour);
-        let style = s.style;
-        ctx.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-            .label(s.name.clone())
-            .legend(move |at| LegendGlyph {
-                at,
-                colour: c,
-                style,
-            });
+    let font = legend_font();
+    chart
+        .series
+        .iter()
+        .filter(|s| !s.name.is_empty())
+        .map(|s| {
+            Ok(Entry {
+                name: s.name.clone(),
+                glyph: LegendGlyph {
+                    at: (0, 0),
+                    colour: colour(s.colour),
+                    style: s.style,
+                    shape: s.shape,
+                },
+                text_w: area.estimate_text_size(&s.name, &font)?.0,
+            })
+        })
+        .collect()
+}
+
+/// Where the legend is drawn: a box at a pixel rectangle, a strip below the chart, or nowhere.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Place {
+    Corner((i32, i32, i32, i32)),
+    Below,
+    Nowhere,
+}
+
+/// The legend box's rectangle (x0, y0, x1, y1) in `corner` of the plot, 8 px in.
+fn corner_rect<DB: DrawingBackend>(
+    ctx: &Ctx<'_, DB>,
+    entries: &[Entry],
+    corner: Legend,
+) -> (i32, i32, i32, i32) {
+    let (xs, ys) = ctx.plotting_area().get_pixel_range();
+    let text_w = entries.iter().map(|e| e.text_w).max().unwrap_or(0);
+    let w = (2 * LEGEND_PAD_PX + LEGEND_GLYPH_PX + text_w) as i32;
+    let h = (2 * LEGEND_PAD_PX + LEGEND_ROW_PX * entries.len() as u32) as i32;
+    let left = matches!(corner, Legend::UpperLeft | Legend::LowerLeft);
+    let top = matches!(corner, Legend::UpperLeft | Legend::UpperRight);
+    let x0 = if left { xs.start + 8 } else { xs.end - 8 - w };
+    let y0 = if top { ys.start + 8 } else { ys.end - 8 - h };
+    (x0, y0, x0 + w, y0 + h)
+}
+
+/// Where the legend goes: the chart's corner if it names one; for [`Legend::Auto`] the first
+/// corner where the box covers nothing drawn, else the strip below.
+fn legend_place<DB: DrawingBackend>(
+    chart: &Chart,
+    ctx: &Ctx<'_, DB>,
+    entries: &[Entry],
+    x: Span,
+    y: Span,
+) -> Place {
+    if entries.is_empty() {
+        return Place::Nowhere;
     }
-    let position = match chart.legend {
-        Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
-        Legend::LowerRight => SeriesLabelPosition::LowerRight,
-        Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
-        Legend::UpperRight | Legend::Hidden => SeriesLabelPosition::UpperRight,
+    let corners = [
+        Legend::UpperRight,
+        Legend::UpperLeft,
+        Legend::LowerRight,
+        Legend::LowerLeft,
+    ];
+    match chart.legend {
+        Legend::Hidden => Place::Nowhere,
+        Legend::Below => Place::Below,
+        Legend::Auto => {
+            let drawn = drawn_pixels(chart, ctx, x, y);
+            corners
+                .into_iter()
+                .map(|corner| corner_rect(ctx, entries, corner))
+                .find(|&(x0, y0, x1, y1)| {
+                    // 3 px of air around the box.
+                    !drawn.iter().any(|&(px, py)| {
+                        (x0 - 3..=x1 + 3).contains(&px) && (y0 - 3..=y1 + 3).contains(&py)
+                    })
+                })
+                .map_or(Place::Below, Place::Corner)
+        }
+        corner => Place::Corner(corner_rect(ctx, entries, corner)),
+    }
+}
+
+/// Every pixel the chart draws something at, near enough: each point's mark (its corners),
+/// lines and interval bars every 3 px, and each marker label's box.
+fn drawn_pixels<DB: DrawingBackend>(
+    chart: &Chart,
+    ctx: &Ctx<'_, DB>,
+    x: Span,
+    y: Span,
+) -> Vec<(i32, i32)> {
+    let px = |p: (f64, f64)| ctx.backend_coord(&p);
+    let mut out = Vec::new();
+    let segment = |a: (f64, f64), b: (f64, f64), out: &mut Vec<(i32, i32)>| {
+        let (a, b) = (px(a), px(b));
+        let steps = ((b.0 - a.0).abs().max((b.1 - a.1).abs()) / 3).max(1);
+        for k in 0..=steps {
+            out.push((a.0 + (b.0 - a.0) * k / steps, a.1 + (b.1 - a.1) * k / steps));
+        }
     };
-    ctx.configure_series_labels()
-        .position(position)
-        .label_font((FAMILY, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(160, 160, 160))
-        .draw()
+    for s in &chart.series {
+        if matches!(s.style, SeriesStyle::Line | SeriesStyle::LineAndPoints) {
+            let (runs, isolated) = polylines(&s.points, x, y);
+            for run in runs {
+                for pair in run.windows(2) {
+                    segment(pair[0], pair[1], &mut out);
+                }
+            }
+            out.extend(isolated.into_iter().map(px));
+        }
+        if matches!(s.style, SeriesStyle::Points | SeriesStyle::LineAndPoints) {
+            for &p in s.points.iter().filter(|&&p| drawable(p) && inside(p, x, y)) {
+                let (cx, cy) = px(p);
+                let r = MARK_PX + 1;
+                out.extend([
+                    (cx - r, cy - r),
+                    (cx + r, cy - r),
+                    (cx - r, cy + r),
+                    (cx + r, cy + r),
+                    (cx, cy),
+                ]);
+            }
+            for (&(bx, _), &(lo, hi)) in s.points.iter().zip(&s.intervals) {
+                if drawable((bx, lo)) && drawable((bx, hi)) {
+                    if let Some((a, b)) = clip_segment((bx, lo), (bx, hi), x, y) {
+                        segment(a, b, &mut out);
+                    }
+                }
+            }
+        }
+    }
+    // Marker labels: stacked down from the plot's top, 16 px a row, about 8 px a character.
+    let top = ctx.plotting_area().get_pixel_range().1.start;
+    let labelled = chart
+        .markers
+        .iter()
+        .filter(|m| m.x.is_finite() && (x.0..=x.1).contains(&m.x) && !m.label.is_empty());
+    for (row, m) in labelled.enumerate() {
+        let (mx, _) = px((m.x, y.1));
+        let y0 = top + 4 + 16 * row as i32;
+        let w = 8 * m.label.chars().count() as i32;
+        for dx in (0..=w + 4).step_by(3) {
+            out.extend([(mx + dx, y0), (mx + dx, y0 + 14)]);
+        }
+    }
+    out
+}
+
+/// The legend as a box at `rect`: white behind, a grey border, one entry a row.
+fn draw_legend_box<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[Entry],
+    (x0, y0, x1, y1): (i32, i32, i32, i32),
+) -> DrawResult<DB> {
+    let (bx, by) = area.get_base_pixel();
+    let local = |(x, y): (i32, i32)| (x - bx, y - by);
+    area.draw(&Rectangle::new(
+        [local((x0, y0)), local((x1, y1))],
+        WHITE.mix(0.85).filled(),
+    ))?;
+    area.draw(&Rectangle::new(
+        [local((x0, y0)), local((x1, y1))],
+        RGBColor(160, 160, 160).stroke_width(1),
+    ))?;
+    for (k, e) in entries.iter().enumerate() {
+        let row_y = y0 + (LEGEND_PAD_PX + LEGEND_ROW_PX * k as u32 + LEGEND_ROW_PX / 2) as i32;
+        draw_entry(area, e, local((x0 + LEGEND_PAD_PX as i32, row_y)))?;
+    }
+    Ok(())
+}
+
+/// How many rows the entries take side by side in a strip `width` px wide.
+fn strip_rows(entries: &[Entry], width: u32) -> u32 {
+    strip_layout(entries, width)
+        .last()
+        .map_or(0, |&(_, row)| row + 1)
+}
+
+/// Each entry's (x offset, row) in a strip `width` px wide, filled row by row.
+fn strip_layout(entries: &[Entry], width: u32) -> Vec<(u32, u32)> {
+    let (mut x, mut row) = (LEGEND_PAD_PX, 0);
+    let mut out = Vec::with_capacity(entries.len());
+    for e in entries {
+        let w = LEGEND_GLYPH_PX + e.text_w + 18;
+        if x > LEGEND_PAD_PX && x + w > width {
+            (x, row) = (LEGEND_PAD_PX, row + 1);
+        }
+        out.push((x, row));
+        x += w;
+    }
+    out
+}
+
+/// The legend as a strip below the chart (`strip`): entries side by side, wrapping.
+fn draw_legend_strip<DB: DrawingBackend>(
+    strip: &DrawingArea<DB, Shift>,
+    entries: &[Entry],
+) -> DrawResult<DB> {
+    let (w, _) = strip.dim_in_pixel();
+    // Indented like the plot (its y label area), so the strip reads as the chart's.
+    let indent = 72;
+    for (e, (x, row)) in entries
+        .iter()
+        .zip(strip_layout(entries, w.saturating_sub(indent)))
+    {
+        let at = (
+            (indent + x) as i32,
+            (LEGEND_PAD_PX + LEGEND_ROW_PX * row + LEGEND_ROW_PX / 2) as i32,
+        );
+        draw_entry(strip, e, at)?;
+    }
+    Ok(())
+}
+
+/// One entry, its sample's left end at `at` (the row's middle), in `area`'s pixels.
+fn draw_entry<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    e: &Entry,
+    at: (i32, i32),
+) -> DrawResult<DB> {
+    area.draw(&LegendGlyph { at, ..e.glyph })?;
+    area.draw(&Text::new(
+        e.name.clone(),
+        (at.0 + LEGEND_GLYPH_PX as i32, at.1),
+        legend_font().pos(Pos::new(HPos::Left, VPos::Center)),
+    ))
 }

@@ -351,7 +351,7 @@ fn png_dot_lands_where_its_coordinates_map() {
         ys.iter().min().copied().unwrap_or(0),
         ys.iter().max().copied().unwrap_or(0),
     );
-    assert!(x1 - x0 <= 7 && y1 - y0 <= 7, "one radius-3 dot: {hits:?}");
+    assert!(x1 - x0 <= 9 && y1 - y0 <= 9, "one radius-4 dot: {hits:?}");
     let (x0, y0) = ((x0 + x1) / 2, (y0 + y1) / 2);
     // Plot area: left label area 72 + margin 12, right margin 12; bottom label area 48 +
     // margin 12, top margin 12 (no caption).
@@ -531,4 +531,108 @@ proptest! {
             }
         }
     }
+}
+
+/// The legend box's rectangle (x, y, width, height) in an SVG: the rect filled white at 0.85.
+fn legend_box(svg: &str) -> Option<(f64, f64, f64, f64)> {
+    let rect = svg
+        .split("<rect")
+        .skip(1)
+        .map(|r| r.split('>').next().unwrap_or(""))
+        .find(|r| r.contains("fill=\"#FFFFFF\"") && r.contains("opacity=\"0.85"))?;
+    let attr = |name: &str| -> Option<f64> {
+        let start = rect.find(&format!(" {name}=\""))? + name.len() + 3;
+        rect[start..].split('"').next()?.parse().ok()
+    };
+    Some((attr("x")?, attr("y")?, attr("width")?, attr("height")?))
+}
+
+#[test]
+fn the_legend_goes_where_it_covers_nothing_or_below_the_chart() {
+    // Points along the top and down the right side: only the lower left is free.
+    let mut chart = Chart::new("t", "x", "y");
+    let mut points: Vec<(f64, f64)> = (0..=20).map(|i| (f64::from(i) * 0.5, 10.0)).collect();
+    points.extend((0..=20).map(|i| (10.0, f64::from(i) * 0.5)));
+    chart.series.push(Series::new(
+        "a series with a long name",
+        points.clone(),
+        SeriesStyle::Points,
+        0,
+    ));
+    let svg = svg_of(&Figure::single(chart.clone()));
+    let (x, y, w, h) = legend_box(&svg).expect("a legend box");
+    let (panel_w, panel_h) = (f64::from(PANEL_PX.0), f64::from(PANEL_PX.1));
+    assert!(
+        x + w < panel_w / 2.0 && y > panel_h / 2.0,
+        "{x} {y} {w} {h}"
+    );
+
+    // Points everywhere: no corner is free, so the legend is a strip below the plot.
+    let mut full = Chart::new("t", "x", "y");
+    let grid = (0..=40)
+        .flat_map(|i| (0..=40).map(move |j| (f64::from(i) * 0.25, f64::from(j) * 0.25)))
+        .collect();
+    full.series
+        .push(Series::new("everywhere", grid, SeriesStyle::Points, 0));
+    let svg = svg_of(&Figure::single(full));
+    assert_eq!(legend_box(&svg), None, "no box over the data");
+    let text_y = svg
+        .split("<text")
+        .find(|t| t.contains(">everywhere<") || t.contains(">\neverywhere"))
+        .and_then(|t| {
+            t.split("y=\"")
+                .nth(1)?
+                .split('"')
+                .next()?
+                .parse::<f64>()
+                .ok()
+        })
+        .expect("the legend's text");
+    let axis_label_y = svg
+        .split("<text")
+        .filter(|t| t.contains(">x<") || t.contains(">\nx\n<"))
+        .filter_map(|t| {
+            t.split("y=\"")
+                .nth(1)?
+                .split('"')
+                .next()?
+                .parse::<f64>()
+                .ok()
+        })
+        .next()
+        .expect("the x label");
+    assert!(
+        text_y > axis_label_y,
+        "legend {text_y} below the x label {axis_label_y}"
+    );
+
+    // A corner named by the caller is kept, whatever it covers.
+    chart.legend = Legend::UpperRight;
+    let (x, y, w, _) = legend_box(&svg_of(&Figure::single(chart))).expect("box");
+    assert!(x + w > panel_w / 2.0 && y < panel_h / 2.0);
+}
+
+#[test]
+fn shapes_draw_their_own_marks_and_legend_samples() {
+    let mut chart = Chart::new("t", "x", "y");
+    for (k, shape) in [Shape::Dot, Shape::Ring, Shape::Square, Shape::Triangle]
+        .into_iter()
+        .enumerate()
+    {
+        chart.series.push(
+            Series::new(
+                format!("s{k}"),
+                vec![(k as f64, 1.0)],
+                SeriesStyle::Points,
+                k,
+            )
+            .with_shape(shape),
+        );
+    }
+    let svg = svg_of(&Figure::single(chart));
+    // Data and legend sample alike: a filled dot, a stroked ring, a square, a triangle.
+    assert_eq!(circles_in(&svg, PALETTE[0]), 2, "{svg}");
+    assert_eq!(elements_in(&svg, "circle", "stroke", PALETTE[1]), 2);
+    assert_eq!(elements_in(&svg, "rect", "fill", PALETTE[2]), 2);
+    assert_eq!(elements_in(&svg, "polygon", "fill", PALETTE[3]), 2);
 }
