@@ -15,7 +15,10 @@
 import sys
 from pathlib import Path
 
-import matplotlib
+try:
+    import matplotlib
+except ModuleNotFoundError:
+    sys.exit("this example draws with matplotlib, which rover_power does not need: pip install matplotlib")
 
 matplotlib.use("Agg")  # a file, not a window; drop this line in a notebook
 import matplotlib.pyplot as plt

@@ -9,7 +9,7 @@
 //! configured, DTR, the sampling rate.
 //!
 //! Crystal: 25 MHz (WeAct Black Pill v3.x) by default; build with `--features hse-8mhz` for the
-//! boards that carry 8 MHz (README, "Bring-up").
+//! boards that carry 8 MHz (docs/board.md, "Flashing").
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 /// Host build: the firmware only runs on the board; this keeps `cargo test --workspace` green.

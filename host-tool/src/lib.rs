@@ -32,3 +32,4 @@ pub mod stderr;
 pub mod temp_paths;
 pub mod toml_syntax;
 pub mod validate;
+pub mod wrap;

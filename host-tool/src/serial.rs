@@ -26,7 +26,7 @@ pub const ROVER_POWER_VID_PID: (u16, u16) = (0x16c0, 0x27dd);
 pub const PERMISSION_HINT: &str = "install the udev rule (sudo cp firmware/99-rover-power.rules \
 /etc/udev/rules.d/ && sudo udevadm control --reload-rules && sudo udevadm trigger, then re-plug \
 the board; it also adds /dev/rover-power) or join the dialout group (sudo usermod -aG dialout \
-$USER, then log out and back in); README, \"Bring-up\"";
+$USER, then log out and back in); docs/board.md, \"From a bare board to a first recording\"";
 
 /// Errors of listing and opening ports.
 #[derive(Debug, thiserror::Error)]

@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 /// The serial number's owner prefix. A builder of their own boards changes it to a domain or
-/// e-mail address they control (README, "Bring-up").
+/// e-mail address they control (docs/board.md, "Testing the first board").
 pub const SERIAL_PREFIX: &str = "rover-power.github.io:";
 
 /// Bytes of the STM32F4 unique device ID (RM0383, "Unique device ID register", at 0x1FFF_7A10).

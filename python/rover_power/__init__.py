@@ -11,7 +11,7 @@ command line), so ``validate``, ``diagnose`` and ``plan`` return exactly what th
     print(report["effect"], report["regime"])
     print(rp.plan(90, 90, 10)["delta_e_pct"])
 
-Units and signs are the run CSV's (README, "Run CSV format"): time in s, bus voltage in V,
+Units and signs are the run CSV's (docs/formats.md, "Run CSV"): time in s, bus voltage in V,
 current in A (positive drawn from the battery), commanded side speeds in m/s, yaw in rad
 (counter-clockwise positive), pitch in degrees (nose-up positive), the tracked point in m.
 

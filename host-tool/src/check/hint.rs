@@ -154,7 +154,7 @@ impl fmt::Display for Hint {
             Hint::NoBoardFound => f.write_str(
                 "no port with the board's USB ID 16c0:27dd and a rover-power serial number: plug \
                  the board in with a data cable (not a charge-only one), flash the firmware \
-                 (README, \"Flashing\"), list the ports with `host-tool ports`, or pass --port",
+                 (docs/board.md, \"Flashing\"), list the ports with `host-tool ports`, or pass --port",
             ),
             Hint::SeveralBoards => f.write_str(
                 "several rover-power boards are plugged in: pick one with --port (see `host-tool ports`)",
@@ -191,7 +191,7 @@ impl fmt::Display for Hint {
             Hint::ProtocolMismatch { board } => write!(
                 f,
                 "the board speaks protocol {board}, this host-tool {}: flash the firmware built \
-                 from the same checkout (`cargo fw`, README \"Flashing\") or use the host-tool \
+                 from the same checkout (`cargo fw`, docs/board.md, \"Flashing\") or use the host-tool \
                  that matches the board",
                 model_core::wire::PROTOCOL_VERSION
             ),

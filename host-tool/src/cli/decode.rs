@@ -3,8 +3,9 @@
 use super::output::{self, JsonOut};
 use anyhow::{Context, Result};
 use host_tool::decode::{read_capture, CaptureEnd, CaptureError};
+use host_tool::progress::StatusLine;
 use host_tool::record::stop_signal;
-use std::io::{IsTerminal, Read, Write};
+use std::io::Read;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -16,8 +17,8 @@ const REPORT_EVERY: Duration = Duration::from_secs(1);
 #[derive(clap::Args, Debug)]
 pub struct DecodeArgs {
     /// Capture file (raw bytes as read from the board's serial port; `-` for stdin), read as it
-    /// comes: an endless one (a FIFO) prints a running summary every second on stderr and its
-    /// summary at Ctrl-C. A run log (.mcap, .csv) is recognised and refused with a hint.
+    /// comes: an endless one (a FIFO) prints a running summary on stderr (every second on a
+    /// terminal, every 10 s into a file) and its summary at Ctrl-C. A run log (.mcap, .csv) is recognised and refused with a hint.
     capture: PathBuf,
     #[command(flatten)]
     json: JsonOut,
@@ -41,7 +42,7 @@ impl DecodeArgs {
         let stop = stop_signal::install().context("installing the stop-signal handler")?;
         let mut status = StatusLine::stderr();
         let read = read_capture(input, &stop, REPORT_EVERY, &mut |summary| {
-            status.show(&summary.running_line());
+            status.show(&summary.running_line(), false);
         });
         let (summary, end) = match read {
             Ok(read) => read,
@@ -54,57 +55,19 @@ impl DecodeArgs {
                 return Err(e).with_context(|| format!("reading {name}"));
             }
         };
-        status.finish(match end {
-            CaptureEnd::Eof => None,
-            CaptureEnd::Stopped => Some(format!(
-                "stopped: the summary is of the first {} bytes",
-                summary.bytes
-            )),
-        });
+        status.finish(
+            match end {
+                CaptureEnd::Eof => None,
+                CaptureEnd::Stopped => Some(format!(
+                    "stopped: the summary is of the first {} bytes",
+                    summary.bytes
+                )),
+            }
+            .as_deref(),
+        );
         if !self.json.emit(&summary, "summary", self.force)? {
             output::print(format_args!("{name}: {summary}"))?;
         }
         Ok(())
-    }
-}
-
-/// The running summary on stderr, the one place `decode` writes there: one line rewritten in
-/// place on a terminal, a line per report into a file or pipe. A closed stderr is ignored.
-struct StatusLine {
-    stderr: std::io::Stderr,
-    live: bool,
-    shown: bool,
-}
-
-impl StatusLine {
-    fn stderr() -> Self {
-        let stderr = std::io::stderr();
-        let live = stderr.is_terminal();
-        Self {
-            stderr,
-            live,
-            shown: false,
-        }
-    }
-
-    fn show(&mut self, line: &str) {
-        let _ = if self.live {
-            write!(self.stderr, "\r\x1b[2K{line}")
-        } else {
-            writeln!(self.stderr, "{line}")
-        };
-        let _ = self.stderr.flush();
-        self.shown = true;
-    }
-
-    /// Ends the running line (on a terminal) with `last`, or clears it.
-    fn finish(&mut self, last: Option<String>) {
-        let _ = match (&last, self.live && self.shown) {
-            (Some(last), true) => writeln!(self.stderr, "\r\x1b[2K{last}"),
-            (Some(last), false) => writeln!(self.stderr, "{last}"),
-            (None, true) => write!(self.stderr, "\r\x1b[2K"),
-            (None, false) => Ok(()),
-        };
-        let _ = self.stderr.flush();
     }
 }

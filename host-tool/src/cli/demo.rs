@@ -10,6 +10,7 @@ use host_tool::eprintln_best_effort;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use host_tool::progress;
 use host_tool::sim::world::{load_scenario, load_world};
+use host_tool::wrap::wrapped;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -117,15 +118,17 @@ impl DemoArgs {
         }
         let speed = options.speed;
         let started = std::time::Instant::now();
-        output::print(format_args!(
-            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty at {} Hz, {}x real time\n",
+        let line = format!(
+            "demo: a simulated rover (B = {} m, m = {} kg) {}: {} runs through a pty at {} Hz, \
+             {}x real time",
             options.world.rover.track_width_m,
             options.world.rover.mass_kg,
             demo::describe_world(&options.world),
             self.runs,
             1e6 / f64::from(options.sampler.sample_period_us.max(1)),
             speed,
-        ))?;
+        );
+        output::print(format_args!("{}\n", wrapped(&line, "", "  ")))?;
         let runs = self.runs;
         let outcome = write_dir_whole(&self.out, replace, |staging| {
             let mut staged = options.clone();
@@ -174,15 +177,17 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             .last()
             .map(|g| g.host_energy_lsb_us)
             .unwrap_or_default();
-        let _ = writeln!(
-            text,
-            "{}: {} samples through the pty, {} logged ({} without both chips' readings), \
-             {} lost, {} bad frames, {} of {} commands acked; \
-             energy {:.1} J left / {:.1} J right = the board's own total, bit for bit",
+        // A run's first sample only starts the chips: it has no reading, and no row.
+        let unread = match s.incomplete_samples {
+            0 => String::new(),
+            1 => " (and 1 without a reading: the first only starts the chips)".to_owned(),
+            n => format!(" (and {n} without both chips' readings)"),
+        };
+        let line = format!(
+            "{}: {} samples logged{unread}, {} lost, {} bad frames, {} of {} commands acked; \
+             energy {:.1} J left / {:.1} J right, equal to the board's own total bit for bit",
             run.name,
-            s.samples,
             s.rows,
-            s.incomplete_samples,
             s.stream.lost_samples,
             s.stream.bad_frames,
             s.commands_acked,
@@ -190,13 +195,11 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             j(energy[0]),
             j(energy[1]),
         );
+        let _ = writeln!(text, "{}", wrapped(&line, "", "  "));
     }
     let report = &outcome.report;
-    let _ = writeln!(
-        text,
-        "\n== validation (every table: {}/report.txt)",
-        out.display()
-    );
+    let line = format!("== validation (every table: {}/report.txt)", out.display());
+    let _ = writeln!(text, "\n{}", wrapped(&line, "", "  "));
     let fit = report
         .fit
         .as_ref()
@@ -220,9 +223,8 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
         .fold((0, true), |(n, all), c| {
             (n + c.model_frames, all && c.agrees())
         });
-    let _ = writeln!(
-        text,
-        "  {} manoeuvres; ICR fit (Eq 2.12) {fit}; {} depart from it{}; the board's {frames} model \
+    let line = format!(
+        "{} manoeuvres; ICR fit (Eq 2.12) {fit}; {} depart from it{}; the board's {frames} model \
          frames {} the host's recomputation",
         report.manoeuvres.len(),
         report.flagged().count(),
@@ -233,26 +235,26 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
         },
         if agree { "equal" } else { "DIFFER from" },
     );
-    let _ = writeln!(
-        text,
-        "\n== diagnosis (gaps, candidates, signatures: {}/diagnosis/diagnosis.md)",
+    let _ = writeln!(text, "{}", wrapped(&line, "  ", "    "));
+    let line = format!(
+        "== diagnosis (gaps, candidates, signatures: {}/diagnosis/diagnosis.md)",
         out.display()
     );
+    let _ = writeln!(text, "\n{}", wrapped(&line, "", "  "));
     match &outcome.diagnosed {
         Ok(d) => diagnosed_printout(&mut text, d, out),
         Err(e) => {
-            let _ = writeln!(
-                text,
+            let line = format!(
                 "not made: {e} (the runs alone cannot be diagnosed; a scenario of `diagnose \
                  --next-runs` adds to runs driven before: diagnose them together, e.g. \
                  `host-tool diagnose --rover rovers/husky-a200.toml --runs OLD.csv… {}/run-1.csv`)",
                 out.display()
             );
+            let _ = writeln!(text, "{}", wrapped(&line, "", "  "));
         }
     }
-    let _ = writeln!(
-        text,
-        "\n{} files in {} ({elapsed_s:.1} s): the runs (run-N.mcap, .csv, .commands.csv), \
+    let files = format!(
+        "{} files in {} ({elapsed_s:.1} s): the runs (run-N.mcap, .csv, .commands.csv), \
          report.txt/.json, turns.csv, figures (.png, .svg), diagnosis/ (diagnosis.md, .json, \
          model.toml for `plan --model`, figures){}",
         outcome.files.len(),
@@ -267,6 +269,7 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             ""
         },
     );
+    let _ = writeln!(text, "\n{}", wrapped(&files, "", "  "));
     text
 }
 
@@ -274,16 +277,16 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
 fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
     let _ = writeln!(text, "{}", report::conclusion(&d.diagnosis));
     for line in report::next_runs_lines(&d.diagnosis) {
-        let _ = writeln!(text, "  next: {line}");
+        let _ = writeln!(text, "{}", wrapped(&format!("next: {line}"), "  ", "    "));
     }
     let _ = writeln!(text);
     let (start_deg, end_deg, distance_m) = demo::PLAN_PATH;
-    let _ = writeln!(
-        text,
+    let line = format!(
         "== plan: {start_deg}° → {end_deg}° over {distance_m} m on this terrain (paper Eq 23–50; \
          model file {}/diagnosis/model.toml)",
         out.display()
     );
+    let _ = writeln!(text, "{}", wrapped(&line, "", "  "));
     let effects = d.diagnosis.model_effects();
     let effects: Vec<&str> = effects.iter().map(|e| e.id()).collect();
     for (what, p) in [
@@ -296,9 +299,8 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
             &d.plan_diagnosed,
         ),
     ] {
-        let _ = writeln!(
-            text,
-            "  {what}: CLC R1 = {:.2} m ({:.2} R′), R2 = {:.2} m ({:.2} R′), {:.0} J vs PLP {:.0} J \
+        let line = format!(
+            "{what}: CLC R1 = {:.2} m ({:.2} R′), R2 = {:.2} m ({:.2} R′), {:.0} J vs PLP {:.0} J \
              ({:+.1} %)",
             p.clc.r1_m,
             p.clc.r1_m / p.setting.r_prime_m,
@@ -308,12 +310,12 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
             p.plp.energy_j,
             -p.saving_pct
         );
+        let _ = writeln!(text, "{}", wrapped(&line, "  ", "    "));
     }
     // Issue 18: the diagnosed model's ΔE curve beside thesis Table 6.1 (45° – 10 m – 45°).
     let sweep = &d.sweep_diagnosed;
-    let _ = writeln!(
-        text,
-        "  diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
+    let line = format!(
+        "diagnosed model on thesis Table 6.1's path ({}° – {} m – {}°): least ΔE at {:.2} R′ \
          ({:+.1} %); slices of R/R′, model vs measured on sand:",
         sweep.setting.start_deg,
         sweep.setting.distance_m,
@@ -321,6 +323,7 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
         sweep.optimum.r_over_r_prime,
         sweep.optimum.delta_e_pct
     );
+    let _ = writeln!(text, "{}", wrapped(&line, "  ", "    "));
     for sl in &sweep.slices {
         let seed = sl
             .thesis_delta_e_pct

@@ -5,8 +5,8 @@ use anyhow::{bail, Context, Result};
 use host_tool::eprintln_best_effort;
 use host_tool::live::{LiveServer, LiveTee};
 use host_tool::log::commands::read_commands_csv;
+use host_tool::progress::StatusLine;
 use host_tool::record::{self, RecordError, RecordOptions, RecordStatus};
-use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -116,16 +116,13 @@ impl RecordArgs {
             file.as_mut(),
             live_server.as_ref().map(LiveServer::recording_sink),
         );
-        let mut stderr = std::io::stderr();
-        // One line rewritten in place on a terminal; a line per report into a file or pipe.
-        let live = stderr.is_terminal();
+        // News for a log file: the port gone or back, the last status.
+        let mut status_line = StatusLine::stderr();
+        let mut connected = true;
         let mut on_status = |status: &RecordStatus| {
-            let _ = if live {
-                write!(stderr, "\r\x1b[2K{status}")
-            } else {
-                writeln!(stderr, "{status}")
-            };
-            let _ = stderr.flush();
+            let news = status.stopped.is_some() || status.connected != connected;
+            connected = status.connected;
+            status_line.show(&status.to_string(), news);
         };
         eprintln_best_effort!(
             "recording {} -> {} (Ctrl-C to stop)",
@@ -135,9 +132,7 @@ impl RecordArgs {
         let result =
             record::record_on(&options, board, &mut open, &mut sink, &stop, &mut on_status);
         super::serve::finish(live_server, "rover-power: the recording has stopped");
-        if live {
-            eprintln_best_effort!();
-        }
+        status_line.keep();
         let summary = result.map_err(|e| match e {
             RecordError::Sink(_) => output::naming(&self.out, e),
             e => e.into(),

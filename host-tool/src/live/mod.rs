@@ -13,7 +13,7 @@
 //! - Viewers subscribe and unsubscribe; nothing else is offered (no client publish, services or
 //!   parameters): the board is not commanded from the viewer.
 //! - Built on `tungstenite` (sync, no TLS) rather than the `foxglove` SDK crate, whose
-//!   TLS-free build brings tokio and ~110 crates (README, "Live view in Foxglove").
+//!   TLS-free build brings tokio and ~110 crates (docs/engineering-record.md, "Live view: build cost and load").
 
 mod channels;
 pub mod client;

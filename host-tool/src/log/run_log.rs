@@ -30,7 +30,7 @@ pub enum LogEvent {
     /// run's time base continues from here.
     #[serde(alias = "board_reset")]
     BoardReset,
-    /// The recording stopped (`reason`: Ctrl-C, duration, sample count, device gone).
+    /// The recording stopped (`reason`: Ctrl-C, duration, sample count, device gone, stream ended).
     Stopped { reason: String },
     /// The host's wall clock when the sample at this run time arrived (Unix time [ns]): run
     /// time + (`unix_ns` − this event's run time) is wall time, to the board crystal's drift.

@@ -210,10 +210,10 @@ impl<'a, 'o> Recorder<'a, 'o> {
         let gone_at = Instant::now();
         // A pseudo-terminal whose writer ended (a replay, the simulator) never comes back; its
         // number may go to an unrelated program next.
-        let timeout = if is_pty(&port) {
-            Duration::ZERO
+        let (timeout, gone) = if is_pty(&port) {
+            (Duration::ZERO, StopReason::StreamEnded)
         } else {
-            self.options.reconnect_timeout
+            (self.options.reconnect_timeout, StopReason::DeviceGone)
         };
         self.reconnect_until = Some(gone_at + timeout);
         loop {
@@ -222,7 +222,7 @@ impl<'a, 'o> Recorder<'a, 'o> {
                 return Ok(Some(reason));
             }
             if now.duration_since(gone_at) >= timeout {
-                return Ok(Some(StopReason::DeviceGone));
+                return Ok(Some(gone));
             }
             if now.duration_since(self.status_at) >= self.options.status_every {
                 let status = self.status(now);

@@ -13,6 +13,9 @@ pub enum StopReason {
     Samples,
     /// The device vanished and did not come back within the reconnect timeout.
     DeviceGone,
+    /// A pseudo-terminal's writer (a replay, the simulated board) closed it: the stream's end,
+    /// not waited for, as a pty never comes back.
+    StreamEnded,
 }
 
 impl fmt::Display for StopReason {
@@ -21,10 +24,8 @@ impl fmt::Display for StopReason {
             StopReason::Interrupted => "interrupted",
             StopReason::Duration => "duration reached",
             StopReason::Samples => "sample count reached",
-            StopReason::DeviceGone => {
-                "device gone (not back within the reconnect timeout; a pseudo-terminal such as a \
-                 replay's never comes back)"
-            }
+            StopReason::DeviceGone => "device gone (not back within the reconnect timeout)",
+            StopReason::StreamEnded => "the stream ended (its writer closed the pseudo-terminal)",
         })
     }
 }

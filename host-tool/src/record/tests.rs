@@ -525,7 +525,7 @@ fn after_the_recording_stopped_its_last_status_promises_no_wait() {
         ..RecordOptions::new("")
     };
     let (result, _, statuses) = record_ports(&options, vec![port]);
-    assert_eq!(result.expect("recorded").stop, StopReason::DeviceGone);
+    assert_eq!(result.expect("recorded").stop, StopReason::StreamEnded);
     let last = statuses.last().expect("final status");
     let line = last.to_string();
     assert!(
@@ -535,7 +535,7 @@ fn after_the_recording_stopped_its_last_status_promises_no_wait() {
     assert!(line.contains("[stopped]"), "{line}");
     assert_eq!(
         (last.stopped, last.reconnect_left),
-        (Some(StopReason::DeviceGone), None)
+        (Some(StopReason::StreamEnded), None)
     );
     assert!(statuses[..statuses.len() - 1]
         .iter()

@@ -32,7 +32,14 @@ pub fn markdown(
 /// The title, the conclusion, the JSON summary and the findings as a list.
 fn summary(out: &mut String, d: &Diagnosis) {
     let _ = writeln!(out, "# Sim-to-real gap diagnosis\n");
-    let _ = writeln!(out, "**{}**\n", conclusion(d));
+    let conclusion = conclusion(d);
+    let _ = writeln!(out, "**{}**\n", conclusion.headline);
+    for detail in &conclusion.details {
+        let _ = writeln!(out, "- {detail}");
+    }
+    if !conclusion.details.is_empty() {
+        let _ = writeln!(out);
+    }
     let _ = writeln!(
         out,
         "JSON summary: effect `{}`, regime `{}`, significant `{}`, scheme `{}`.\n",

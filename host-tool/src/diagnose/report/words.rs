@@ -7,7 +7,7 @@ use crate::diagnose::baseline::Split;
 use crate::diagnose::calibration::CalibrationSource;
 use crate::diagnose::cv;
 use crate::diagnose::stats::PRACTICAL_FLOOR_W;
-use crate::diagnose::{named_effect, next_runs, Diagnosis, HeldOutError, Scope, Verdict};
+use crate::diagnose::{named_effect, next_runs, Diagnosis, Scope, Verdict};
 use crate::effect_id::EffectId;
 
 /// What backs the conclusion, one line each: the shrink where the gap is, the stepwise
@@ -80,22 +80,41 @@ pub fn findings(d: &Diagnosis) -> Vec<String> {
     out
 }
 
-/// The candidates some fold does not test, for the conclusion: their held-out figures would be
-/// an extrapolation's, so they were not ranked, and not ruled out either.
-fn untested(d: &Diagnosis) -> String {
-    let untested: Vec<&str> = d.not_testable.iter().map(|c| c.effect.id()).collect();
-    if untested.is_empty() {
-        String::new()
-    } else {
-        format!(
-            "; not testable out of sample, so not ruled out: {}",
-            untested.join(", ")
-        )
+/// The verdict in words: a headline a user can act on, then the details behind it, one per
+/// line. The terminal, the demo and the Markdown report print both.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Conclusion {
+    /// `diagnosis: VERDICT @ REGIME: …`, one sentence.
+    pub headline: String,
+    /// The figures, cautions and rules behind the headline.
+    pub details: Vec<String>,
+}
+
+impl std::fmt::Display for Conclusion {
+    /// The headline, then each detail indented and wrapped to a terminal's width.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&crate::wrap::wrapped(&self.headline, "", "    "))?;
+        for detail in &self.details {
+            write!(f, "\n{}", crate::wrap::wrapped(detail, "  ", "    "))?;
+        }
+        Ok(())
     }
 }
 
-/// The one-line conclusion: the verdict's sentence.
-pub fn conclusion(d: &Diagnosis) -> String {
+/// The candidates some fold does not test: their held-out figures would be an extrapolation's,
+/// so they were not ranked, and not ruled out either.
+fn untested(d: &Diagnosis) -> Option<String> {
+    let untested: Vec<&str> = d.not_testable.iter().map(|c| c.effect.id()).collect();
+    (!untested.is_empty()).then(|| {
+        format!(
+            "not testable out of sample, so not ruled out: {}",
+            untested.join(", ")
+        )
+    })
+}
+
+/// The verdict's headline and details.
+pub fn conclusion(d: &Diagnosis) -> Conclusion {
     if d.effect == Verdict::BaselineMisfit {
         misfit_conclusion(d)
     } else if let Some(effect) = named_effect(d) {
@@ -116,55 +135,59 @@ pub fn conclusion(d: &Diagnosis) -> String {
 }
 
 /// `baseline-misfit`: the baseline misfits its calibration and no mark stands without it.
-fn misfit_conclusion(d: &Diagnosis) -> String {
-    let best = d.candidates.first().map_or(String::new(), |c| {
+fn misfit_conclusion(d: &Diagnosis) -> Conclusion {
+    let mut details = vec![
+        "no effect's mark stands without the power model; the adequacy test says which \
+         calibration manoeuvres misfit"
+            .to_owned(),
+    ];
+    details.extend(d.candidates.first().map(|c| {
         format!(
-            " (the best candidate, {}, would have closed {:.0} %; not named)",
+            "the best candidate, {}, would have closed {:.0} % of the held-out gap; not named",
             c.effect, c.shrink_pct
         )
-    });
-    format!(
-        "diagnosis: baseline-misfit: the hard-ground model does not fit its own calibration \
-         manoeuvres beyond their repeat noise ({}), and no effect's signature stands without \
-         it, so none is named{best}",
-        adequacy_summary(&d.adequacy)
-    )
+    }));
+    Conclusion {
+        headline: "diagnosis: baseline-misfit: the hard-ground model does not fit its own \
+                   calibration manoeuvres, so no effect is named"
+            .to_owned(),
+        details,
+    }
 }
 
 /// A named effect, with its held-out shrink over all manoeuvres.
-fn named_conclusion(d: &Diagnosis, effect: EffectId) -> String {
+fn named_conclusion(d: &Diagnosis, effect: EffectId) -> Conclusion {
     let all = d.heldout.iter().find(|h| h.regime == Scope::All);
-    let heldout = |h: &HeldOutError| {
-        format!(
-            "held-out error {:.2} → {:.2} W ({:.0} % of the gap closed), {}",
-            h.error_before,
-            h.error_after,
-            h.shrink_pct,
-            d.scheme.id()
-        )
+    let headline = match all {
+        Some(h) => format!(
+            "diagnosis: {effect} @ {}: adding it closes {:.0} % of the held-out gap \
+             ({:.2} → {:.2} W)",
+            d.regime, h.shrink_pct, h.error_before, h.error_after
+        ),
+        None => format!("diagnosis: {effect} @ {}", d.regime),
     };
-    let h = all.map_or_else(|| d.scheme.id().to_owned(), heldout);
-    let misfit = if d.adequacy.adequate == Some(false) {
-        "; named beside a baseline that misfits its calibration (its signature needs no \
-         power model; see adequacy)"
-    } else {
-        ""
-    };
-    let reliability = all
-        .and_then(|h| crate::diagnose::reliability::of(effect, h.shrink_pct))
-        .map_or(String::new(), |r| format!("; {}", r.describe(effect)));
-    format!(
-        "diagnosis: {effect} @ {} (significant gap, its signature in the data); {h}{misfit}{}\
-         {reliability}",
-        d.regime,
-        untested(d)
-    )
+    let mut details = vec![format!(
+        "why: a significant gap, with {effect}'s own mark in the data; held out {}",
+        d.scheme.id()
+    )];
+    if d.adequacy.adequate == Some(false) {
+        details.push(format!(
+            "caution: the hard-ground model misfits its own calibration manoeuvres; the name \
+             rests on {effect}'s mark, which is measured without the power model (see adequacy)"
+        ));
+    }
+    details.extend(
+        all.and_then(|h| crate::diagnose::reliability::of(effect, h.shrink_pct))
+            .map(|r| format!("confidence: {}", r.describe(effect))),
+    );
+    details.extend(untested(d));
+    Conclusion { headline, details }
 }
 
 /// `outside-catalogue`: the departure's shape (where, which side, which way, how large, and
 /// whether it grows over run time), what ruled each catalogued candidate out, and where to
 /// look.
-fn outside_conclusion(d: &Diagnosis) -> String {
+fn outside_conclusion(d: &Diagnosis) -> Conclusion {
     let ruled_out: Vec<String> = d
         .candidates
         .iter()
@@ -179,22 +202,27 @@ fn outside_conclusion(d: &Diagnosis) -> String {
         })
         .take(3)
         .collect();
-    let ruled_out = if ruled_out.is_empty() {
-        String::new()
-    } else {
-        format!(
-            "; the catalogue's best fits lack their own marks: {}",
+    let mut details = vec![format!("shape: {}", departure_shape(d))];
+    if !ruled_out.is_empty() {
+        details.push(format!(
+            "the catalogue's best fits lack their own marks: {}",
             ruled_out.join(", ")
-        )
-    };
-    format!(
-        "diagnosis: outside-catalogue @ {} (a significant departure no catalogued effect \
-         explains): {}{ruled_out}. Look beyond the catalogue: the model's power split between the \
-         sides, the battery under load, the drivers' \
-         efficiency, the tyres' radii, the gearboxes, the load on the wheels",
-        d.regime,
-        departure_shape(d)
-    )
+        ));
+    }
+    details.push(
+        "look beyond the catalogue: the model's power split between the sides, the battery \
+         under load, the drivers' efficiency, the tyres' radii, the gearboxes, the load on the \
+         wheels"
+            .to_owned(),
+    );
+    Conclusion {
+        headline: format!(
+            "diagnosis: outside-catalogue @ {}: a significant departure that no catalogued \
+             effect explains",
+            d.regime
+        ),
+        details,
+    }
 }
 
 /// The significant gaps in words: which way, at which regimes and sides, their size, and a
@@ -236,7 +264,7 @@ fn departure_shape(d: &Diagnosis) -> String {
 }
 
 /// `ambiguous`: the rivals weighed, and the better fits that could not be named.
-fn ambiguous_conclusion(d: &Diagnosis) -> String {
+fn ambiguous_conclusion(d: &Diagnosis) -> Conclusion {
     // The rivals the verdict weighed, and the better fits it did not: a candidate whose
     // mark is missing, or hidden by another effect's present mark, could not be named.
     let weighed = |e: EffectId| !d.signature(e).is_some_and(|s| s.rules_out());
@@ -252,6 +280,15 @@ fn ambiguous_conclusion(d: &Diagnosis) -> String {
     } else {
         best.join(", ")
     };
+    let mut details = vec![
+        format!("rivals: {best}"),
+        format!(
+            "naming one needs ≥ {:.0} % closed and a {:.1}× margin in penalised held-out error \
+             over the runner-up",
+            cv::MIN_SHRINK_PCT,
+            cv::CLEAR_MARGIN
+        ),
+    ];
     let better: Vec<String> = d
         .candidates
         .iter()
@@ -264,49 +301,58 @@ fn ambiguous_conclusion(d: &Diagnosis) -> String {
             })
         })
         .collect();
-    let hidden = if better.is_empty() {
-        String::new()
-    } else {
-        format!("; fitting better but not weighed: {}", better.join(", "))
-    };
-    let untested = untested(d);
-    format!(
-        "diagnosis: ambiguous @ {} (significant gap, no clear cause): {}; naming one needs ≥ \
-         {:.0} % closed and a {:.1}× margin in penalised held-out error over the runner-up\
-         {hidden}{untested}",
-        d.regime,
-        best,
-        cv::MIN_SHRINK_PCT,
-        cv::CLEAR_MARGIN
-    )
+    if !better.is_empty() {
+        details.push(format!(
+            "fitting better but not weighed: {}",
+            better.join(", ")
+        ));
+    }
+    details.extend(untested(d));
+    Conclusion {
+        headline: format!(
+            "diagnosis: ambiguous @ {}: a significant gap, but no one cause stands out; see what \
+             to drive next",
+            d.regime
+        ),
+        details,
+    }
 }
 
 /// `none` because nothing was repeated: not judged.
-fn unrepeated_conclusion(d: &Diagnosis) -> String {
+fn unrepeated_conclusion(d: &Diagnosis) -> Conclusion {
     // No group has repeats: "none" means "not judged", not "the model fits".
-    let best = d.candidates.first().map_or(String::new(), |c| {
+    let mut details = vec![
+        "no gap can be called significant without a second run or a radius \
+                            driven twice to measure the noise against"
+            .to_owned(),
+    ];
+    details.extend(d.candidates.first().map(|c| {
         format!(
-            "; held-out error of the model {:.2} W ({}), the best candidate {} closes {:.0} %",
+            "held-out error of the model {:.2} W ({}); the best candidate, {}, closes {:.0} %",
             c.heldout_error_before,
             d.scheme.id(),
             c.effect,
             c.shrink_pct
         )
-    });
-    format!(
-        "diagnosis: none: no gap can be called significant because nothing was repeated \
-         (no second run, no radius driven twice) to measure the noise against{best}; \
-         repeat the manoeuvres to get a verdict"
-    )
+    }));
+    Conclusion {
+        headline: "diagnosis: none: not judged, as nothing was repeated; repeat the manoeuvres \
+                   for a verdict"
+            .to_owned(),
+        details,
+    }
 }
 
 /// `none`: no significant gap.
-fn no_gap_conclusion() -> String {
-    format!(
-        "diagnosis: none: no significant gap (no regime's residual, nor its trend over run \
-         time, is beyond its noise and above the practical floor of {PRACTICAL_FLOOR_W} W or \
-         5 % of the model power); the hard-ground model explains the runs"
-    )
+fn no_gap_conclusion() -> Conclusion {
+    Conclusion {
+        headline: "diagnosis: none: no significant gap; the hard-ground model explains the runs"
+            .to_owned(),
+        details: vec![format!(
+            "no regime's residual, nor its trend over run time, is beyond its noise and above \
+             the practical floor of {PRACTICAL_FLOOR_W} W or 5 % of the model power"
+        )],
+    }
 }
 
 /// One lack-of-fit test in words: F, df, p, repeat σ and the RMS misfit.

@@ -17,9 +17,10 @@ impl ValidationReport {
         )?;
         writeln!(
             f,
-            "{:<12} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  note",
+            "{:<w$} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  note",
             "run", "seg", "dir", "R_cmd[m]", "R_ACT[m]", "R/R'_ACT", "rms[mm]", "fixes", "fill",
-            "θ[°]", "s_ω[%]", "v_i", "v_o", "B_s[m]"
+            "θ[°]", "s_ω[%]", "v_i", "v_o", "B_s[m]",
+            w = self.run_column_width()
         )?;
         for m in self.manoeuvres.iter().filter(|m| m.track.is_some()) {
             let Some(t) = &m.track else { continue };
@@ -27,7 +28,7 @@ impl ValidationReport {
             let notes: Vec<String> = t.notes.iter().map(ToString::to_string).collect();
             writeln!(
                 f,
-                "{:<12} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  {}",
+                "{:<w$} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  {}",
                 run,
                 m.segment,
                 m.direction.map_or("", direction_name),
@@ -42,7 +43,8 @@ impl ValidationReport {
                 num(t.wheel_speed_mps.map(|v| v.inner), 3),
                 num(t.wheel_speed_mps.map(|v| v.outer), 3),
                 num(t.slip_track_m, 3),
-                notes.join("; ")
+                notes.join("; "),
+                w = self.run_column_width()
             )?;
         }
         writeln!(f, "  (R'_ACT = measured slip track / 2; rms: fixes from the fitted circle; θ swept about its centre; s_ω Eq 6.3 from the track; v_i, v_o wheel speeds Eq 5.10–5.13 [m/s]; B_s Appendix D per turn)")?;
@@ -69,12 +71,19 @@ impl ValidationReport {
     }
 }
 
-/// A run's column in the tables: its file name, the last 12 characters if longer.
-fn run_column(run: &str) -> String {
-    let name = run.rsplit(['/', '\\']).next().unwrap_or(run);
-    name.chars()
-        .skip(name.chars().count().saturating_sub(12))
-        .collect()
+impl ValidationReport {
+    /// The run column's width: the longest run's file name, whole.
+    fn run_column_width(&self) -> usize {
+        self.manoeuvres
+            .iter()
+            .map(|m| run_column(&m.run).chars().count())
+            .fold("run".len(), usize::max)
+    }
+}
+
+/// A run's column in the tables: its file name.
+fn run_column(run: &str) -> &str {
+    run.rsplit(['/', '\\']).next().unwrap_or(run)
 }
 
 /// `v` with `prec` decimals, or "–".
@@ -136,17 +145,18 @@ impl ValidationReport {
     fn fmt_manoeuvres(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{:<12} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
+            "{:<w$} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
             "run", "seg", "dir", "R_cmd[m]", "R/R'", "regime", "dur[s]", "exp[s]", "s_ω[%]",
             "P_L[W]", "P_R[W]", "P[W]", "Pmax[W]", "E[J]", "τ_L", "τ_R", "θ[°]", "grow[W]",
-            "pred[W]", "res[%]", "HG[%]", "flag"
+            "pred[W]", "res[%]", "HG[%]", "flag",
+            w = self.run_column_width()
         )?;
         for m in &self.manoeuvres {
             let s = &m.stats;
             let run = run_column(&m.run);
             writeln!(
                 f,
-                "{:<12} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6.2} {:>6} {:>6} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
+                "{:<w$} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6.2} {:>6} {:>6} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
                 run,
                 m.segment,
                 m.direction.map_or("", direction_name),
@@ -168,7 +178,8 @@ impl ValidationReport {
                 num(m.fit.map(|c| c.predicted_w), 1),
                 pct(m.fit.and_then(|c| c.residual_fraction)),
                 pct(m.hard_ground_residual_fraction),
-                if m.fit.is_some_and(|c| c.flagged) { "DEP" } else if m.in_fit { "fit" } else { "" }
+                if m.fit.is_some_and(|c| c.flagged) { "DEP" } else if m.in_fit { "fit" } else { "" },
+                w = self.run_column_width()
             )?;
         }
         writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second minus first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
