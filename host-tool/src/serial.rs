@@ -329,6 +329,14 @@ impl PtyWriter {
         self.patience = None;
     }
 
+    /// A writer that gives up on a silent host after `patience` instead of [`WRITER_STALL`]:
+    /// tests show a stall beyond it in a fraction of a second.
+    #[cfg(test)]
+    fn with_patience(mut self, patience: Duration) -> Self {
+        self.patience = Some(patience);
+        self
+    }
+
     /// Whether waiting for the host is over: past `patience` without progress since `since`,
     /// or, without patience, the task was stopped.
     fn given_up(&self, since: Instant) -> bool {
@@ -664,5 +672,45 @@ mod tests {
         let (got, _host) = reader.join().expect("reader");
         assert_eq!(got, 4096);
         assert!(waited < Duration::from_secs(3), "{waited:?}");
+    }
+
+    /// What a host that stalls for `stall` and then reads to the end gets of 4096 bytes from a
+    /// writer with 100 ms of patience, waiting for its host or not.
+    fn read_after_a_stall(stall: Duration, waiting_for_host: bool) -> usize {
+        let mut pty = PtyWriter::open()
+            .expect("pty")
+            .with_patience(Duration::from_millis(100));
+        if waiting_for_host {
+            pty.wait_for_host();
+        }
+        let mut host = open(pty.path(), Duration::from_millis(50)).expect("host end");
+        pty.write_all(&[7u8; 4096]).expect("written");
+        let writer = std::thread::spawn(move || pty.hang_up());
+        std::thread::sleep(stall);
+        let (mut got, mut buf) = (0, [0u8; 512]);
+        let until = Instant::now() + Duration::from_secs(5);
+        while got < 4096 && Instant::now() < until {
+            match host.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => got += n,
+                Err(e) if is_transient(&e) => {}
+                Err(_) => break, // hung up: the rest is gone
+            }
+        }
+        writer.join().expect("writer").expect("hung up");
+        got
+    }
+
+    /// The demo's board waits for its own recorder however long it stalls: its pty once hung
+    /// up after the stall limit with the last samples unread (tests/tests/e2e/demo.rs stalls
+    /// the demo's recorder; this is the same at 10× a short patience, with the control).
+    #[test]
+    fn a_writer_waiting_for_its_host_outlasts_any_stall_and_one_that_is_not_gives_up() {
+        let stall = Duration::from_secs(1);
+        assert_eq!(read_after_a_stall(stall, true), 4096);
+        assert!(
+            read_after_a_stall(stall, false) < 4096,
+            "the patience applies"
+        );
     }
 }
