@@ -5,12 +5,14 @@
 pub const WIDTH: usize = 100;
 
 /// `text` after `first` (the first line's indent), folded at spaces to [`WIDTH`], every further
-/// line after `rest`. A word longer than the width stays whole on its own line.
+/// line after `rest`. A number keeps its unit (`0.04 W`, `25 %`); a word longer than the width
+/// stays whole on its own line.
 pub fn wrapped(text: &str, first: &str, rest: &str) -> String {
     let mut out = String::from(first);
     let mut line_len = first.chars().count();
     let mut line_empty = true;
-    for word in text.split(' ').filter(|w| !w.is_empty()) {
+    for word in words(text) {
+        let word = word.as_str();
         let len = word.chars().count();
         if !line_empty && line_len + 1 + len > WIDTH {
             out.push('\n');
@@ -25,6 +27,25 @@ pub fn wrapped(text: &str, first: &str, rest: &str) -> String {
         out.push_str(word);
         line_len += len;
         line_empty = false;
+    }
+    out
+}
+
+/// The words of `text`, a unit joined to the number before it.
+fn words(text: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for word in text.split(' ').filter(|w| !w.is_empty()) {
+        let core = word.trim_end_matches([',', ';', ':', ')', '.']);
+        let is_unit = !core.is_empty()
+            && core.chars().count() <= 3
+            && !core.starts_with(|c: char| c.is_ascii_digit() || c == '(' || c == '-');
+        match out.last_mut() {
+            Some(previous) if is_unit && previous.ends_with(|c: char| c.is_ascii_digit()) => {
+                previous.push(' ');
+                previous.push_str(word);
+            }
+            _ => out.push(word.to_owned()),
+        }
     }
     out
 }
@@ -47,6 +68,17 @@ mod tests {
         );
         let words: Vec<&str> = folded.split_whitespace().collect();
         assert_eq!(words, text.split_whitespace().collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_number_keeps_its_unit() {
+        let text = format!("{} repeat σ 0.04 W, n 3", "x".repeat(WIDTH - 20));
+        let folded = wrapped(&text, "", "  ");
+        assert!(folded.contains("0.04 W,"), "{folded}");
+        assert!(
+            folded.lines().all(|l| l.chars().count() <= WIDTH),
+            "{folded}"
+        );
     }
 
     #[test]

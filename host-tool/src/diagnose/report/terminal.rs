@@ -13,12 +13,12 @@ pub fn table(d: &Diagnosis) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "{}", conclusion(d));
     for line in findings(d) {
-        let _ = writeln!(out, "  {line}");
+        let _ = writeln!(out, "{}", folded(&format!("  {line}")));
     }
-    let _ = writeln!(out, "{}", calibration_line(d));
-    let _ = writeln!(out, "{}", baseline_line(d));
+    let _ = writeln!(out, "{}", folded(&calibration_line(d)));
+    let _ = writeln!(out, "{}", folded(&baseline_line(d)));
     if let Some(c) = &d.copper_from_runs {
-        let _ = writeln!(out, "  {}", c.describe());
+        let _ = writeln!(out, "{}", folded(&format!("  {}", c.describe())));
     }
     let _ = writeln!(out, "{METRIC}");
     let _ = writeln!(
@@ -38,18 +38,19 @@ pub fn table(d: &Diagnosis) -> String {
     if !untested.is_empty() {
         let _ = writeln!(out, "left out of the ranking:");
         for line in untested {
-            let _ = writeln!(out, "  {line}");
+            let _ = writeln!(out, "{}", folded(&format!("  {line}")));
         }
     }
-    let _ = writeln!(
-        out,
-        "\nsignatures (an effect is named only with its own in the data; against a misfitting \
+    let heading = format!(
+        "signatures (an effect is named only with its own in the data; against a misfitting \
          baseline only one measured without the power model; present: p < {} and the size \
          above its floor):",
         signature::ALPHA
     );
+    let _ = writeln!(out, "\n{}", folded(&heading));
     for sig in &d.signatures {
-        let _ = writeln!(out, "  {:<19} {}", sig.effect.id(), sig.describe());
+        let line = format!("  {:<19} {}", sig.effect.id(), sig.describe());
+        let _ = writeln!(out, "{}", folded(&line));
     }
     if let Some(effect) = added_effect(d) {
         let _ = writeln!(out, "\nheld-out error per regime with {effect}:");
@@ -57,7 +58,14 @@ pub fn table(d: &Diagnosis) -> String {
     }
     let _ = writeln!(out, "\nwhat to drive next:");
     for line in next_runs_lines(d) {
-        let _ = writeln!(out, "  {line}");
+        let _ = writeln!(out, "{}", folded(&format!("  {line}")));
     }
     out
+}
+
+/// A report line folded to a terminal's width, its continuation indented two more than itself.
+fn folded(line: &str) -> String {
+    let text = line.trim_start();
+    let indent = &line[..line.len() - text.len()];
+    crate::wrap::wrapped(text, indent, &format!("{indent}  "))
 }
