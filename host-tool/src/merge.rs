@@ -452,15 +452,16 @@ fn imu_yaw(bag: &RobotBag) -> Result<(Vec<YawPitch>, YawSource), MergeError> {
     Ok((out, YawSource::IntegratedRate))
 }
 
-/// The bag's commands, yaw, pitch and fixes as commands rows on the board's run time.
-pub fn command_rows(
+/// The bag's commands, yaw, pitch and fixes as commands rows on the board's run time, and where
+/// the yaw came from.
+fn command_rows(
     log: &RunLog,
     bag: &RobotBag,
     rover: &Rover,
     alignment: &Alignment,
-) -> Result<Vec<CommandRow>, MergeError> {
+) -> Result<(Vec<CommandRow>, YawSource), MergeError> {
     let run_time = run_time_of(log, alignment)?;
-    let (yaw, _) = imu_yaw(bag)?;
+    let (yaw, yaw_source) = imu_yaw(bag)?;
     // Every message a row, in time order; rows at the same instant are one row.
     let mut rows: Vec<CommandRow> = Vec::new();
     let mut events: Vec<(u64, u8, usize)> = Vec::new();
@@ -492,7 +493,7 @@ pub fn command_rows(
             }
         }
     }
-    Ok(rows)
+    Ok((rows, yaw_source))
 }
 
 /// The span of a topic's messages on the board's run time, to one message period past the
@@ -508,8 +509,11 @@ fn held_span(times: impl ExactSizeIterator<Item = f64> + Clone) -> Option<(f64, 
 /// Whether the bag turns the way the board log does: where the commands turn, the side they
 /// make the outer one draws more power, and the IMU's yaw turns the commanded way. Mirrored
 /// twists or a mirrored IMU frame (left and right swapped) fail this.
-fn check_turn_sense(log: &RunLog, rows: &[CommandRow], yaw_known: bool) -> Result<(), MergeError> {
-    let timeline = CommandTimeline::new(rows.to_vec());
+fn check_turn_sense(
+    log: &RunLog,
+    timeline: &CommandTimeline,
+    yaw_known: bool,
+) -> Result<(), MergeError> {
     // Sum over turning samples of sign(right side commanded faster) x sign(right − left
     // power), and of sign(commanded yaw) x the yaw's change: both positive when the bag's
     // left is the board's.
@@ -569,15 +573,14 @@ pub fn merge(
     max_offset_s: f64,
 ) -> Result<Merged, MergeError> {
     let alignment = align(&log, bag, rover, max_offset_s)?;
-    let rows = command_rows(&log, bag, rover, &alignment)?;
-    let (_, yaw_source) = imu_yaw(bag)?;
-    check_turn_sense(&log, &rows, yaw_source != YawSource::None)?;
+    let (rows, yaw_source) = command_rows(&log, bag, rover, &alignment)?;
+    let timeline = CommandTimeline::new(rows.clone());
+    check_turn_sense(&log, &timeline, yaw_source != YawSource::None)?;
     let run_time = run_time_of(&log, &alignment)?;
     // Commands hold from the first to one twist period past the last (a controller holds the
     // last twist; beyond the bag's end it is not known); yaw and pitch likewise.
     let cmd_span = held_span(bag.cmd.iter().map(|m| run_time(m.0)));
     let imu_span = held_span(bag.imu.iter().map(|m| run_time(m.0)));
-    let timeline = CommandTimeline::new(rows.clone());
     let (mut with_cmd, mut with_yaw, mut fixes) = (0, 0, 0);
     for s in &mut log.samples {
         if cmd_span.is_some_and(|(a, b)| (a..=b).contains(&s.t_s)) {

@@ -51,17 +51,21 @@ pub struct LiveOptions {
     /// A viewer whose socket takes nothing for this long is disconnected (a laptop that left
     /// the Wi-Fi without closing); it may reconnect.
     pub stall_timeout: Duration,
+    /// A connection that has not completed its WebSocket handshake by then is closed (a port
+    /// scanner, a client that dribbles its request).
+    pub handshake_timeout: Duration,
     /// The name in `serverInfo`.
     pub name: String,
 }
 
 impl Default for LiveOptions {
-    /// 8192 messages a viewer (4 s at 2 kHz), 16 viewers, 30 s stall.
+    /// 8192 messages a viewer (4 s at 2 kHz), 16 viewers, 30 s stall, 5 s handshake.
     fn default() -> Self {
         Self {
             queue_len: 8192,
             max_viewers: 16,
             stall_timeout: Duration::from_secs(30),
+            handshake_timeout: Duration::from_secs(5),
             name: format!("rover-power host-tool {}", env!("CARGO_PKG_VERSION")),
         }
     }

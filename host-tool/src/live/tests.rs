@@ -352,7 +352,11 @@ fn a_full_server_answers_why_it_refuses() {
 /// tiny packets catches) is let go at the handshake's deadline.
 #[test]
 fn a_handshake_dribbled_byte_by_byte_is_let_go() {
-    let server = LiveServer::bind(loopback(), LiveOptions::default()).expect("bind");
+    let options = LiveOptions {
+        handshake_timeout: Duration::from_secs(1),
+        ..LiveOptions::default()
+    };
+    let server = LiveServer::bind(loopback(), options).expect("bind");
     let mut stream = TcpStream::connect(server.local_addr()).expect("connect");
     let start = Instant::now();
     let request = b"GET / HTTP/1.1\r\n"
@@ -363,7 +367,7 @@ fn a_handshake_dribbled_byte_by_byte_is_let_go() {
             break;
         }
         assert!(start.elapsed() < TIMEOUT, "still in its handshake");
-        std::thread::sleep(Duration::from_millis(150));
+        std::thread::sleep(Duration::from_millis(120));
     }
     wait_for("the refusal", || !server.refusals().is_empty());
     assert!(

@@ -31,9 +31,6 @@ const BATCH: usize = 256;
 /// viewer draws at its frame rate, and each write is a syscall and a wake-up (at 2 kHz,
 /// a write per message cost the viewer threads 8× the CPU).
 const COALESCE: Duration = Duration::from_millis(10);
-/// Time allowed for the whole handshake: a client that sends its request a byte at a time, or
-/// never, is let go (a connection that is not yet a viewer holds no viewer's place).
-const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(5);
 /// How often a handshake that waits for bytes looks at its deadline.
 const HANDSHAKE_POLL: Duration = Duration::from_millis(100);
 /// Most ops read per turn of the loop: a viewer that floods ops cannot keep its thread from
@@ -165,13 +162,15 @@ fn say_goodbye(ws: &mut WebSocket<TcpStream>, cx: &ViewerContext, why: &str) {
 
 fn handshake(stream: TcpStream, cx: &ViewerContext) -> Result<WebSocket<TcpStream>, String> {
     let io = |e: io::Error| e.to_string();
-    let deadline = Instant::now() + HANDSHAKE_TIMEOUT;
+    // The whole handshake within [`LiveOptions::handshake_timeout`]: a client that sends its
+    // request a byte at a time, or never, is let go (a connection that is not yet a viewer
+    // holds no viewer's place).
+    let timeout = cx.options.handshake_timeout;
+    let deadline = Instant::now() + timeout;
     stream.set_nodelay(true).map_err(io)?;
     // Short waits, so that the deadline is looked at while a client dribbles its request.
     stream.set_read_timeout(Some(HANDSHAKE_POLL)).map_err(io)?;
-    stream
-        .set_write_timeout(Some(HANDSHAKE_TIMEOUT))
-        .map_err(io)?;
+    stream.set_write_timeout(Some(timeout)).map_err(io)?;
     let config = WebSocketConfig::default()
         .write_buffer_size(64 * 1024)
         // Backpressure is our queue's job; this bounds one batch, the backlog and control
@@ -194,7 +193,7 @@ fn handshake(stream: TcpStream, cx: &ViewerContext) -> Result<WebSocket<TcpStrea
                 if Instant::now() >= deadline || cx.stop.load(Ordering::Relaxed) {
                     return Err(format!(
                         "no complete WebSocket request within {} s",
-                        HANDSHAKE_TIMEOUT.as_secs()
+                        timeout.as_secs_f64()
                     ));
                 }
                 attempt = mid.handshake();

@@ -69,6 +69,17 @@ pub struct BagFile {
     pub messages: MessageCompression,
 }
 
+impl BagFile {
+    /// The file's name, for messages that list a bag's files.
+    pub fn name(&self) -> String {
+        self.path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into()
+    }
+}
+
 /// A bag's storage and compression settings, from its `metadata.yaml`.
 struct Metadata {
     storage: Option<Storage>,
@@ -195,13 +206,7 @@ pub fn bag_files(path: &Path) -> Result<Vec<BagFile>, BagReadError> {
             let missing: Vec<String> = files
                 .iter()
                 .filter(|f| !f.path.is_file())
-                .map(|f| {
-                    f.path
-                        .file_name()
-                        .unwrap_or_default()
-                        .to_string_lossy()
-                        .into()
-                })
+                .map(BagFile::name)
                 .collect();
             if !missing.is_empty() {
                 return Err(BagReadError::MissingFiles {

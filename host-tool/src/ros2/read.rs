@@ -129,16 +129,7 @@ pub fn bag_file(path: &Path) -> Result<PathBuf, BagReadError> {
         1 => Ok(files.remove(0).path),
         _ => Err(BagReadError::NoStorageFile {
             path: path.to_owned(),
-            found: files
-                .iter()
-                .map(|f| {
-                    f.path
-                        .file_name()
-                        .unwrap_or_default()
-                        .to_string_lossy()
-                        .into()
-                })
-                .collect(),
+            found: files.iter().map(layout::BagFile::name).collect(),
         }),
     }
 }

@@ -39,24 +39,29 @@ fn names(dir: &Path) -> Vec<String> {
     names
 }
 
-#[test]
-fn a_demo_log_becomes_a_ros2_bag_with_every_sample_at_its_log_time() {
-    let dir = temp_dir("ros2-bag-cli");
-    let log = demo_once(&dir).join("run-1.mcap");
-    let bag = dir.join("drive");
+/// `convert LOG BAG --to ros2-bag`, which must succeed; its stdout.
+fn convert_to_bag(log: &Path, bag: &Path) -> String {
     let done = host_tool()
         .arg("convert")
-        .arg(&log)
-        .arg(&bag)
+        .arg(log)
+        .arg(bag)
         .args(["--to", "ros2-bag"])
         .output()
         .expect("runs");
-    let stdout = String::from_utf8_lossy(&done.stdout);
     assert!(
         done.status.success(),
         "{}",
         String::from_utf8_lossy(&done.stderr)
     );
+    String::from_utf8_lossy(&done.stdout).into_owned()
+}
+
+#[test]
+fn a_demo_log_becomes_a_ros2_bag_with_every_sample_at_its_log_time() {
+    let dir = temp_dir("ros2-bag-cli");
+    let log = demo_once(&dir).join("run-1.mcap");
+    let bag = dir.join("drive");
+    let stdout = convert_to_bag(&log, &bag);
     assert_eq!(names(&bag), ["drive_0.mcap", "metadata.yaml"]);
 
     let bytes = std::fs::read(bag.join("drive_0.mcap")).expect("bag");
@@ -202,18 +207,7 @@ fn validate_reads_the_bag_as_it_reads_the_log() {
     let dir = temp_dir("ros2-bag-validate");
     let log = demo_once(&dir).join("run-1.mcap");
     let bag = dir.join("drive");
-    let done = host_tool()
-        .arg("convert")
-        .arg(&log)
-        .arg(&bag)
-        .args(["--to", "ros2-bag"])
-        .output()
-        .expect("runs");
-    assert!(
-        done.status.success(),
-        "{}",
-        String::from_utf8_lossy(&done.stderr)
-    );
+    convert_to_bag(&log, &bag);
 
     let mut expected = validate_json(&log);
     let runs = expected["runs"].as_array_mut().expect("runs");
