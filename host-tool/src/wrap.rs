@@ -31,10 +31,17 @@ pub fn wrapped(text: &str, first: &str, rest: &str) -> String {
     out
 }
 
-/// The words of `text`, a unit joined to the number before it.
+/// The words of `text`, a unit joined to the number before it, and spaces beyond the first
+/// kept with the word before them (a padded column stays padded).
 fn words(text: &str) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
-    for word in text.split(' ').filter(|w| !w.is_empty()) {
+    for word in text.split(' ') {
+        if word.is_empty() {
+            if let Some(previous) = out.last_mut() {
+                previous.push(' ');
+            }
+            continue;
+        }
         let core = word.trim_end_matches([',', ';', ':', ')', '.']);
         let is_unit = !core.is_empty()
             && core.chars().count() <= 3
@@ -68,6 +75,14 @@ mod tests {
         );
         let words: Vec<&str> = folded.split_whitespace().collect();
         assert_eq!(words, text.split_whitespace().collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_padded_column_stays_padded() {
+        assert_eq!(
+            wrapped("inner-drag     present: t = 2", "  ", "    "),
+            "  inner-drag     present: t = 2"
+        );
     }
 
     #[test]
