@@ -31,6 +31,14 @@ pub fn wrapped(text: &str, first: &str, rest: &str) -> String {
     out
 }
 
+/// A report line folded to [`WIDTH`]: its leading spaces are its indent, and its continuation
+/// lines are indented two more.
+pub fn folded(line: &str) -> String {
+    let text = line.trim_start_matches(' ');
+    let indent = &line[..line.len() - text.len()];
+    wrapped(text, indent, &format!("{indent}  "))
+}
+
 /// The words of `text`, a unit joined to the number before it, and spaces beyond the first
 /// kept with the word before them (a padded column stays padded).
 fn words(text: &str) -> Vec<String> {

@@ -18,7 +18,8 @@ const REPORT_EVERY: Duration = Duration::from_secs(1);
 pub struct DecodeArgs {
     /// Capture file (raw bytes as read from the board's serial port; `-` for stdin), read as it
     /// comes: an endless one (a FIFO) prints a running summary on stderr (every second on a
-    /// terminal, every 10 s into a file) and its summary at Ctrl-C. A run log (.mcap, .csv) is recognised and refused with a hint.
+    /// terminal, every 10 s into a file) and its summary at Ctrl-C. A run log (.mcap, .csv) is
+    /// recognised and refused with a hint.
     capture: PathBuf,
     #[command(flatten)]
     json: JsonOut,

@@ -10,7 +10,7 @@ use host_tool::eprintln_best_effort;
 use host_tool::out_dir::{is_missing_or_empty, write_dir_whole};
 use host_tool::progress;
 use host_tool::sim::world::{load_scenario, load_world};
-use host_tool::wrap::wrapped;
+use host_tool::wrap::folded;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -128,7 +128,7 @@ impl DemoArgs {
             1e6 / f64::from(options.sampler.sample_period_us.max(1)),
             speed,
         );
-        output::print(format_args!("{}\n", wrapped(&line, "", "  ")))?;
+        output::print(format_args!("{}\n", folded(&line)))?;
         let runs = self.runs;
         let outcome = write_dir_whole(&self.out, replace, |staging| {
             let mut staged = options.clone();
@@ -195,11 +195,11 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             j(energy[0]),
             j(energy[1]),
         );
-        let _ = writeln!(text, "{}", wrapped(&line, "", "  "));
+        let _ = writeln!(text, "{}", folded(&line));
     }
     let report = &outcome.report;
     let line = format!("== validation (every table: {}/report.txt)", out.display());
-    let _ = writeln!(text, "\n{}", wrapped(&line, "", "  "));
+    let _ = writeln!(text, "\n{}", folded(&line));
     let fit = report
         .fit
         .as_ref()
@@ -235,12 +235,12 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
         },
         if agree { "equal" } else { "DIFFER from" },
     );
-    let _ = writeln!(text, "{}", wrapped(&line, "  ", "    "));
+    let _ = writeln!(text, "{}", folded(&format!("  {line}")));
     let line = format!(
         "== diagnosis (gaps, candidates, signatures: {}/diagnosis/diagnosis.md)",
         out.display()
     );
-    let _ = writeln!(text, "\n{}", wrapped(&line, "", "  "));
+    let _ = writeln!(text, "\n{}", folded(&line));
     match &outcome.diagnosed {
         Ok(d) => diagnosed_printout(&mut text, d, out),
         Err(e) => {
@@ -250,7 +250,7 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
                  `host-tool diagnose --rover rovers/husky-a200.toml --runs OLD.csv… {}/run-1.csv`)",
                 out.display()
             );
-            let _ = writeln!(text, "{}", wrapped(&line, "", "  "));
+            let _ = writeln!(text, "{}", folded(&line));
         }
     }
     let files = format!(
@@ -269,7 +269,7 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
             ""
         },
     );
-    let _ = writeln!(text, "\n{}", wrapped(&files, "", "  "));
+    let _ = writeln!(text, "\n{}", folded(&files));
     text
 }
 
@@ -277,7 +277,7 @@ fn printout(outcome: &DemoOutcome, out: &Path, elapsed_s: f64) -> String {
 fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
     let _ = writeln!(text, "{}", report::conclusion(&d.diagnosis));
     for line in report::next_runs_lines(&d.diagnosis) {
-        let _ = writeln!(text, "{}", wrapped(&format!("next: {line}"), "  ", "    "));
+        let _ = writeln!(text, "{}", folded(&format!("  next: {line}")));
     }
     let _ = writeln!(text);
     let (start_deg, end_deg, distance_m) = demo::PLAN_PATH;
@@ -286,7 +286,7 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
          model file {}/diagnosis/model.toml)",
         out.display()
     );
-    let _ = writeln!(text, "{}", wrapped(&line, "", "  "));
+    let _ = writeln!(text, "{}", folded(&line));
     let effects = d.diagnosis.model_effects();
     let effects: Vec<&str> = effects.iter().map(|e| e.id()).collect();
     for (what, p) in [
@@ -310,7 +310,7 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
             p.plp.energy_j,
             -p.saving_pct
         );
-        let _ = writeln!(text, "{}", wrapped(&line, "  ", "    "));
+        let _ = writeln!(text, "{}", folded(&format!("  {line}")));
     }
     // Issue 18: the diagnosed model's ΔE curve beside thesis Table 6.1 (45° – 10 m – 45°).
     let sweep = &d.sweep_diagnosed;
@@ -323,7 +323,7 @@ fn diagnosed_printout(text: &mut String, d: &demo::Diagnosed, out: &Path) {
         sweep.optimum.r_over_r_prime,
         sweep.optimum.delta_e_pct
     );
-    let _ = writeln!(text, "{}", wrapped(&line, "  ", "    "));
+    let _ = writeln!(text, "{}", folded(&format!("  {line}")));
     for sl in &sweep.slices {
         let seed = sl
             .thesis_delta_e_pct

@@ -16,25 +16,27 @@ pub(super) fn colour(index: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-/// A series' legend sample: a short line, a dot, or both. (plotters' composed elements cannot
-/// be boxed for the legend unless the backend is `'static`, which buffer backends are not.)
+/// A series' glyph at `at`: a short line, the series' mark, or both, centred there. It draws
+/// each point of a points series (at a data coordinate) and each legend sample (at a pixel).
+/// (plotters' composed elements cannot be boxed for the legend unless the backend is
+/// `'static`, which buffer backends are not.)
 #[derive(Debug, Clone, Copy)]
-struct LegendGlyph {
-    at: BackendCoord,
+struct Glyph<C> {
+    at: C,
     colour: RGBColor,
     style: SeriesStyle,
     shape: Shape,
 }
 
-impl<'b> PointCollection<'b, BackendCoord> for &'b LegendGlyph {
-    type Point = &'b BackendCoord;
-    type IntoIter = std::iter::Once<&'b BackendCoord>;
+impl<'b, C> PointCollection<'b, C> for &'b Glyph<C> {
+    type Point = &'b C;
+    type IntoIter = std::iter::Once<&'b C>;
     fn point_iter(self) -> Self::IntoIter {
         std::iter::once(&self.at)
     }
 }
 
-impl<DB: DrawingBackend> Drawable<DB> for LegendGlyph {
+impl<C, DB: DrawingBackend> Drawable<DB> for Glyph<C> {
     fn draw<I: Iterator<Item = BackendCoord>>(
         &self,
         mut pos: I,
@@ -45,10 +47,11 @@ impl<DB: DrawingBackend> Drawable<DB> for LegendGlyph {
             return Ok(());
         };
         if matches!(self.style, SeriesStyle::Line | SeriesStyle::LineAndPoints) {
-            backend.draw_path([(x, y), (x + 20, y)], &self.colour.stroke_width(2))?;
+            let half = SAMPLE_HALF_PX;
+            backend.draw_path([(x - half, y), (x + half, y)], &self.colour.stroke_width(2))?;
         }
         if matches!(self.style, SeriesStyle::Points | SeriesStyle::LineAndPoints) {
-            draw_mark(backend, (x + 10, y), self.shape, self.colour)?;
+            draw_mark(backend, (x, y), self.shape, self.colour)?;
         }
         Ok(())
     }
@@ -56,6 +59,8 @@ impl<DB: DrawingBackend> Drawable<DB> for LegendGlyph {
 
 /// Radius of a point's mark [px].
 const MARK_PX: i32 = 4;
+/// Half the length of a line series' legend sample [px].
+const SAMPLE_HALF_PX: i32 = 10;
 
 /// One point's mark at `at`, in backend pixels.
 fn draw_mark<DB: DrawingBackend>(
@@ -73,36 +78,6 @@ fn draw_mark<DB: DrawingBackend>(
             [(x, y - r - 1), (x - r - 1, y + r), (x + r + 1, y + r)],
             &colour.filled(),
         ),
-    }
-}
-
-/// A point's mark as a plotters element, drawn by [`draw_mark`].
-#[derive(Debug, Clone, Copy)]
-struct Mark {
-    at: (f64, f64),
-    shape: Shape,
-    colour: RGBColor,
-}
-
-impl<'b> PointCollection<'b, (f64, f64)> for &'b Mark {
-    type Point = &'b (f64, f64);
-    type IntoIter = std::iter::Once<&'b (f64, f64)>;
-    fn point_iter(self) -> Self::IntoIter {
-        std::iter::once(&self.at)
-    }
-}
-
-impl<DB: DrawingBackend> Drawable<DB> for Mark {
-    fn draw<I: Iterator<Item = BackendCoord>>(
-        &self,
-        mut pos: I,
-        backend: &mut DB,
-        _parent_dim: (u32, u32),
-    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
-        match pos.next() {
-            Some(at) => draw_mark(backend, at, self.shape, self.colour),
-            None => Ok(()),
-        }
     }
 }
 
@@ -212,7 +187,7 @@ fn draw_markers<DB: DrawingBackend>(
                 EmptyElement::at((m.x, y.1))
                     + Text::new(
                         m.label.clone(),
-                        (4, 4 + 16 * marker_row),
+                        marker_label_offset(marker_row),
                         (FAMILY, 13).into_font().color(&GREY),
                     ),
             ))?;
@@ -220,6 +195,11 @@ fn draw_markers<DB: DrawingBackend>(
         }
     }
     Ok(())
+}
+
+/// Where the `row`th marker label goes from its line's top: beside the line, rows stacked down.
+fn marker_label_offset(row: usize) -> (i32, i32) {
+    (4, 4 + 16 * row as i32)
 }
 
 /// One series (lines, points and interval bars); whether anything of it landed in the panel.
@@ -251,11 +231,12 @@ fn draw_series<DB: DrawingBackend>(
             .filter(|&p| drawable(p) && inside(p, x, y))
             .collect();
         has_data |= !dots.is_empty();
-        let shape = s.shape;
-        ctx.draw_series(dots.into_iter().map(|at| Mark {
+        let (shape, style) = (s.shape, SeriesStyle::Points);
+        ctx.draw_series(dots.into_iter().map(|at| Glyph {
             at,
-            shape,
             colour: c,
+            style,
+            shape,
         }))?;
         draw_intervals(ctx, s, c, x, y)?;
     }
@@ -343,7 +324,7 @@ const LEGEND_GLYPH_PX: u32 = 30;
 /// One legend entry: its sample and its text's width.
 struct Entry {
     name: String,
-    glyph: LegendGlyph,
+    glyph: Glyph<BackendCoord>,
     text_w: u32,
 }
 
@@ -368,7 +349,7 @@ fn legend_entries<DB: DrawingBackend>(
         .map(|s| {
             Ok(Entry {
                 name: s.name.clone(),
-                glyph: LegendGlyph {
+                glyph: Glyph {
                     at: (0, 0),
                     colour: colour(s.colour),
                     style: s.style,
@@ -491,17 +472,18 @@ fn drawn_pixels<DB: DrawingBackend>(
             }
         }
     }
-    // Marker labels: stacked down from the plot's top, 16 px a row, about 8 px a character.
+    // Marker labels where `draw_markers` puts them, about 8 px a character.
     let top = ctx.plotting_area().get_pixel_range().1.start;
     let labelled = chart
         .markers
         .iter()
         .filter(|m| m.x.is_finite() && (x.0..=x.1).contains(&m.x) && !m.label.is_empty());
     for (row, m) in labelled.enumerate() {
-        let (mx, _) = px((m.x, y.1));
-        let y0 = top + 4 + 16 * row as i32;
+        let (dx0, dy) = marker_label_offset(row);
+        let (mx, y0) = (px((m.x, y.1)).0 + dx0, top + dy);
         let w = 8 * m.label.chars().count() as i32;
-        for dx in (0..=w + 4).step_by(3) {
+        // From the marker's line to the label's end.
+        for dx in (-dx0..=w).step_by(3) {
             out.extend([(mx + dx, y0), (mx + dx, y0 + 14)]);
         }
     }
@@ -580,7 +562,11 @@ fn draw_entry<DB: DrawingBackend>(
     e: &Entry,
     at: (i32, i32),
 ) -> DrawResult<DB> {
-    area.draw(&LegendGlyph { at, ..e.glyph })?;
+    let centre = (at.0 + SAMPLE_HALF_PX, at.1);
+    area.draw(&Glyph {
+        at: centre,
+        ..e.glyph
+    })?;
     area.draw(&Text::new(
         e.name.clone(),
         (at.0 + LEGEND_GLYPH_PX as i32, at.1),

@@ -5,6 +5,7 @@ use super::tables::{
 };
 use super::words::{baseline_line, calibration_line, conclusion, findings, next_runs_lines};
 use crate::diagnose::{gaps, signature, Diagnosis};
+use crate::wrap::folded;
 use std::fmt::Write as _;
 
 /// The terminal table: conclusion, calibration and baseline, gaps per regime × side, the
@@ -61,11 +62,4 @@ pub fn table(d: &Diagnosis) -> String {
         let _ = writeln!(out, "{}", folded(&format!("  {line}")));
     }
     out
-}
-
-/// A report line folded to a terminal's width, its continuation indented two more than itself.
-fn folded(line: &str) -> String {
-    let text = line.trim_start();
-    let indent = &line[..line.len() - text.len()];
-    crate::wrap::wrapped(text, indent, &format!("{indent}  "))
 }

@@ -95,7 +95,7 @@ impl std::fmt::Display for Conclusion {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&crate::wrap::wrapped(&self.headline, "", "    "))?;
         for detail in &self.details {
-            write!(f, "\n{}", crate::wrap::wrapped(detail, "  ", "    "))?;
+            write!(f, "\n{}", crate::wrap::folded(&format!("  {detail}")))?;
         }
         Ok(())
     }
