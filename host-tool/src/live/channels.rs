@@ -1,9 +1,9 @@
-//! The channels the live view advertises: the run log's JSON channels
-//! ([`crate::log::mcap::JsonChannel`]), so a Foxglove layout made live reads an MCAP file too.
+//! The channels the live view advertises: the run log's channels
+//! ([`crate::log::mcap::LogChannel`]), so a Foxglove layout made live reads an MCAP file too.
 
 use super::protocol::Channel;
 use crate::log::mcap::{
-    JsonChannel, COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL,
+    Encoding, LogChannel, COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL,
 };
 
 /// A live channel (advertised id = index + 1).
@@ -42,7 +42,7 @@ impl LiveChannel {
     }
 
     /// The run log's declaration of this channel.
-    pub fn json(self) -> JsonChannel {
+    pub fn log_channel(self) -> LogChannel {
         match self {
             LiveChannel::Sample => SAMPLE_CHANNEL,
             LiveChannel::Model => MODEL_CHANNEL,
@@ -76,7 +76,7 @@ impl LiveChannel {
 
     /// The channel of `topic`.
     pub fn from_topic(topic: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|c| c.json().topic == topic)
+        Self::ALL.into_iter().find(|c| c.log_channel().topic == topic)
     }
 
     /// This channel's bit in a subscription mask.
@@ -84,23 +84,28 @@ impl LiveChannel {
         1 << self.index()
     }
 
-    /// The `advertise` entry.
+    /// The `advertise` entry: a JSON schema as text, a protobuf descriptor set in base64 (as
+    /// the protocol asks for binary schemas).
     pub fn advertised(self) -> Channel {
-        let json = self.json();
+        let declared = self.log_channel();
+        let schema = match declared.encoding {
+            Encoding::Json(schema) => schema.to_owned(),
+            Encoding::Protobuf => data_encoding::BASE64.encode(&declared.schema()),
+        };
         Channel {
             id: self.id(),
-            topic: json.topic.to_owned(),
-            encoding: "json".to_owned(),
-            schema_name: json.schema_name.to_owned(),
-            schema: json.schema.to_owned(),
-            schema_encoding: Some("jsonschema".to_owned()),
+            topic: declared.topic.to_owned(),
+            encoding: declared.message_encoding().to_owned(),
+            schema_name: declared.schema_name.to_owned(),
+            schema,
+            schema_encoding: Some(declared.schema_encoding().to_owned()),
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::LiveChannel;
+    use super::{Encoding, LiveChannel};
     use serde_json::Value;
 
     #[test]
@@ -109,17 +114,35 @@ mod tests {
         for (i, c) in LiveChannel::ALL.into_iter().enumerate() {
             assert_eq!(c.index(), i);
             assert_eq!(LiveChannel::from_id(c.id()), Some(c));
-            assert_eq!(LiveChannel::from_topic(c.json().topic), Some(c));
+            let declared = c.log_channel();
+            assert_eq!(LiveChannel::from_topic(declared.topic), Some(c));
             assert_eq!(mask & c.bit(), 0);
             mask |= c.bit();
-            // The schema is the MCAP file's and valid JSON.
-            let schema: serde_json::Value =
-                serde_json::from_str(c.json().schema).expect("schema is JSON");
-            assert_eq!(schema["title"], c.json().schema_name);
-            // Foxglove Studio's reader takes it (over the WebSocket as in a file).
-            let mut problems = Vec::new();
-            crate::log::mcap::studio::schema_problems(&schema, c.json().schema_name, &mut problems);
-            assert!(problems.is_empty(), "{problems:?}");
+            let advertised = c.advertised();
+            match declared.encoding {
+                // The schema is the MCAP file's, valid JSON that Foxglove Studio's reader takes
+                // (over the WebSocket as in a file).
+                Encoding::Json(text) => {
+                    let schema: Value = serde_json::from_str(text).expect("schema is JSON");
+                    assert_eq!(schema["title"], declared.schema_name);
+                    let mut problems = Vec::new();
+                    crate::log::mcap::studio::schema_problems(
+                        &schema,
+                        declared.schema_name,
+                        &mut problems,
+                    );
+                    assert!(problems.is_empty(), "{problems:?}");
+                    assert_eq!(advertised.schema, text);
+                }
+                // The descriptor set, in base64 as the protocol carries binary schemas.
+                Encoding::Protobuf => {
+                    let bytes = data_encoding::BASE64
+                        .decode(advertised.schema.as_bytes())
+                        .expect("base64");
+                    assert_eq!(bytes, declared.schema());
+                    assert_eq!(advertised.encoding, "protobuf");
+                }
+            }
         }
         assert_eq!(LiveChannel::from_id(0), None);
         assert_eq!(LiveChannel::from_id(LiveChannel::COUNT as u32 + 1), None);
@@ -140,7 +163,10 @@ mod tests {
         let mut plotted = 0;
         for (id, config) in panels {
             if id.starts_with("RosOut!") {
-                assert_eq!(config["topicToRender"], LiveChannel::Event.json().topic);
+                assert_eq!(
+                    config["topicToRender"],
+                    LiveChannel::Event.log_channel().topic
+                );
                 continue;
             }
             assert!(id.starts_with("Plot!"), "{id}");
@@ -148,13 +174,22 @@ mod tests {
                 let value = path["value"].as_str().expect("path");
                 let (topic, fields) = value.split_once('.').expect("topic.field");
                 let channel = LiveChannel::from_topic(topic).expect(value);
-                let schema: Value = serde_json::from_str(channel.json().schema).expect("schema");
-                let node = field(&schema, fields).unwrap_or_else(|| panic!("{value}"));
-                let kind = node["type"].as_str();
-                assert!(
-                    matches!(kind, Some("number" | "integer")),
-                    "{value}: {kind:?}"
-                );
+                let declared = channel.log_channel();
+                match declared.encoding {
+                    Encoding::Json(text) => {
+                        let schema: Value = serde_json::from_str(text).expect("schema");
+                        let node = field(&schema, fields).unwrap_or_else(|| panic!("{value}"));
+                        let kind = node["type"].as_str();
+                        assert!(
+                            matches!(kind, Some("number" | "integer")),
+                            "{value}: {kind:?}"
+                        );
+                    }
+                    Encoding::Protobuf => assert!(
+                        crate::log::mcap::proto::is_number(declared.schema_name, fields),
+                        "{value}"
+                    ),
+                }
                 plotted += 1;
             }
         }

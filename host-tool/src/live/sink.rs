@@ -1,5 +1,5 @@
-//! [`LiveSink`]: a run log's records as live messages, in the MCAP file's JSON
-//! (`crate::log::mcap`), stamped with wall-clock time; [`LiveTee`]: a file sink and a live sink
+//! [`LiveSink`]: a run log's records as live messages, encoded as the MCAP file's channels
+//! (`crate::log::mcap`: protobuf samples, model and status, JSON commands and events), stamped with wall-clock time; [`LiveTee`]: a file sink and a live sink
 //! together, the file first and never held back by the viewers.
 
 use super::channels::LiveChannel;
@@ -108,12 +108,12 @@ impl RunLogSink for LiveSink {
             BoardFrame::Model(model) => {
                 let scale = self.scale;
                 self.publish(LiveChannel::Model, t_s, || {
-                    json(&ModelMsg::of(t_s, model, scale))
+                    ModelMsg::of(t_s, model, scale).protobuf()
                 });
             }
             BoardFrame::Status(status) => {
                 self.publish(LiveChannel::Status, t_s, || {
-                    json(&StatusMsg::of(t_s, status))
+                    StatusMsg::of(t_s, status).protobuf()
                 });
             }
             _ => {}
@@ -123,7 +123,7 @@ impl RunLogSink for LiveSink {
 
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
         self.publish(LiveChannel::Sample, sample.t_s, || {
-            json(&SampleMsg::of(sample))
+            SampleMsg::of(sample).protobuf()
         });
         Ok(())
     }

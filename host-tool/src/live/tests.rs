@@ -5,7 +5,9 @@ use super::client::{Incoming, LiveClient, Received};
 use super::hub;
 use super::protocol::{status_level, ServerOp, SUBPROTOCOL};
 use super::*;
-use crate::log::mcap::{read_mcap_run, SAMPLE_CHANNEL, TOPIC_EVENT, TOPIC_SAMPLE, TOPIC_STATUS};
+use crate::log::mcap::{
+    proto, read_mcap_run, SAMPLE_CHANNEL, TOPIC_EVENT, TOPIC_SAMPLE, TOPIC_STATUS,
+};
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::{LogEvent, RunLogSink};
 use crate::record::{self, BoardPort, RecordOptions};
@@ -117,9 +119,9 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
         matches!(&client.server_info, ServerOp::ServerInfo { capabilities, .. } if capabilities.is_empty())
     );
     let sample = client.channel(TOPIC_SAMPLE).expect("advertised").clone();
-    assert_eq!(sample.schema, SAMPLE_CHANNEL.schema);
-    assert_eq!(sample.schema_name, "rover_power.Sample");
-    assert_eq!(sample.encoding, "json");
+    assert_eq!(sample, LiveChannel::Sample.advertised());
+    assert_eq!(sample.schema_name, SAMPLE_CHANNEL.schema_name);
+    assert_eq!(sample.encoding, "protobuf");
     assert_eq!(client.channels.len(), LiveChannel::COUNT);
     client.subscribe(7, TOPIC_SAMPLE).expect("subscribe");
     wait_for("the subscription", || {
@@ -138,7 +140,7 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
         let d = data(&mut client);
         assert_eq!(d.subscription_id, 7);
         assert_eq!(d.timestamp_ns, unix_zero + (s.t_s * 1e9).round() as u64);
-        let json: serde_json::Value = serde_json::from_slice(&d.payload).expect("JSON");
+        let json = proto::to_json(proto::SAMPLE, &d.payload).expect("a sample");
         assert_eq!(json["t_s"].as_f64(), Some(s.t_s));
         assert_eq!(
             json["left"]["power_w"].as_f64(),
@@ -170,7 +172,7 @@ fn a_viewer_gets_the_mcap_channels_and_its_subscriptions_in_order_with_wall_cloc
         .expect("status");
     let d = data(&mut client);
     assert_eq!(d.subscription_id, 9);
-    let json: serde_json::Value = serde_json::from_slice(&d.payload).expect("JSON");
+    let json = proto::to_json(proto::STATUS, &d.payload).expect("a status");
     assert_eq!(json["t_s"].as_f64(), Some(11.0));
     assert_eq!(json["running"], true);
 
@@ -414,7 +416,7 @@ fn a_viewer_that_never_reads_costs_the_file_nothing_and_its_drops_are_counted() 
     let mut stalled = LiveClient::connect(server.local_addr(), TIMEOUT).expect("connect");
     for c in LiveChannel::ALL {
         stalled
-            .subscribe(c.id(), c.json().topic)
+            .subscribe(c.id(), c.log_channel().topic)
             .expect("subscribe");
     }
     // A second viewer vanishes a moment into the run (no close handshake).

@@ -53,6 +53,7 @@
 //! the samples lost (counted from the chunk's message index when it survived, else estimated).
 
 mod frame_proto;
+pub(crate) mod proto;
 mod read;
 #[cfg(test)]
 mod salvage_tests;
@@ -93,47 +94,90 @@ pub const TOPIC_EVENT: &str = "/rover_power/event";
 /// Topic of the raw wire frames.
 pub const TOPIC_FRAME: &str = "/rover_power/frame";
 
-/// A JSON channel of a run log: the MCAP file declares these and the live server
-/// (`crate::live`) advertises the same, so one Foxglove layout reads both.
+/// How a channel's messages are encoded, with the schema that says so.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct JsonChannel {
+pub enum Encoding {
+    /// `protobuf` messages; the schema is [`proto::descriptor_set`] of the schema's name (schema
+    /// encoding `protobuf`).
+    Protobuf,
+    /// `json` messages with this JSON schema (schema encoding `jsonschema`, in the subset Foxglove
+    /// Studio reads).
+    Json(&'static str),
+}
+
+/// A channel of a run log: the MCAP file declares these and the live server (`crate::live`)
+/// advertises the same, so one Foxglove layout reads both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LogChannel {
     /// The topic.
     pub topic: &'static str,
-    /// The schema's name.
+    /// The schema's name (for protobuf, the message's fully qualified name).
     pub schema_name: &'static str,
-    /// The JSON schema (`jsonschema` encoding).
-    pub schema: &'static str,
+    /// How its messages are encoded.
+    pub encoding: Encoding,
+}
+
+impl LogChannel {
+    /// The message encoding (`protobuf` or `json`).
+    pub fn message_encoding(&self) -> &'static str {
+        match self.encoding {
+            Encoding::Protobuf => proto::ENCODING,
+            Encoding::Json(_) => "json",
+        }
+    }
+
+    /// The schema encoding (`protobuf` or `jsonschema`).
+    pub fn schema_encoding(&self) -> &'static str {
+        match self.encoding {
+            Encoding::Protobuf => proto::ENCODING,
+            Encoding::Json(_) => "jsonschema",
+        }
+    }
+
+    /// The schema's bytes as the MCAP schema record holds them.
+    pub fn schema(&self) -> Vec<u8> {
+        match self.encoding {
+            Encoding::Protobuf => proto::descriptor_set(self.schema_name),
+            Encoding::Json(schema) => schema.as_bytes().to_vec(),
+        }
+    }
 }
 
 /// [`TOPIC_SAMPLE`]'s channel.
-pub const SAMPLE_CHANNEL: JsonChannel = JsonChannel {
+pub const SAMPLE_CHANNEL: LogChannel = LogChannel {
     topic: TOPIC_SAMPLE,
-    schema_name: "rover_power.Sample",
-    schema: schema::SAMPLE,
+    schema_name: proto::SAMPLE,
+    encoding: Encoding::Protobuf,
 };
 /// [`TOPIC_MODEL`]'s channel.
-pub const MODEL_CHANNEL: JsonChannel = JsonChannel {
+pub const MODEL_CHANNEL: LogChannel = LogChannel {
     topic: TOPIC_MODEL,
-    schema_name: "rover_power.Model",
-    schema: schema::MODEL,
+    schema_name: proto::MODEL,
+    encoding: Encoding::Protobuf,
 };
 /// [`TOPIC_STATUS`]'s channel.
-pub const STATUS_CHANNEL: JsonChannel = JsonChannel {
+pub const STATUS_CHANNEL: LogChannel = LogChannel {
     topic: TOPIC_STATUS,
-    schema_name: "rover_power.Status",
-    schema: schema::STATUS,
+    schema_name: proto::STATUS,
+    encoding: Encoding::Protobuf,
 };
 /// [`TOPIC_COMMAND`]'s channel.
-pub const COMMAND_CHANNEL: JsonChannel = JsonChannel {
+pub const COMMAND_CHANNEL: LogChannel = LogChannel {
     topic: TOPIC_COMMAND,
     schema_name: "rover_power.Command",
-    schema: schema::COMMAND,
+    encoding: Encoding::Json(schema::COMMAND),
 };
 /// [`TOPIC_EVENT`]'s channel.
-pub const EVENT_CHANNEL: JsonChannel = JsonChannel {
+pub const EVENT_CHANNEL: LogChannel = LogChannel {
     topic: TOPIC_EVENT,
     schema_name: "foxglove.Log",
-    schema: schema::EVENT,
+    encoding: Encoding::Json(schema::EVENT),
+};
+/// [`TOPIC_FRAME`]'s channel.
+pub const FRAME_CHANNEL: LogChannel = LogChannel {
+    topic: TOPIC_FRAME,
+    schema_name: proto::FRAME,
+    encoding: Encoding::Protobuf,
 };
 
 /// Target size of a chunk before it is written even without a flush [bytes].
@@ -270,6 +314,74 @@ impl SampleMsg {
         }
     }
 
+    /// The message as `rover_power.Sample` protobuf ([`proto`]).
+    pub(crate) fn protobuf(&self) -> Vec<u8> {
+        let side = |m: &mut proto::Writer, s: &SampleSide| {
+            m.double(1, s.bus_v);
+            m.double(2, s.current_a);
+            m.double(3, s.power_w);
+            m.double(4, s.cmd_mps);
+        };
+        let mut w = proto::Writer::new();
+        w.double(1, self.t_s);
+        w.message(2, |m| side(m, &self.left));
+        w.message(3, |m| side(m, &self.right));
+        w.opt_double(4, self.yaw_rad);
+        w.opt_double(5, self.pitch_deg);
+        w.opt_double(6, self.x_m);
+        w.opt_double(7, self.y_m);
+        w.into_bytes()
+    }
+
+    /// The sample a `rover_power.Sample` protobuf message holds. Its time and both sides are
+    /// required (a reader of ours wrote them); unknown fields are skipped, as protobuf readers
+    /// do, so a later writer may add some.
+    pub(crate) fn from_protobuf(data: &[u8]) -> Result<RunSample, String> {
+        fn side(data: &[u8]) -> Result<[Option<f64>; 3], String> {
+            let mut out = [None; 3];
+            for item in proto::Fields::of(data) {
+                let (field, value) = item?;
+                match field {
+                    1 => out[0] = Some(value.double()?),
+                    2 => out[1] = Some(value.double()?),
+                    4 => out[2] = Some(value.double()?),
+                    _ => {}
+                }
+            }
+            Ok(out)
+        }
+        let mut t_s = None;
+        let (mut left, mut right) = ([None; 3], [None; 3]);
+        let mut optional = [None; 4];
+        for item in proto::Fields::of(data) {
+            let (field, value) = item?;
+            match (field, value) {
+                (1, v) => t_s = Some(v.double()?),
+                (2, proto::Value::Len(m)) => left = side(m)?,
+                (3, proto::Value::Len(m)) => right = side(m)?,
+                (4..=7, v) => optional[field as usize - 4] = Some(v.double()?),
+                (2 | 3, other) => return Err(format!("field {field}: expected a SampleSide, found {other:?}")),
+                _ => {}
+            }
+        }
+        let need = |v: Option<f64>, name: &str| v.ok_or_else(|| format!("no {name}"));
+        let [bus_l, cur_l, cmd_l] = left;
+        let [bus_r, cur_r, cmd_r] = right;
+        Ok(RunSample {
+            t_s: need(t_s, "t_s")?,
+            bus_v: Sides::new(need(bus_l, "left.bus_v")?, need(bus_r, "right.bus_v")?),
+            current_a: Sides::new(
+                need(cur_l, "left.current_a")?,
+                need(cur_r, "right.current_a")?,
+            ),
+            cmd_mps: Sides::new(need(cmd_l, "left.cmd_mps")?, need(cmd_r, "right.cmd_mps")?),
+            yaw_rad: optional[0],
+            pitch_deg: optional[1],
+            x_m: optional[2],
+            y_m: optional[3],
+        })
+    }
+
     fn sample(&self) -> RunSample {
         RunSample {
             t_s: self.t_s,
@@ -403,140 +515,6 @@ pub(crate) fn describe_event(event: &LogEvent) -> (u8, String) {
 /// and a value that is not known is an absent field, never `null` (no type arrays).
 /// [`super::studio`] holds every schema and message to these rules (tests).
 mod schema {
-    /// One motor driver of a sample (`left` or `right`): written once for both sides, as
-    /// Studio's reader takes no `$ref`.
-    macro_rules! sample_side {
-        ($side:literal) => {
-            concat!(
-                r##"{
-      "type": "object",
-      "description": ""##,
-                $side,
-                r##" motor driver",
-      "properties": {
-        "bus_v": {"type": "number", "description": "bus voltage at the driver [V]"},
-        "current_a": {"type": "number", "description": "current into the driver [A], positive when drawn from the battery"},
-        "power_w": {"type": "number", "description": "bus_v x current_a [W]"},
-        "cmd_mps": {"type": "number", "description": "commanded side speed [m/s], positive forward"}
-      },
-      "required": ["bus_v", "current_a", "power_w", "cmd_mps"]
-    }"##
-            )
-        };
-    }
-
-    /// One side of a model frame, written once for both sides.
-    macro_rules! model_side {
-        ($side:literal) => {
-            concat!(
-                r##"{
-      "type": "object",
-      "description": ""##,
-                $side,
-                r##" side",
-      "properties": {
-        "power_w": {"type": "number", "description": "latest power [W]; absent when the chip gave no reading"},
-        "energy_j": {"type": "number", "description": "energy since the last reset [J]"},
-        "tau_w_per_rad_s": {"type": "number", "description": "tau proportional to P/omega (Eq 5.14) [W/(rad/s)]; absent when the wheel stands still or power is unknown"}
-      },
-      "required": ["energy_j"]
-    }"##
-            )
-        };
-    }
-
-    pub(super) const SAMPLE: &str = concat!(
-        r##"{
-  "title": "rover_power.Sample",
-  "description": "Physical sample of the two motor drivers (run CSV row)",
-  "type": "object",
-  "properties": {
-    "t_s": {"type": "number", "description": "run time [s]"},
-    "left": "##,
-        sample_side!("left"),
-        r##",
-    "right": "##,
-        sample_side!("right"),
-        r##",
-    "yaw_rad": {"type": "number", "description": "yaw [rad], counter-clockwise positive; absent when not measured"},
-    "pitch_deg": {"type": "number", "description": "pitch [deg], nose-up positive; absent when not measured"},
-    "x_m": {"type": "number", "description": "tracked point x in the fixed frame [m]; present only when a fix landed on this sample"},
-    "y_m": {"type": "number", "description": "tracked point y in the fixed frame [m], with x_m"}
-  },
-  "required": ["t_s", "left", "right"]
-}"##
-    );
-
-    pub(super) const MODEL: &str = concat!(
-        r##"{
-  "title": "rover_power.Model",
-  "description": "The board's running measurements (model frame) in SI units at the board's scale",
-  "type": "object",
-  "properties": {
-    "t_s": {"type": "number", "description": "run time the frame arrived [s]"},
-    "board_t_us": {"type": "integer", "description": "board time of the sample [us since boot]"},
-    "seq": {"type": "integer", "description": "sample number"},
-    "left": "##,
-        model_side!("left"),
-        r##",
-    "right": "##,
-        model_side!("right"),
-        r##",
-    "total_energy_j": {"type": "number", "description": "energy of both sides [J]"}
-  },
-  "required": ["t_s", "board_t_us", "seq", "left", "right", "total_energy_j"]
-}"##
-    );
-
-    pub(super) const STATUS: &str = r##"{
-  "title": "rover_power.Status",
-  "description": "The board's health counters (status frame)",
-  "type": "object",
-  "properties": {
-    "t_s": {"type": "number", "description": "run time the frame arrived [s]"},
-    "uptime_us": {"type": "integer"},
-    "samples": {"type": "integer", "description": "samples taken since boot"},
-    "running": {"type": "boolean"},
-    "i2c_errors": {
-      "type": "object",
-      "description": "I2C transactions that failed, per chip",
-      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
-    },
-    "reinits": {
-      "type": "object",
-      "description": "re-initialisations after a chip reset or a recovered fault, per chip",
-      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
-    },
-    "skipped_results": {
-      "type": "object",
-      "description": "chip results no read returned",
-      "properties": {"left": {"type": "integer"}, "right": {"type": "integer"}}
-    },
-    "last_fault": {
-      "type": "object",
-      "description": "the latest fault per chip; a side is absent while its chip reads fine",
-      "properties": {"left": {"type": "string"}, "right": {"type": "string"}}
-    },
-    "queue_drops": {"type": "integer"},
-    "rx_errors": {"type": "integer"},
-    "adc": {
-      "type": "object",
-      "properties": {
-        "averaging": {"type": "string"},
-        "bus_conversion": {"type": "string"},
-        "shunt_conversion": {"type": "string"}
-      }
-    },
-    "sample_period_us": {"type": "integer"},
-    "wheel_rates_rad_s": {
-      "type": "object",
-      "description": "commanded wheel rates the board uses for tau [rad/s]; absent until the host sends them",
-      "properties": {"left": {"type": "number"}, "right": {"type": "number"}}
-    }
-  },
-  "required": ["t_s", "uptime_us", "samples", "running"]
-}"##;
-
     pub(super) const COMMAND: &str = r##"{
   "title": "rover_power.Command",
   "description": "Commanded side speeds and the tracked pose",

@@ -9,8 +9,8 @@
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use super::{
-    frame_encoding, frame_proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
-    TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
+    frame_encoding, frame_proto, proto, CommandMsg, EventMsg, McapError, SampleMsg,
+    TOPIC_COMMAND, TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
 };
 use crate::log::run_csv::RigRange;
 use crate::log::run_log::{RunLog, RunLogSink};
@@ -442,7 +442,10 @@ fn typical_period_s(times: &SkipTimes) -> Option<f64> {
 /// What a channel carries, for this reader.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Topic {
+    /// `rover_power.Sample` protobuf messages.
     Sample,
+    /// JSON samples (files written before the protobuf channels).
+    JsonSample,
     /// Samples of a ROS 2 bag (`convert --to ros2-bag`): CDR `rover_power/msg/Sample`.
     BagSample,
     Command,
@@ -597,7 +600,7 @@ impl<'s> State<'s> {
         let is_sample = self
             .channels
             .get(&index.channel_id)
-            .is_some_and(|(topic, _)| matches!(topic, Topic::Sample | Topic::BagSample));
+            .is_some_and(|(topic, _)| matches!(topic, Topic::Sample | Topic::JsonSample | Topic::BagSample));
         let Some(indexed) = self.skipped.get_mut(skip).and_then(|s| s.indexed.as_mut()) else {
             return;
         };
@@ -669,12 +672,21 @@ impl<'s> State<'s> {
                     &channel.message_encoding,
                 )
             }
-            TOPIC_SAMPLE => (Topic::Sample, "json".to_owned(), &channel.message_encoding),
+            TOPIC_SAMPLE if channel.message_encoding == proto::ENCODING => (
+                Topic::Sample,
+                proto::ENCODING.to_owned(),
+                &channel.message_encoding,
+            ),
+            TOPIC_SAMPLE => (
+                Topic::JsonSample,
+                "json".to_owned(),
+                &channel.message_encoding,
+            ),
             TOPIC_COMMAND => (Topic::Command, "json".to_owned(), &channel.message_encoding),
             TOPIC_EVENT => (Topic::Event, "json".to_owned(), &channel.message_encoding),
             // The frames' wire format is the channel's `wire_encoding` under protobuf, else the
             // message encoding itself.
-            TOPIC_FRAME if channel.message_encoding == frame_proto::ENCODING => {
+            TOPIC_FRAME if channel.message_encoding == proto::ENCODING => {
                 let wire = channel.metadata.get("wire_encoding");
                 (
                     Topic::Frame,
@@ -741,16 +753,18 @@ impl<'s> State<'s> {
             detail,
         };
         match topic {
-            Topic::Sample | Topic::BagSample => {
-                let sample = if topic == Topic::BagSample {
-                    decode_sample(data).map_err(|e| bad(self, e.to_string()))?
-                } else {
-                    match parse_sample_msg(data) {
+            Topic::Sample | Topic::JsonSample | Topic::BagSample => {
+                let sample = match topic {
+                    Topic::Sample => SampleMsg::from_protobuf(data).map_err(|e| bad(self, e))?,
+                    Topic::BagSample => {
+                        decode_sample(data).map_err(|e| bad(self, e.to_string()))?
+                    }
+                    _ => match parse_sample_msg(data) {
                         Some(msg) => msg,
                         None => serde_json::from_slice::<SampleMsg>(data)
                             .map_err(|e| bad(self, e.to_string()))?,
                     }
-                    .sample()
+                    .sample(),
                 };
                 // The board's registers: its range, not a foreign rig's. A bag may hold any
                 // rig's run CSV (`convert run.csv bag --to ros2-bag`): any physical reading.

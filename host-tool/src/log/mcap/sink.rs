@@ -1,9 +1,9 @@
 //! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
 
 use super::{
-    frame_encoding, frame_proto, CommandMsg, EventMsg, JsonChannel, McapError, SampleMsg,
-    CHUNK_BYTES, COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL,
-    TOPIC_FRAME,
+    frame_encoding, frame_proto, proto, CommandMsg, EventMsg, LogChannel, McapError, SampleMsg,
+    CHUNK_BYTES, COMMAND_CHANNEL, EVENT_CHANNEL, FRAME_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL,
+    STATUS_CHANNEL,
 };
 use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
@@ -249,28 +249,13 @@ impl<W: Write + Seek> McapSink<W> {
         if let Some(id) = self.ids[channel as usize] {
             return Ok(id);
         }
-        let json = |c: JsonChannel| {
-            (
-                c.topic,
-                c.schema_name,
-                "json",
-                "jsonschema",
-                c.schema.as_bytes().to_vec(),
-            )
-        };
-        let (topic, schema_name, message_encoding, schema_encoding, schema) = match channel {
-            Ch::Sample => json(SAMPLE_CHANNEL),
-            Ch::Model => json(MODEL_CHANNEL),
-            Ch::Status => json(STATUS_CHANNEL),
-            Ch::Command => json(COMMAND_CHANNEL),
-            Ch::Event => json(EVENT_CHANNEL),
-            Ch::Frame => (
-                TOPIC_FRAME,
-                frame_proto::SCHEMA_NAME,
-                frame_proto::ENCODING,
-                frame_proto::ENCODING,
-                frame_proto::descriptor_set(),
-            ),
+        let declared: LogChannel = match channel {
+            Ch::Sample => SAMPLE_CHANNEL,
+            Ch::Model => MODEL_CHANNEL,
+            Ch::Status => STATUS_CHANNEL,
+            Ch::Command => COMMAND_CHANNEL,
+            Ch::Event => EVENT_CHANNEL,
+            Ch::Frame => FRAME_CHANNEL,
         };
         let metadata = match channel {
             Ch::Frame => BTreeMap::from([
@@ -287,12 +272,17 @@ impl<W: Write + Seek> McapSink<W> {
             ]),
             _ => BTreeMap::new(),
         };
-        let schema_id = self
-            .writer
-            .add_schema(schema_name, schema_encoding, &schema)?;
-        let id = self
-            .writer
-            .add_channel(schema_id, topic, message_encoding, &metadata)?;
+        let schema_id = self.writer.add_schema(
+            declared.schema_name,
+            declared.schema_encoding(),
+            &declared.schema(),
+        )?;
+        let id = self.writer.add_channel(
+            schema_id,
+            declared.topic,
+            declared.message_encoding(),
+            &metadata,
+        )?;
         self.ids[channel as usize] = Some(id);
         Ok(id)
     }
@@ -374,8 +364,7 @@ impl<W: Write + Seek> McapSink<W> {
     }
 }
 
-/// A `/rover_power/model` message.
-#[derive(serde::Serialize)]
+/// A `/rover_power/model` message (`rover_power.Model`).
 pub(crate) struct ModelMsg {
     t_s: f64,
     board_t_us: u64,
@@ -385,14 +374,10 @@ pub(crate) struct ModelMsg {
     total_energy_j: f64,
 }
 
-/// One side of a [`ModelMsg`]; an unknown value is left out (Foxglove's schema reader takes no
-/// `null`).
-#[derive(serde::Serialize)]
+/// One side of a [`ModelMsg`]; an unknown value is left out.
 struct ModelSide {
-    #[serde(skip_serializing_if = "Option::is_none")]
     power_w: Option<f64>,
     energy_j: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
     tau_w_per_rad_s: Option<f32>,
 }
 
@@ -421,11 +406,29 @@ impl ModelMsg {
             total_energy_j: scale.energy_j(s.total_energy_lsb_us()),
         }
     }
+
+    /// The message as `rover_power.Model` protobuf ([`proto`]).
+    pub(crate) fn protobuf(&self) -> Vec<u8> {
+        let side = |m: &mut proto::Writer, s: &ModelSide| {
+            m.opt_double(1, s.power_w);
+            m.double(2, s.energy_j);
+            if let Some(tau) = s.tau_w_per_rad_s {
+                m.float(3, tau);
+            }
+        };
+        let mut w = proto::Writer::new();
+        w.double(1, self.t_s);
+        w.varint(2, self.board_t_us);
+        w.varint(3, u64::from(self.seq));
+        w.message(4, |m| side(m, &self.left));
+        w.message(5, |m| side(m, &self.right));
+        w.double(6, self.total_energy_j);
+        w.into_bytes()
+    }
 }
 
-/// A `/rover_power/status` message: the status frame's fields, with a side's fault and the
-/// wheel rates left out while there are none (Foxglove's schema reader takes no `null`).
-#[derive(serde::Serialize)]
+/// A `/rover_power/status` message (`rover_power.Status`): the status frame's fields, with a
+/// side's fault and the wheel rates left out while there are none.
 pub(crate) struct StatusMsg<'a> {
     t_s: f64,
     uptime_us: u64,
@@ -439,17 +442,22 @@ pub(crate) struct StatusMsg<'a> {
     rx_errors: u32,
     adc: &'a AdcConfig,
     sample_period_us: u32,
-    #[serde(skip_serializing_if = "Option::is_none")]
     wheel_rates_rad_s: Option<Sides<f32>>,
 }
 
 /// The latest fault per side, a side without one left out.
-#[derive(serde::Serialize)]
 struct Faults {
-    #[serde(skip_serializing_if = "Option::is_none")]
     left: Option<ChipFault>,
-    #[serde(skip_serializing_if = "Option::is_none")]
     right: Option<ChipFault>,
+}
+
+/// A value's name as its JSON spells it (a fault, an averaging, a conversion time).
+fn serde_name(value: &impl serde::Serialize) -> String {
+    match serde_json::to_value(value) {
+        Ok(serde_json::Value::String(name)) => name,
+        Ok(other) => other.to_string(),
+        Err(e) => e.to_string(),
+    }
 }
 
 impl<'a> StatusMsg<'a> {
@@ -488,6 +496,44 @@ impl<'a> StatusMsg<'a> {
             wheel_rates_rad_s: *wheel_rates_rad_s,
         }
     }
+
+    /// The message as `rover_power.Status` protobuf ([`proto`]).
+    pub(crate) fn protobuf(&self) -> Vec<u8> {
+        let counts = |m: &mut proto::Writer, c: Sides<u32>| {
+            m.varint(1, u64::from(c.left));
+            m.varint(2, u64::from(c.right));
+        };
+        let mut w = proto::Writer::new();
+        w.double(1, self.t_s);
+        w.varint(2, self.uptime_us);
+        w.varint(3, u64::from(self.samples));
+        w.bool(4, self.running);
+        w.message(5, |m| counts(m, self.i2c_errors));
+        w.message(6, |m| counts(m, self.reinits));
+        w.message(7, |m| counts(m, self.skipped_results));
+        w.message(8, |m| {
+            for (field, fault) in [(1, self.last_fault.left), (2, self.last_fault.right)] {
+                if let Some(fault) = fault {
+                    m.bytes(field, serde_name(&fault).as_bytes());
+                }
+            }
+        });
+        w.varint(9, u64::from(self.queue_drops));
+        w.varint(10, u64::from(self.rx_errors));
+        w.message(11, |m| {
+            m.bytes(1, serde_name(&self.adc.averaging).as_bytes());
+            m.bytes(2, serde_name(&self.adc.bus_conversion).as_bytes());
+            m.bytes(3, serde_name(&self.adc.shunt_conversion).as_bytes());
+        });
+        w.varint(12, u64::from(self.sample_period_us));
+        if let Some(rates) = self.wheel_rates_rad_s {
+            w.message(13, |m| {
+                m.float(1, rates.left);
+                m.float(2, rates.right);
+            });
+        }
+        w.into_bytes()
+    }
 }
 
 impl<W: Write + Seek> RunLogSink for McapSink<W> {
@@ -502,10 +548,10 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
             BoardFrame::Hello(hello) => self.hello(t_s, hello)?,
             BoardFrame::Model(model) => {
                 let msg = ModelMsg::of(t_s, model, self.scale);
-                self.write_json(Ch::Model, t_s, &msg)?;
+                self.write(Ch::Model, t_s, &msg.protobuf())?;
             }
             BoardFrame::Status(status) => {
-                self.write_json(Ch::Status, t_s, &StatusMsg::of(t_s, status))?;
+                self.write(Ch::Status, t_s, &StatusMsg::of(t_s, status).protobuf())?;
             }
             _ => {}
         }
@@ -543,7 +589,7 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 )));
             }
         }
-        self.write_json(Ch::Sample, sample.t_s, &SampleMsg::of(sample))?;
+        self.write(Ch::Sample, sample.t_s, &SampleMsg::of(sample).protobuf())?;
         self.last_sample_t_s = Some(sample.t_s);
         Ok(())
     }

@@ -276,24 +276,28 @@ fn the_mcap_crate_reads_it_with_summary_channels_and_schemas() {
             )
         })
         .collect();
-    assert_eq!(topics[TOPIC_SAMPLE], ("json", Some("jsonschema")));
-    assert_eq!(topics[TOPIC_MODEL], ("json", Some("jsonschema")));
-    assert_eq!(topics[TOPIC_STATUS], ("json", Some("jsonschema")));
+    assert_eq!(topics[TOPIC_SAMPLE], ("protobuf", Some("protobuf")));
+    assert_eq!(topics[TOPIC_MODEL], ("protobuf", Some("protobuf")));
+    assert_eq!(topics[TOPIC_STATUS], ("protobuf", Some("protobuf")));
     assert_eq!(topics[TOPIC_COMMAND], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_EVENT], ("json", Some("jsonschema")));
     assert_eq!(topics[TOPIC_FRAME], ("protobuf", Some("protobuf")));
     assert!(!summary.chunk_indexes.is_empty());
     assert_eq!(summary.metadata_indexes.len(), 2, "rover_power + one hello");
 
-    // Every message, through the crate's own reader; JSON channels hold valid JSON objects.
+    // Every message, through the crate's own reader; JSON channels hold valid JSON objects,
+    // protobuf ones their schema's message (decoded by its descriptor table).
     let mut count = 0u64;
     let mut models = 0;
     for message in ::mcap::MessageStream::new(&bytes).expect("stream") {
         let message = message.expect("message");
         count += 1;
-        if message.channel.message_encoding == "json" {
-            let value: serde_json::Value =
-                serde_json::from_slice(&message.data).expect("JSON message");
+        let schema = message.channel.schema.as_ref().expect("a schema");
+        let value: serde_json::Value = match message.channel.message_encoding.as_str() {
+            "json" => serde_json::from_slice(&message.data).expect("JSON message"),
+            _ => proto::to_json(&schema.name, &message.data).expect("protobuf message"),
+        };
+        if message.channel.topic != TOPIC_FRAME {
             assert!(value.is_object());
             let t_s = value["t_s"].as_f64().expect("t_s");
             assert_eq!(sink::run_time_ns(t_s).expect("time"), message.publish_time);
@@ -513,7 +517,7 @@ fn a_damaged_uncompressed_chunk_is_skipped_and_reported() {
 fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
     let (run, _) = sim_run(10);
     let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
-    // Bypass the encoders: a frame message that is not a frame, a sample that is not JSON.
+    // Bypass the encoders: a frame message that is not a frame, a sample that is not protobuf.
     let mut not_a_frame = Vec::new();
     frame_proto::encode(b"\x05garbage\x00", &mut not_a_frame);
     sink.write(sink::Ch::Frame, 0.001, &not_a_frame)
@@ -522,6 +526,7 @@ fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
         if i == 4 {
             sink.write(sink::Ch::Sample, s.t_s, b"{\"t_s\":")
                 .expect("written");
+            // (`{` is field 15 with wire type 3, a group)
         } else {
             sink.sample(s).expect("sample");
         }
@@ -535,8 +540,7 @@ fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
             "/rover_power/frame message at run time 1000000 ns: frame does not decode: invalid \
              COBS encoding",
             &format!(
-                "/rover_power/sample message at run time {} ns: EOF while parsing a value at \
-                 line 1 column 7",
+                "/rover_power/sample message at run time {} ns: field 15 has wire type 3",
                 (run.samples[4].t_s * 1e9).round()
             ),
         ]
@@ -673,15 +677,24 @@ fn every_channel_and_message_is_one_studio_reads() {
         studio::problems(&bytes).expect("MCAP"),
         Vec::<String>::new()
     );
-    // The unknown values are absent, not null.
+    // The unknown values are absent (proto2 `optional`: the field is not written).
     let mut seen = (false, false);
     for message in ::mcap::MessageStream::new(&bytes).expect("stream") {
         let message = message.expect("message");
-        let text = String::from_utf8_lossy(&message.data).into_owned();
+        let Some(schema) = message.channel.schema.as_ref() else {
+            continue;
+        };
+        let value: serde_json::Value = match message.channel.message_encoding.as_str() {
+            "json" => serde_json::from_slice(&message.data).expect("JSON"),
+            _ => proto::to_json(&schema.name, &message.data).expect("decodes"),
+        };
+        let text = value.to_string();
         assert!(!text.contains("null"), "{}: {text}", message.channel.topic);
-        seen.0 |= message.channel.topic == TOPIC_MODEL && !text.contains("\"left\":{\"power_w\"");
+        seen.0 |= message.channel.topic == TOPIC_MODEL
+            && value["left"].get("power_w").is_none()
+            && value["left"]["energy_j"].is_number();
         seen.1 |= message.channel.topic == TOPIC_STATUS
-            && text.contains("\"last_fault\":{\"right\":\"AddressNack\"}");
+            && value["last_fault"] == serde_json::json!({"right": "AddressNack"});
     }
     assert_eq!(seen, (true, true));
     // A file of today's schemas before this change is refused by the same rules.
@@ -729,4 +742,36 @@ fn every_channel_and_message_is_one_studio_reads() {
         problems[2],
         "/bare: Unsupported encoding rover-power-wire-v3"
     );
+}
+
+/// A log recorded before the protobuf channels (samples, model and status in JSON: 300 samples
+/// of a replayed demo run, `tests/fixtures/mcap/json-channels-v3.mcap`) reads whole, and
+/// rewritten (`convert OLD.mcap NEW.mcap`) reads back the same with protobuf samples.
+#[test]
+fn a_log_with_json_channels_reads_and_rewrites_to_the_same_run() {
+    let old = include_bytes!("../../../tests/fixtures/mcap/json-channels-v3.mcap");
+    let topics = |bytes: &[u8]| -> BTreeMap<String, String> {
+        ::mcap::Summary::read(bytes)
+            .expect("valid")
+            .expect("summary")
+            .channels
+            .values()
+            .map(|c| (c.topic.clone(), c.message_encoding.clone()))
+            .collect()
+    };
+    assert_eq!(topics(old)[TOPIC_SAMPLE], "json");
+    let got = read(old).expect("an old log reads");
+    assert!(got.losses.is_empty() && got.truncated.is_none());
+    let run = got.run;
+    assert_eq!(run.samples.len(), 299, "one sample without both chips");
+    assert_eq!(run.frames.len(), 320);
+    assert_eq!(
+        run.events.iter().map(|(_, e)| e.short_name()).collect::<Vec<_>>(),
+        ["started", "clock", "stopped"]
+    );
+    assert!(run.samples.iter().all(|s| s.bus_v.left > 20.0));
+    let new = to_bytes(&run);
+    assert_eq!(topics(&new)[TOPIC_SAMPLE], "protobuf");
+    assert_eq!(read(&new).expect("rewritten").run, run);
+    assert!(new.len() < old.len(), "{} B against {} B", new.len(), old.len());
 }
