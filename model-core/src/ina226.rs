@@ -80,15 +80,24 @@ impl Registers {
             return None;
         }
         let current = i32::from(shunt.0) * i32::from(cal.0) / 2048;
-        let current = current.clamp(i32::from(i16::MIN), i32::from(i16::MAX));
-        let power = current.unsigned_abs() * u32::from(bus.0) / 20_000;
+        let current = CurrentRaw(current.clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16);
         Some(Registers {
             shunt,
             bus,
-            current: CurrentRaw(current as i16),
-            // Fits for every valid bus voltage (above); never wrapped.
-            power: PowerRaw(u16::try_from(power).ok()?),
+            current,
+            power: Self::power_of(current, bus)?,
         })
+    }
+
+    /// Datasheet Eq 4: the power register for `current` and `bus`, |current| × bus / 20000
+    /// truncated; `None` for a bus voltage the chip cannot hold (its power would not fit the
+    /// register; for every valid one it does, never wrapped).
+    pub fn power_of(current: CurrentRaw, bus: BusVoltageRaw) -> Option<PowerRaw> {
+        if !bus.is_valid() {
+            return None;
+        }
+        let power = u32::from(current.0.unsigned_abs()) * u32::from(bus.0) / 20_000;
+        u16::try_from(power).ok().map(PowerRaw)
     }
 
     /// Power with its sign taken from the current register, in power LSBs (the power register

@@ -101,6 +101,44 @@ def test_mcap_log_reads_as_its_run_csv(host_tool, demo_runs, tmp_path):
     assert len(df) > 1000
 
 
+def test_every_message_of_a_log_decodes_with_the_official_mcap_decoders(demo_runs):
+    """A reader with only the `mcap` package and `mcap-protobuf-support` (plus `json` for the
+    command and event channels) decodes every message of a demo log from the schemas in the
+    file; the samples are `read_run`'s, to the bit."""
+    from mcap.decoder import DecoderFactory as JsonFactoryBase
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    class JsonFactory(JsonFactoryBase):
+        def decoder_for(self, message_encoding, schema):
+            return json.loads if message_encoding == "json" else None
+
+    counts, rows, models = {}, [], []
+    with open(demo_runs[0], "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory(), JsonFactory()])
+        for _schema, channel, _message, decoded in reader.iter_decoded_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic == "/rover_power/sample":
+                left, right = decoded.left, decoded.right
+                assert left.power_w == left.bus_v * left.current_a
+                rows.append((decoded.t_s, left.bus_v, left.current_a, right.bus_v,
+                             right.current_a, left.cmd_mps, right.cmd_mps))
+            elif channel.topic == "/rover_power/model":
+                models.append(decoded.total_energy_j)
+    assert set(counts) == {"/rover_power/" + t for t in
+                           ["sample", "model", "status", "command", "event", "frame"]}, counts
+    df = rp.read_run(demo_runs[0])
+    ours = np.array(rows)
+    assert len(ours) == len(df)
+    np.testing.assert_array_equal(ours[:, 0], df.index.to_numpy())
+    columns = ["left_bus_v", "left_current_a", "right_bus_v", "right_current_a",
+               "cmd_left_mps", "cmd_right_mps"]
+    for i, column in enumerate(columns, start=1):
+        np.testing.assert_array_equal(ours[:, i], df[column].to_numpy(), err_msg=column)
+    # The board's energy only grows over a run that never resets.
+    assert models == sorted(models) and models[-1] > 0
+
+
 def test_a_ros2_bag_reads_as_its_log(host_tool, demo_runs, tmp_path):
     """A user who keeps only the bag `convert --to ros2-bag` wrote reads the same samples from
     the bag directory and from its MCAP file as from the log."""

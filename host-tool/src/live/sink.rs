@@ -123,7 +123,7 @@ impl RunLogSink for LiveSink {
 
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
         self.publish(LiveChannel::Sample, sample.t_s, || {
-            SampleMsg::of(sample).protobuf()
+            SampleMsg::of(sample).protobuf(None)
         });
         Ok(())
     }

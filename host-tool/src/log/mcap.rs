@@ -52,6 +52,7 @@
 //! Each skipped stretch is a [`Loss`] in [`McapRun::losses`]: bytes, the run times around it and
 //! the samples lost (counted from the chunk's message index when it survived, else estimated).
 
+mod board_sample;
 mod frame_proto;
 pub(crate) mod proto;
 mod read;
@@ -314,8 +315,9 @@ impl SampleMsg {
         }
     }
 
-    /// The message as `rover_power.Sample` protobuf ([`proto`]).
-    pub(crate) fn protobuf(&self) -> Vec<u8> {
+    /// The message as `rover_power.Sample` protobuf ([`proto`]), with the board's sample frame
+    /// folded in when given.
+    pub(crate) fn protobuf(&self, board: Option<&board_sample::BoardSample>) -> Vec<u8> {
         let side = |m: &mut proto::Writer, s: &SampleSide| {
             m.double(1, s.bus_v);
             m.double(2, s.current_a);
@@ -330,13 +332,18 @@ impl SampleMsg {
         w.opt_double(5, self.pitch_deg);
         w.opt_double(6, self.x_m);
         w.opt_double(7, self.y_m);
+        if let Some(board) = board {
+            w.message(8, |m| board.write(m));
+        }
         w.into_bytes()
     }
 
-    /// The sample a `rover_power.Sample` protobuf message holds. Its time and both sides are
-    /// required (a reader of ours wrote them); unknown fields are skipped, as protobuf readers
-    /// do, so a later writer may add some.
-    pub(crate) fn from_protobuf(data: &[u8]) -> Result<RunSample, String> {
+    /// The sample a `rover_power.Sample` protobuf message holds, and its board frame's part if
+    /// folded in. Its time and both sides are required (a writer of ours wrote them); unknown
+    /// fields are skipped, as protobuf readers do, so a later writer may add some.
+    pub(crate) fn from_protobuf(
+        data: &[u8],
+    ) -> Result<(RunSample, Option<board_sample::BoardSample>), String> {
         fn side(data: &[u8]) -> Result<[Option<f64>; 3], String> {
             let mut out = [None; 3];
             for item in proto::Fields::of(data) {
@@ -353,6 +360,7 @@ impl SampleMsg {
         let mut t_s = None;
         let (mut left, mut right) = ([None; 3], [None; 3]);
         let mut optional = [None; 4];
+        let mut board = None;
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
             match (field, value) {
@@ -360,14 +368,19 @@ impl SampleMsg {
                 (2, proto::Value::Len(m)) => left = side(m)?,
                 (3, proto::Value::Len(m)) => right = side(m)?,
                 (4..=7, v) => optional[field as usize - 4] = Some(v.double()?),
-                (2 | 3, other) => return Err(format!("field {field}: expected a SampleSide, found {other:?}")),
+                (8, proto::Value::Len(m)) => board = Some(board_sample::BoardSample::read(m)?),
+                (2 | 3 | 8, other) => {
+                    return Err(format!(
+                        "field {field}: expected a message, found {other:?}"
+                    ))
+                }
                 _ => {}
             }
         }
         let need = |v: Option<f64>, name: &str| v.ok_or_else(|| format!("no {name}"));
         let [bus_l, cur_l, cmd_l] = left;
         let [bus_r, cur_r, cmd_r] = right;
-        Ok(RunSample {
+        let sample = RunSample {
             t_s: need(t_s, "t_s")?,
             bus_v: Sides::new(need(bus_l, "left.bus_v")?, need(bus_r, "right.bus_v")?),
             current_a: Sides::new(
@@ -379,7 +392,8 @@ impl SampleMsg {
             pitch_deg: optional[1],
             x_m: optional[2],
             y_m: optional[3],
-        })
+        };
+        Ok((sample, board))
     }
 
     fn sample(&self) -> RunSample {

@@ -93,7 +93,9 @@ impl RunLog {
 
     /// Every record with its run time [s], in the order a recorder writes them: by time;
     /// at equal times events first (the wall-clock anchor comes before the first sample, as the
-    /// recorder writes it), then frames, samples, commands; within one kind the log's order.
+    /// recorder writes it), then frames, samples, commands, except that a sample follows its
+    /// sample frame at once (the recorder writes the two together; a model frame stamped with
+    /// the same time came after them); within one kind the log's order.
     pub fn in_time_order(&self) -> Vec<(f64, Record<'_>)> {
         let mut items: Vec<(f64, Record<'_>)> = Vec::with_capacity(
             self.frames.len() + self.samples.len() + self.commands.len() + self.events.len(),
@@ -104,6 +106,22 @@ impl RunLog {
         items.extend(self.commands.iter().map(|c| (c.t_s, Record::Command(c))));
         // Stable: within one kind the order is the log's.
         items.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut start = 0;
+        while start < items.len() {
+            let t = items[start].0;
+            let len = items[start..].partition_point(|(u, _)| u.total_cmp(&t).is_eq());
+            let group = &mut items[start..start + len];
+            let sample = group.iter().position(|(_, r)| matches!(r, Record::Sample(_)));
+            let frame = group
+                .iter()
+                .rposition(|(_, r)| matches!(r, Record::Frame(BoardFrame::Sample(_))));
+            if let (Some(sample), Some(frame)) = (sample, frame) {
+                if frame + 1 < sample {
+                    group[frame + 1..=sample].rotate_right(1);
+                }
+            }
+            start += len;
+        }
         items
     }
 }
@@ -178,7 +196,51 @@ impl RunLogSink for RunLog {
 
 #[cfg(test)]
 mod tests {
-    use super::LogEvent;
+    use super::{LogEvent, Record, RunLog};
+    use crate::log::run_csv::RunSample;
+    use model_core::wire::{BoardFrame, ChipReading, Sample};
+    use model_core::Sides;
+
+    /// At one time: the event, the frames in their order with the sample right after its
+    /// sample frame, then the command.
+    #[test]
+    fn a_sample_follows_its_sample_frame_and_frames_keep_their_order() {
+        let sample = RunSample {
+            t_s: 1.0,
+            bus_v: Sides::new(24.0, 24.0),
+            current_a: Sides::new(1.0, 1.0),
+            cmd_mps: Sides::new(0.0, 0.0),
+            yaw_rad: None,
+            pitch_deg: None,
+            x_m: None,
+            y_m: None,
+        };
+        let chip = ChipReading::Fresh(Default::default());
+        let frame = BoardFrame::Sample(Sample {
+            t_us: 0,
+            seq: 0,
+            chips: Sides::new(chip, chip),
+        });
+        let ack = BoardFrame::Ack { id: 1 };
+        let run = RunLog {
+            samples: vec![sample],
+            frames: vec![(1.0, ack), (1.0, frame), (1.0, BoardFrame::Ack { id: 2 })],
+            commands: Vec::new(),
+            events: vec![(1.0, LogEvent::BoardReset)],
+        };
+        let kinds: Vec<String> = run
+            .in_time_order()
+            .iter()
+            .map(|(_, r)| match r {
+                Record::Event(_) => "event".into(),
+                Record::Frame(BoardFrame::Ack { id }) => format!("ack {id}"),
+                Record::Frame(_) => "sample frame".into(),
+                Record::Sample(_) => "sample".into(),
+                Record::Command(_) => "command".into(),
+            })
+            .collect();
+        assert_eq!(kinds, ["event", "ack 1", "sample frame", "sample", "ack 2"]);
+    }
 
     #[test]
     fn event_kinds_are_kebab_case_and_the_old_spelling_still_reads() {

@@ -8,9 +8,14 @@
 //! package rover_power;
 //! message SampleSide { optional double bus_v = 1; optional double current_a = 2;
 //!                      optional double power_w = 3; optional double cmd_mps = 4; }
+//! message BoardSample { optional uint64 t_us = 1; optional uint32 seq = 2;
+//!                       optional sint32 shunt_left = 3; optional sint32 shunt_right = 4;
+//!                       optional sint32 current_left = 5; optional sint32 current_right = 6;
+//!                       optional uint32 stale = 7; }  // the board's sample frame: board_sample.rs
 //! message Sample { optional double t_s = 1; optional SampleSide left = 2;
 //!                  optional SampleSide right = 3; optional double yaw_rad = 4;
-//!                  optional double pitch_deg = 5; optional double x_m = 6; optional double y_m = 7; }
+//!                  optional double pitch_deg = 5; optional double x_m = 6; optional double y_m = 7;
+//!                  optional BoardSample board = 8; }
 //! message ModelSide { optional double power_w = 1; optional double energy_j = 2;
 //!                     optional float tau_w_per_rad_s = 3; }
 //! message Model { optional double t_s = 1; optional uint64 board_t_us = 2; optional uint32 seq = 3;
@@ -54,6 +59,7 @@ enum Type {
     Float,
     Uint64,
     Uint32,
+    Sint32,
     Bool,
     Str,
     Bytes,
@@ -72,6 +78,7 @@ impl Type {
             Type::Message(_) => 11,
             Type::Bytes => 12,
             Type::Uint32 => 13,
+            Type::Sint32 => 17,
         }
     }
 }
@@ -98,6 +105,18 @@ const MESSAGES: &[MessageDef] = &[
         ],
     },
     MessageDef {
+        name: "BoardSample",
+        fields: &[
+            ("t_us", 1, Uint64),
+            ("seq", 2, Uint32),
+            ("shunt_left", 3, Sint32),
+            ("shunt_right", 4, Sint32),
+            ("current_left", 5, Sint32),
+            ("current_right", 6, Sint32),
+            ("stale", 7, Uint32),
+        ],
+    },
+    MessageDef {
         name: "Sample",
         fields: &[
             ("t_s", 1, Double),
@@ -107,6 +126,7 @@ const MESSAGES: &[MessageDef] = &[
             ("pitch_deg", 5, Double),
             ("x_m", 6, Double),
             ("y_m", 7, Double),
+            ("board", 8, Message("BoardSample")),
         ],
     },
     MessageDef {
@@ -246,7 +266,7 @@ pub(crate) fn is_number(message: &str, path: &str) -> bool {
         };
         match (ty, names.peek()) {
             (Message(nested), Some(_)) => short = nested,
-            (Double | Float | Uint64 | Uint32, None) => return true,
+            (Double | Float | Uint64 | Uint32 | Sint32, None) => return true,
             _ => return false,
         }
     }
@@ -272,6 +292,7 @@ pub(crate) fn to_json(message: &str, data: &[u8]) -> Result<serde_json::Value, S
                 (Double, Value::Fixed64(b)) => serde_json::json!(f64::from_bits(b)),
                 (Float, Value::Fixed32(b)) => serde_json::json!(f32::from_bits(b)),
                 (Uint64 | Uint32, Value::Varint(v)) => serde_json::json!(v),
+                (Sint32, Value::Varint(v)) => serde_json::json!(unzigzag(v)),
                 (Bool, Value::Varint(v)) => serde_json::json!(v != 0),
                 (Str, Value::Len(b)) => serde_json::json!(std::str::from_utf8(b)
                     .map_err(|e| e.to_string())?),
@@ -329,6 +350,11 @@ impl Writer {
     pub(crate) fn varint(&mut self, field: u32, value: u64) {
         self.key(field, VARINT);
         put_varint(&mut self.out, value);
+    }
+
+    /// A `sint32`/`sint64` field (zigzag: small magnitudes of either sign are short).
+    pub(crate) fn sint(&mut self, field: u32, value: i64) {
+        self.varint(field, ((value << 1) ^ (value >> 63)) as u64);
     }
 
     pub(crate) fn bool(&mut self, field: u32, value: bool) {
@@ -437,6 +463,11 @@ impl<'a> Iterator for Fields<'a> {
     }
 }
 
+/// The value of a zigzag-encoded (`sint`) varint.
+pub(crate) fn unzigzag(v: u64) -> i64 {
+    (v >> 1) as i64 ^ -((v & 1) as i64)
+}
+
 pub(crate) fn put_varint(out: &mut Vec<u8>, mut value: u64) {
     while value >= 0x80 {
         out.push((value as u8 & 0x7f) | 0x80);
@@ -487,6 +518,7 @@ mod tests {
         w.double(1, -2.5);
         w.varint(3, 300);
         w.float(4, 1.5);
+        w.sint(5, -3);
         w.message(2, |m| m.bool(1, true));
         w.bytes(16, b"xy");
         let bytes = w.into_bytes();
@@ -497,10 +529,24 @@ mod tests {
                 (1, Value::Fixed64((-2.5f64).to_bits())),
                 (3, Value::Varint(300)),
                 (4, Value::Fixed32(1.5f32.to_bits())),
+                (5, Value::Varint(5)),
                 (2, Value::Len(&[0x08, 1])),
                 (16, Value::Len(b"xy")),
             ]
         );
+    }
+
+    #[test]
+    fn zigzag_round_trips_at_the_extremes() {
+        for v in [0i64, -1, 1, -32768, 32767, i64::MIN, i64::MAX] {
+            let mut w = Writer::new();
+            w.sint(1, v);
+            let bytes = w.into_bytes();
+            let Some(Ok((1, Value::Varint(raw)))) = Fields::of(&bytes).next() else {
+                panic!("{v}");
+            };
+            assert_eq!(unzigzag(raw), v);
+        }
     }
 
     #[test]
@@ -544,7 +590,7 @@ mod tests {
                 _ => {}
             }
         }
-        assert_eq!(names, ["SampleSide", "Sample"]);
+        assert_eq!(names, ["SampleSide", "BoardSample", "Sample"]);
         assert_eq!(syntax, Some(&b"proto2"[..]));
     }
 }

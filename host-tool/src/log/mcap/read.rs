@@ -754,17 +754,34 @@ impl<'s> State<'s> {
         };
         match topic {
             Topic::Sample | Topic::JsonSample | Topic::BagSample => {
-                let sample = match topic {
+                let (sample, board) = match topic {
                     Topic::Sample => SampleMsg::from_protobuf(data).map_err(|e| bad(self, e))?,
-                    Topic::BagSample => {
-                        decode_sample(data).map_err(|e| bad(self, e.to_string()))?
-                    }
-                    _ => match parse_sample_msg(data) {
-                        Some(msg) => msg,
-                        None => serde_json::from_slice::<SampleMsg>(data)
-                            .map_err(|e| bad(self, e.to_string()))?,
-                    }
-                    .sample(),
+                    Topic::BagSample => (
+                        decode_sample(data).map_err(|e| bad(self, e.to_string()))?,
+                        None,
+                    ),
+                    _ => (
+                        match parse_sample_msg(data) {
+                            Some(msg) => msg,
+                            None => serde_json::from_slice::<SampleMsg>(data)
+                                .map_err(|e| bad(self, e.to_string()))?,
+                        }
+                        .sample(),
+                        None,
+                    ),
+                };
+                // The board's sample frame folded into the message, rebuilt (before the
+                // range check: a frame that does not rebuild is the message's fault).
+                let frame = match board {
+                    Some(board) => Some(board.frame(&sample).ok_or_else(|| {
+                        bad(
+                            self,
+                            "its board part does not rebuild a sample frame (bus voltage off the \
+                             register's steps or range)"
+                                .into(),
+                        )
+                    })?),
+                    None => None,
                 };
                 // The board's registers: its range, not a foreign rig's. A bag may hold any
                 // rig's run CSV (`convert run.csv bag --to ros2-bag`): any physical reading.
@@ -796,6 +813,11 @@ impl<'s> State<'s> {
                 self.last_t_s = Some(sample.t_s);
                 self.samples += 1;
                 self.times.sample(sample.t_s);
+                if let Some(frame) = frame {
+                    self.sink
+                        .frame(sample.t_s, &BoardFrame::Sample(frame))
+                        .map_err(|e| self.sink_err(e))?;
+                }
                 self.sink.sample(&sample).map_err(|e| self.sink_err(e))?;
             }
             Topic::Command => {

@@ -1,5 +1,6 @@
 //! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
 
+use super::board_sample::BoardSample;
 use super::{
     frame_encoding, frame_proto, proto, CommandMsg, EventMsg, LogChannel, McapError, SampleMsg,
     CHUNK_BYTES, COMMAND_CHANNEL, EVENT_CHANNEL, FRAME_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL,
@@ -13,7 +14,7 @@ use ::mcap::{Compression, WriteOptions, Writer};
 use model_core::ina226::AdcConfig;
 use model_core::ina226::Scale;
 use model_core::wire::{
-    self, BoardFrame, ChipFault, Hello, Model, Status, MAX_FRAME, PROTOCOL_VERSION,
+    self, BoardFrame, ChipFault, Hello, Model, Sample, Status, MAX_FRAME, PROTOCOL_VERSION,
 };
 use model_core::Sides;
 use std::collections::BTreeMap;
@@ -54,6 +55,9 @@ pub struct McapSink<W: Write + Seek> {
     last_sample_t_s: Option<f64>,
     /// How `log_time` is stamped.
     clock: LogClock,
+    /// A sample frame waiting for its physical sample (the next record), to ride in its
+    /// message ([`BoardSample`]); written on the frame channel if anything else comes first.
+    pending: Option<(f64, Sample)>,
 }
 
 /// Most messages held while no wall-clock event has come (a run's start before its first
@@ -169,18 +173,38 @@ impl<W: Write + Seek> McapSink<W> {
             scale: Scale::BOARD,
             last_sample_t_s: None,
             clock: LogClock::Waiting(Vec::new()),
+            pending: None,
         })
     }
 
     /// Writes the summary section and footer and hands back the output, flushed. (Dropping the
     /// sink does the same, ignoring errors.)
     pub fn finish(mut self) -> Result<W, McapError> {
+        self.release_pending().map_err(::mcap::McapError::Io)?;
         self.release_held(LogClock::Run)
             .map_err(::mcap::McapError::Io)?;
         self.writer.finish()?;
         let mut out = self.writer.into_inner();
         out.flush().map_err(::mcap::McapError::Io)?;
         Ok(out)
+    }
+
+    /// Writes a waiting sample frame on the frame channel (its sample did not follow).
+    fn release_pending(&mut self) -> io::Result<()> {
+        match self.pending.take() {
+            Some((t_s, sample)) => self.write_frame(t_s, &BoardFrame::Sample(sample)),
+            None => Ok(()),
+        }
+    }
+
+    /// Writes `frame` on the frame channel.
+    fn write_frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = wire::encode(frame, &mut buf)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        let mut message = Vec::with_capacity(n + 3);
+        frame_proto::encode(&buf[..n], &mut message);
+        self.write(Ch::Frame, t_s, &message)
     }
 
     fn flush_records(&mut self) -> Result<(), McapError> {
@@ -538,12 +562,15 @@ impl<'a> StatusMsg<'a> {
 
 impl<W: Write + Seek> RunLogSink for McapSink<W> {
     fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
-        let mut buf = [0u8; MAX_FRAME];
-        let n = wire::encode(frame, &mut buf)
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-        let mut message = Vec::with_capacity(n + 3);
-        frame_proto::encode(&buf[..n], &mut message);
-        self.write(Ch::Frame, t_s, &message)?;
+        self.release_pending()?;
+        if let BoardFrame::Sample(sample) = frame {
+            // Encodable, or refused now as it would be on the frame channel.
+            wire::encode(frame, &mut [0u8; MAX_FRAME])
+                .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+            self.pending = Some((t_s, *sample));
+            return Ok(());
+        }
+        self.write_frame(t_s, frame)?;
         match frame {
             BoardFrame::Hello(hello) => self.hello(t_s, hello)?,
             BoardFrame::Model(model) => {
@@ -589,12 +616,29 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 )));
             }
         }
-        self.write(Ch::Sample, sample.t_s, &SampleMsg::of(sample).protobuf())?;
+        // Its sample frame rides along when it came just before and rebuilds exactly.
+        let board = match self.pending.take() {
+            Some((t_s, frame)) if t_s.to_bits() == sample.t_s.to_bits() => {
+                let board = BoardSample::of(&frame, sample);
+                if board.is_none() {
+                    self.write_frame(t_s, &BoardFrame::Sample(frame))?;
+                }
+                board
+            }
+            Some((t_s, frame)) => {
+                self.write_frame(t_s, &BoardFrame::Sample(frame))?;
+                None
+            }
+            None => None,
+        };
+        let message = SampleMsg::of(sample).protobuf(board.as_ref());
+        self.write(Ch::Sample, sample.t_s, &message)?;
         self.last_sample_t_s = Some(sample.t_s);
         Ok(())
     }
 
     fn command(&mut self, row: &CommandRow) -> io::Result<()> {
+        self.release_pending()?;
         let finite = [row.cmd_mps.left, row.cmd_mps.right]
             .into_iter()
             .chain(row.yaw_rad)
@@ -612,6 +656,7 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
     }
 
     fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
+        self.release_pending()?;
         if let LogEvent::Reconnected { offline_s, .. } = event {
             if !offline_s.is_finite() {
                 return Err(invalid(
@@ -627,11 +672,13 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
     }
 
     fn flush(&mut self) -> io::Result<()> {
+        self.release_pending()?;
         self.writer.flush().map_err(into_io)
     }
 
     /// Writes the summary section and footer (the sink takes no more records afterwards).
     fn finish(&mut self) -> io::Result<()> {
+        self.release_pending()?;
         self.release_held(LogClock::Run)?;
         self.writer.finish().map(drop).map_err(into_io)
     }
