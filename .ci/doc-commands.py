@@ -60,6 +60,8 @@ NOT_HERE = {
     "pip install ./python": "installs into the machine's Python from the repository's root; "
         "CI's Python step runs it as written",
     "pip install matplotlib": "CI's Python step installs it",
+    "pip install rerun-sdk": "CI's Rerun step installs it (pinned)",
+    "rerun run-1.mcap": "opens the Rerun viewer's window; CI converts the same log instead",
     "cargo install --locked --path host-tool": "installs into ~/.cargo/bin; CI puts its release "
         "build on PATH as `host-tool` instead",
 }
@@ -330,7 +332,7 @@ def run_command(command, shown, workdir, fixture, bin_dir, host_tool):
         command = f"python3 {script.name}"
     tokens = shlex.split(command)
     shell = command
-    if tokens[0] in ("host-tool", "python3"):
+    if tokens[0] in ("host-tool", "python3", "rerun"):
         fixture.put_inputs(tokens, workdir)
     replay = None
     if any(p in command for p in PORTS):

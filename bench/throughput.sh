@@ -4,9 +4,9 @@
 #
 #     bench/throughput.sh
 #
-# 1. Makes sure python3 can import numpy, mcap, pyarrow and polars (installs them with
-#    `python3 -m pip install --quiet numpy mcap pyarrow polars` if not; without python3 the Rust
-#    figures are still printed).
+# 1. Makes sure python3 can import numpy, mcap, mcap_protobuf, pyarrow and polars (installs
+#    them with `python3 -m pip install --quiet numpy mcap mcap-protobuf-support pyarrow polars`
+#    if not; without python3 the Rust figures are still printed).
 # 2. Runs `cargo bench -p host-tool --bench turn_stats` (host-tool/benches/turn_stats.rs): the
 #    first run generates an hour of the simulated Husky on sand, recorded by the tool's recorder
 #    from the simulated board (target/bench-data/large-run.{bin,csv,commands.csv,mcap}; kept for
@@ -22,9 +22,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 if command -v python3 >/dev/null 2>&1; then
-    if ! python3 -c "import numpy, mcap, pyarrow, polars" >/dev/null 2>&1; then
-        echo "a Python peer's package is missing: python3 -m pip install --quiet numpy mcap pyarrow polars" >&2
-        python3 -m pip install --quiet numpy mcap pyarrow polars \
+    if ! python3 -c "import numpy, mcap, mcap_protobuf, pyarrow, polars" >/dev/null 2>&1; then
+        echo "a Python peer's package is missing: python3 -m pip install --quiet numpy mcap mcap-protobuf-support pyarrow polars" >&2
+        python3 -m pip install --quiet numpy mcap mcap-protobuf-support pyarrow polars \
             || echo "could not install them; the Python baselines that need them will be skipped" >&2
     fi
 else

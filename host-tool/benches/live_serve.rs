@@ -186,7 +186,7 @@ fn spawn_viewer(addr: SocketAddr) -> JoinHandle<u64> {
                 return 0;
             };
             for c in LiveChannel::ALL {
-                if client.subscribe(c.id(), c.json().topic).is_err() {
+                if client.subscribe(c.id(), c.log_channel().topic).is_err() {
                     return 0;
                 }
             }

@@ -3,7 +3,8 @@
 
 use super::protocol::Channel;
 use crate::log::mcap::{
-    Encoding, LogChannel, COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL, STATUS_CHANNEL,
+    Encoding, LogChannel, COMMAND_CHANNEL, EVENT_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL,
+    STATUS_CHANNEL,
 };
 
 /// A live channel (advertised id = index + 1).
@@ -76,7 +77,9 @@ impl LiveChannel {
 
     /// The channel of `topic`.
     pub fn from_topic(topic: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|c| c.log_channel().topic == topic)
+        Self::ALL
+            .into_iter()
+            .find(|c| c.log_channel().topic == topic)
     }
 
     /// This channel's bit in a subscription mask.

@@ -4,17 +4,19 @@
 //!
 //! # Layout
 //!
-//! Channels (message encoding `json` with `jsonschema` schemas in the subset Foxglove Studio
-//! reads, but the frames in protobuf):
+//! Channels (the high-rate ones in protobuf, their schema in the file: [`proto`]; commands and
+//! events in JSON with `jsonschema` schemas in the subset Foxglove Studio reads):
 //!
 //! | topic | schema | what |
 //! |---|---|---|
-//! | `/rover_power/sample` | `rover_power.Sample` | the physical sample: `t_s`, per side (`left`, `right`) `bus_v`, `current_a`, `power_w` (= bus × current), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured; `x_m`, `y_m` when a tracker fix landed on the sample |
-//! | `/rover_power/model` | `rover_power.Model` | the board's on-device model frame: per side `power_w`, `energy_j`, `tau_w_per_rad_s` (τ ∝ P/ω, Eq 5.14), in SI units at the board's scale |
-//! | `/rover_power/status` | `rover_power.Status` | the board's status frame (health counters) |
-//! | `/rover_power/command` | `rover_power.Command` | commanded side speeds and tracked pose |
-//! | `/rover_power/event` | `foxglove.Log` | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
-//! | `/rover_power/frame` | `rover_power.Frame` (protobuf) | every wire frame exactly as the board encoded it, in the `bytes wire = 1` field of a protobuf message (Foxglove decodes it from the schema in the file); the bytes are `rover-power-wire-v<PROTOCOL_VERSION>` (channel metadata `wire_encoding`), now v3: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`. Files written before held the bare frame under that message encoding; both read |
+//! | `/rover_power/sample` | `rover_power.Sample` (protobuf) | the physical sample: `t_s`, per side (`left`, `right`) `bus_v`, `current_a`, `power_w` (= bus × current), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured; `x_m`, `y_m` when a tracker fix landed on the sample; `board`: its sample frame's part beyond these ([`board_sample`]), when the frame came just before and rebuilds from it exactly |
+//! | `/rover_power/model` | `rover_power.Model` (protobuf) | the board's on-device model frame: per side `power_w`, `energy_j`, `tau_w_per_rad_s` (τ ∝ P/ω, Eq 5.14), in SI units at the board's scale |
+//! | `/rover_power/status` | `rover_power.Status` (protobuf) | the board's status frame (health counters) |
+//! | `/rover_power/command` | `rover_power.Command` (JSON) | commanded side speeds and tracked pose |
+//! | `/rover_power/event` | `foxglove.Log` (JSON) | stream events (device vanished, samples lost, ...) as Foxglove log lines, with the structured event in `event` |
+//! | `/rover_power/frame` | `rover_power.Frame` (protobuf) | every other wire frame exactly as the board encoded it, in `bytes wire = 1`; the bytes are `rover-power-wire-v<PROTOCOL_VERSION>` (channel metadata `wire_encoding`), now v3: `COBS(version ‖ postcard(BoardFrame) ‖ CRC-32) ‖ 0x00`, see `model_core::wire`. Files written before held every frame here, and before that the bare frame under that message encoding; all read |
+//!
+//! Logs written before the protobuf channels (samples, model and status in JSON) read the same.
 //!
 //! `publish_time` is the run time in ns; `log_time` is Unix time in ns, the host's clock: the
 //! [`LogEvent::WallClock`] anchor (when the first sample's bytes were read) plus the run time
@@ -22,7 +24,7 @@
 //! clock; a log without a wall-clock event (a converted CSV without its events) keeps
 //! `log_time` = run time, as files written before this did. The reader takes run time from
 //! `publish_time`, so it reads both. Frames are stored as bytes, so their run time is kept to
-//! the nanosecond; samples, commands and events carry their exact `t_s` in the JSON as well. Metadata records:
+//! the nanosecond; samples, commands and events carry their exact `t_s` as well. Metadata records:
 //! `rover_power` (protocol version, frame encoding, writer) at the start,
 //! `rover_power.wall_clock` (`unix_ns`, `at_t_s`, `unix_ns_at_run_zero`) when the wall clock is
 //! known, and `rover_power.board` at each hello frame (firmware, scale, LSBs, chip addresses, period).

@@ -111,7 +111,9 @@ impl RunLog {
             let t = items[start].0;
             let len = items[start..].partition_point(|(u, _)| u.total_cmp(&t).is_eq());
             let group = &mut items[start..start + len];
-            let sample = group.iter().position(|(_, r)| matches!(r, Record::Sample(_)));
+            let sample = group
+                .iter()
+                .position(|(_, r)| matches!(r, Record::Sample(_)));
             let frame = group
                 .iter()
                 .rposition(|(_, r)| matches!(r, Record::Frame(BoardFrame::Sample(_))));

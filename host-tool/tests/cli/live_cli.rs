@@ -93,12 +93,15 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
         .iter()
         .find(|c| c["topic"] == "/rover_power/sample")
         .expect("sample channel");
-    assert_eq!(sample["encoding"], "json");
+    // Protobuf, its schema a FileDescriptorSet in base64 (the protocol's rule for binary
+    // schemas) that names the message.
+    assert_eq!(sample["encoding"], "protobuf");
     assert_eq!(sample["schemaName"], "rover_power.Sample");
-    assert_eq!(sample["schemaEncoding"], "jsonschema");
-    let schema: Value =
-        serde_json::from_str(sample["schema"].as_str().expect("schema")).expect("schema JSON");
-    assert_eq!(schema["title"], "rover_power.Sample");
+    assert_eq!(sample["schemaEncoding"], "protobuf");
+    let schema = data_encoding::BASE64
+        .decode(sample["schema"].as_str().expect("schema").as_bytes())
+        .expect("base64");
+    assert!(schema.windows(6).any(|w| w == b"Sample"));
 
     ws.send(Message::text(
         json!({"op": "subscribe", "subscriptions": [{"id": 42, "channelId": sample["id"]}]})
@@ -106,7 +109,7 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
     ))
     .expect("subscribe");
 
-    // Every message until the server closes: binary frames `0x01 | u32 LE | u64 LE | JSON`.
+    // Every message until the server closes: binary frames `0x01 | u32 LE | u64 LE | message`.
     let mut received = Vec::new();
     let mut last_timestamp = 0u64;
     let mut goodbye = None;
@@ -120,8 +123,7 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
                 assert_eq!(id, 42);
                 assert!(timestamp >= last_timestamp, "time stamps go forward");
                 last_timestamp = timestamp;
-                let json: Value = serde_json::from_slice(&bytes[13..]).expect("JSON payload");
-                received.push(json);
+                received.push(bytes[13..].to_vec());
             }
             // The end of the stream is said before the close, once.
             Ok(Message::Text(t)) => {
@@ -148,10 +150,11 @@ fn a_foxglove_client_reads_a_demo_log_served_by_replay_in_order_without_gaps() {
     eprintln!("{} samples served and decoded in order", received.len());
     // In order, none missing: the i-th message is the log's i-th sample.
     assert_eq!(received.len(), expected.len());
+    // rover_power.Sample: t_s = 1; left = 2 and right = 3, each { bus_v = 1; current_a = 2 }.
     for (got, want) in received.iter().zip(&expected) {
-        assert_eq!(got["t_s"].as_f64(), Some(want.t_s));
-        assert_eq!(got["left"]["current_a"].as_f64(), Some(want.current_a.left));
-        assert_eq!(got["right"]["bus_v"].as_f64(), Some(want.bus_v.right));
+        assert_eq!(protobuf_double(got, &[1]), Some(want.t_s));
+        assert_eq!(protobuf_double(got, &[2, 2]), Some(want.current_a.left));
+        assert_eq!(protobuf_double(got, &[3, 1]), Some(want.bus_v.right));
     }
     // Wall-clock stamps: the replay happened just now.
     let now_ns = std::time::SystemTime::now()
@@ -249,8 +252,8 @@ fn record_serve_shows_the_recording_live_and_the_log_is_whole() {
     while energies.len() < 10 {
         match client.read().expect("a message") {
             Incoming::Data(d) => {
-                let json: Value = serde_json::from_slice(&d.payload).expect("JSON");
-                energies.push(json["total_energy_j"].as_f64().expect("energy"));
+                // rover_power.Model: total_energy_j = 6.
+                energies.push(protobuf_double(&d.payload, &[6]).expect("energy"));
             }
             Incoming::Op(_) => {}
             Incoming::Closed(_) => break,
@@ -268,4 +271,50 @@ fn record_serve_shows_the_recording_live_and_the_log_is_whole() {
     assert!(back.truncated.is_none());
     assert_eq!(back.run.samples.len(), samples.len());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The `double` at a path of field numbers in a protobuf message (`[2, 1]`: field 1 of the
+/// message in field 2), read from the wire format as the protobuf spec writes it: a key is a
+/// varint `field << 3 | wire type`; 0 varint, 1 eight bytes, 2 a varint length and its bytes,
+/// 5 four bytes.
+fn protobuf_double(message: &[u8], path: &[u32]) -> Option<f64> {
+    fn varint(bytes: &mut &[u8]) -> Option<u64> {
+        let mut value = 0u64;
+        for shift in (0..64).step_by(7) {
+            let (&b, rest) = bytes.split_first()?;
+            *bytes = rest;
+            value |= u64::from(b & 0x7f) << shift;
+            if b & 0x80 == 0 {
+                return Some(value);
+            }
+        }
+        None
+    }
+    let (&want, deeper) = path.split_first()?;
+    let mut rest = message;
+    while !rest.is_empty() {
+        let key = varint(&mut rest)?;
+        let (field, wire_type) = (key >> 3, key & 7);
+        let value: &[u8] = match wire_type {
+            0 => {
+                varint(&mut rest)?;
+                continue;
+            }
+            1 => rest.get(..8)?,
+            2 => {
+                let len = usize::try_from(varint(&mut rest)?).ok()?;
+                rest.get(..len)?
+            }
+            5 => rest.get(..4)?,
+            _ => return None,
+        };
+        rest = &rest[value.len()..];
+        if field == u64::from(want) {
+            return match deeper.is_empty() {
+                true => Some(f64::from_le_bytes(value.try_into().ok()?)),
+                false => protobuf_double(value, deeper),
+            };
+        }
+    }
+    None
 }

@@ -3,12 +3,7 @@
 //! second time (it was half of an hour's log: 768 k frame messages beside 727 k samples, each
 //! with its own MCAP record and index entry).
 //!
-//! ```proto
-//! message BoardSample { optional uint64 t_us = 1; optional uint32 seq = 2;
-//!                       optional sint32 shunt_left = 3; optional sint32 shunt_right = 4;
-//!                       optional sint32 current_left = 5; optional sint32 current_right = 6;
-//!                       optional uint32 stale = 7; }
-//! ```
+//! The message is `rover_power.BoardSample`, the sample's field `board` ([`super::proto`]).
 //!
 //! The bus register is the sample's `bus_v` over its 1.25 mV LSB, the current register its
 //! shunt register unless said (they are equal at our board's CAL of 2048), and the power
@@ -123,7 +118,9 @@ impl BoardSample {
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
             let Value::Varint(v) = value else {
-                return Err(format!("BoardSample field {field}: expected a varint, found {value:?}"));
+                return Err(format!(
+                    "BoardSample field {field}: expected a varint, found {value:?}"
+                ));
             };
             let register = || {
                 i16::try_from(proto::unzigzag(v))
@@ -131,9 +128,7 @@ impl BoardSample {
             };
             match field {
                 1 => t_us = Some(v),
-                2 => {
-                    seq = Some(u32::try_from(v).map_err(|_| format!("seq {v} is out of range"))?)
-                }
+                2 => seq = Some(u32::try_from(v).map_err(|_| format!("seq {v} is out of range"))?),
                 3 | 4 => shunt[field as usize - 3] = Some(register()?),
                 5 | 6 => current[field as usize - 5] = Some(register()?),
                 7 => stale = v,
@@ -144,7 +139,10 @@ impl BoardSample {
         Ok(BoardSample {
             t_us: t_us.ok_or("BoardSample: no t_us")?,
             seq: seq.ok_or("BoardSample: no seq")?,
-            shunt: Sides::new(need(shunt[0], "shunt_left")?, need(shunt[1], "shunt_right")?),
+            shunt: Sides::new(
+                need(shunt[0], "shunt_left")?,
+                need(shunt[1], "shunt_right")?,
+            ),
             current: Sides::new(current[0], current[1]),
             stale: Sides::new(stale & 1 != 0, stale & 2 != 0),
         })
@@ -239,10 +237,10 @@ mod tests {
     #[test]
     fn a_damaged_part_is_an_error_not_a_panic() {
         for bad in [
-            &[0x08][..],                // t_us cut short
-            &[0x08, 1],                 // no seq, no shunts
-            &[0x08, 1, 0x10, 1, 0x18],  // a shunt cut short
-            &[0x09, 0, 0, 0, 0, 0, 0, 0, 0], // t_us as a double
+            &[0x08][..],                                          // t_us cut short
+            &[0x08, 1],                                           // no seq, no shunts
+            &[0x08, 1, 0x10, 1, 0x18],                            // a shunt cut short
+            &[0x09, 0, 0, 0, 0, 0, 0, 0, 0],                      // t_us as a double
             &[0x08, 1, 0x10, 1, 0x18, 0xff, 0xff, 0x07, 0x20, 0], // a shunt past i16
         ] {
             assert!(BoardSample::read(bad).is_err(), "{bad:?}");

@@ -218,7 +218,10 @@ fn closure(message: &str, into: &mut Vec<&'static MessageDef>) {
 pub(crate) fn descriptor_set(message: &str) -> Vec<u8> {
     const LABEL_OPTIONAL: u64 = 1;
     let mut messages = Vec::new();
-    closure(message.strip_prefix("rover_power.").unwrap_or(message), &mut messages);
+    closure(
+        message.strip_prefix("rover_power.").unwrap_or(message),
+        &mut messages,
+    );
     let mut file = Writer::new();
     // FileDescriptorProto: name = 1, package = 2, message_type = 4, syntax = 12.
     file.bytes(1, b"rover_power.proto");
@@ -294,8 +297,9 @@ pub(crate) fn to_json(message: &str, data: &[u8]) -> Result<serde_json::Value, S
                 (Uint64 | Uint32, Value::Varint(v)) => serde_json::json!(v),
                 (Sint32, Value::Varint(v)) => serde_json::json!(unzigzag(v)),
                 (Bool, Value::Varint(v)) => serde_json::json!(v != 0),
-                (Str, Value::Len(b)) => serde_json::json!(std::str::from_utf8(b)
-                    .map_err(|e| e.to_string())?),
+                (Str, Value::Len(b)) => {
+                    serde_json::json!(std::str::from_utf8(b).map_err(|e| e.to_string())?)
+                }
                 (Bytes, Value::Len(b)) => serde_json::json!(b),
                 (Message(nested), Value::Len(b)) => decode(nested, b)?,
                 (ty, v) => return Err(format!("{short}.{name}: {ty:?} field holds {v:?}")),
@@ -442,10 +446,7 @@ impl<'a> Iterator for Fields<'a> {
                         .ok()
                         .filter(|&n| n <= rest.len())
                         .ok_or_else(|| {
-                            format!(
-                                "field {field} says {len} bytes, {} are left",
-                                rest.len()
-                            )
+                            format!("field {field} says {len} bytes, {} are left", rest.len())
                         })?;
                     let (v, rest) = rest.split_at(len);
                     (Value::Len(v), rest)
@@ -552,12 +553,14 @@ mod tests {
     #[test]
     fn damaged_messages_are_one_error_then_the_end() {
         for bad in [
-            &[0x09, 1, 2][..],           // a double cut short
-            &[0x12, 5, 1],               // a length past the end
-            &[0x0b],                     // a group (wire type 3)
-            &[0x80],                     // a key cut short
-            &[0x00, 1],                  // field 0
-            &[0x0a, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff],
+            &[0x09, 1, 2][..], // a double cut short
+            &[0x12, 5, 1],     // a length past the end
+            &[0x0b],           // a group (wire type 3)
+            &[0x80],           // a key cut short
+            &[0x00, 1],        // field 0
+            &[
+                0x0a, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff,
+            ],
         ] {
             let items: Vec<_> = Fields::of(bad).collect();
             assert_eq!(items.len(), 1, "{bad:?}");

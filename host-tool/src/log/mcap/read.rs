@@ -9,8 +9,8 @@
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use super::{
-    frame_encoding, frame_proto, proto, CommandMsg, EventMsg, McapError, SampleMsg,
-    TOPIC_COMMAND, TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
+    frame_encoding, frame_proto, proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
+    TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
 };
 use crate::log::run_csv::RigRange;
 use crate::log::run_log::{RunLog, RunLogSink};
@@ -600,7 +600,9 @@ impl<'s> State<'s> {
         let is_sample = self
             .channels
             .get(&index.channel_id)
-            .is_some_and(|(topic, _)| matches!(topic, Topic::Sample | Topic::JsonSample | Topic::BagSample));
+            .is_some_and(|(topic, _)| {
+                matches!(topic, Topic::Sample | Topic::JsonSample | Topic::BagSample)
+            });
         let Some(indexed) = self.skipped.get_mut(skip).and_then(|s| s.indexed.as_mut()) else {
             return;
         };

@@ -147,10 +147,7 @@ fn compressed_chunks_are_several_times_smaller() {
     };
     let (plain, zstd) = (size(None), size(Some(::mcap::Compression::Zstd)));
     // Protobuf of quantised readings and binary frames: ~2.2x (JSON was ~3x, of 3x the bytes).
-    assert!(
-        zstd * 2 < plain,
-        "zstd {zstd} B, uncompressed {plain} B"
-    );
+    assert!(zstd * 2 < plain, "zstd {zstd} B, uncompressed {plain} B");
 }
 
 /// A flipped byte: where, as a fraction of the file's length in 2⁻⁶⁴, and the xor.

@@ -766,12 +766,20 @@ fn a_log_with_json_channels_reads_and_rewrites_to_the_same_run() {
     assert_eq!(run.samples.len(), 299, "one sample without both chips");
     assert_eq!(run.frames.len(), 320);
     assert_eq!(
-        run.events.iter().map(|(_, e)| e.short_name()).collect::<Vec<_>>(),
+        run.events
+            .iter()
+            .map(|(_, e)| e.short_name())
+            .collect::<Vec<_>>(),
         ["started", "clock", "stopped"]
     );
     assert!(run.samples.iter().all(|s| s.bus_v.left > 20.0));
     let new = to_bytes(&run);
     assert_eq!(topics(&new)[TOPIC_SAMPLE], "protobuf");
     assert_eq!(read(&new).expect("rewritten").run, run);
-    assert!(new.len() < old.len(), "{} B against {} B", new.len(), old.len());
+    assert!(
+        new.len() < old.len(),
+        "{} B against {} B",
+        new.len(),
+        old.len()
+    );
 }
