@@ -365,7 +365,8 @@ def test_damage_is_an_error_unless_salvaged(host_tool, demo_runs, tmp_path):
     """As the CLI's exit code 4 unless --salvage."""
     data = bytearray(pathlib.Path(demo_runs[0]).read_bytes())
     at = len(data) * 3 // 10
-    data[at : at + 4096] = bytes(4096)
+    # 64 KiB: longer than the message indexes after a chunk, so it reaches a chunk's samples.
+    data[at : at + 65536] = bytes(65536)
     damaged = tmp_path / "damaged.mcap"
     damaged.write_bytes(bytes(data))
     assert cli(host_tool, "validate", "--runs", str(damaged), ok=False).returncode == 4
