@@ -62,6 +62,7 @@ NOT_HERE = {
     "pip install matplotlib": "CI's Python step installs it",
     "pip install rerun-sdk": "CI's Rerun step installs it (pinned)",
     "rerun run-1.mcap": "opens the Rerun viewer's window; CI converts the same log instead",
+    "rerun run-1.rrd rover-power.rbl": "opens the Rerun viewer's window",
     "cargo install --locked --path host-tool": "installs into ~/.cargo/bin; CI puts its release "
         "build on PATH as `host-tool` instead",
 }
@@ -186,6 +187,7 @@ class Fixture:
         self.files["demo-out"] = demo_out
         self.files["rovers"] = ROOT / "rovers"
         self.files["examples"] = ROOT / "examples"
+        self.files["rerun"] = ROOT / "rerun"
         capture = self.dir / "capture.bin"
         run([host_tool, "replay", "--quiet", "--to", capture, runs[0]])
         self.files["capture.bin"] = capture
