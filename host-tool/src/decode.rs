@@ -227,6 +227,15 @@ impl StreamDecoder {
         }
     }
 
+    /// Feeds a frame already decoded (a log's): what feeding its bytes does, without encoding
+    /// and decoding them again (a frame decoded from the wire re-encodes to the same bytes).
+    /// Outside a connection's wait for its hello, as a log's frames are.
+    pub fn feed_frame(&mut self, frame: &BoardFrame, mut on_event: impl FnMut(Event)) {
+        self.stats.frames += 1;
+        self.account(frame, &mut on_event);
+        on_event(Event::Frame(*frame));
+    }
+
     /// A new connection (the port was re-opened): drops the bytes of an unfinished frame, and
     /// ignores (counting them) the frames before the connection's first hello, which the board
     /// queued for the previous connection.

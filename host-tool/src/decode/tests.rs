@@ -177,8 +177,44 @@ fn an_acked_command_is_mirrored_so_the_model_matches() {
     assert!(check.host.torque_proportional.left.is_some());
     // Without mirroring, τ differs from the ack on.
     let mut blind = StreamDecoder::new();
-    blind.feed(&bytes_of(frames).concat(), |_| {});
+    blind.feed(&bytes_of(frames.clone()).concat(), |_| {});
     assert_eq!(blind.stats().model_mismatches, 15);
+
+    // A log's frames fed as frames (validate's cross-check): the same events, stats and model
+    // as their bytes, with a gap and a board reset among them.
+    frames.truncate(30);
+    frames.extend((0..5).map(|k| sample_at(k, u64::from(k) * 5_000, 7)));
+    frames.push(sample_at(9, 45_000, 7));
+    let (mut from_bytes, mut from_frames) = (StreamDecoder::new(), StreamDecoder::new());
+    let (mut bytes_events, mut frame_events) = (Vec::new(), Vec::new());
+    for d in [&mut from_bytes, &mut from_frames] {
+        d.expect_ack(HostFrame {
+            id: 9,
+            command: Command::SetWheelRates(rates),
+        });
+    }
+    from_bytes.feed(&bytes_of(frames.clone()).concat(), |e| bytes_events.push(e));
+    for f in &frames {
+        from_frames.feed_frame(f, |e| frame_events.push(e));
+    }
+    assert_eq!(frame_events, bytes_events);
+    let stats = |d: &StreamDecoder| {
+        let s = d.stats();
+        (
+            s.frames,
+            s.samples,
+            s.models,
+            s.model_mismatches,
+            s.lost_samples,
+            s.gaps,
+        )
+    };
+    assert_eq!(stats(&from_frames), stats(&from_bytes));
+    assert!(stats(&from_bytes).4 > 0, "a gap among them");
+    assert_eq!(
+        from_frames.board_vs_host_model(),
+        from_bytes.board_vs_host_model()
+    );
 }
 
 #[test]

@@ -346,6 +346,13 @@ impl SampleMsg {
     pub(crate) fn from_protobuf(
         data: &[u8],
     ) -> Result<(RunSample, Option<board_sample::BoardSample>), String> {
+        Self::from_own_protobuf(data).unwrap_or_else(|| Self::from_protobuf_fields(data))
+    }
+
+    /// [`Self::from_protobuf`] field by field, for any layout.
+    fn from_protobuf_fields(
+        data: &[u8],
+    ) -> Result<(RunSample, Option<board_sample::BoardSample>), String> {
         fn side(data: &[u8]) -> Result<[Option<f64>; 3], String> {
             let mut out = [None; 3];
             for item in proto::Fields::of(data) {
@@ -396,6 +403,69 @@ impl SampleMsg {
             y_m: optional[3],
         };
         Ok((sample, board))
+    }
+
+    /// [`Self::from_protobuf`] for a message laid out exactly as [`Self::protobuf`] writes it
+    /// (fields in order, every side value present): read at fixed offsets, as the sample channel
+    /// is most of a log. `None` for any other layout, which the general reader takes.
+    fn from_own_protobuf(
+        data: &[u8],
+    ) -> Option<Result<(RunSample, Option<board_sample::BoardSample>), String>> {
+        /// Key and length of a side: field 2 or 3, 36 bytes of four doubles (keys 1 to 4).
+        const SIDE: usize = 2 + 36;
+        fn double(bytes: &[u8], key: u8) -> Option<f64> {
+            let (&k, rest) = bytes.split_first()?;
+            if k != key {
+                return None;
+            }
+            Some(f64::from_le_bytes(*rest.first_chunk::<8>()?))
+        }
+        fn side(bytes: &[u8], field: u8) -> Option<[f64; 4]> {
+            if bytes.get(..2)? != [field << 3 | 2, 36] {
+                return None;
+            }
+            let mut out = [0.0; 4];
+            for (i, v) in out.iter_mut().enumerate() {
+                *v = double(bytes.get(2 + 9 * i..)?, (i as u8 + 1) << 3 | 1)?;
+            }
+            Some(out)
+        }
+        let t_s = double(data, 1 << 3 | 1)?;
+        let left = side(data.get(9..)?, 2)?;
+        let right = side(data.get(9 + SIDE..)?, 3)?;
+        let mut rest = data.get(9 + 2 * SIDE..)?;
+        let mut optional = [None; 4];
+        for (i, v) in optional.iter_mut().enumerate() {
+            if let Some(x) = double(rest, (i as u8 + 4) << 3 | 1) {
+                *v = Some(x);
+                rest = &rest[9..];
+            }
+        }
+        let board = match rest.split_first() {
+            None => None,
+            Some((&0x42, tail)) => {
+                let (len, tail) = proto::varint(tail)?;
+                if u64::try_from(tail.len()).ok()? != len {
+                    return None;
+                }
+                Some(match board_sample::BoardSample::read(tail) {
+                    Ok(board) => board,
+                    Err(e) => return Some(Err(e)),
+                })
+            }
+            Some(_) => return None,
+        };
+        let sample = RunSample {
+            t_s,
+            bus_v: Sides::new(left[0], right[0]),
+            current_a: Sides::new(left[1], right[1]),
+            cmd_mps: Sides::new(left[3], right[3]),
+            yaw_rad: optional[0],
+            pitch_deg: optional[1],
+            x_m: optional[2],
+            y_m: optional[3],
+        };
+        Some(Ok((sample, board)))
     }
 
     fn sample(&self) -> RunSample {

@@ -21,7 +21,7 @@
 
 use crate::decode::StreamDecoder;
 use crate::log::commands::CommandRow;
-use model_core::wire::{encode, BoardFrame, Model, MAX_FRAME};
+use model_core::wire::{BoardFrame, Model};
 use model_core::{Rover, Sides};
 use serde::Serialize;
 
@@ -161,12 +161,9 @@ impl<'a> CrossChecker<'a> {
             .map(|v| (v / f64::from(self.rover.wheel_radius_m)) as f32)
     }
 
-    /// Every frame decoded from the wire re-encodes; one that does not is skipped.
+    /// A frame of the log, into the host's decoder as if from the wire.
     fn replay(dec: &mut StreamDecoder, frame: &BoardFrame) {
-        let mut buf = [0u8; MAX_FRAME];
-        if let Ok(n) = encode(frame, &mut buf) {
-            dec.feed(&buf[..n], |_| {});
-        }
+        dec.feed_frame(frame, |_| {});
     }
 
     /// The next frame of the run, received at run time `t_s`.
@@ -317,7 +314,7 @@ mod tests {
     use super::*;
     use crate::sim::board::{SideLoad, SimBoard};
     use firmware::sampler::SamplerConfig;
-    use model_core::wire::{Command, HostFrame};
+    use model_core::wire::{encode, Command, HostFrame, MAX_FRAME};
 
     /// A simulated board (the firmware's own code) running `steps` periods with the given load,
     /// wheel rates set by a host command first; returns the frames with their run time.

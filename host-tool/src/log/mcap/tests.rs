@@ -783,3 +783,57 @@ fn a_log_with_json_channels_reads_and_rewrites_to_the_same_run() {
         old.len()
     );
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    /// The sample reader's fixed-offset path reads what the field-by-field path reads, for any
+    /// values, any optional fields and with or without a board part; any bytes give the two
+    /// paths' one answer (or an error), never a panic.
+    #[test]
+    fn the_fast_sample_path_reads_as_the_general_one(
+        values in proptest::collection::vec(any::<f64>(), 7),
+        optional in proptest::collection::vec(proptest::option::of(any::<f64>()), 4),
+        board in any::<bool>(),
+        noise in proptest::collection::vec(any::<u8>(), 0..120),
+    ) {
+        let sample = RunSample {
+            t_s: values[0],
+            bus_v: Sides::new(f64::from(values[1] as f32), values[2]),
+            current_a: Sides::new(values[3], values[4]),
+            cmd_mps: Sides::new(values[5], values[6]),
+            yaw_rad: optional[0],
+            pitch_deg: optional[1],
+            x_m: optional[2],
+            y_m: optional[3],
+        };
+        // A simulated board's sample frame (the message's bus voltages are the values
+        // above: the fast path reads the part whether or not it rebuilds a frame from them).
+        let part = board.then(|| {
+            let (run, _) = sim_run(3);
+            // (The harness's first sample has no chip reading behind it: the second.)
+            let s = run.samples[1];
+            run.frames.iter().find_map(|(t, f)| match f {
+                BoardFrame::Sample(f) if *t == s.t_s => board_sample::BoardSample::of(f, &s),
+                _ => None,
+            }).expect("the sample's frame folds into it")
+        });
+        let bytes = SampleMsg::of(&sample).protobuf(part.as_ref());
+        let fast = SampleMsg::from_own_protobuf(&bytes).expect("our layout").expect("reads");
+        let general = SampleMsg::from_protobuf_fields(&bytes).expect("reads");
+        // Bitwise (NaN included).
+        let bits = |s: &RunSample| format!("{:?}", [s.t_s, s.bus_v.left, s.bus_v.right,
+            s.current_a.left, s.current_a.right, s.cmd_mps.left, s.cmd_mps.right]
+            .map(f64::to_bits));
+        prop_assert_eq!(bits(&fast.0), bits(&general.0));
+        prop_assert_eq!(bits(&fast.0), bits(&sample));
+        prop_assert_eq!(format!("{:?}", fast.1), format!("{:?}", general.1));
+        prop_assert_eq!(fast.1.is_some(), part.is_some());
+        // Noise: both paths answer without panicking, the same where the fast one takes it.
+        if let Some(fast) = SampleMsg::from_own_protobuf(&noise) {
+            let general = SampleMsg::from_protobuf_fields(&noise);
+            prop_assert_eq!(format!("{fast:?}"), format!("{general:?}"));
+        }
+        let _ = SampleMsg::from_protobuf(&noise);
+    }
+}
