@@ -181,7 +181,8 @@ class Fixture:
             self.files[f"run-{n}.csv"] = csv
             self.files[f"my-run-{n}.csv"] = csv
         self.files["runs/first.mcap"] = runs[0]
-        self.files["old.mcap"] = runs[0]
+        # A log of the earlier version (JSON samples, model and status), as `convert` rewrites.
+        self.files["old.mcap"] = ROOT / "host-tool/tests/fixtures/mcap/json-channels-v3.mcap"
         self.files["sand-1.csv"] = runs[0].with_suffix(".csv")
         self.files["turns.commands.csv"] = runs[0].with_suffix(".commands.csv")
         self.files["demo-out"] = demo_out

@@ -188,13 +188,14 @@ pub enum Command {
     ))]
     Plot(plot::PlotArgs),
     /// Convert a run log between MCAP (.mcap) and the run CSV (.csv), or normalise one (same
-    /// format in and out; repairs an MCAP file cut short by a killed recorder). CSV → MCAP adds
+    /// format in and out; repairs an MCAP file cut short by a killed recorder, and rewrites a log
+    /// of an earlier version, JSON samples, in today's protobuf channels). CSV → MCAP adds
     /// the wire frames the board would have sent (registers quantised at 1.25 mV / 0.5 mA), so
     /// the result replays like a recording.
     #[command(after_help = examples!(
         "host-tool convert run-1.mcap run-1.csv",
         "host-tool convert run-1.csv run-1.mcap",
-        "host-tool convert old.mcap new.mcap          # rewrite an older log for Foxglove Studio",
+        "host-tool convert old.mcap new.mcap          # rewrite an older log in today's channels",
         "host-tool convert run-1.mcap run-1-bag --to ros2-bag",
     ))]
     Convert(convert::ConvertArgs),
