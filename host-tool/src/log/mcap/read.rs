@@ -140,10 +140,8 @@ pub fn stream_mcap_run(path: &Path, sink: &mut dyn RunLogSink) -> Result<McapFou
     read_mcap(file, len, path, sink)
 }
 
-/// The reader behind [`stream_mcap_run`] and [`read_mcap_bytes`]: the file is walked and its
-/// chunks decompressed on one thread ([`walk`]) while this one reads their records, so
-/// decompression (a quarter of a read's work) overlaps the rest.
-fn read_mcap<R: Read + Seek + Send>(
+/// The reader behind [`stream_mcap_run`] and [`read_mcap_bytes`].
+fn read_mcap<R: Read + Seek>(
     mut input: R,
     len: u64,
     path: &Path,
@@ -181,63 +179,76 @@ fn read_mcap<R: Read + Seek + Send>(
         summary_is_ours |= channel.topic.starts_with("/rover_power/");
         state.fallback.insert(channel.id, channel);
     }
+    let mut decoder = ChunkDecoder::default();
     let mut truncated = None;
     // The damaged chunk whose message indexes (which follow it) count what it held.
     let mut pending: Option<usize> = None;
-    std::thread::scope(|scope| -> Result<(), McapError> {
-        // A few chunks ahead: memory stays a few chunks.
-        let (tx, rx) = std::sync::mpsc::sync_channel(4);
-        scope.spawn(move || walk(walker, tx));
-        // On an error below, `rx` is dropped and the walk stops at its next send.
-        for walked in rx {
-            match walked.map_err(io_err)? {
-                Walked::Chunk {
-                    offset,
-                    end,
-                    records,
-                } => {
-                    state.chunk_records(&records, offset, end)?;
+    // After the data end record: the summary section, whose channels were read above.
+    let mut in_summary = false;
+    while let Some(step) = walker.next().map_err(io_err)? {
+        match step {
+            Step::Record { .. } if in_summary => {}
+            Step::Record {
+                opcode: op::DATA_END,
+                ..
+            } => in_summary = true,
+            Step::Record {
+                opcode: op::CHUNK,
+                offset,
+                body,
+            } => match decoder.decode(body) {
+                Ok(records) => {
+                    state.chunk_records(records, offset, offset + 9 + body.len() as u64)?;
                     pending = None;
                 }
-                Walked::ChunkFailed {
-                    offset,
-                    end,
-                    detail,
-                } => {
+                Err(problem) => {
+                    let detail = match problem {
+                        ChunkProblem::Damaged(detail) => detail,
+                        // Not in the MCAP spec (zstd, lz4): most likely a damaged name.
+                        ChunkProblem::Unsupported(c) => format!(
+                            "chunk compressed with {c:?}; this tool reads uncompressed, zstd \
+                             and lz4 chunks"
+                        ),
+                    };
                     state.skip(Skipped {
                         start_byte: offset,
-                        end_byte: end,
+                        end_byte: offset + 9 + body.len() as u64,
                         detail,
                     });
                     if let Some(skip) = state.skipped.last_mut() {
                         skip.indexed = Some(Indexed::default());
                     }
                     pending = Some(state.skipped.len() - 1);
+                    walker.chunk_failed(offset);
                 }
-                Walked::MessageIndex(body) => {
-                    if let Some(i) = pending {
-                        state.count_index(&body, i);
-                    }
-                }
-                Walked::Record {
-                    opcode,
-                    offset,
-                    body,
-                } => state.record_or_skip(opcode, &body, offset, offset + 9 + body.len() as u64)?,
-                Walked::Skipped(s) => {
-                    state.skip(s);
-                    pending = None;
-                }
-                Walked::Truncated { complete_bytes } => {
-                    truncated = Some(Truncation {
-                        complete_bytes,
-                        file_bytes: len,
-                    });
+            },
+            Step::Record {
+                opcode: op::MESSAGE_INDEX,
+                body,
+                ..
+            } => {
+                if let Some(i) = pending {
+                    state.count_index(body, i);
                 }
             }
+            Step::Record {
+                opcode,
+                offset,
+                body,
+            } => state.record_or_skip(opcode, body, offset, offset + 9 + body.len() as u64)?,
+            Step::Skipped(s) => {
+                state.skip(s);
+                pending = None;
+            }
+            Step::Footer => {}
+            Step::Truncated { complete_bytes } => {
+                truncated = Some(Truncation {
+                    complete_bytes,
+                    file_bytes: len,
+                });
+            }
         }
-        Ok(())
-    })?;
+    }
     if truncated.is_none() && !state.ours && !summary_is_ours {
         let topics: Vec<&str> = state.foreign_topics.iter().map(String::as_str).collect();
         if let (true, Some(first)) = (topics.is_empty(), state.skipped.first()) {
@@ -274,115 +285,6 @@ fn read_mcap<R: Read + Seek + Send>(
         truncated,
         losses: losses(merge(skipped)),
     })
-}
-
-/// A step of the walk as [`walk`] hands it on: a chunk decompressed and checked, or why not;
-/// the records the reader needs, owned. The summary section after the data end record is left
-/// out (its channels were read first) but for what ends the walk.
-enum Walked {
-    Chunk {
-        offset: u64,
-        /// Where the chunk record ends.
-        end: u64,
-        records: Vec<u8>,
-    },
-    ChunkFailed {
-        offset: u64,
-        end: u64,
-        detail: String,
-    },
-    MessageIndex(Vec<u8>),
-    Record {
-        opcode: u8,
-        offset: u64,
-        body: Vec<u8>,
-    },
-    Skipped(Skipped),
-    Truncated {
-        complete_bytes: u64,
-    },
-}
-
-/// Walks the file's records into `tx`, decompressing each chunk (and telling the walker of a
-/// chunk that failed, so a bad header after it resyncs from inside it); stops at the end, at
-/// an I/O error (sent on) or when the reader hangs up.
-fn walk<R: Read + Seek>(
-    mut walker: Walker<R>,
-    tx: std::sync::mpsc::SyncSender<io::Result<Walked>>,
-) {
-    let mut decoder = ChunkDecoder::default();
-    // After the data end record: the summary section.
-    let mut in_summary = false;
-    loop {
-        let step = match walker.next() {
-            Ok(Some(step)) => step,
-            Ok(None) => return,
-            Err(e) => {
-                let _ = tx.send(Err(e));
-                return;
-            }
-        };
-        let walked = match step {
-            Step::Record { .. } if in_summary => continue,
-            Step::Record {
-                opcode: op::DATA_END,
-                ..
-            } => {
-                in_summary = true;
-                continue;
-            }
-            Step::Record {
-                opcode: op::CHUNK,
-                offset,
-                body,
-            } => {
-                let end = offset + 9 + body.len() as u64;
-                match decoder.decode(body) {
-                    Ok(records) => Walked::Chunk {
-                        offset,
-                        end,
-                        records: records.to_vec(),
-                    },
-                    Err(problem) => {
-                        walker.chunk_failed(offset);
-                        let detail = match problem {
-                            ChunkProblem::Damaged(detail) => detail,
-                            // Not in the MCAP spec (zstd, lz4): most likely a damaged name.
-                            ChunkProblem::Unsupported(c) => format!(
-                                "chunk compressed with {c:?}; this tool reads uncompressed, \
-                                 zstd and lz4 chunks"
-                            ),
-                        };
-                        Walked::ChunkFailed {
-                            offset,
-                            end,
-                            detail,
-                        }
-                    }
-                }
-            }
-            Step::Record {
-                opcode: op::MESSAGE_INDEX,
-                body,
-                ..
-            } => Walked::MessageIndex(body.to_vec()),
-            Step::Record {
-                opcode,
-                offset,
-                body,
-            } => Walked::Record {
-                opcode,
-                offset,
-                body: body.to_vec(),
-            },
-            Step::Skipped(s) => Walked::Skipped(s),
-            Step::Footer => continue,
-            Step::Truncated { complete_bytes } => Walked::Truncated { complete_bytes },
-        };
-        if tx.send(Ok(walked)).is_err() {
-            return;
-        }
-    }
 }
 
 /// Samples of a damaged chunk, from the message index records that follow it.
