@@ -1,6 +1,7 @@
-//! A fast path for `/rover_power/sample` messages laid out exactly as [`super::McapSink`] writes
-//! them (serde_json's compact output, fields in declaration order). The sample channel is most
-//! of a log; serde_json's derived deserializer spends ~1.7 µs on each message, this ~0.3 µs.
+//! A fast path for the JSON `/rover_power/sample` messages of logs written before the protobuf
+//! channels, laid out exactly as [`super::McapSink`] wrote them (serde_json's compact output,
+//! fields in declaration order). The sample channel is most of a log; serde_json's derived
+//! deserializer spends ~1.7 µs on each message, this ~0.3 µs.
 //! Anything else (another key order, whitespace, unknown or `null` fields, a number that is not
 //! JSON or not finite) gives `None`, and the caller deserializes with serde_json: results and
 //! errors stay serde_json's.
