@@ -218,11 +218,7 @@ impl StreamDecoder {
                     }
                     on_event(Event::BadFrame(e));
                 }
-                Some(Ok(frame)) => {
-                    self.stats.frames += 1;
-                    self.account(&frame, &mut on_event);
-                    on_event(Event::Frame(frame));
-                }
+                Some(Ok(frame)) => self.feed_frame(&frame, &mut on_event),
             }
         }
     }

@@ -11,14 +11,16 @@
 //! before kept the bare frame under the message encoding `rover-power-wire-v<N>`; the reader
 //! takes both.
 
-use super::proto::{put_varint, varint};
+use super::proto::{varint, Writer};
 
 /// Protobuf's length-delimited wire type.
 const LEN: u8 = 2;
 
-/// Appends the message holding `wire` to `out`.
-pub(crate) fn encode(wire: &[u8], out: &mut Vec<u8>) {
-    put_len(out, 1, wire);
+/// The message holding `wire`.
+pub(crate) fn encode(wire: &[u8]) -> Vec<u8> {
+    let mut message = Writer::new();
+    message.bytes(1, wire);
+    message.into_bytes()
 }
 
 /// The wire frame a message holds.
@@ -41,12 +43,6 @@ pub(crate) fn decode(message: &[u8]) -> Result<&[u8], String> {
     Ok(rest)
 }
 
-fn put_len(out: &mut Vec<u8>, field: u8, bytes: &[u8]) {
-    out.push((field << 3) | LEN);
-    put_varint(out, bytes.len() as u64);
-    out.extend_from_slice(bytes);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,16 +51,14 @@ mod tests {
     fn a_frame_survives_the_wrapping_at_every_length_around_the_varint_steps() {
         for n in [0usize, 1, 127, 128, 300, 16_383, 16_384] {
             let wire: Vec<u8> = (0..n).map(|i| (i % 251) as u8 + 1).collect();
-            let mut message = Vec::new();
-            encode(&wire, &mut message);
+            let message = encode(&wire);
             assert_eq!(decode(&message).expect("decodes"), wire.as_slice(), "{n}");
         }
     }
 
     #[test]
     fn damaged_messages_are_errors_not_panics() {
-        let mut message = Vec::new();
-        encode(&[1, 2, 3], &mut message);
+        let message = encode(&[1, 2, 3]);
         assert!(decode(&[]).is_err());
         assert!(decode(&[0x12, 0]).expect_err("wrong key").contains("0x12"));
         assert!(decode(&message[..4])

@@ -91,8 +91,6 @@ struct MessageDef {
 
 use Type::*;
 
-const SIDE_COUNTS: &[(&str, u32, Type)] = &[("left", 1, Uint32), ("right", 2, Uint32)];
-
 /// Every message of `rover_power.proto` (the module docs show it as `.proto`).
 const MESSAGES: &[MessageDef] = &[
     MessageDef {
@@ -150,7 +148,7 @@ const MESSAGES: &[MessageDef] = &[
     },
     MessageDef {
         name: "SideCounts",
-        fields: SIDE_COUNTS,
+        fields: &[("left", 1, Uint32), ("right", 2, Uint32)],
     },
     MessageDef {
         name: "SideFaults",

@@ -202,9 +202,7 @@ impl<W: Write + Seek> McapSink<W> {
         let mut buf = [0u8; MAX_FRAME];
         let n = wire::encode(frame, &mut buf)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-        let mut message = Vec::with_capacity(n + 3);
-        frame_proto::encode(&buf[..n], &mut message);
-        self.write(Ch::Frame, t_s, &message)
+        self.write(Ch::Frame, t_s, &frame_proto::encode(&buf[..n]))
     }
 
     fn flush_records(&mut self) -> Result<(), McapError> {
@@ -564,9 +562,8 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
     fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
         self.release_pending()?;
         if let BoardFrame::Sample(sample) = frame {
-            // Encodable, or refused now as it would be on the frame channel.
-            wire::encode(frame, &mut [0u8; MAX_FRAME])
-                .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+            // Every sample frame encodes (model_core::wire's worst case fits MAX_FRAME), so
+            // holding it back defers no refusal.
             self.pending = Some((t_s, *sample));
             return Ok(());
         }
@@ -618,16 +615,14 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
         }
         // Its sample frame rides along when it came just before and rebuilds exactly.
         let board = match self.pending.take() {
-            Some((t_s, frame)) if t_s.to_bits() == sample.t_s.to_bits() => {
-                let board = BoardSample::of(&frame, sample);
+            Some((t_s, frame)) => {
+                let board = (t_s.to_bits() == sample.t_s.to_bits())
+                    .then(|| BoardSample::of(&frame, sample))
+                    .flatten();
                 if board.is_none() {
                     self.write_frame(t_s, &BoardFrame::Sample(frame))?;
                 }
                 board
-            }
-            Some((t_s, frame)) => {
-                self.write_frame(t_s, &BoardFrame::Sample(frame))?;
-                None
             }
             None => None,
         };

@@ -518,8 +518,7 @@ fn a_bad_message_is_a_loss_naming_its_topic_and_time() {
     let (run, _) = sim_run(10);
     let mut sink = McapSink::new(Cursor::new(Vec::new())).expect("sink");
     // Bypass the encoders: a frame message that is not a frame, a sample that is not protobuf.
-    let mut not_a_frame = Vec::new();
-    frame_proto::encode(b"\x05garbage\x00", &mut not_a_frame);
+    let not_a_frame = frame_proto::encode(b"\x05garbage\x00");
     sink.write(sink::Ch::Frame, 0.001, &not_a_frame)
         .expect("written");
     for (i, s) in run.samples.iter().enumerate() {
