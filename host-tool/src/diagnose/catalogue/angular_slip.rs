@@ -167,7 +167,7 @@ fn angular_slip(ev: &Evidence<'_>) -> Signature {
             // R′ commands the fastest wheel of the drive set: a drive's top speed is the rival.
             if test.sized {
                 if let Some(ceiling) =
-                    speed_ceiling::explains(ev.rows, ev.calibration_rows, point_mean)
+                    speed_ceiling::explains(ev.rows, ev.calibration_rows, point_mean, asymmetry)
                 {
                     test.present = false;
                     detail = format!("{detail}; {}", ceiling.words());
