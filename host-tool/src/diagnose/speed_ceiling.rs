@@ -110,9 +110,8 @@ impl Turn {
     /// How much more than the ceiling's prediction this turn's slip may fall short by and the
     /// ceiling still stand: the mark's floor, plus what a side asymmetry of `asymmetry` (half
     /// the sides' difference δ, [`asymmetry_slip`](super::matched_slip::asymmetry_slip)) moves
-    /// this turn against the point turn (δ·fastest/(v_out − v_in) here, δ/2 there). This turn
-    /// also runs at another yaw rate than R′ and the point turn: a slip that grows with it
-    /// stays within the floor over the turns the ceiling can reach.
+    /// this turn against the point turn (δ·fastest/(v_out − v_in) here, δ/2 there). Its other
+    /// yaw rate is taken off its excess before (the calibration's turns at that yaw rate).
     fn tolerance(&self, asymmetry: f64) -> f64 {
         let delta = 2.0 * asymmetry;
         MIN_SLIP_EXCESS + delta * (self.fastest() / (self.v_out - self.v_in) + 0.5)
