@@ -12,8 +12,8 @@
 //! | `slope` | manoeuvres off level (\|pitch\| > 1°) | binomial tail against 5 % of level manoeuvres reading off level |
 //! | `motor-heating` | within-manoeuvre-kind trend of power over run time, a manoeuvre repeated within a run | permutation test (the "where" analysis), rising |
 //! | `sinkage-bulldozing` | growth through the manoeuvre (second half − first half of its steady part), each side: of turns below R′, or of turns below R′ and straights | Welch t per side against straights and wide turns, or one-sample t per side against none (not with heating's or the slope's mark present); ≥ 1.5 W on both, the weaker side's p ×2, the stronger reading's p ×2 |
-//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, ≥ 1.5 W above both and beyond the largest step between neighbouring radii elsewhere on that side (the baseline's structure) |
-//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, ≥ 1.5 W above both and beyond the largest step elsewhere, as for `inner-drag` |
+//! | `inner-drag` | inner-side residual in dragged-inner turns | Welch t against the inner side of each neighbouring regime, tested beyond the larger of 1.5 W and the largest step between neighbouring radii elsewhere on that side (the baseline's structure) |
+//! | `braked-inner` | outer-side residual at R′ | Welch t against the outer side of each neighbouring radius, tested beyond the larger of 1.5 W and the largest step elsewhere, as for `inner-drag` |
 
 use super::baseline::Baseline;
 use super::calibration::{Calibration, Source};
@@ -288,10 +288,11 @@ fn side_residuals(ev: &Evidence<'_>, role: SideRole, keep: impl Fn(&TurnRow) -> 
 }
 
 /// A step test of the `role` side's residual: the rows matching `at` against each group of
-/// `around` that has rows (the neighbours below and above), by Welch t, at least
-/// [`PRACTICAL_FLOOR_W`] above each. An effect confined to some radii is a plateau with an
-/// edge on both sides; a misfit smooth in the radius (copper loss, the split) rises towards
-/// it from a neighbour. The statistic is the weakest edge's, its p doubled.
+/// `around` that has rows (the neighbours below and above), by Welch t, beyond the larger of
+/// [`PRACTICAL_FLOOR_W`] and the largest step between radii elsewhere. An effect confined to
+/// some radii is a plateau with an edge on both sides; a misfit smooth in the radius (copper
+/// loss, the split) rises towards it from a neighbour. The statistic is the weakest edge's, its
+/// p doubled.
 pub(crate) fn step_test(
     ev: &Evidence<'_>,
     effect: EffectId,
@@ -304,12 +305,18 @@ pub(crate) fn step_test(
         return Signature::masked(effect, supply_words(supply));
     }
     let here = side_residuals(ev, role, &at);
+    // A step is this effect's own only where the model's residual does not step as far between
+    // radii where no such effect acts: there the step is the baseline's structure. So the step
+    // is tested beyond that size, not only compared with it.
+    let elsewhere = largest_step_elsewhere(ev, role, &at);
+    let floor = PRACTICAL_FLOOR_W.max(elsewhere);
+    let beyond: Vec<f64> = here.iter().map(|v| v - floor).collect();
     let edges: Vec<(f64, f64, f64, f64, usize)> = around
         .iter()
         .map(|keep| side_residuals(ev, role, keep))
         .filter(|there| !there.is_empty())
         .filter_map(|there| {
-            welch_upper(&here, &there).map(|(d, t, df, p)| (d, t, df, p, there.len()))
+            welch_upper(&beyond, &there).map(|(d, t, df, p)| (d + floor, t, df, p, there.len()))
         })
         .collect();
     let Some(&(diff, t, df, p, n)) = edges.iter().max_by(|a, b| a.3.total_cmp(&b.3)) else {
@@ -323,9 +330,6 @@ pub(crate) fn step_test(
     };
     let p = (p * edges.len() as f64).min(1.0);
     let smallest_step = edges.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
-    // A step is this effect's own only where the model's residual does not step as far between
-    // radii where no such effect acts: there the step is the baseline's structure.
-    let elsewhere = largest_step_elsewhere(ev, role, &at);
     Signature::tested(
         effect,
         SignatureTest {
@@ -333,13 +337,13 @@ pub(crate) fn step_test(
             statistic: t,
             df,
             p,
-            present: p < ALPHA && smallest_step >= PRACTICAL_FLOOR_W.max(elsewhere),
-            sized: smallest_step >= PRACTICAL_FLOOR_W.max(elsewhere),
+            present: p < ALPHA && smallest_step >= floor,
+            sized: smallest_step >= floor,
         },
         format!(
             "the {} side {what} draws {diff:+.1} W beyond the model more than at its weaker edge \
-             ({} against {n} turns; {} edge(s) tested); the largest step between neighbouring \
-             radii elsewhere on that side is {elsewhere:.1} W",
+             ({} against {n} turns; {} edge(s) tested), t beyond {floor:.1} W: the largest step \
+             between neighbouring radii elsewhere on that side is {elsewhere:.1} W",
             role.id(),
             here.len(),
             edges.len()

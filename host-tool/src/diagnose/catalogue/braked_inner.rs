@@ -3,8 +3,8 @@
 //!
 //! - Term: at R = R′ only, the outer side's |V_o|.
 //! - Mark (on the power model's residuals): the outer side at R′ against the outer side at the
-//!   next commanded radius below and above, Welch t, ≥ 1.5 W above both and beyond the largest
-//!   step elsewhere: a step at one radius.
+//!   next commanded radius below and above, Welch t, tested beyond the larger of 1.5 W and the
+//!   largest step elsewhere: a step at one radius.
 
 use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, MAX_PARAMS,

@@ -4,8 +4,8 @@
 //! - Term: inner side q·|V_i| with q = |V_i|·v_iy/v_c², v_iy = ω(R − B/2), for B/2 < R < R′; it
 //!   grows through the turn (the inner wheels' excavated pile, Fig 5.7b).
 //! - Mark (on the power model's residuals): the inner side between B/2 and R′ against the inner
-//!   side of each regime beside it, Welch t, ≥ 1.5 W above both and beyond the largest step
-//!   between neighbouring radii elsewhere on that side.
+//!   side of each regime beside it, Welch t, tested beyond the larger of 1.5 W and the largest
+//!   step between neighbouring radii elsewhere on that side.
 
 use crate::diagnose::effect::{
     Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, MAX_PARAMS,
