@@ -5,9 +5,9 @@
 //!   and time), either sign (G·|V| takes the sand's resistance on the straights); it grows
 //!   through the turn.
 //! - Mark: power rising through the manoeuvre on each side as the wheels sink: the turns below
-//!   R′ beyond the straights and wide turns (Welch t per side), or the tight turns and
-//!   straights beyond none (one-sample t per side; not while another effect's mark says it
-//!   raises every manoeuvre too); ≥ 1.5 W on both sides, the weaker side's p ×2, the stronger
+//!   R′ beyond what the straights and wide turns grow at the same power (Welch t per side), or
+//!   the tight turns and straights beyond none (one-sample t per side; not while another
+//!   effect's mark says it raises every manoeuvre too); ≥ 1.5 W on both sides, the weaker side's p ×2, the stronger
 //!   reading's p ×2.
 
 use crate::diagnose::effect::{
@@ -92,9 +92,10 @@ impl Effect for SinkageBulldozing {
 
 /// `sinkage-bulldozing`: the wheels sink after each start, so power rises through the
 /// manoeuvre on **each** side by at least [`PRACTICAL_FLOOR_W`], read two ways: the turns below
-/// R′ beyond the straights and wide turns (runs and calibration; slip sinks them deeper), by
-/// Welch t per side; or, where the sand yields on the straights as much (a heavy rover), the
-/// turns below R′ and the straights beyond no growth at all, by one-sample t per side, unless
+/// R′ beyond what the straights and wide turns grow at the same power (runs and calibration;
+/// slip sinks them deeper), by Welch t per side; or, where the sand yields on the straights as
+/// much (a heavy rover), the turns below R′ and the straights beyond no growth at all, by
+/// one-sample t per side, unless
 /// `rising_otherwise` raises a manoeuvre's power through it as well: a warmer winding (motor
 /// heating's mark not yet looked for and missing; it does not start over at the next manoeuvre
 /// as sinkage does: heating's drives tell them apart, so such a rise in size leaves the mark
@@ -104,21 +105,30 @@ impl Effect for SinkageBulldozing {
 /// transient makes power fall through the manoeuvre, not rise.
 fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -> Signature {
     let e = EffectId::SinkageBulldozing;
-    let tight: Vec<[f64; 2]> = ev
+    let tight_rows: Vec<&TurnRow> = ev
         .rows
         .iter()
         .filter(|r| !r.is_straight() && r.r_over_r_prime < 1.0)
-        .filter_map(both_growths)
+        .filter(|r| both_growths(r).is_some())
         .collect();
+    let tight: Vec<[f64; 2]> = tight_rows.iter().filter_map(|r| both_growths(r)).collect();
     if tight.len() < 2 {
         return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
     }
     let rows = || ev.rows.iter().chain(ev.calibration_rows);
-    let mut wide: Vec<f64> = rows()
+    // The straights' and wide turns' growth (mean of both sides) against their power: a rise
+    // that scales with the power drawn (a lagging speed loop still bringing a loaded drive up
+    // to speed) is expected of a tight turn at its own power, not only at theirs.
+    let reference: Vec<(f64, f64)> = rows()
         .filter(|r| r.is_straight() || r.r_over_r_prime > 1.0)
-        .filter_map(both_growths)
-        .map(|g| 0.5 * (g[0] + g[1]))
+        .filter_map(|r| {
+            let g = both_growths(r)?;
+            let p = 0.5 * (r.sides[0].avg_power_w + r.sides[1].avg_power_w);
+            Some((p, 0.5 * (g[0] + g[1])))
+        })
         .collect();
+    let line = GrowthLine::fit(&reference);
+    let mut wide: Vec<f64> = reference.iter().map(|&(p, g)| g - line.at(p)).collect();
     if wide.len() < 2 {
         // Nothing to compare with: against no growth at all.
         wide = vec![0.0, 0.0];
@@ -130,7 +140,11 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
         .collect();
     // Per side: (growth beyond the reference, t, df, p).
     let beyond_wide = |s: usize| -> Option<(f64, f64, f64, f64)> {
-        let growth: Vec<f64> = tight.iter().map(|g| g[s]).collect();
+        let growth: Vec<f64> = tight_rows
+            .iter()
+            .zip(&tight)
+            .map(|(r, g)| g[s] - line.at(r.sides[s].avg_power_w))
+            .collect();
         welch_upper(&growth, &wide)
     };
     let beyond_none = |s: usize| -> Option<(f64, f64, f64, f64)> {
@@ -159,10 +173,12 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
         .filter(|_| all_grow.is_some_and(|(all, _, _)| sized(&all)));
     let turns_detail = format!(
         "turns below R′ grow {:+.1} W on the inner side and {:+.1} W on the outer side \
-         through the turn beyond {} straight(s) and wide turn(s)",
+         through the turn beyond what {} straight(s) and wide turn(s) grow at the same power \
+         ({:+.1} W per kW drawn)",
         inner.0,
         outer.0,
-        wide.len()
+        wide.len(),
+        line.slope * 1000.0
     );
     // The stronger reading: the one reaching the floor, else the smaller p.
     let (chosen, name, detail) = match everywhere {
@@ -196,6 +212,45 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
     }
 }
 
+/// The growth a straight or wide turn shows at its power: the least-squares line of growth
+/// against power through them when it rises with power, else their mean growth (fewer than 3
+/// of them, or no spread in power).
+struct GrowthLine {
+    mean_power_w: f64,
+    mean_growth_w: f64,
+    /// [W of growth per W drawn], ≥ 0.
+    slope: f64,
+}
+
+impl GrowthLine {
+    /// The line through `reference` (power, growth) [W].
+    fn fit(reference: &[(f64, f64)]) -> Self {
+        let n = reference.len().max(1) as f64;
+        let mean_power_w = reference.iter().map(|r| r.0).sum::<f64>() / n;
+        let mean_growth_w = reference.iter().map(|r| r.1).sum::<f64>() / n;
+        let sxx: f64 = reference.iter().map(|r| (r.0 - mean_power_w).powi(2)).sum();
+        let sxy: f64 = reference
+            .iter()
+            .map(|r| (r.0 - mean_power_w) * (r.1 - mean_growth_w))
+            .sum();
+        let slope = if reference.len() >= 3 && sxx > 0.0 {
+            (sxy / sxx).max(0.0)
+        } else {
+            0.0
+        };
+        Self {
+            mean_power_w,
+            mean_growth_w,
+            slope,
+        }
+    }
+
+    /// The growth expected at `power_w` [W].
+    fn at(&self, power_w: f64) -> f64 {
+        self.mean_growth_w + self.slope * (power_w - self.mean_power_w)
+    }
+}
+
 /// The growth through the turn of both sides of `row`, when both have it.
 fn both_growths(row: &TurnRow) -> Option<[f64; 2]> {
     Some([row.sides[0].growth_w?, row.sides[1].growth_w?])
@@ -218,5 +273,38 @@ fn reading_test(
         p: (readings * p).min(1.0),
         present: readings * p < ALPHA && sized,
         sized: sized || told_apart,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GrowthLine;
+
+    /// A lagging loop's rise, 0.4 % of the power drawn, on straights and wide turns: a tight
+    /// turn at 1.3 kW is expected to rise as much (5.2 W), not as their mean (2.5 W).
+    #[test]
+    fn a_rise_with_power_is_expected_at_the_turns_power() {
+        let reference: Vec<(f64, f64)> = [200.0, 640.0, 600.0, 660.0, 250.0]
+            .iter()
+            .map(|&p| (p, 0.004 * p))
+            .collect();
+        let line = GrowthLine::fit(&reference);
+        assert!((line.slope - 0.004).abs() < 1e-12, "{}", line.slope);
+        assert!((line.at(1300.0) - 5.2).abs() < 1e-9);
+    }
+
+    /// Growth that falls with power is not a loop's rise: the reference stays their mean, as
+    /// without a line (fewer than 3 manoeuvres, or all at one power).
+    #[test]
+    fn otherwise_the_reference_is_the_mean_growth() {
+        let falling = [(100.0, 3.0), (500.0, 1.0), (900.0, -1.0)];
+        let line = GrowthLine::fit(&falling);
+        assert_eq!(line.slope, 0.0);
+        assert!((line.at(2000.0) - 1.0).abs() < 1e-12);
+        let two = GrowthLine::fit(&[(100.0, 1.0), (900.0, 5.0)]);
+        assert_eq!((two.slope, two.at(900.0)), (0.0, 3.0));
+        let one_power = GrowthLine::fit(&[(300.0, 1.0), (300.0, 2.0), (300.0, 3.0)]);
+        assert_eq!((one_power.slope, one_power.at(1000.0)), (0.0, 2.0));
+        assert_eq!(GrowthLine::fit(&[]).at(500.0), 0.0);
     }
 }
