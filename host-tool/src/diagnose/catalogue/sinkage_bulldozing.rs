@@ -116,19 +116,23 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
         return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
     }
     let rows = || ev.rows.iter().chain(ev.calibration_rows);
-    // The straights' and wide turns' growth (mean of both sides) against their power: a rise
-    // that scales with the power drawn (a lagging speed loop still bringing a loaded drive up
-    // to speed) is expected of a tight turn at its own power, not only at theirs.
-    let reference: Vec<(f64, f64)> = rows()
+    // The straights' and wide turns' growth against their power, side by side: a rise that
+    // scales with the power a side draws (a lagging speed loop still bringing a loaded drive
+    // up to speed; a regenerating side's falls) is expected of a tight turn's side at its own
+    // power, not only at theirs. Each of them counts once, as the mean of its sides' growth
+    // beyond that line.
+    let reference: Vec<[(f64, f64); 2]> = rows()
         .filter(|r| r.is_straight() || r.r_over_r_prime > 1.0)
         .filter_map(|r| {
             let g = both_growths(r)?;
-            let p = 0.5 * (r.sides[0].avg_power_w + r.sides[1].avg_power_w);
-            Some((p, 0.5 * (g[0] + g[1])))
+            Some([0, 1].map(|s| (r.sides[s].avg_power_w, g[s])))
         })
         .collect();
-    let line = GrowthLine::fit(&reference);
-    let mut wide: Vec<f64> = reference.iter().map(|&(p, g)| g - line.at(p)).collect();
+    let line = GrowthLine::fit(&reference.concat());
+    let mut wide: Vec<f64> = reference
+        .iter()
+        .map(|sides| 0.5 * sides.iter().map(|&(p, g)| g - line.at(p)).sum::<f64>())
+        .collect();
     if wide.len() < 2 {
         // Nothing to compare with: against no growth at all.
         wide = vec![0.0, 0.0];
