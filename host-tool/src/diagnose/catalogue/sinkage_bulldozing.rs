@@ -7,8 +7,8 @@
 //! - Mark: power rising through the manoeuvre on each side as the wheels sink: the turns below
 //!   R′ beyond what the straights and wide turns grow at the same power (Welch t per side), or
 //!   the tight turns and straights beyond none (one-sample t per side; not while another
-//!   effect's mark says it raises every manoeuvre too); ≥ 1.5 W on both sides, the weaker side's p ×2, the stronger
-//!   reading's p ×2.
+//!   effect's mark says it raises every manoeuvre too); ≥ 1.5 W on both sides, the weaker
+//!   side's p ×2, the stronger reading's p ×2.
 
 use crate::diagnose::effect::{
     AlsoRises, Context, Effect, MarkDrive, MarkSource, Marks, Measurement, PathSegment, SignRule,
@@ -95,23 +95,22 @@ impl Effect for SinkageBulldozing {
 /// R′ beyond what the straights and wide turns grow at the same power (runs and calibration;
 /// slip sinks them deeper), by Welch t per side; or, where the sand yields on the straights as
 /// much (a heavy rover), the turns below R′ and the straights beyond no growth at all, by
-/// one-sample t per side, unless
-/// `rising_otherwise` raises a manoeuvre's power through it as well: a warmer winding (motor
-/// heating's mark not yet looked for and missing; it does not start over at the next manoeuvre
-/// as sinkage does: heating's drives tell them apart, so such a rise in size leaves the mark
-/// inconclusive, not missing) or a grade changing under the rover (the slope's mark). The weaker
-/// side's test, its p doubled, of the stronger reading, its p doubled again. A drag of the
-/// inner side alone (which also grows) does not pass on the outer side; an acceleration
-/// transient makes power fall through the manoeuvre, not rise.
+/// one-sample t per side, unless `rising_otherwise` raises a manoeuvre's power through it as
+/// well: a warmer winding (motor heating's mark not yet looked for and missing; it does not
+/// start over at the next manoeuvre as sinkage does: heating's drives tell them apart, so such a
+/// rise in size leaves the mark inconclusive, not missing) or a grade changing under the rover
+/// (the slope's mark). The weaker side's test, its p doubled, of the stronger reading, its p
+/// doubled again. A drag of the inner side alone (which also grows) does not pass on the outer
+/// side; an acceleration transient makes power fall through the manoeuvre, not rise.
 fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -> Signature {
     let e = EffectId::SinkageBulldozing;
-    let tight_rows: Vec<&TurnRow> = ev
+    // The turns below R′ with both sides' growth.
+    let tight: Vec<(&TurnRow, [f64; 2])> = ev
         .rows
         .iter()
         .filter(|r| !r.is_straight() && r.r_over_r_prime < 1.0)
-        .filter(|r| both_growths(r).is_some())
+        .filter_map(|r| Some((r, both_growths(r)?)))
         .collect();
-    let tight: Vec<[f64; 2]> = tight_rows.iter().filter_map(|r| both_growths(r)).collect();
     if tight.len() < 2 {
         return Signature::unobservable(e, "fewer than 2 turns below R′ with their growth");
     }
@@ -139,14 +138,13 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
     }
     let driven: Vec<[f64; 2]> = tight
         .iter()
-        .copied()
+        .map(|&(_, g)| g)
         .chain(rows().filter(|r| r.is_straight()).filter_map(both_growths))
         .collect();
     // Per side: (growth beyond the reference, t, df, p).
     let beyond_wide = |s: usize| -> Option<(f64, f64, f64, f64)> {
-        let growth: Vec<f64> = tight_rows
+        let growth: Vec<f64> = tight
             .iter()
-            .zip(&tight)
             .map(|(r, g)| g[s] - line.at(r.sides[s].avg_power_w))
             .collect();
         welch_upper(&growth, &wide)
@@ -216,9 +214,9 @@ fn sinkage(ev: &Evidence<'_>, rising_otherwise: Option<(EffectId, AlsoRises)>) -
     }
 }
 
-/// The growth a straight or wide turn shows at its power: the least-squares line of growth
-/// against power through them when it rises with power, else their mean growth (fewer than 3
-/// of them, or no spread in power).
+/// The growth a side of a straight or wide turn shows at its power: the least-squares line of
+/// growth against power through those sides when it rises with power, else their mean growth
+/// (fewer than 3 of them, or no spread in power).
 struct GrowthLine {
     mean_power_w: f64,
     mean_growth_w: f64,
