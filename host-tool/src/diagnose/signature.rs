@@ -342,8 +342,9 @@ pub(crate) fn step_test(
         },
         format!(
             "the {} side {what} draws {diff:+.1} W beyond the model more than at its weaker edge \
-             ({} against {n} turns; {} edge(s) tested), t beyond {floor:.1} W: the largest step \
-             between neighbouring radii elsewhere on that side is {elsewhere:.1} W",
+             ({} against {n} turns; {} edge(s) tested), t beyond {floor:.1} W: the larger of \
+             {PRACTICAL_FLOOR_W:.1} W and the largest step between neighbouring radii elsewhere \
+             on that side ({elsewhere:.1} W)",
             role.id(),
             here.len(),
             edges.len()
