@@ -3,8 +3,8 @@
 
 use crate::figures::RunSamples;
 use crate::log::load::{
-    load_salvaging, refuse_duplicate_digests, refuse_duplicate_runs, stream_salvaging, LoadError,
-    RunFormat, StreamFound,
+    load_salvaging, refuse_duplicate_digests, refuse_duplicate_runs, stream_own_run_csv,
+    stream_salvaging, LoadError, RunFormat, StreamFound,
 };
 use crate::log::mcap::{Loss, Truncation};
 use crate::log::run_csv::{visit_own_run_csv, DroppedRow, RigRange, RunSample};
@@ -205,14 +205,41 @@ impl StreamedRuns {
     }
 
     /// Reads run `index` again into `sink` (e.g. a third pass, for what the report does not
-    /// hold), as a stream; `None` for an index past the runs.
+    /// hold), as a stream, the way it was first read (this tool's own run CSV by the fast
+    /// path); `None` for an index past the runs.
     pub fn read_again(
         &self,
         index: usize,
-        sink: &mut dyn RunLogSink,
+        sink: &mut (dyn RunLogSink + Send),
     ) -> Option<Result<StreamFound, LoadError>> {
         let path = self.paths.get(index)?;
-        Some(stream_salvaging(path, self.salvage, self.range, sink))
+        Some(self.stream(index, path, sink))
+    }
+
+    /// Streams run `index` at `path` into `sink` as it was first read: this tool's own run
+    /// CSV through the fast path (the file changed if it no longer takes it), any other log by
+    /// [`stream_salvaging`].
+    fn stream(
+        &self,
+        index: usize,
+        path: &Path,
+        sink: &mut (dyn RunLogSink + Send),
+    ) -> Result<StreamFound, LoadError> {
+        if !self.reads[index].own_csv() {
+            return stream_salvaging(path, self.salvage, self.range, sink);
+        }
+        if !stream_own_run_csv(path, self.range, sink)? {
+            return Err(LoadError::Changed {
+                path: path.to_owned(),
+            });
+        }
+        Ok(StreamFound {
+            run: (),
+            format: RunFormat::Csv,
+            truncated: None,
+            losses: Vec::new(),
+            dropped_rows: Vec::new(),
+        })
     }
 
     /// The second pass: validates the runs together, as [`Runs::validate`] does.
@@ -221,17 +248,23 @@ impl StreamedRuns {
         validate::stream::begin(self.reads.len(), options)?;
         let bar = progress::bar(self.reads.len() as u64, "validating runs");
         let mut runs = Vec::with_capacity(self.reads.len());
-        for ((name, path), read) in self.names.iter().zip(&self.paths).zip(&self.reads) {
+        for (index, ((name, path), read)) in self
+            .names
+            .iter()
+            .zip(&self.paths)
+            .zip(&self.reads)
+            .enumerate()
+        {
             let scan = match read {
                 FirstRead::Validated { result, .. } => {
                     runs.push(result.as_ref().clone()?);
                     bar.inc(1);
                     continue;
                 }
-                FirstRead::Scanned(scan) => scan,
+                FirstRead::OwnCsv(scan) | FirstRead::Scanned(scan) => scan,
             };
             let mut pass = RunPass::new(name, scan, rover, options)?;
-            stream_salvaging(path, self.salvage, self.range, &mut pass)?;
+            self.stream(index, path, &mut pass)?;
             if pass.samples() != scan.samples() {
                 return Err(StreamedRunsError::Changed {
                     name: name.clone(),
@@ -256,15 +289,25 @@ enum FirstRead {
         // Boxed: a run's report is large beside the scan.
         result: Box<Result<RunResult, ValidateError>>,
     },
-    /// Scanned as a stream: read again to validate.
+    /// This tool's run CSV, scanned as it was read (the one pass's guess of the gap threshold
+    /// failed): read again by the fast path to validate.
+    OwnCsv(RunScan),
+    /// Any other log, scanned as a stream: read again to validate.
     Scanned(RunScan),
 }
 
 impl FirstRead {
     fn scan(&self) -> &RunScan {
         match self {
-            FirstRead::Validated { scan, .. } | FirstRead::Scanned(scan) => scan,
+            FirstRead::Validated { scan, .. }
+            | FirstRead::OwnCsv(scan)
+            | FirstRead::Scanned(scan) => scan,
         }
+    }
+
+    /// Whether the run is this tool's own run CSV (read by the fast path).
+    fn own_csv(&self) -> bool {
+        matches!(self, FirstRead::Validated { .. } | FirstRead::OwnCsv(_))
     }
 }
 
@@ -293,7 +336,7 @@ fn validate_own_csv(
             scan,
             result: Box::new(result),
         },
-        (scan, None) => FirstRead::Scanned(scan),
+        (scan, None) => FirstRead::OwnCsv(scan),
     }))
 }
 
@@ -502,6 +545,104 @@ mod tests {
             .to_string();
             assert_eq!(got, want);
         }
+    }
+
+    /// Every record a stream gives, in order.
+    #[derive(Default, PartialEq, Debug)]
+    struct Records(Vec<String>);
+
+    impl RunLogSink for Records {
+        fn sample(&mut self, s: &RunSample) -> std::io::Result<()> {
+            self.0.push(format!("{s:?}"));
+            Ok(())
+        }
+        fn event(&mut self, t_s: f64, e: &crate::log::run_log::LogEvent) -> std::io::Result<()> {
+            self.0.push(format!("{t_s} {e:?}"));
+            Ok(())
+        }
+    }
+
+    /// This tool's run CSV is read again by the fast path, with the records (its events among
+    /// the samples) the general reader gives; a file that no longer takes that path is
+    /// refused as changed, not read half by one reader.
+    #[test]
+    fn a_run_csv_read_again_gives_the_general_readers_records() {
+        use crate::log::csv_sink::CsvRunSink;
+        use crate::log::run_log::LogEvent;
+        let dir = TempDir::new("read-again");
+        let path = dir.path().join("run.csv");
+        let rover = Rover::HUSKY_A200;
+        let options = ValidateOptions::for_rover(&rover);
+        let events = [
+            (
+                0.2,
+                LogEvent::SamplesLost {
+                    after_seq: 40,
+                    missing: 2,
+                },
+            ),
+            (
+                3.0,
+                LogEvent::DeviceVanished {
+                    port: "/dev/ttyACM0".into(),
+                },
+            ),
+            (
+                99.0,
+                LogEvent::DeviceVanished {
+                    port: "/dev/ttyACM1".into(),
+                },
+            ),
+        ];
+        let mut sink = CsvRunSink::create(&path, false).expect("sink");
+        let mut next = events.iter().peekable();
+        for i in 0..2_000 {
+            let t_s = i as f64 * 0.01;
+            let (l, r) = if (i / 250) % 2 == 0 {
+                (0.3, 0.3)
+            } else {
+                (0.3, -0.3)
+            };
+            let s = RunSample::new(
+                t_s,
+                Sides::new(24.0, 23.9),
+                Sides::new(1.5 + 0.001 * (i % 7) as f64, 1.7),
+                Sides::new(l, r),
+            );
+            while let Some((t, e)) = next.next_if(|(t, _)| *t <= t_s) {
+                sink.event(*t, e).expect("event");
+            }
+            sink.sample(&s).expect("sample");
+        }
+        for (t, e) in next {
+            sink.event(*t, e).expect("event");
+        }
+        sink.finish().expect("finish");
+        drop(sink);
+
+        let paths = [path.clone()];
+        let streamed = StreamedRuns::scan(&paths, false, RigRange::default(), &rover, &options)
+            .expect("scans");
+        assert!(streamed.reads[0].own_csv(), "the fast path read it first");
+        let mut want = Records::default();
+        stream_salvaging(&path, false, RigRange::default(), &mut want).expect("general");
+        assert_eq!(want.0.len(), 2_000 + events.len());
+        let mut got = Records::default();
+        streamed
+            .read_again(0, &mut got)
+            .expect("a run")
+            .expect("reads");
+        assert_eq!(got, want);
+
+        // CRLF line ends: a valid run CSV, but not this tool's layout.
+        let text = std::fs::read_to_string(&path).expect("read");
+        std::fs::write(&path, text.replace('\n', "\r\n")).expect("write");
+        let e = streamed
+            .read_again(0, &mut Records::default())
+            .expect("a run")
+            .expect_err("changed");
+        assert!(matches!(e, LoadError::Changed { .. }), "{e}");
+        assert!(e.to_string().contains("the file changed"), "{e}");
     }
 
     #[test]

@@ -5,7 +5,8 @@
 use super::csv_sink::{events_path, read_events, EventsFileError};
 use super::mcap::{read_mcap_run, stream_mcap_run, Loss, McapError, Truncation};
 use super::run_csv::{
-    read_run_csv_salvaging, DroppedRow, RigRange, RunCsvFileError, RunCsvReader, RunSample,
+    read_run_csv_salvaging, visit_own_run_csv, DroppedRow, RigRange, RunCsvFileError, RunCsvReader,
+    RunSample,
 };
 use super::run_log::{LogEvent, RunLog, RunLogSink};
 use crate::ros2::read::{bag_file, BagReadError};
@@ -102,6 +103,12 @@ pub enum LoadError {
         first: String,
         /// The input that repeats it.
         second: String,
+    },
+    /// A file read again is no longer what it was on its first read.
+    #[error("{}: the file changed while it was being read (it read as this tool's run CSV before, not now)", path.display())]
+    Changed {
+        /// The file.
+        path: PathBuf,
     },
 }
 
@@ -271,6 +278,52 @@ pub fn stream_salvaging(
             })
         }
     }
+}
+
+/// [`stream_salvaging`]'s records of the run CSV at `path` through the run CSV's fast path
+/// ([`visit_own_run_csv`]): true if the file is one of this tool's own (valid throughout,
+/// readings within `range`), whose records all went to `sink`, the events in time order
+/// among the samples. False for any other file, when `sink` may have had some of its records
+/// (not all): a caller that knows the file is its own (it was read so before) takes false as
+/// the file having changed.
+pub fn stream_own_run_csv(
+    path: &Path,
+    range: RigRange,
+    sink: &mut (dyn RunLogSink + Send),
+) -> Result<bool, LoadError> {
+    let file_err = |e: std::io::Error| RunCsvFileError {
+        path: path.to_owned(),
+        source: e.into(),
+    };
+    let mut events = csv_events(path)?.into_iter().peekable();
+    // A sink's write error stops the records (the rest of the file is still parsed: the
+    // visitor cannot stop the read) and is returned.
+    let mut failed: Option<std::io::Error> = None;
+    let own = visit_own_run_csv(path, range, &mut |rows| {
+        for sample in rows {
+            if failed.is_some() {
+                return;
+            }
+            while let Some((t_s, event)) = events.next_if(|(t_s, _)| *t_s <= sample.t_s) {
+                if let Err(e) = sink.event(t_s, &event) {
+                    failed = Some(e);
+                    return;
+                }
+            }
+            if let Err(e) = sink.sample(sample) {
+                failed = Some(e);
+            }
+        }
+    })?;
+    if let Some(e) = failed {
+        return Err(file_err(e).into());
+    }
+    if own {
+        for (t_s, event) in events {
+            sink.event(t_s, &event).map_err(file_err)?;
+        }
+    }
+    Ok(own)
 }
 
 /// What reading a run log gave: the run (or, read as a stream, `()`: its records went to a
