@@ -54,6 +54,7 @@
 //! Each skipped stretch is a [`Loss`] in [`McapRun::losses`]: bytes, the run times around it and
 //! the samples lost (counted from the chunk's message index when it survived, else estimated).
 
+mod ahead;
 mod board_sample;
 mod frame_proto;
 pub(crate) mod proto;

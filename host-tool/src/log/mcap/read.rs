@@ -6,8 +6,9 @@
 //! damaged file is salvaged ([`walk`](super::walk)): every chunk that checks out is read, and what
 //! could not be is reported as [`Loss`]es (byte range, run time range, samples).
 
+use super::ahead::{walk_ahead, Walked};
 use super::sample_json::parse_sample_msg;
-use super::walk::{parse_record, ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
+use super::walk::{parse_record, Skipped, Walker};
 use super::{
     frame_encoding, frame_proto, proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
     TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
@@ -141,7 +142,7 @@ pub fn stream_mcap_run(path: &Path, sink: &mut dyn RunLogSink) -> Result<McapFou
 }
 
 /// The reader behind [`stream_mcap_run`] and [`read_mcap_bytes`].
-fn read_mcap<R: Read + Seek>(
+fn read_mcap<R: Read + Seek + Send>(
     mut input: R,
     len: u64,
     path: &Path,
@@ -179,76 +180,52 @@ fn read_mcap<R: Read + Seek>(
         summary_is_ours |= channel.topic.starts_with("/rover_power/");
         state.fallback.insert(channel.id, channel);
     }
-    let mut decoder = ChunkDecoder::default();
-    let mut truncated = None;
-    // The damaged chunk whose message indexes (which follow it) count what it held.
-    let mut pending: Option<usize> = None;
-    // After the data end record: the summary section, whose channels were read above.
-    let mut in_summary = false;
-    while let Some(step) = walker.next().map_err(io_err)? {
-        match step {
-            Step::Record { .. } if in_summary => {}
-            Step::Record {
-                opcode: op::DATA_END,
-                ..
-            } => in_summary = true,
-            Step::Record {
-                opcode: op::CHUNK,
-                offset,
-                body,
-            } => match decoder.decode(body) {
-                Ok(records) => {
-                    state.chunk_records(records, offset, offset + 9 + body.len() as u64)?;
+    let truncated = walk_ahead(walker, |ahead| -> Result<_, McapError> {
+        let mut truncated = None;
+        // The damaged chunk whose message indexes (which follow it) count what it held.
+        let mut pending: Option<usize> = None;
+        while let Some(walked) = ahead.next() {
+            match walked.map_err(io_err)? {
+                Walked::Chunk {
+                    records,
+                    offset,
+                    end,
+                } => {
+                    state.chunk_records(&records, offset, end)?;
                     pending = None;
+                    ahead.recycle(records);
                 }
-                Err(problem) => {
-                    let detail = match problem {
-                        ChunkProblem::Damaged(detail) => detail,
-                        // Not in the MCAP spec (zstd, lz4): most likely a damaged name.
-                        ChunkProblem::Unsupported(c) => format!(
-                            "chunk compressed with {c:?}; this tool reads uncompressed, zstd \
-                             and lz4 chunks"
-                        ),
-                    };
-                    state.skip(Skipped {
-                        start_byte: offset,
-                        end_byte: offset + 9 + body.len() as u64,
-                        detail,
-                    });
+                Walked::ChunkFailed(skipped) => {
+                    state.skip(skipped);
                     if let Some(skip) = state.skipped.last_mut() {
                         skip.indexed = Some(Indexed::default());
                     }
                     pending = Some(state.skipped.len() - 1);
-                    walker.chunk_failed(offset);
                 }
-            },
-            Step::Record {
-                opcode: op::MESSAGE_INDEX,
-                body,
-                ..
-            } => {
-                if let Some(i) = pending {
-                    state.count_index(body, i);
+                Walked::IndexOfFailed(body) => {
+                    if let Some(i) = pending {
+                        state.count_index(&body, i);
+                    }
                 }
-            }
-            Step::Record {
-                opcode,
-                offset,
-                body,
-            } => state.record_or_skip(opcode, body, offset, offset + 9 + body.len() as u64)?,
-            Step::Skipped(s) => {
-                state.skip(s);
-                pending = None;
-            }
-            Step::Footer => {}
-            Step::Truncated { complete_bytes } => {
-                truncated = Some(Truncation {
-                    complete_bytes,
-                    file_bytes: len,
-                });
+                Walked::Record {
+                    opcode,
+                    offset,
+                    body,
+                } => state.record_or_skip(opcode, &body, offset, offset + 9 + body.len() as u64)?,
+                Walked::Skipped(s) => {
+                    state.skip(s);
+                    pending = None;
+                }
+                Walked::Truncated { complete_bytes } => {
+                    truncated = Some(Truncation {
+                        complete_bytes,
+                        file_bytes: len,
+                    });
+                }
             }
         }
-    }
+        Ok(truncated)
+    })?;
     if truncated.is_none() && !state.ours && !summary_is_ours {
         let topics: Vec<&str> = state.foreign_topics.iter().map(String::as_str).collect();
         if let (true, Some(first)) = (topics.is_empty(), state.skipped.first()) {

@@ -379,6 +379,42 @@ fn a_killed_recorder_leaves_everything_it_flushed() {
     );
 }
 
+/// The walk is read ahead on another thread ([`super::ahead`]): a file of many chunks reads
+/// whole and in order, and a sink's error stops the read there, the walk with it.
+#[test]
+fn a_walk_read_ahead_keeps_the_order_and_stops_with_the_sink() {
+    let (run, _) = sim_run(600);
+    let bytes = recorded(&run, 10, true);
+    let chunks = ::mcap::Summary::read(&bytes)
+        .expect("summary")
+        .expect("finished")
+        .chunk_indexes
+        .len();
+    assert!(chunks > 40, "{chunks} chunks");
+    assert_eq!(read(&bytes).expect("readable").run, run);
+
+    /// Takes `0` samples, then fails.
+    struct FailsAfter(usize);
+    impl RunLogSink for FailsAfter {
+        fn sample(&mut self, _: &RunSample) -> io::Result<()> {
+            match self.0.checked_sub(1) {
+                Some(left) => {
+                    self.0 = left;
+                    Ok(())
+                }
+                None => Err(io::Error::other("the sink is full")),
+            }
+        }
+    }
+    let dir = TempDir::new("read-ahead");
+    let path = dir.path().join("run.mcap");
+    std::fs::write(&path, &bytes).expect("write");
+    let mut sink = FailsAfter(300);
+    let e = stream_mcap_run(&path, &mut sink).expect_err("the sink stops it");
+    assert!(matches!(e, McapError::Io { .. }), "{e}");
+    assert!(e.to_string().ends_with("the sink is full"), "{e}");
+}
+
 #[test]
 fn sink_on_a_file_is_readable_before_finish_and_finished_on_drop() {
     let dir = TempDir::new("mcap-sink");

@@ -719,6 +719,12 @@ impl ChunkDecoder {
         }
         Ok(&self.chunk)
     }
+
+    /// The records the last [`ChunkDecoder::decode`] gave, kept whole (a reader on another
+    /// thread takes them); `spare`, emptied, is the next chunk's buffer.
+    pub(crate) fn take_records(&mut self, spare: Vec<u8>) -> Vec<u8> {
+        std::mem::replace(&mut self.chunk, spare)
+    }
 }
 
 #[cfg(test)]
