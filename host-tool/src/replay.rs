@@ -412,7 +412,7 @@ impl PtyTask<ReplayStats> {
 }
 
 /// A run log opened for a replay whose frames are produced while the file is read again, so
-/// memory holds one chunk of an MCAP recording, not the run (a run CSV's frames are synthesised
+/// memory holds a few chunks of an MCAP recording, not the run (a run CSV's frames are synthesised
 /// from its samples, which are read whole). The same frames, in the same order, as
 /// [`frames_of`] gives for the loaded run.
 #[derive(Debug)]

@@ -228,7 +228,7 @@ pub fn refuse_duplicate_digests(names: &[String], digests: &[&RunDigest]) -> Res
 }
 
 /// [`load_salvaging`] without keeping the run: its records go to `sink` in file order, so
-/// memory stays bounded whatever the file's length (an MCAP file holds one chunk at a time,
+/// memory stays bounded whatever the file's length (an MCAP file holds a few chunks at a time,
 /// a run CSV one row). The same records, losses and dropped rows as [`load_salvaging`].
 pub fn stream_salvaging(
     path: &Path,

@@ -1,10 +1,11 @@
 //! [`read_mcap_run`]: an MCAP run log back into a [`RunLog`], record by record in file order,
-//! streamed from the disk (memory holds one chunk, not the file); [`stream_mcap_run`] hands the
-//! records to any [`RunLogSink`] instead, so a reader that keeps nothing (`validate`'s passes)
-//! runs in memory bounded whatever the log's length. The summary section is not
-//! needed, so a file cut short by a killed recorder reads up to its last complete record; a
-//! damaged file is salvaged ([`walk`](super::walk)): every chunk that checks out is read, and what
-//! could not be is reported as [`Loss`]es (byte range, run time range, samples).
+//! streamed from the disk (memory holds a few chunks, not the file: [`super::ahead`]);
+//! [`stream_mcap_run`] hands the records to any [`RunLogSink`] instead, so a reader that keeps
+//! nothing (`validate`'s passes) runs in memory bounded whatever the log's length. The summary
+//! section is not needed, so a file cut short by a killed recorder reads up to its last
+//! complete record; a damaged file is salvaged ([`walk`](super::walk)): every chunk that checks
+//! out is read, and what could not be is reported as [`Loss`]es (byte range, run time range,
+//! samples).
 
 use super::ahead::{walk_ahead, Walked};
 use super::sample_json::parse_sample_msg;
@@ -91,7 +92,7 @@ pub struct McapRun {
     pub losses: Vec<Loss>,
 }
 
-/// Reads the MCAP run log at `path`, streaming it (memory stays bounded by one chunk plus the
+/// Reads the MCAP run log at `path`, streaming it (memory stays bounded by a few chunks plus the
 /// run itself). A file cut short is not an error (see [`McapRun::truncated`]), nor is a damaged
 /// one (see [`McapRun::losses`]: a damaged chunk, a record that does not parse, a message
 /// that does not hold what its channel promises); a foreign file is.
