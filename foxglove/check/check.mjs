@@ -252,7 +252,10 @@ try {
         const enabled = p.series.filter((s) => s.enabled);
         const withVal = enabled.filter((s) => s.value != null && s.value !== "");
         p.seriesWithValue = `${withVal.length}/${enabled.length}`;
-        p.status = enabled.length > 0 && withVal.length === enabled.length ? "data"
+        // Values in the legend are not enough: a plot whose x axis misses its data (a message-path
+        // axis under a following view width) lists the values and draws nothing.
+        const drawn = p.coloredPixels === undefined || p.coloredPixels > 40;
+        p.status = enabled.length > 0 && withVal.length === enabled.length && drawn ? "data"
           : withVal.length > 0 || p.coloredPixels > 40 ? "partial" : "empty";
       } else if (p.type === "RosOut") {
         p.status = p.rows > 0 ? "data" : "empty";
