@@ -59,17 +59,20 @@ impl Ahead {
 }
 
 /// Runs `read` on the steps of `walker`, which walks on another thread meanwhile. When `read`
-/// returns (done, or stopped by an error of its own) the walk stops too.
+/// returns (done, or stopped by an error of its own) the walk stops too. An error if the
+/// thread cannot be started (`read` is not run).
 pub(super) fn walk_ahead<R: Read + Seek + Send, T>(
     walker: Walker<R>,
     read: impl FnOnce(&mut Ahead) -> T,
-) -> T {
+) -> io::Result<T> {
     std::thread::scope(|scope| {
         let (steps_tx, steps) = mpsc::sync_channel(AHEAD);
         let (spare, spare_rx) = mpsc::channel();
-        scope.spawn(move || walk(walker, &steps_tx, &spare_rx));
+        std::thread::Builder::new()
+            .name("mcap-walk".into())
+            .spawn_scoped(scope, move || walk(walker, &steps_tx, &spare_rx))?;
         let mut ahead = Ahead { steps, spare };
-        read(&mut ahead)
+        Ok(read(&mut ahead))
         // `ahead` is dropped here: the walk's next send fails and it ends; the scope joins it.
     })
 }

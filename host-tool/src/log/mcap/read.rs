@@ -226,7 +226,8 @@ fn read_mcap<R: Read + Seek + Send>(
             }
         }
         Ok(truncated)
-    })?;
+    })
+    .map_err(io_err)??;
     if truncated.is_none() && !state.ours && !summary_is_ours {
         let topics: Vec<&str> = state.foreign_topics.iter().map(String::as_str).collect();
         if let (true, Some(first)) = (topics.is_empty(), state.skipped.first()) {
