@@ -819,6 +819,30 @@ fn a_log_with_json_channels_reads_and_rewrites_to_the_same_run() {
     );
 }
 
+/// A log of one protobuf message a sample (`rover_power.Sample` on `/rover_power/sample`, the
+/// layout since issue 55's first step; `tests/fixtures/mcap/protobuf-samples-v4.mcap` is the
+/// v3 fixture's run rewritten by `convert` on 2026-12-07) reads as that same run, whatever the
+/// writer lays out today.
+#[test]
+fn a_log_with_a_protobuf_message_a_sample_reads_as_the_same_run() {
+    let v3 = include_bytes!("../../../tests/fixtures/mcap/json-channels-v3.mcap");
+    let v4 = include_bytes!("../../../tests/fixtures/mcap/protobuf-samples-v4.mcap");
+    let summary = ::mcap::Summary::read(v4).expect("valid").expect("summary");
+    let samples = summary
+        .channels
+        .values()
+        .find(|c| c.topic == TOPIC_SAMPLE)
+        .expect("a sample channel");
+    assert_eq!(
+        samples.schema.as_ref().map(|s| s.name.as_str()),
+        Some("rover_power.Sample")
+    );
+    let got = read(v4).expect("a v4 log reads");
+    assert!(got.losses.is_empty() && got.truncated.is_none());
+    assert_eq!(got.run, read(v3).expect("a v3 log reads").run);
+    assert_eq!(got.run.samples.len(), 299);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
