@@ -92,10 +92,11 @@ impl Runs {
 }
 
 /// Run logs validated as streams, for `validate`: memory stays bounded whatever the logs'
-/// length. Each file is read twice (see [`validate::stream`]), except this tool's own run
-/// CSVs: read once, parsed on every core and validated as they are read
-/// ([`validate::one_pass`]; read again only if its guess of the gap threshold fails). The
-/// report is the one [`Runs::validate`] gives, to the bit.
+/// length. Each file is read once and validated as it is read ([`validate::one_pass`]; this
+/// tool's own run CSVs parsed on every core, any other log by its streaming reader), and read
+/// a second time only where the pass's guesses fail (the gap threshold; a command logged after
+/// a frame it governs) as [`validate::stream`] reads it. The report is the one
+/// [`Runs::validate`] gives, to the bit.
 #[derive(Debug)]
 pub struct StreamedRuns {
     /// Each run's name (its path as given).
@@ -174,23 +175,34 @@ impl StreamedRuns {
         };
         for path in paths {
             let name = path.display().to_string();
-            let validated = if one_pass {
-                validate_own_csv(path, &name, range, rover, options)?
-            } else {
-                None
+            let own_csv = match one_pass {
+                true => validate_own_csv(path, &name, range, rover, options)?,
+                false => None,
             };
-            let read = match validated {
+            let read = match own_csv {
                 Some(read) => read,
                 None => {
-                    let mut scan = RunScan::default();
-                    let found = stream_salvaging(path, salvage, range, &mut scan)?;
+                    // Any other log, as a stream: validated as it is read where the options
+                    // allow (else scanned, and validated from a second read).
+                    let pass = OnePass::new(&name, rover, options).filter(|_| one_pass);
+                    let (read, found) = match pass {
+                        Some(mut pass) => {
+                            let found = stream_salvaging(path, salvage, range, &mut pass)?;
+                            (FirstRead::of(pass.finish(), false), found)
+                        }
+                        None => {
+                            let mut scan = RunScan::default();
+                            let found = stream_salvaging(path, salvage, range, &mut scan)?;
+                            (FirstRead::scanned(scan), found)
+                        }
+                    };
                     if let Some(t) = found.truncated {
                         runs.truncated.push((path.clone(), t));
                     }
                     runs.damage
                         .extend(damage_warnings(path, &found.losses, &found.dropped_rows));
                     runs.lost_data |= found.lost_data();
-                    FirstRead::Scanned(scan)
+                    read
                 }
             };
             runs.names.push(name);
@@ -255,14 +267,12 @@ impl StreamedRuns {
             .zip(&self.reads)
             .enumerate()
         {
-            let scan = match read {
-                FirstRead::Validated { result, .. } => {
-                    runs.push(result.as_ref().clone()?);
-                    bar.inc(1);
-                    continue;
-                }
-                FirstRead::OwnCsv(scan) | FirstRead::Scanned(scan) => scan,
-            };
+            if let Some(result) = &read.result {
+                runs.push(result.as_ref().clone()?);
+                bar.inc(1);
+                continue;
+            }
+            let scan = &read.scan;
             let mut pass = RunPass::new(name, scan, rover, options)?;
             self.stream(index, path, &mut pass)?;
             if pass.samples() != scan.samples() {
@@ -282,32 +292,45 @@ impl StreamedRuns {
 
 /// A run's first read by [`StreamedRuns::scan`].
 #[derive(Debug)]
-enum FirstRead {
-    /// This tool's run CSV, validated as it was read ([`OnePass`]): not read again.
-    Validated {
-        scan: RunScan,
-        // Boxed: a run's report is large beside the scan.
-        result: Box<Result<RunResult, ValidateError>>,
-    },
-    /// This tool's run CSV, scanned as it was read (the one pass's guess of the gap threshold
-    /// failed): read again by the fast path to validate.
-    OwnCsv(RunScan),
-    /// Any other log, scanned as a stream: read again to validate.
-    Scanned(RunScan),
+struct FirstRead {
+    scan: RunScan,
+    /// The run's part of the report, when it was validated as it was read ([`OnePass`]; boxed:
+    /// it is large beside the scan). `None`: a second read validates it (the one pass's guess
+    /// failed, or the options kept the run from it).
+    result: Option<Box<Result<RunResult, ValidateError>>>,
+    /// This tool's own run CSV, read by the fast path (and read again by it).
+    own_csv: bool,
 }
 
 impl FirstRead {
-    fn scan(&self) -> &RunScan {
-        match self {
-            FirstRead::Validated { scan, .. }
-            | FirstRead::OwnCsv(scan)
-            | FirstRead::Scanned(scan) => scan,
+    /// The read of a run that [`OnePass`] went through.
+    fn of(
+        (scan, result): (RunScan, Option<Result<RunResult, ValidateError>>),
+        own_csv: bool,
+    ) -> Self {
+        FirstRead {
+            scan,
+            result: result.map(Box::new),
+            own_csv,
         }
+    }
+
+    /// The read of a run only scanned (a log read by the general readers).
+    fn scanned(scan: RunScan) -> Self {
+        FirstRead {
+            scan,
+            result: None,
+            own_csv: false,
+        }
+    }
+
+    fn scan(&self) -> &RunScan {
+        &self.scan
     }
 
     /// Whether the run is this tool's own run CSV (read by the fast path).
     fn own_csv(&self) -> bool {
-        matches!(self, FirstRead::Validated { .. } | FirstRead::OwnCsv(_))
+        self.own_csv
     }
 }
 
@@ -331,13 +354,7 @@ fn validate_own_csv(
     if !visit_own_run_csv(path, range, &mut |rows| pass.push(rows))? {
         return Ok(None);
     }
-    Ok(Some(match pass.finish() {
-        (scan, Some(result)) => FirstRead::Validated {
-            scan,
-            result: Box::new(result),
-        },
-        (scan, None) => FirstRead::OwnCsv(scan),
-    }))
+    Ok(Some(FirstRead::of(pass.finish(), true)))
 }
 
 /// The warning for a truncated MCAP file.
@@ -475,8 +492,7 @@ mod tests {
             let want = in_memory
                 .validate(&rover, &validate_options)
                 .expect("valid");
-            // This tool's run CSVs validated in one pass (as `validate` reads them) and
-            // streamed.
+            // Validated in one pass (as `validate` reads them) and in two.
             for one_pass in [true, false] {
                 let streamed = StreamedRuns::scan_with(
                     &paths,
@@ -498,16 +514,18 @@ mod tests {
                 let found = streamed.read_again(0, &mut again).expect("a run");
                 assert_eq!(found.expect("reads").dropped_rows, []);
                 assert_eq!(again.samples, in_memory.logs[0].samples);
-                let kinds: Vec<bool> = streamed
-                    .reads
-                    .iter()
-                    .map(|r| matches!(r, FirstRead::Validated { .. }))
-                    .collect();
+                // Every run validated as it was first read (MCAP, damaged or not, a cut CSV by
+                // the general reader, this tool's CSVs by the fast path, which reads them
+                // again).
+                let one_read: Vec<bool> =
+                    streamed.reads.iter().map(|r| r.result.is_some()).collect();
+                assert_eq!(one_read, vec![one_pass; paths.len()], "{paths:?}");
+                let fast: Vec<bool> = streamed.reads.iter().map(|r| r.own_csv).collect();
                 let own_csv: Vec<bool> = paths
                     .iter()
                     .map(|p| one_pass && (*p == a.csv || *p == b.csv))
                     .collect();
-                assert_eq!(kinds, own_csv, "{paths:?}");
+                assert_eq!(fast, own_csv, "{paths:?}");
             }
         }
         // The damage was seen (so the last case compared salvaged reads).
@@ -544,6 +562,69 @@ mod tests {
             .expect_err("duplicate")
             .to_string();
             assert_eq!(got, want);
+        }
+    }
+
+    /// A log without acks (its commands in force from their times): read once when each
+    /// command comes before the frames it governs, as a recorder writes them; logged after them,
+    /// the one pass's cross-check would differ, so the run is read a second time. Both give the
+    /// in-memory report to the bit.
+    #[test]
+    fn commands_logged_after_the_frames_they_govern_send_the_run_to_a_second_read() {
+        use crate::log::mcap::{write_mcap_run, McapSink};
+        use crate::log::run_log::RunLogSink;
+        use crate::validate::crosscheck::acknowledges;
+        let dir = TempDir::new("late-commands");
+        let mut options = DemoOptions::new(dir.path().join("demo"));
+        options.runs = 1;
+        options.speed = 50.0;
+        let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
+        let mut run = crate::log::load::load_run(&outcome.runs[0].mcap).expect("loads");
+        run.frames.retain(|(_, f)| !acknowledges(f));
+        assert!(run.commands.len() >= 6, "{} commands", run.commands.len());
+        let in_order = dir.path().join("in-order.mcap");
+        write_mcap_run(std::fs::File::create(&in_order).expect("create"), &run).expect("written");
+        let late = dir.path().join("late.mcap");
+        let mut sink = McapSink::new(std::fs::File::create(&late).expect("create")).expect("sink");
+        let without = RunLog {
+            commands: Vec::new(),
+            ..run.clone()
+        };
+        for (t_s, record) in without.in_time_order() {
+            record.write_to(t_s, &mut sink).expect("record");
+        }
+        for command in &run.commands {
+            sink.command(command).expect("command");
+        }
+        sink.finish().expect("finish");
+
+        let rover = options.world.rover;
+        let validate_options = ValidateOptions {
+            tracker_offset_m: options.world.tracker.offset_m,
+            ..ValidateOptions::for_rover(&rover)
+        };
+        for (path, once) in [(&in_order, true), (&late, false)] {
+            let paths = [path.clone()];
+            let want = Runs::load(&paths, false, RigRange::default())
+                .expect("loads")
+                .validate(&rover, &validate_options)
+                .expect("valid");
+            let streamed = StreamedRuns::scan(
+                &paths,
+                false,
+                RigRange::default(),
+                &rover,
+                &validate_options,
+            )
+            .expect("scans");
+            assert_eq!(
+                streamed.reads[0].result.is_some(),
+                once,
+                "{}",
+                path.display()
+            );
+            let got = streamed.validate().expect("valid");
+            assert_eq!(outputs(&got), outputs(&want), "{}", path.display());
         }
     }
 
@@ -683,10 +764,7 @@ mod tests {
                 .expect("valid");
             let streamed = StreamedRuns::scan(&paths, false, RigRange::default(), &rover, &options)
                 .expect("scans");
-            assert_eq!(
-                matches!(streamed.reads[0], FirstRead::Validated { .. }),
-                guessed
-            );
+            assert_eq!(streamed.reads[0].result.is_some(), guessed);
             let got = streamed.validate().expect("valid");
             assert_eq!(outputs(&got), outputs(&want));
         }
@@ -710,7 +788,7 @@ mod tests {
             .to_string();
         let streamed = StreamedRuns::scan(&paths, false, RigRange::default(), &rover, &options)
             .expect("scans");
-        assert!(matches!(streamed.reads[0], FirstRead::Validated { .. }));
+        assert!(streamed.reads[0].result.is_some());
         let got = streamed.validate().expect_err("one sample").to_string();
         assert_eq!(got, want);
     }

@@ -122,14 +122,21 @@ pub fn acknowledges(frame: &BoardFrame) -> bool {
 }
 
 /// [`cross_check`] frame by frame, for a run read as a stream: whether the run is in acked
-/// mode (any frame [`acknowledges`] a command) must be known before its first frame.
+/// mode (any frame [`acknowledges`] a command) must be known before its first frame. The
+/// commands are given whole, or as they are read ([`CrossChecker::command`]; then
+/// [`CrossChecker::in_order`] says whether each came before the frames it governs).
 #[derive(Debug)]
 pub struct CrossChecker<'a> {
     rover: &'a Rover,
-    commands: &'a [CommandRow],
-    /// Commands not acked (or rejected) yet, in order.
-    pending: std::slice::Iter<'a, CommandRow>,
+    commands: Vec<CommandRow>,
+    /// The first command not acked (or rejected) yet.
+    pending: usize,
     acked_mode: bool,
+    /// Latest run time of a model frame compared (commands before it set its wheel rates).
+    last_model_t_s: Option<f64>,
+    /// A command came after a frame it governs, or an ack before its command: fed as read,
+    /// the check is not the one the whole list gives.
+    out_of_order: bool,
     out: CrossCheck,
     dec: StreamDecoder,
     last_hello: Option<BoardFrame>,
@@ -141,12 +148,14 @@ pub struct CrossChecker<'a> {
 impl<'a> CrossChecker<'a> {
     /// A checker for a run with `commands`; `acked_mode`: whether any of its frames
     /// [`acknowledges`] a command.
-    pub fn new(commands: &'a [CommandRow], rover: &'a Rover, acked_mode: bool) -> Self {
+    pub fn new(commands: &[CommandRow], rover: &'a Rover, acked_mode: bool) -> Self {
         Self {
             rover,
-            commands,
-            pending: commands.iter(),
+            commands: commands.to_vec(),
+            pending: 0,
             acked_mode,
+            last_model_t_s: None,
+            out_of_order: false,
             out: CrossCheck::default(),
             dec: StreamDecoder::new(),
             last_hello: None,
@@ -154,6 +163,33 @@ impl<'a> CrossChecker<'a> {
             status_rates: None,
             max_energy_lsb: Sides::new(0, 0),
         }
+    }
+
+    /// The run's next command, read after the frames fed so far.
+    pub fn command(&mut self, row: &CommandRow) {
+        // Without acks a command is in force from its time: it governed any model frame after
+        // it that was compared already.
+        if !self.acked_mode && self.last_model_t_s.is_some_and(|t_s| row.t_s < t_s) {
+            self.out_of_order = true;
+        }
+        self.commands.push(*row);
+    }
+
+    /// Whether every command fed by [`CrossChecker::command`] came before the frames it
+    /// governs (then the check is the one the whole list gives, to the bit).
+    pub fn in_order(&self) -> bool {
+        !self.out_of_order
+    }
+
+    /// The command the next ack (or rejection) answers, if it has been fed.
+    fn answered(&mut self) -> Option<CommandRow> {
+        let command = self.commands.get(self.pending).copied();
+        match command {
+            Some(_) => self.pending += 1,
+            // Its command comes later in the log (fed as read), or never.
+            None => self.out_of_order = true,
+        }
+        command
     }
 
     fn rates_of(&self, c: &CommandRow) -> Sides<f32> {
@@ -189,13 +225,13 @@ impl<'a> CrossChecker<'a> {
                 self.status_rates = Some((t_s, st.wheel_rates_rad_s));
             }
             BoardFrame::Ack { .. } => {
-                if let Some(c) = self.pending.next() {
-                    let rates = self.rates_of(c);
+                if let Some(c) = self.answered() {
+                    let rates = self.rates_of(&c);
                     self.dec.set_wheel_rates(Some(rates));
                 }
             }
             BoardFrame::Rejected { id: Some(_), .. } => {
-                self.pending.next();
+                self.answered();
             }
             _ => {}
         }
@@ -203,9 +239,10 @@ impl<'a> CrossChecker<'a> {
             self.dec.set_wheel_rates(wheel_rates_at(
                 t_s,
                 self.status_rates,
-                self.commands,
+                &self.commands,
                 self.rover,
             ));
+            self.last_model_t_s = Some(self.last_model_t_s.map_or(t_s, |last| last.max(t_s)));
         }
         Self::replay(&mut self.dec, frame);
         if let BoardFrame::Model(model) = frame {

@@ -1,19 +1,32 @@
-//! One run validated in the pass that reads it, for runs whose samples arrive a stretch at a
-//! time and are not kept (this tool's own run CSVs, read on every core: `runs::StreamedRuns`).
-//! Each manoeuvre is cut and measured as it ends, as the streaming second pass
-//! ([`super::stream::RunPass`]) does; what that pass learns first — the run's gap threshold, a
-//! median over the whole run — is guessed from the run's first stretch instead. At the end the
-//! guess holds if it calls the same intervals gaps as the run's threshold (the threshold enters
-//! the statistics only through `dt > threshold`), and then every statistic is the one measured
-//! with the run's threshold, to the bit; otherwise the run is read again as a stream. Memory:
-//! the current manoeuvre's samples and the rows, not the run.
+//! One run validated in the pass that reads it, for runs whose records are not kept (this
+//! tool's own run CSVs, read on every core, a stretch of samples at a time; MCAP logs, as a
+//! [`RunLogSink`]: `runs::StreamedRuns`). Each manoeuvre is cut and measured as it ends, as
+//! the streaming second pass ([`super::stream::RunPass`]) does; what that pass learns first —
+//! the run's gap threshold, a median over the whole run — is guessed from the run's first
+//! stretch instead. At the end the guess holds if it calls the same intervals gaps as the run's
+//! threshold (the threshold enters the statistics only through `dt > threshold`), and then
+//! every statistic is the one measured with the run's threshold, to the bit; otherwise the run
+//! is read again as a stream. The frames are cross-checked as they come, with the commands read
+//! so far, both ways until the first frame that answers a command says which (acked mode); the
+//! check holds if every command came before the frames it governs (as a recorder writes them),
+//! else the run is read again too. Memory: the current manoeuvre's samples, a stretch of
+//! samples, the commands and the rows, not the run.
 
+use super::crosscheck::{acknowledges, CrossChecker};
 use super::run::{Measured, RunFacts, RunValidation};
 use super::segment::{Segment, Segmenter};
 use super::stream::RunScan;
-use super::{check_options, crosscheck, ManoeuvreRow, RunReport, ValidateError, ValidateOptions};
+use super::{check_options, ManoeuvreRow, RunReport, ValidateError, ValidateOptions};
+use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
+use crate::log::run_log::RunLogSink;
+use model_core::wire::BoardFrame;
 use model_core::Rover;
+use std::io;
+
+/// Samples handed over one at a time are measured in stretches of this many (the first
+/// stretch gives the guess of the gap threshold: a run CSV's first job holds ≈ 11 000).
+const STRETCH: usize = 8192;
 
 /// A run's part of the report, as [`super::validate_run`] gives it: its report, its manoeuvre
 /// rows and whether it has tracked positions.
@@ -29,6 +42,12 @@ pub struct OnePass<'a> {
     segmenter: Segmenter<'a>,
     /// The manoeuvres measured so far, with the guessed threshold (from the first stretch on).
     guess: Option<Guess<'a>>,
+    /// Samples handed over one at a time, not measured yet.
+    held: Vec<RunSample>,
+    /// The frames cross-checked as if no frame answers a command (dropped at the first that
+    /// does), and as if one does.
+    plain: Option<CrossChecker<'a>>,
+    acked: CrossChecker<'a>,
 }
 
 /// Manoeuvres measured with a guessed gap threshold.
@@ -52,6 +71,9 @@ impl<'a> OnePass<'a> {
             scan: RunScan::default(),
             segmenter: Segmenter::new(rover, &options.segment).ok()?,
             guess: None,
+            held: Vec::new(),
+            plain: Some(CrossChecker::new(&[], rover, false)),
+            acked: CrossChecker::new(&[], rover, true),
         })
     }
 
@@ -70,7 +92,11 @@ impl<'a> OnePass<'a> {
     /// The run's first pass ([`RunScan`]: its digest, and what a second pass needs) and, unless
     /// the guess failed (the run must then be read again, [`super::stream::RunPass`]), the
     /// run's part of the report or why it cannot be validated, as [`super::validate`] says it.
-    pub fn finish(self) -> (RunScan, Option<Result<RunResult, ValidateError>>) {
+    pub fn finish(mut self) -> (RunScan, Option<Result<RunResult, ValidateError>>) {
+        let held = std::mem::take(&mut self.held);
+        if !held.is_empty() {
+            self.push(&held);
+        }
         let Self {
             name,
             rover,
@@ -78,6 +104,9 @@ impl<'a> OnePass<'a> {
             scan,
             segmenter,
             guess,
+            plain,
+            acked,
+            ..
         } = self;
         if let Err(source) = scan.facts().check() {
             return (scan, Some(Err(ValidateError::Run { name, source })));
@@ -94,6 +123,13 @@ impl<'a> OnePass<'a> {
         {
             return (scan, None);
         }
+        let checker = match plain {
+            Some(plain) if !scan.acked_mode() => plain,
+            _ => acked,
+        };
+        if !checker.in_order() {
+            return (scan, None);
+        }
         let mut validation = RunValidation::new(&name, &facts, rover, options);
         for (seg, mut measured) in guess.measured {
             if let Some(m) = measured.as_mut().filter(|_| !facts.has_positions) {
@@ -101,9 +137,43 @@ impl<'a> OnePass<'a> {
             }
             validation.record(&seg, measured);
         }
-        // A run CSV has no frames or commands to cross-check.
-        let (report, rows) = validation.finish(crosscheck::cross_check(&[], &[], rover));
+        // (A run CSV has no frames: no cross-check.)
+        let (report, rows) = validation.finish(checker.finish());
         (scan, Some(Ok((report, rows, facts.has_positions))))
+    }
+}
+
+impl RunLogSink for OnePass<'_> {
+    fn frame(&mut self, t_s: f64, frame: &BoardFrame) -> io::Result<()> {
+        self.scan.frame(t_s, frame)?;
+        if acknowledges(frame) {
+            self.plain = None;
+        }
+        if let Some(plain) = &mut self.plain {
+            plain.feed(t_s, frame);
+        }
+        self.acked.feed(t_s, frame);
+        Ok(())
+    }
+
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+        self.held.push(*sample);
+        if self.held.len() == STRETCH {
+            let held = std::mem::take(&mut self.held);
+            self.push(&held);
+            self.held = held;
+            self.held.clear();
+        }
+        Ok(())
+    }
+
+    fn command(&mut self, row: &CommandRow) -> io::Result<()> {
+        self.scan.command(row)?;
+        if let Some(plain) = &mut self.plain {
+            plain.command(row);
+        }
+        self.acked.command(row);
+        Ok(())
     }
 }
 

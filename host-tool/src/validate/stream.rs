@@ -50,6 +50,11 @@ impl RunScan {
     pub fn facts(&self) -> &FactsScan {
         &self.facts
     }
+
+    /// Whether any frame answered a forwarded command (the run's cross-check is in acked mode).
+    pub fn acked_mode(&self) -> bool {
+        self.acked_mode
+    }
 }
 
 impl RunLogSink for RunScan {
