@@ -207,8 +207,9 @@ pub fn load_and_validate(
     Ok((runs, report))
 }
 
-/// [`load_and_validate`] with the runs streamed (each file read twice): memory stays bounded
-/// whatever the logs' length; the same report. `validate` and `diagnose` read this way.
+/// [`load_and_validate`] with the runs streamed (each file read once, twice where the one
+/// pass's guesses fail): memory stays bounded whatever the logs' length; the same report.
+/// `validate` and `diagnose` read this way.
 pub fn stream_and_validate(
     rover: &Rover,
     paths: &[PathBuf],
@@ -342,8 +343,9 @@ fn diagnosis_rows(
             tracker_offset_m,
             ..ValidateOptions::for_rover(rover)
         };
-        // Streamed: validate reads each file twice, the standstill draw and the manoeuvres'
-        // bus voltage a third time; memory stays bounded whatever the logs' length.
+        // Streamed: validate reads each file once (twice where its guesses fail), the
+        // standstill draw and the manoeuvres' bus voltage once more; memory stays bounded
+        // whatever the logs' length.
         let (streamed, report) = stream_and_validate(rover, &runs, reader, &options)
             .with_context(|| format!("{what} runs"))?;
         let mut facts = Vec::with_capacity(runs.len());
