@@ -22,9 +22,9 @@
 //! 2. Rust, raw capture: the recorder over the capture bytes (decode, scale, commands from the
 //!    commands file) → `segment` → `analyse`.
 //! 3. Rust, MCAP: what `host-tool validate` runs on it, as 1. ([`StreamedRuns::scan`]
-//!    streams the log once for the run's facts, digest and commands,
-//!    [`StreamedRuns::validate`] a second time to cut and measure the manoeuvres and
-//!    cross-check the board's frames, as its memory bound needs).
+//!    streams the log once, its chunks decompressed on a second core, and validates it as it
+//!    is read: digest, facts, segmentation, statistics, the board's frames cross-checked with
+//!    the commands read so far; a second read only where that pass's guesses fail).
 //!    The raw path computes the gap threshold beside `segment`, then `analyse` in shares of
 //!    about equal samples, one per core.
 //! 4. The page-cache floor: the run CSV's bytes read again, nothing parsed.
@@ -697,10 +697,10 @@ const CSV_STAGES: [&str; 2] = [
     "read, digest, segment, statistics (scan)",
     "fit, report (validate)",
 ];
-/// ... and on the MCAP log (streamed twice).
+/// ... and on the MCAP log (streamed once, validated as it is read).
 const MCAP_STAGES: [&str; 2] = [
-    "first pass: digest, facts, commands (scan)",
-    "second pass: segment, statistics, cross-check, fit (validate)",
+    "read, digest, segment, statistics, cross-check (scan)",
+    "fit, report (validate)",
 ];
 
 /// `host-tool validate`'s path on one log: the library calls its command makes; `stages`
