@@ -184,7 +184,9 @@ impl StreamedRuns {
                 None => {
                     // Any other log, as a stream: validated as it is read where the options
                     // allow (else scanned, and validated from a second read).
-                    let pass = OnePass::new(&name, rover, options).filter(|_| one_pass);
+                    let pass = one_pass
+                        .then(|| OnePass::new(&name, rover, options))
+                        .flatten();
                     let (read, found) = match pass {
                         Some(mut pass) => {
                             let found = stream_salvaging(path, salvage, range, &mut pass)?;
@@ -211,7 +213,7 @@ impl StreamedRuns {
             bar.inc(1);
         }
         bar.finish_and_clear();
-        let digests: Vec<_> = runs.reads.iter().map(|r| r.scan().digest()).collect();
+        let digests: Vec<_> = runs.reads.iter().map(|r| r.scan.digest()).collect();
         refuse_duplicate_digests(&runs.names, &digests)?;
         Ok(runs)
     }
@@ -237,20 +239,11 @@ impl StreamedRuns {
         path: &Path,
         sink: &mut (dyn RunLogSink + Send),
     ) -> Result<StreamFound, LoadError> {
-        if !self.reads[index].own_csv() {
+        if !self.reads[index].own_csv {
             return stream_salvaging(path, self.salvage, self.range, sink);
         }
-        if !stream_own_run_csv(path, self.range, sink)? {
-            return Err(LoadError::Changed {
-                path: path.to_owned(),
-            });
-        }
-        Ok(StreamFound {
-            run: (),
-            format: RunFormat::Csv,
-            truncated: None,
-            losses: Vec::new(),
-            dropped_rows: Vec::new(),
+        stream_own_run_csv(path, self.range, sink)?.ok_or_else(|| LoadError::Changed {
+            path: path.to_owned(),
         })
     }
 
@@ -322,15 +315,6 @@ impl FirstRead {
             result: None,
             own_csv: false,
         }
-    }
-
-    fn scan(&self) -> &RunScan {
-        &self.scan
-    }
-
-    /// Whether the run is this tool's own run CSV (read by the fast path).
-    fn own_csv(&self) -> bool {
-        self.own_csv
     }
 }
 
@@ -453,13 +437,25 @@ mod tests {
         )
     }
 
+    /// `runs` demo runs in `dir` (at 50× real time), with the demo world's rover and the
+    /// options `validate` reads them with.
+    fn quick_demo(dir: &TempDir, runs: u32) -> (demo::DemoOutcome, Rover, ValidateOptions) {
+        let mut options = DemoOptions::new(dir.path().join("demo"));
+        options.runs = runs;
+        options.speed = 50.0;
+        let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
+        let rover = options.world.rover;
+        let validate_options = ValidateOptions {
+            tracker_offset_m: options.world.tracker.offset_m,
+            ..ValidateOptions::for_rover(&rover)
+        };
+        (outcome, rover, validate_options)
+    }
+
     #[test]
     fn streamed_validation_gives_the_in_memory_report_to_the_bit() {
         let dir = TempDir::new("streamed-runs");
-        let mut options = DemoOptions::new(dir.path().join("demo"));
-        options.runs = 2;
-        options.speed = 50.0;
-        let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
+        let (outcome, rover, validate_options) = quick_demo(&dir, 2);
         let (a, b) = (&outcome.runs[0], &outcome.runs[1]);
         // Damage: 64 KiB zeroed in the middle of the first run's MCAP (several chunks: a smaller
         // block can fall on message indexes alone, which lose nothing), a cut last row in the
@@ -477,11 +473,6 @@ mod tests {
             .rposition(|&b| b == b'\n')
             .expect("rows");
         std::fs::write(&cut, &text[..last_row + 12]).expect("write");
-        let validate_options = ValidateOptions {
-            tracker_offset_m: options.world.tracker.offset_m,
-            ..ValidateOptions::for_rover(&options.world.rover)
-        };
-        let rover = options.world.rover;
         for paths in [
             vec![a.mcap.clone(), b.mcap.clone()],
             vec![a.csv.clone(), b.mcap.clone()],
@@ -575,10 +566,7 @@ mod tests {
         use crate::log::run_log::RunLogSink;
         use crate::validate::crosscheck::acknowledges;
         let dir = TempDir::new("late-commands");
-        let mut options = DemoOptions::new(dir.path().join("demo"));
-        options.runs = 1;
-        options.speed = 50.0;
-        let outcome = demo::run(&options, &mut |_, _, _| {}).expect("demo");
+        let (outcome, rover, validate_options) = quick_demo(&dir, 1);
         let mut run = crate::log::load::load_run(&outcome.runs[0].mcap).expect("loads");
         run.frames.retain(|(_, f)| !acknowledges(f));
         assert!(run.commands.len() >= 6, "{} commands", run.commands.len());
@@ -598,11 +586,6 @@ mod tests {
         }
         sink.finish().expect("finish");
 
-        let rover = options.world.rover;
-        let validate_options = ValidateOptions {
-            tracker_offset_m: options.world.tracker.offset_m,
-            ..ValidateOptions::for_rover(&rover)
-        };
         for (path, once) in [(&in_order, true), (&late, false)] {
             let paths = [path.clone()];
             let want = Runs::load(&paths, false, RigRange::default())
@@ -704,7 +687,7 @@ mod tests {
         let paths = [path.clone()];
         let streamed = StreamedRuns::scan(&paths, false, RigRange::default(), &rover, &options)
             .expect("scans");
-        assert!(streamed.reads[0].own_csv(), "the fast path read it first");
+        assert!(streamed.reads[0].own_csv, "the fast path read it first");
         let mut want = Records::default();
         stream_salvaging(&path, false, RigRange::default(), &mut want).expect("general");
         assert_eq!(want.0.len(), 2_000 + events.len());

@@ -247,25 +247,15 @@ pub fn stream_salvaging(
                 .map_err(file_err)?
                 .salvaging(salvage)
                 .within(range);
-            // The events in time order among the samples, as an MCAP file holds them.
-            let mut events = csv_events(path)?.into_iter().peekable();
+            let mut events = CsvEvents::of(path)?;
             for sample in reader.by_ref() {
                 let sample = sample.map_err(file_err)?;
-                while let Some((t_s, event)) = events.next_if(|(t_s, _)| *t_s <= sample.t_s) {
-                    sink.event(t_s, &event).map_err(|e| file_err(e.into()))?;
-                }
-                sink.sample(&sample).map_err(|e| file_err(e.into()))?;
+                events
+                    .then_sample(&sample, sink)
+                    .map_err(|e| file_err(e.into()))?;
             }
-            for (t_s, event) in events {
-                sink.event(t_s, &event).map_err(|e| file_err(e.into()))?;
-            }
-            Ok(StreamFound {
-                run: (),
-                format: RunFormat::Csv,
-                truncated: None,
-                losses: Vec::new(),
-                dropped_rows: reader.dropped().to_vec(),
-            })
+            events.finish(sink).map_err(|e| file_err(e.into()))?;
+            Ok(StreamFound::csv(reader.dropped().to_vec()))
         }
         RunFormat::Mcap => {
             let found = stream_mcap_run(&mcap_file(path)?, sink)?;
@@ -281,21 +271,20 @@ pub fn stream_salvaging(
 }
 
 /// [`stream_salvaging`]'s records of the run CSV at `path` through the run CSV's fast path
-/// ([`visit_own_run_csv`]): true if the file is one of this tool's own (valid throughout,
-/// readings within `range`), whose records all went to `sink`, the events in time order
-/// among the samples. False for any other file, when `sink` may have had some of its records
-/// (not all): a caller that knows the file is its own (it was read so before) takes false as
-/// the file having changed.
+/// ([`visit_own_run_csv`]), if the file is one of this tool's own (valid throughout, readings
+/// within `range`): every record went to `sink`, the events in time order among the samples.
+/// `None` for any other file, when `sink` may have had some of its records (not all): a caller
+/// that knows the file is its own (it was read so before) takes it as the file having changed.
 pub fn stream_own_run_csv(
     path: &Path,
     range: RigRange,
     sink: &mut (dyn RunLogSink + Send),
-) -> Result<bool, LoadError> {
+) -> Result<Option<StreamFound>, LoadError> {
     let file_err = |e: std::io::Error| RunCsvFileError {
         path: path.to_owned(),
         source: e.into(),
     };
-    let mut events = csv_events(path)?.into_iter().peekable();
+    let mut events = CsvEvents::of(path)?;
     // A sink's write error stops the records (the rest of the file is still parsed: the
     // visitor cannot stop the read) and is returned.
     let mut failed: Option<std::io::Error> = None;
@@ -304,13 +293,7 @@ pub fn stream_own_run_csv(
             if failed.is_some() {
                 return;
             }
-            while let Some((t_s, event)) = events.next_if(|(t_s, _)| *t_s <= sample.t_s) {
-                if let Err(e) = sink.event(t_s, &event) {
-                    failed = Some(e);
-                    return;
-                }
-            }
-            if let Err(e) = sink.sample(sample) {
+            if let Err(e) = events.then_sample(sample, sink) {
                 failed = Some(e);
             }
         }
@@ -318,12 +301,41 @@ pub fn stream_own_run_csv(
     if let Some(e) = failed {
         return Err(file_err(e).into());
     }
-    if own {
-        for (t_s, event) in events {
-            sink.event(t_s, &event).map_err(file_err)?;
-        }
+    if !own {
+        return Ok(None);
     }
-    Ok(own)
+    events.finish(sink).map_err(file_err)?;
+    Ok(Some(StreamFound::csv(Vec::new())))
+}
+
+/// A run CSV's events (its `RUN.events.jsonl`), handed to a sink in time order among its
+/// samples, as an MCAP file holds them.
+struct CsvEvents(std::iter::Peekable<std::vec::IntoIter<(f64, LogEvent)>>);
+
+impl CsvEvents {
+    /// The events of the run CSV at `path` ([`csv_events`]).
+    fn of(path: &Path) -> Result<Self, EventsFileError> {
+        Ok(Self(csv_events(path)?.into_iter().peekable()))
+    }
+
+    /// The events up to `sample`'s time into `sink`, then `sample`.
+    fn then_sample(
+        &mut self,
+        sample: &RunSample,
+        sink: &mut (impl RunLogSink + ?Sized),
+    ) -> std::io::Result<()> {
+        while let Some((t_s, event)) = self.0.next_if(|(t_s, _)| *t_s <= sample.t_s) {
+            sink.event(t_s, &event)?;
+        }
+        sink.sample(sample)
+    }
+
+    /// The events after the last sample into `sink`.
+    fn finish(self, sink: &mut (impl RunLogSink + ?Sized)) -> std::io::Result<()> {
+        self.0
+            .into_iter()
+            .try_for_each(|(t_s, event)| sink.event(t_s, &event))
+    }
 }
 
 /// What reading a run log gave: the run (or, read as a stream, `()`: its records went to a
@@ -347,6 +359,19 @@ pub type LoadedRun = Loaded<RunLog>;
 
 /// What reading a run log as a stream found besides its records ([`stream_salvaging`]).
 pub type StreamFound = Loaded<()>;
+
+impl StreamFound {
+    /// What streaming a run CSV found: the rows it left out.
+    fn csv(dropped_rows: Vec<DroppedRow>) -> Self {
+        Loaded {
+            run: (),
+            format: RunFormat::Csv,
+            truncated: None,
+            losses: Vec::new(),
+            dropped_rows,
+        }
+    }
+}
 
 impl<R> Loaded<R> {
     /// Whether data inside the file was lost to damage (not counting a cut end: a truncated
