@@ -61,6 +61,7 @@ pub(crate) mod proto;
 mod read;
 #[cfg(test)]
 mod salvage_tests;
+mod sample_batch;
 mod sample_json;
 mod sink;
 pub mod studio;
@@ -85,8 +86,10 @@ use model_core::Sides;
 use std::io;
 use std::path::PathBuf;
 
-/// Topic of the physical samples.
+/// Topic of the physical samples one by one (the live view; log files before batches).
 pub const TOPIC_SAMPLE: &str = "/rover_power/sample";
+/// Topic of the physical samples in batches (log files).
+pub const TOPIC_SAMPLE_BATCH: &str = "/rover_power/sample_batch";
 /// Topic of the board's model frames in SI units.
 pub const TOPIC_MODEL: &str = "/rover_power/model";
 /// Topic of the board's status frames.
@@ -151,6 +154,12 @@ impl LogChannel {
 pub const SAMPLE_CHANNEL: LogChannel = LogChannel {
     topic: TOPIC_SAMPLE,
     schema_name: proto::SAMPLE,
+    encoding: Encoding::Protobuf,
+};
+/// [`TOPIC_SAMPLE_BATCH`]'s channel.
+pub const SAMPLE_BATCH_CHANNEL: LogChannel = LogChannel {
+    topic: TOPIC_SAMPLE_BATCH,
+    schema_name: proto::SAMPLE_BATCH,
     encoding: Encoding::Protobuf,
 };
 /// [`TOPIC_MODEL`]'s channel.

@@ -20,15 +20,44 @@ use model_core::Sides;
 /// The frame's part beyond the physical sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct BoardSample {
-    t_us: u64,
-    seq: u32,
-    shunt: Sides<i16>,
+    pub(super) t_us: u64,
+    pub(super) seq: u32,
+    pub(super) shunt: Sides<i16>,
     /// The current register where it is not the shunt register's value.
     current: Sides<Option<i16>>,
-    stale: Sides<bool>,
+    pub(super) stale: Sides<bool>,
 }
 
 impl BoardSample {
+    /// The part of a frame with these registers.
+    pub(super) fn new(
+        t_us: u64,
+        seq: u32,
+        shunt: Sides<i16>,
+        current: Sides<i16>,
+        stale: Sides<bool>,
+    ) -> Self {
+        let differs = |current: i16, shunt: i16| (current != shunt).then_some(current);
+        BoardSample {
+            t_us,
+            seq,
+            shunt,
+            current: Sides::new(
+                differs(current.left, shunt.left),
+                differs(current.right, shunt.right),
+            ),
+            stale,
+        }
+    }
+
+    /// The current register of each side.
+    pub(super) fn current_register(&self) -> Sides<i16> {
+        Sides::new(
+            self.current.left.unwrap_or(self.shunt.left),
+            self.current.right.unwrap_or(self.shunt.right),
+        )
+    }
+
     /// `frame`'s part beyond `sample`, if the two rebuild `frame` exactly.
     pub(crate) fn of(frame: &Sample, sample: &RunSample) -> Option<Self> {
         let registers = |c: ChipReading| match c {

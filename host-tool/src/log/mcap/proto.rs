@@ -65,6 +65,8 @@ enum Type {
     Bytes,
     /// A message of this package, by its short name.
     Message(&'static str),
+    /// A `repeated` number field, written packed (one length-delimited run of values).
+    Packed(&'static Type),
 }
 
 impl Type {
@@ -79,6 +81,7 @@ impl Type {
             Type::Bytes => 12,
             Type::Uint32 => 13,
             Type::Sint32 => 17,
+            Type::Packed(element) => element.number(),
         }
     }
 }
@@ -125,6 +128,41 @@ const MESSAGES: &[MessageDef] = &[
             ("x_m", 6, Double),
             ("y_m", 7, Double),
             ("board", 8, Message("BoardSample")),
+        ],
+    },
+    MessageDef {
+        name: "SampleColumns",
+        fields: &[
+            ("power_w", 1, Packed(&Float)),
+            ("bus_v", 2, Packed(&Double)),
+            ("current_a", 3, Packed(&Double)),
+            ("cmd_mps", 4, Packed(&Double)),
+            ("bus_raw", 5, Packed(&Uint32)),
+            ("current_raw", 6, Packed(&Sint32)),
+        ],
+    },
+    MessageDef {
+        name: "BoardColumns",
+        fields: &[
+            ("t_us", 1, Packed(&Uint64)),
+            ("seq", 2, Packed(&Uint32)),
+            ("shunt_left", 3, Packed(&Sint32)),
+            ("shunt_right", 4, Packed(&Sint32)),
+            ("stale", 5, Packed(&Uint32)),
+        ],
+    },
+    MessageDef {
+        name: "SampleBatch",
+        fields: &[
+            ("t_s", 1, Packed(&Double)),
+            ("left", 2, Message("SampleColumns")),
+            ("right", 3, Message("SampleColumns")),
+            ("yaw_rad", 4, Packed(&Double)),
+            ("pitch_deg", 5, Packed(&Double)),
+            ("x_m", 6, Packed(&Double)),
+            ("y_m", 7, Packed(&Double)),
+            ("board", 8, Message("BoardColumns")),
+            ("current_lsb_na", 9, Uint32),
         ],
     },
     MessageDef {
@@ -192,6 +230,7 @@ const MESSAGES: &[MessageDef] = &[
 
 /// Fully qualified names of the channels' messages.
 pub(crate) const SAMPLE: &str = "rover_power.Sample";
+pub(crate) const SAMPLE_BATCH: &str = "rover_power.SampleBatch";
 pub(crate) const MODEL: &str = "rover_power.Model";
 pub(crate) const STATUS: &str = "rover_power.Status";
 pub(crate) const FRAME: &str = "rover_power.Frame";
@@ -215,6 +254,7 @@ fn closure(message: &str, into: &mut Vec<&'static MessageDef>) {
 /// file, `rover_power.proto`, with that message and the ones it holds.
 pub(crate) fn descriptor_set(message: &str) -> Vec<u8> {
     const LABEL_OPTIONAL: u64 = 1;
+    const LABEL_REPEATED: u64 = 3;
     let mut messages = Vec::new();
     closure(
         message.strip_prefix("rover_power.").unwrap_or(message),
@@ -234,10 +274,18 @@ pub(crate) fn descriptor_set(message: &str) -> Vec<u8> {
             let mut f = Writer::new();
             f.bytes(1, name.as_bytes());
             f.varint(3, u64::from(number));
-            f.varint(4, LABEL_OPTIONAL);
+            let label = match ty {
+                Packed(_) => LABEL_REPEATED,
+                _ => LABEL_OPTIONAL,
+            };
+            f.varint(4, label);
             f.varint(5, ty.number());
             if let Message(short) = ty {
                 f.bytes(6, format!(".{PACKAGE}.{short}").as_bytes());
+            }
+            if let Packed(_) = ty {
+                // FieldOptions: packed = 2 (proto2 repeated numbers are unpacked by default).
+                f.message(8, |o| o.bool(2, true));
             }
             f.bytes(10, name.as_bytes());
             m.bytes(2, &f.into_bytes());
@@ -300,6 +348,26 @@ pub(crate) fn to_json(message: &str, data: &[u8]) -> Result<serde_json::Value, S
                 }
                 (Bytes, Value::Len(b)) => serde_json::json!(b),
                 (Message(nested), Value::Len(b)) => decode(nested, b)?,
+                (Packed(element), Value::Len(b)) => {
+                    let mut values = Vec::new();
+                    let mut rest = b;
+                    while !rest.is_empty() {
+                        let (value, tail) = match element {
+                            Double => rest
+                                .split_first_chunk::<8>()
+                                .map(|(v, t)| (serde_json::json!(f64::from_le_bytes(*v)), t)),
+                            Float => rest
+                                .split_first_chunk::<4>()
+                                .map(|(v, t)| (serde_json::json!(f32::from_le_bytes(*v)), t)),
+                            Sint32 => varint(rest).map(|(v, t)| (serde_json::json!(unzigzag(v)), t)),
+                            _ => varint(rest).map(|(v, t)| (serde_json::json!(v), t)),
+                        }
+                        .ok_or_else(|| format!("{short}.{name}: a packed value is cut short"))?;
+                        values.push(value);
+                        rest = tail;
+                    }
+                    serde_json::Value::Array(values)
+                }
                 (ty, v) => return Err(format!("{short}.{name}: {ty:?} field holds {v:?}")),
             };
             out.insert(name.to_owned(), v);
@@ -356,7 +424,7 @@ impl Writer {
 
     /// A `sint32`/`sint64` field (zigzag: small magnitudes of either sign are short).
     pub(crate) fn sint(&mut self, field: u32, value: i64) {
-        self.varint(field, ((value << 1) ^ (value >> 63)) as u64);
+        self.varint(field, zigzag(value));
     }
 
     pub(crate) fn bool(&mut self, field: u32, value: bool) {
@@ -367,6 +435,40 @@ impl Writer {
         self.key(field, LEN);
         put_varint(&mut self.out, value.len() as u64);
         self.out.extend_from_slice(value);
+    }
+
+    /// A packed `repeated double` field; nothing for no values.
+    pub(crate) fn packed_doubles(&mut self, field: u32, values: impl ExactSizeIterator<Item = f64>) {
+        if values.len() > 0 {
+            self.key(field, LEN);
+            put_varint(&mut self.out, 8 * values.len() as u64);
+            for v in values {
+                self.out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+
+    /// A packed `repeated float` field; nothing for no values.
+    pub(crate) fn packed_floats(&mut self, field: u32, values: impl ExactSizeIterator<Item = f32>) {
+        if values.len() > 0 {
+            self.key(field, LEN);
+            put_varint(&mut self.out, 4 * values.len() as u64);
+            for v in values {
+                self.out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+
+    /// A packed `repeated` varint field (`uint32`, `uint64`; zigzag the values of a `sint32`
+    /// with [`zigzag`]); nothing for no values.
+    pub(crate) fn packed_varints(&mut self, field: u32, values: impl Iterator<Item = u64>) {
+        let mut run = Vec::new();
+        for v in values {
+            put_varint(&mut run, v);
+        }
+        if !run.is_empty() {
+            self.bytes(field, &run);
+        }
     }
 
     /// A nested message, built by `build`.
@@ -462,6 +564,11 @@ impl<'a> Iterator for Fields<'a> {
     }
 }
 
+/// The varint of a `sint` value (zigzag: small magnitudes of either sign are short).
+pub(crate) fn zigzag(value: i64) -> u64 {
+    ((value << 1) ^ (value >> 63)) as u64
+}
+
 /// The value of a zigzag-encoded (`sint`) varint.
 pub(crate) fn unzigzag(v: u64) -> i64 {
     (v >> 1) as i64 ^ -((v & 1) as i64)
@@ -505,7 +612,7 @@ mod tests {
                 }
             }
         }
-        for name in [SAMPLE, MODEL, STATUS, FRAME] {
+        for name in [SAMPLE, SAMPLE_BATCH, MODEL, STATUS, FRAME] {
             let short = name.strip_prefix("rover_power.").expect("package");
             assert!(MESSAGES.iter().any(|d| d.name == short), "{name}");
         }

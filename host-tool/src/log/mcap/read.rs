@@ -8,17 +8,20 @@
 //! samples).
 
 use super::ahead::{walk_ahead, Walked};
+use super::board_sample::BoardSample;
+use super::sample_batch::Columns;
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, Skipped, Walker};
 use super::{
     frame_encoding, frame_proto, proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
-    TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE,
+    TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE, TOPIC_SAMPLE_BATCH,
 };
+use crate::log::run_csv::RunSample;
 use crate::log::run_csv::RigRange;
 use crate::log::run_log::{RunLog, RunLogSink};
 use crate::ros2::from_log::{decode_sample, SAMPLE_TYPE};
 use ::mcap::records::{op, Record};
-use model_core::wire::{self, BoardFrame, MAX_FRAME};
+use model_core::wire::{self, BoardFrame, Sample, MAX_FRAME};
 use std::collections::{BTreeSet, HashMap, VecDeque};
 use std::fmt;
 use std::io::{self, Read, Seek};
@@ -269,9 +272,12 @@ fn read_mcap<R: Read + Seek + Send>(
 /// Samples of a damaged chunk, from the message index records that follow it.
 #[derive(Debug, Clone, Copy, Default)]
 struct Indexed {
-    /// Whether any message index record followed the chunk (then `samples` is exact).
+    /// Whether any message index record followed the chunk (then `samples` is exact unless
+    /// `batches`).
     seen: bool,
     samples: u64,
+    /// Whether it indexed sample batches, whose count is not the samples'.
+    batches: bool,
 }
 
 /// A skipped stretch and where it falls in the run.
@@ -282,6 +288,9 @@ struct Skip {
     at_sample: usize,
     /// For one damaged chunk: what its message indexes say it held.
     indexed: Option<Indexed>,
+    /// Samples lost before the next sample batch read, from its sequence (the samples written
+    /// before it) and the previous batch's end.
+    sequence_gap: Option<u64>,
     /// The sample times around it.
     times: SkipTimes,
 }
@@ -365,6 +374,7 @@ fn merge(skips: Vec<Skip>) -> Vec<Skip> {
                 last.skipped.end_byte = last.skipped.end_byte.max(s.skipped.end_byte);
                 last.skipped.detail = format!("{}; {}", last.skipped.detail, s.skipped.detail);
                 last.indexed = None;
+                last.sequence_gap = last.sequence_gap.or(s.sequence_gap);
             }
             _ => out.push(s),
         }
@@ -380,7 +390,10 @@ fn losses(skips: Vec<Skip>) -> Vec<Loss> {
             let after_t_s = s.times.before.last().copied();
             let before_t_s = s.times.after.first().copied();
             let samples_lost = match (s.indexed, after_t_s, before_t_s) {
-                (Some(ix), _, _) if ix.seen => LostSamples::Exact(ix.samples),
+                _ if s.sequence_gap.is_some() => {
+                    LostSamples::Exact(s.sequence_gap.unwrap_or_default())
+                }
+                (Some(ix), _, _) if ix.seen && !ix.batches => LostSamples::Exact(ix.samples),
                 (_, Some(a), Some(b)) => match typical_period_s(&s.times) {
                     Some(period) => {
                         LostSamples::About((((b - a) / period).round() - 1.0).max(0.0) as u64)
@@ -423,6 +436,8 @@ fn typical_period_s(times: &SkipTimes) -> Option<f64> {
 enum Topic {
     /// `rover_power.Sample` protobuf messages.
     Sample,
+    /// `rover_power.SampleBatch` protobuf messages.
+    SampleBatch,
     /// JSON samples (files written before the protobuf channels).
     JsonSample,
     /// Samples of a ROS 2 bag (`convert --to ros2-bag`): CDR `rover_power/msg/Sample`.
@@ -459,6 +474,12 @@ struct State<'s> {
     times: RecentTimes,
     /// The stretches skipped so far, in file order.
     skipped: Vec<Skip>,
+    /// The sequence the next sample batch has when none was lost (0 before the first).
+    next_batch_sequence: u32,
+    /// A sample batch's columns and samples, kept to be reused.
+    columns: Columns,
+    batch: Vec<(RunSample, Option<BoardSample>)>,
+    batch_frames: Vec<Option<Sample>>,
 }
 
 impl<'s> State<'s> {
@@ -476,6 +497,10 @@ impl<'s> State<'s> {
             last_t_s: None,
             times: RecentTimes::default(),
             skipped: Vec::new(),
+            next_batch_sequence: 0,
+            columns: Columns::default(),
+            batch: Vec::new(),
+            batch_frames: Vec::new(),
         }
     }
 
@@ -486,6 +511,7 @@ impl<'s> State<'s> {
             skipped: stretch,
             at_sample: self.samples,
             indexed: None,
+            sequence_gap: None,
             times,
         });
     }
@@ -576,16 +602,16 @@ impl<'s> State<'s> {
         let Ok(Record::MessageIndex(index)) = parse_record(op::MESSAGE_INDEX, body) else {
             return;
         };
-        let is_sample = self
-            .channels
-            .get(&index.channel_id)
-            .is_some_and(|(topic, _)| {
-                matches!(topic, Topic::Sample | Topic::JsonSample | Topic::BagSample)
-            });
+        let topic = self.channels.get(&index.channel_id).map(|(topic, _)| *topic);
+        let is_sample = matches!(
+            topic,
+            Some(Topic::Sample | Topic::JsonSample | Topic::BagSample)
+        );
         let Some(indexed) = self.skipped.get_mut(skip).and_then(|s| s.indexed.as_mut()) else {
             return;
         };
         indexed.seen = true;
+        indexed.batches |= topic == Some(Topic::SampleBatch);
         if !is_sample {
             return;
         }
@@ -604,14 +630,14 @@ impl<'s> State<'s> {
             return Ok(());
         }
         if opcode == op::MESSAGE {
-            let Some((channel_id, publish_time, payload)) = message_fields(data) else {
+            let Some((channel_id, sequence, publish_time, payload)) = message_fields(data) else {
                 // Shorter than its fixed fields: the parser's words for the damage.
                 let detail = parse_record(opcode, data)
                     .err()
                     .unwrap_or_else(|| "message record shorter than its header".into());
                 return Err(self.corrupt(offset, detail));
             };
-            return self.message_record(channel_id, publish_time, payload, offset);
+            return self.message_record(channel_id, sequence, publish_time, payload, offset);
         }
         if opcode != op::CHANNEL {
             return Ok(());
@@ -626,6 +652,7 @@ impl<'s> State<'s> {
     fn message_record(
         &mut self,
         channel_id: u16,
+        sequence: u32,
         publish_time: u64,
         data: &[u8],
         offset: u64,
@@ -649,7 +676,7 @@ impl<'s> State<'s> {
         };
         // Run time is `publish_time`: `log_time` is Unix time in files since the wall-clock
         // anchor, and the same as `publish_time` in older ones.
-        self.message(topic, channel_id, publish_time, data)
+        self.message(topic, channel_id, sequence, publish_time, data)
     }
 
     fn channel(&mut self, channel: ::mcap::records::Channel, offset: u64) -> Result<(), McapError> {
@@ -673,6 +700,11 @@ impl<'s> State<'s> {
             }
             TOPIC_SAMPLE if channel.message_encoding == proto::ENCODING => (
                 Topic::Sample,
+                proto::ENCODING.to_owned(),
+                &channel.message_encoding,
+            ),
+            TOPIC_SAMPLE_BATCH => (
+                Topic::SampleBatch,
                 proto::ENCODING.to_owned(),
                 &channel.message_encoding,
             ),
@@ -737,6 +769,7 @@ impl<'s> State<'s> {
         &mut self,
         topic: Topic,
         channel_id: u16,
+        sequence: u32,
         run_time_ns: u64,
         data: &[u8],
     ) -> Result<(), McapError> {
@@ -769,55 +802,39 @@ impl<'s> State<'s> {
                         None,
                     ),
                 };
-                // The board's sample frame folded into the message, rebuilt (before the
-                // range check: a frame that does not rebuild is the message's fault).
-                let frame = match board {
-                    Some(board) => Some(board.frame(&sample).ok_or_else(|| {
-                        bad(
-                            self,
-                            "its board part does not rebuild a sample frame (bus voltage off the \
-                             register's steps or range)"
-                                .into(),
-                        )
-                    })?),
-                    None => None,
-                };
-                // The board's registers: its range, not a foreign rig's. A bag may hold any
-                // rig's run CSV (`convert run.csv bag --to ros2-bag`): any physical reading.
-                let (range, which) = match topic {
-                    Topic::BagSample => (RigRange::Physical, "physical"),
-                    _ => (RigRange::Board, "the board's measuring"),
-                };
-                if let Some((column, value)) = sample.out_of_range(range) {
-                    let (bus_v_max, current_a_max) = range.limits();
-                    return Err(bad(
-                        self,
-                        format!(
-                            "{column} = {value} is outside {which} range (bus 0 to {bus_v_max} \
-                             V, current ±{current_a_max} A, all finite)"
-                        ),
-                    ));
+                let frame = Self::checked(&sample, board, topic, self.last_t_s)
+                    .map_err(|e| bad(self, e))?;
+                self.take_sample(sample, frame)?;
+            }
+            Topic::SampleBatch => {
+                let mut batch = std::mem::take(&mut self.batch);
+                let mut frames = std::mem::take(&mut self.batch_frames);
+                batch.clear();
+                frames.clear();
+                self.columns
+                    .decode(data, &mut batch)
+                    .map_err(|e| bad(self, e))?;
+                // Every sample checked before any is handed on: a message that does not hold
+                // what its channel promises is skipped whole.
+                let mut last_t_s = self.last_t_s;
+                for (sample, board) in &batch {
+                    let frame = Self::checked(sample, *board, topic, last_t_s)
+                        .map_err(|e| bad(self, e))?;
+                    frames.push(frame);
+                    last_t_s = Some(sample.t_s);
                 }
-                if let Some(previous) = self.last_t_s {
-                    if sample.t_s <= previous {
-                        return Err(bad(
-                            self,
-                            format!(
-                                "sample time {} is not after the previous sample's {previous}",
-                                sample.t_s
-                            ),
-                        ));
-                    }
+                // Samples lost since the previous batch (the sequence counts samples written).
+                let samples = self.samples;
+                if let Some(skip) = self.skipped.last_mut().filter(|s| s.at_sample == samples) {
+                    skip.sequence_gap =
+                        Some(u64::from(sequence.wrapping_sub(self.next_batch_sequence)));
                 }
-                self.last_t_s = Some(sample.t_s);
-                self.samples += 1;
-                self.times.sample(sample.t_s);
-                if let Some(frame) = frame {
-                    self.sink
-                        .frame(sample.t_s, &BoardFrame::Sample(frame))
-                        .map_err(|e| self.sink_err(e))?;
+                self.next_batch_sequence = sequence.wrapping_add(batch.len() as u32);
+                for ((sample, _), frame) in batch.iter().zip(&frames) {
+                    self.take_sample(*sample, *frame)?;
                 }
-                self.sink.sample(&sample).map_err(|e| self.sink_err(e))?;
+                self.batch = batch;
+                self.batch_frames = frames;
             }
             Topic::Command => {
                 let msg: CommandMsg =
@@ -872,15 +889,71 @@ impl<'s> State<'s> {
     }
 }
 
-/// A message record's channel id, publish time [ns] and data, read in place from its fixed
+impl State<'_> {
+    /// `sample`'s board frame rebuilt from its part, once the sample is checked: in the
+    /// board's range (any physical reading in a bag: it may hold any rig's run CSV) and after
+    /// `last_t_s`. The error says what is wrong with the message.
+    fn checked(
+        sample: &RunSample,
+        board: Option<BoardSample>,
+        topic: Topic,
+        last_t_s: Option<f64>,
+    ) -> Result<Option<Sample>, String> {
+        // Before the range check: a frame that does not rebuild is the message's fault.
+        let frame = match board {
+            Some(board) => Some(board.frame(sample).ok_or(
+                "its board part does not rebuild a sample frame (bus voltage off the register's \
+                 steps or range)",
+            )?),
+            None => None,
+        };
+        let (range, which) = match topic {
+            Topic::BagSample => (RigRange::Physical, "physical"),
+            _ => (RigRange::Board, "the board's measuring"),
+        };
+        if let Some((column, value)) = sample.out_of_range(range) {
+            let (bus_v_max, current_a_max) = range.limits();
+            return Err(format!(
+                "{column} = {value} is outside {which} range (bus 0 to {bus_v_max} V, current \
+                 ±{current_a_max} A, all finite)"
+            ));
+        }
+        if let Some(previous) = last_t_s {
+            if sample.t_s <= previous {
+                return Err(format!(
+                    "sample time {} is not after the previous sample's {previous}",
+                    sample.t_s
+                ));
+            }
+        }
+        Ok(frame)
+    }
+
+    /// Hands a checked sample on, after its board frame.
+    fn take_sample(&mut self, sample: RunSample, frame: Option<Sample>) -> Result<(), McapError> {
+        self.last_t_s = Some(sample.t_s);
+        self.samples += 1;
+        self.times.sample(sample.t_s);
+        if let Some(frame) = frame {
+            self.sink
+                .frame(sample.t_s, &BoardFrame::Sample(frame))
+                .map_err(|e| self.sink_err(e))?;
+        }
+        self.sink.sample(&sample).map_err(|e| self.sink_err(e))
+    }
+}
+
+/// A message record's channel id, sequence, publish time [ns] and data, read in place from its fixed
 /// fields (channel id u16, sequence u32, log time u64, publish time u64, then the data; the
 /// `mcap` crate's parser took a tenth of a read); `None` for a body shorter than them.
-fn message_fields(body: &[u8]) -> Option<(u16, u64, &[u8])> {
+fn message_fields(body: &[u8]) -> Option<(u16, u32, u64, &[u8])> {
     let (channel_id, rest) = body.split_first_chunk::<2>()?;
-    let (_sequence_and_log_time, rest) = rest.split_first_chunk::<12>()?;
+    let (sequence, rest) = rest.split_first_chunk::<4>()?;
+    let (_log_time, rest) = rest.split_first_chunk::<8>()?;
     let (publish_time, data) = rest.split_first_chunk::<8>()?;
     Some((
         u16::from_le_bytes(*channel_id),
+        u32::from_le_bytes(*sequence),
         u64::from_le_bytes(*publish_time),
         data,
     ))
@@ -908,7 +981,10 @@ mod tests {
             let ours = message_fields(&body);
             match ::mcap::parse_record(op::MESSAGE, &body) {
                 Ok(Record::Message { header, data }) => {
-                    prop_assert_eq!(ours, Some((header.channel_id, header.publish_time, &data[..])));
+                    prop_assert_eq!(
+                        ours,
+                        Some((header.channel_id, header.sequence, header.publish_time, &data[..]))
+                    );
                 }
                 _ => prop_assert_eq!(ours, None),
             }

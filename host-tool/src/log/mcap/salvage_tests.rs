@@ -393,7 +393,7 @@ fn bytes_inserted_or_deleted_in_the_first_chunk_cost_only_that_chunk() {
     let (run, bytes) = long_log();
     assert_eq!(run.samples.len(), 9600);
     let chunks = chunk_offsets(&bytes);
-    assert!(chunks.len() > 5, "{} chunks", chunks.len());
+    assert!(chunks.len() >= 3, "{} chunks", chunks.len());
     let len = u64::from_le_bytes(bytes[chunks[0] + 1..chunks[0] + 9].try_into().expect("8"));
     let at = chunks[0] + 9 + len as usize / 2;
     let mut flipped = bytes.clone();
@@ -412,8 +412,8 @@ fn bytes_inserted_or_deleted_in_the_first_chunk_cost_only_that_chunk() {
     let insertion = insertion.expect("an insertion is salvaged");
     let deletion = deletion.expect("a deletion is salvaged");
     println!("of 9600 samples: flip {flip}, insertion {insertion}, deletion {deletion}");
-    // At most the first chunk's samples: 256 KiB of ~150-byte sample messages.
-    let per_chunk = CHUNK_BYTES as usize / 150;
+    // At most the first chunk's samples: 256 KiB of batches, over 40 bytes a sample.
+    let per_chunk = CHUNK_BYTES as usize / 40;
     assert!(flip >= 9600 - per_chunk, "{flip}");
     assert_eq!(insertion, flip);
     assert_eq!(deletion, flip);

@@ -1,9 +1,10 @@
 //! [`McapSink`]: the MCAP writer behind [`RunLogSink`].
 
 use super::board_sample::BoardSample;
+use super::sample_batch::{registers_of, Batch};
 use super::{
-    frame_encoding, frame_proto, proto, CommandMsg, EventMsg, LogChannel, McapError, SampleMsg,
-    CHUNK_BYTES, COMMAND_CHANNEL, EVENT_CHANNEL, FRAME_CHANNEL, MODEL_CHANNEL, SAMPLE_CHANNEL,
+    frame_encoding, frame_proto, proto, CommandMsg, EventMsg, LogChannel, McapError, CHUNK_BYTES,
+    COMMAND_CHANNEL, EVENT_CHANNEL, FRAME_CHANNEL, MODEL_CHANNEL, SAMPLE_BATCH_CHANNEL,
     STATUS_CHANNEL,
 };
 use crate::log::commands::CommandRow;
@@ -41,14 +42,16 @@ pub(super) enum Ch {
 /// crash-safety guarantees). Samples must come in strictly increasing time; all times are run
 /// times ≥ 0 [s].
 pub struct McapSink<W: Write + Seek> {
-    pub(super) writer: Writer<W>,
+    /// `None` once [`McapSink::finish`] took it.
+    writer: Option<Writer<W>>,
     /// MCAP channel id of each [`Ch`], once its first message declared it. Declared lazily
     /// so that a channel record always shares its chunk with a message: a chunk of channel
     /// records alone has no message index and a start time of 0, and Foxglove Studio then
     /// shows nothing of the file ("Chunks without message indexes are not currently
     /// supported", a time range from 1970).
     ids: [Option<u16>; 6],
-    /// Next sequence number of each [`Ch`].
+    /// Next sequence number of each [`Ch`]; for [`Ch::Sample`], samples written so far (a
+    /// batch's sequence is its first sample's number: [`super::sample_batch`]).
     sequence: [u32; 6],
     /// The latest hello's scale (the board's until one arrives), for the model channel.
     scale: Scale,
@@ -58,6 +61,8 @@ pub struct McapSink<W: Write + Seek> {
     /// A sample frame waiting for its physical sample (the next record), to ride in its
     /// message ([`BoardSample`]); written on the frame channel if anything else comes first.
     pending: Option<(f64, Sample)>,
+    /// Samples not written yet: written as one message before any other record.
+    batch: Batch,
 }
 
 /// Most messages held while no wall-clock event has come (a run's start before its first
@@ -167,26 +172,51 @@ impl<W: Write + Seek> McapSink<W> {
             ]),
         })?;
         Ok(McapSink {
-            writer,
+            writer: Some(writer),
             ids: [None; 6],
             sequence: [0; 6],
             scale: Scale::BOARD,
             last_sample_t_s: None,
             clock: LogClock::Waiting(Vec::new()),
             pending: None,
+            batch: Batch::new(Scale::BOARD),
         })
+    }
+
+    /// The MCAP writer (taken only by [`McapSink::finish`], which consumes the sink).
+    fn writer(&mut self) -> &mut Writer<W> {
+        self.writer.as_mut().expect("the writer is taken only when the sink is consumed")
     }
 
     /// Writes the summary section and footer and hands back the output, flushed. (Dropping the
     /// sink does the same, ignoring errors.)
     pub fn finish(mut self) -> Result<W, McapError> {
-        self.release_pending().map_err(::mcap::McapError::Io)?;
+        self.write_waiting().map_err(::mcap::McapError::Io)?;
         self.release_held(LogClock::Run)
             .map_err(::mcap::McapError::Io)?;
-        self.writer.finish()?;
-        let mut out = self.writer.into_inner();
+        let mut writer = self.writer.take().expect("finish consumes the sink");
+        writer.finish()?;
+        let mut out = writer.into_inner();
         out.flush().map_err(::mcap::McapError::Io)?;
         Ok(out)
+    }
+
+    /// The MCAP writer, for tests that write records of their own between the sink's.
+    #[cfg(test)]
+    pub(super) fn raw_writer(&mut self) -> &mut Writer<W> {
+        self.writer()
+    }
+
+    /// The output as a killed recorder leaves it: what was flushed, no summary, no footer.
+    #[cfg(test)]
+    pub(super) fn killed(mut self) -> W {
+        self.writer.take().expect("not finished").into_inner()
+    }
+
+    /// Writes what waits for a next record: a sample frame, the batch.
+    fn write_waiting(&mut self) -> io::Result<()> {
+        self.release_pending()?;
+        self.write_batch()
     }
 
     /// Writes a waiting sample frame on the frame channel (its sample did not follow).
@@ -195,6 +225,20 @@ impl<W: Write + Seek> McapSink<W> {
             Some((t_s, sample)) => self.write_frame(t_s, &BoardFrame::Sample(sample)),
             None => Ok(()),
         }
+    }
+
+    /// Writes the samples gathered so far as one message.
+    fn write_batch(&mut self) -> io::Result<()> {
+        let Some(t_s) = self.batch.first_t_s() else {
+            return Ok(());
+        };
+        let count = self.batch.len() as u32;
+        // Taken out first: writing may release held messages, which write the batch first.
+        let data = self.batch.take_protobuf();
+        self.write(Ch::Sample, t_s, &data)?;
+        let written = &mut self.sequence[Ch::Sample as usize];
+        *written = written.wrapping_add(count);
+        Ok(())
     }
 
     /// Writes `frame` on the frame channel.
@@ -206,7 +250,7 @@ impl<W: Write + Seek> McapSink<W> {
     }
 
     fn flush_records(&mut self) -> Result<(), McapError> {
-        Ok(self.writer.flush()?)
+        Ok(self.writer().flush()?)
     }
 
     /// Writes one message at run time `t_s` (held while the wall clock is not known yet).
@@ -221,6 +265,10 @@ impl<W: Write + Seek> McapSink<W> {
         data: &[u8],
         event: Option<&LogEvent>,
     ) -> io::Result<()> {
+        if !matches!(channel, Ch::Sample) {
+            // The samples gathered came before this record.
+            self.write_batch()?;
+        }
         let run_ns = run_time_ns(t_s)?;
         let log_time = match &mut self.clock {
             // The recorder's anchor comes with the first sample; a sample without one means
@@ -252,8 +300,10 @@ impl<W: Write + Seek> McapSink<W> {
         };
         let channel_id = self.channel_id(channel).map_err(into_io)?;
         let sequence = self.sequence[channel as usize];
-        self.sequence[channel as usize] = sequence.wrapping_add(1);
-        self.writer
+        if !matches!(channel, Ch::Sample) {
+            self.sequence[channel as usize] = sequence.wrapping_add(1);
+        }
+        self.writer()
             .write_to_known_channel(
                 &MessageHeader {
                     channel_id,
@@ -272,7 +322,7 @@ impl<W: Write + Seek> McapSink<W> {
             return Ok(id);
         }
         let declared: LogChannel = match channel {
-            Ch::Sample => SAMPLE_CHANNEL,
+            Ch::Sample => SAMPLE_BATCH_CHANNEL,
             Ch::Model => MODEL_CHANNEL,
             Ch::Status => STATUS_CHANNEL,
             Ch::Command => COMMAND_CHANNEL,
@@ -294,12 +344,12 @@ impl<W: Write + Seek> McapSink<W> {
             ]),
             _ => BTreeMap::new(),
         };
-        let schema_id = self.writer.add_schema(
+        let schema_id = self.writer().add_schema(
             declared.schema_name,
             declared.schema_encoding(),
             &declared.schema(),
         )?;
-        let id = self.writer.add_channel(
+        let id = self.writer().add_channel(
             schema_id,
             declared.topic,
             declared.message_encoding(),
@@ -329,7 +379,7 @@ impl<W: Write + Seek> McapSink<W> {
             return Ok(());
         }
         let zero = i128::from(unix_ns) - i128::from(run_time_ns(t_s)?);
-        self.writer
+        self.writer()
             .write_metadata(&Metadata {
                 name: "rover_power.wall_clock".into(),
                 metadata: BTreeMap::from([
@@ -374,7 +424,7 @@ impl<W: Write + Seek> McapSink<W> {
             ),
             ("hse_mhz", hello.identity.hse_mhz.to_string()),
         ];
-        self.writer
+        self.writer()
             .write_metadata(&Metadata {
                 name: "rover_power.board".into(),
                 metadata: entries
@@ -613,12 +663,17 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
                 )));
             }
         }
-        // Its sample frame rides along when it came just before and rebuilds exactly.
+        let registers = registers_of(sample, self.scale);
+        // Its sample frame rides along when it came just before and rebuilds exactly from the
+        // registers.
         let board = match self.pending.take() {
             Some((t_s, frame)) => {
                 let board = (t_s.to_bits() == sample.t_s.to_bits())
                     .then(|| BoardSample::of(&frame, sample))
-                    .flatten();
+                    .flatten()
+                    .filter(|b| {
+                        registers.is_some_and(|r| b.current_register() == r.map(|(_, c)| c))
+                    });
                 if board.is_none() {
                     self.write_frame(t_s, &BoardFrame::Sample(frame))?;
                 }
@@ -626,8 +681,10 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
             }
             None => None,
         };
-        let message = SampleMsg::of(sample).protobuf(board.as_ref());
-        self.write(Ch::Sample, sample.t_s, &message)?;
+        if !self.batch.push(sample, registers, board, self.scale) {
+            self.write_batch()?;
+            self.batch.push(sample, registers, board, self.scale);
+        }
         self.last_sample_t_s = Some(sample.t_s);
         Ok(())
     }
@@ -660,6 +717,8 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
             }
         }
         if let LogEvent::WallClock { unix_ns } = event {
+            // Samples gathered before it settle the clock as they did when they came.
+            self.write_batch()?;
             self.anchor(t_s, *unix_ns)?;
         }
         // The JSON (with its foxglove.Log time stamp) is built when the log time is known.
@@ -667,15 +726,26 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        self.release_pending()?;
-        self.writer.flush().map_err(into_io)
+        self.write_waiting()?;
+        self.writer().flush().map_err(into_io)
     }
 
     /// Writes the summary section and footer (the sink takes no more records afterwards).
     fn finish(&mut self) -> io::Result<()> {
-        self.release_pending()?;
+        self.write_waiting()?;
         self.release_held(LogClock::Run)?;
-        self.writer.finish().map(drop).map_err(into_io)
+        self.writer().finish().map(drop).map_err(into_io)
+    }
+}
+
+impl<W: Write + Seek> Drop for McapSink<W> {
+    /// A sink dropped unfinished writes what it holds; the `mcap` writer then writes the summary
+    /// and footer (errors are ignored: [`McapSink::finish`] reports them).
+    fn drop(&mut self) {
+        if self.writer.is_some() {
+            let _ = self.write_waiting();
+            let _ = self.release_held(LogClock::Run);
+        }
     }
 }
 

@@ -1,0 +1,440 @@
+//! The sample channel of a run log: samples in batches (`rover_power.SampleBatch` on
+//! [`super::TOPIC_SAMPLE_BATCH`]), one value per sample in packed columns.
+//!
+//! One message a sample cost 85 B a sample (an hour: 67.6 MB), 26 B of it the MCAP record
+//! header and message index entry alone; a batch of about 20 (one model period) pays those once.
+//! The electrical readings are the chips' registers (bus in 1.25 mV steps, current in the
+//! batch's `current_lsb_na`), from which the reader rebuilds each double bit for bit with the
+//! recorder's own [`Scale`] functions; a sample whose values are not a register's (a foreign
+//! rig's converted CSV) goes in a batch of exact doubles instead. `power_w` is a `float` for
+//! viewers only (bus × current). An optional value a sample lacks (yaw, pitch, a tracker fix) is
+//! NaN in its column, and a column no sample of the batch has is left out. The board's sample
+//! frame rides in `board` when it rebuilds from the registers exactly ([`BoardSample`]).
+//!
+//! A batch holds samples of one kind (registers or doubles, with or without board frames) that
+//! came one after the other with nothing else between: the writer closes it at any other record
+//! (a model or status frame, a command, an event, a flush), so the file keeps the run's order.
+//! The message's MCAP `sequence` is the number of samples written before it, so a reader that
+//! loses a batch to damage knows exactly how many samples it lost.
+
+use super::board_sample::BoardSample;
+use super::proto::{self, Value};
+use crate::log::run_csv::RunSample;
+use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale, BUS_LSB_UV};
+use model_core::Sides;
+
+/// Most samples in one batch: a run without model frames (a converted CSV) still gets
+/// messages of a bounded size, a few per second.
+pub(super) const BATCH_MAX: usize = 64;
+
+/// One sample of a batch.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    sample: RunSample,
+    /// Its bus and current registers at the batch's scale, when they rebuild it exactly.
+    registers: Option<Sides<(u16, i16)>>,
+    board: Option<BoardSample>,
+}
+
+/// The samples of the batch being gathered.
+#[derive(Debug)]
+pub(super) struct Batch {
+    /// The scale of the registers.
+    scale: Scale,
+    entries: Vec<Entry>,
+}
+
+/// The registers that rebuild `sample`'s bus voltages and currents bit for bit at `scale`.
+pub(super) fn registers_of(sample: &RunSample, scale: Scale) -> Option<Sides<(u16, i16)>> {
+    let side = |bus_v: f64, current_a: f64| {
+        let bus = (bus_v * 1e6 / f64::from(BUS_LSB_UV)).round();
+        let current = (current_a * 1e9 / f64::from(scale.current_lsb_na)).round();
+        if !(0.0..=f64::from(u16::MAX)).contains(&bus)
+            || !(f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&current)
+        {
+            return None;
+        }
+        let (bus, current) = (bus as u16, current as i16);
+        let exact = scale.bus_v(BusVoltageRaw(bus)).to_bits() == bus_v.to_bits()
+            && scale.current_a(CurrentRaw(current)).to_bits() == current_a.to_bits();
+        exact.then_some((bus, current))
+    };
+    Some(Sides::new(
+        side(sample.bus_v.left, sample.current_a.left)?,
+        side(sample.bus_v.right, sample.current_a.right)?,
+    ))
+}
+
+impl Batch {
+    pub(super) fn new(scale: Scale) -> Self {
+        Batch {
+            scale,
+            entries: Vec::with_capacity(BATCH_MAX),
+        }
+    }
+
+    /// Samples in the batch.
+    pub(super) fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// The first sample's run time.
+    pub(super) fn first_t_s(&self) -> Option<f64> {
+        self.entries.first().map(|e| e.sample.t_s)
+    }
+
+    /// Adds `sample` (with its registers at `scale` from [`registers_of`], and its frame's part)
+    /// if it is of the batch's kind and there is room; `false` if the batch must be written
+    /// first.
+    pub(super) fn push(
+        &mut self,
+        sample: &RunSample,
+        registers: Option<Sides<(u16, i16)>>,
+        board: Option<BoardSample>,
+        scale: Scale,
+    ) -> bool {
+        if let Some(first) = self.entries.first() {
+            let same_kind = first.registers.is_some() == registers.is_some()
+                && first.board.is_some() == board.is_some()
+                && (registers.is_none() || self.scale == scale);
+            if !same_kind || self.entries.len() == BATCH_MAX {
+                return false;
+            }
+        }
+        self.scale = scale;
+        self.entries.push(Entry {
+            sample: *sample,
+            registers,
+            board,
+        });
+        true
+    }
+
+    /// The batch as a `rover_power.SampleBatch` message; the batch is left empty.
+    pub(super) fn take_protobuf(&mut self) -> Vec<u8> {
+        let e = &self.entries;
+        let mut w = proto::Writer::new();
+        w.packed_doubles(1, e.iter().map(|e| e.sample.t_s));
+        let registers = e.iter().all(|e| e.registers.is_some());
+        for (field, pick) in [(2, Side::Left), (3, Side::Right)] {
+            w.message(field, |m| {
+                m.packed_floats(
+                    1,
+                    e.iter().map(|e| {
+                        (pick.of(e.sample.bus_v) * pick.of(e.sample.current_a)) as f32
+                    }),
+                );
+                if registers {
+                    let regs = || e.iter().filter_map(|e| e.registers).map(|r| pick.of(r));
+                    m.packed_varints(5, regs().map(|(bus, _)| u64::from(bus)));
+                    m.packed_varints(6, regs().map(|(_, cur)| proto::zigzag(i64::from(cur))));
+                } else {
+                    m.packed_doubles(2, e.iter().map(|e| pick.of(e.sample.bus_v)));
+                    m.packed_doubles(3, e.iter().map(|e| pick.of(e.sample.current_a)));
+                }
+                m.packed_doubles(4, e.iter().map(|e| pick.of(e.sample.cmd_mps)));
+            });
+        }
+        let optional: [fn(&RunSample) -> Option<f64>; 4] = [
+            |s| s.yaw_rad,
+            |s| s.pitch_deg,
+            |s| s.x_m,
+            |s| s.y_m,
+        ];
+        for (field, value) in (4..).zip(optional) {
+            if e.iter().any(|e| value(&e.sample).is_some()) {
+                w.packed_doubles(field, e.iter().map(|e| value(&e.sample).unwrap_or(f64::NAN)));
+            }
+        }
+        if e.iter().all(|e| e.board.is_some()) && !e.is_empty() {
+            let boards = || e.iter().filter_map(|e| e.board);
+            w.message(8, |m| {
+                m.packed_varints(1, boards().map(|b| b.t_us));
+                m.packed_varints(2, boards().map(|b| u64::from(b.seq)));
+                // A shunt register is written only where it is not the current register.
+                for (field, pick) in [(3, Side::Left), (4, Side::Right)] {
+                    if boards().any(|b| pick.of(b.shunt) != pick.of(b.current_register())) {
+                        m.packed_varints(
+                            field,
+                            boards().map(|b| proto::zigzag(i64::from(pick.of(b.shunt)))),
+                        );
+                    }
+                }
+                if boards().any(|b| b.stale.left || b.stale.right) {
+                    m.packed_varints(
+                        5,
+                        boards().map(|b| u64::from(b.stale.left) | u64::from(b.stale.right) << 1),
+                    );
+                }
+            });
+        }
+        if registers {
+            w.varint(9, u64::from(self.scale.current_lsb_na));
+        }
+        self.entries.clear();
+        w.into_bytes()
+    }
+}
+
+/// Which side of a [`Sides`] a column holds.
+#[derive(Debug, Clone, Copy)]
+enum Side {
+    Left,
+    Right,
+}
+
+impl Side {
+    fn of<T: Copy>(self, sides: Sides<T>) -> T {
+        match self {
+            Side::Left => sides.left,
+            Side::Right => sides.right,
+        }
+    }
+}
+
+/// The columns of a decoded batch, kept between messages so that reading allocates nothing
+/// once they have grown.
+#[derive(Debug, Default)]
+pub(super) struct Columns {
+    t_s: Vec<f64>,
+    sides: [SideColumns; 2],
+    /// yaw, pitch, x, y.
+    optional: [Vec<f64>; 4],
+    t_us: Vec<u64>,
+    seq: Vec<u64>,
+    shunt: [Vec<u64>; 2],
+    stale: Vec<u64>,
+    has_board: bool,
+    current_lsb_na: Option<u32>,
+}
+
+#[derive(Debug, Default)]
+struct SideColumns {
+    bus_v: Vec<f64>,
+    current_a: Vec<f64>,
+    cmd_mps: Vec<f64>,
+    bus_raw: Vec<u64>,
+    current_raw: Vec<u64>,
+}
+
+impl Columns {
+    /// Decodes a `rover_power.SampleBatch` message into `out`: each sample with its board
+    /// frame's part when the batch carries them. Unknown fields are skipped (a later writer may
+    /// add some); columns of different lengths, a value that is not a register or a missing
+    /// column are errors.
+    pub(super) fn decode(
+        &mut self,
+        data: &[u8],
+        out: &mut Vec<(RunSample, Option<BoardSample>)>,
+    ) -> Result<(), String> {
+        self.clear();
+        for item in proto::Fields::of(data) {
+            let (field, value) = item?;
+            match field {
+                1 => doubles(value, &mut self.t_s)?,
+                2 | 3 => self.sides[field as usize - 2].decode(message(field, value)?)?,
+                4..=7 => doubles(value, &mut self.optional[field as usize - 4])?,
+                8 => {
+                    self.has_board = true;
+                    for item in proto::Fields::of(message(field, value)?) {
+                        let (field, value) = item?;
+                        match field {
+                            1 => varints(value, &mut self.t_us)?,
+                            2 => varints(value, &mut self.seq)?,
+                            3 | 4 => varints(value, &mut self.shunt[field as usize - 3])?,
+                            5 => varints(value, &mut self.stale)?,
+                            _ => {}
+                        }
+                    }
+                }
+                9 => match value {
+                    Value::Varint(v) => {
+                        self.current_lsb_na = Some(
+                            u32::try_from(v)
+                                .ok()
+                                .filter(|&v| v > 0)
+                                .ok_or_else(|| format!("current_lsb_na {v} is out of range"))?,
+                        );
+                    }
+                    other => return Err(format!("current_lsb_na: expected a varint, found {other:?}")),
+                },
+                _ => {}
+            }
+        }
+        self.samples(out)
+    }
+
+    fn clear(&mut self) {
+        self.t_s.clear();
+        for side in &mut self.sides {
+            side.clear();
+        }
+        for column in &mut self.optional {
+            column.clear();
+        }
+        let [left, right] = &mut self.shunt;
+        for column in [&mut self.t_us, &mut self.seq, &mut self.stale, left, right] {
+            column.clear();
+        }
+        self.has_board = false;
+        self.current_lsb_na = None;
+    }
+
+    /// The samples the decoded columns hold.
+    fn samples(&self, out: &mut Vec<(RunSample, Option<BoardSample>)>) -> Result<(), String> {
+        let n = self.t_s.len();
+        let check = |name: &str, len: usize, needed: bool| match (len, needed) {
+            (0, false) => Ok(()),
+            (len, _) if len == n => Ok(()),
+            (len, _) => Err(format!("column {name} holds {len} values for {n} samples")),
+        };
+        let scale = self.current_lsb_na.map(|current_lsb_na| Scale {
+            current_lsb_na,
+            ..Scale::BOARD
+        });
+        for (side, name) in self.sides.iter().zip(["left", "right"]) {
+            let registers = scale.is_some();
+            check(&format!("{name}.bus_raw"), side.bus_raw.len(), registers)?;
+            check(&format!("{name}.current_raw"), side.current_raw.len(), registers)?;
+            check(&format!("{name}.bus_v"), side.bus_v.len(), !registers)?;
+            check(&format!("{name}.current_a"), side.current_a.len(), !registers)?;
+            check(&format!("{name}.cmd_mps"), side.cmd_mps.len(), true)?;
+        }
+        for (column, name) in self.optional.iter().zip(["yaw_rad", "pitch_deg", "x_m", "y_m"]) {
+            check(name, column.len(), false)?;
+        }
+        if self.has_board {
+            check("board.t_us", self.t_us.len(), true)?;
+            check("board.seq", self.seq.len(), true)?;
+            check("board.shunt_left", self.shunt[0].len(), false)?;
+            check("board.shunt_right", self.shunt[1].len(), false)?;
+            check("board.stale", self.stale.len(), false)?;
+            if scale.is_none() {
+                return Err("board frames in a batch without registers".into());
+            }
+        }
+        out.reserve(n);
+        for i in 0..n {
+            let electrical = |side: &SideColumns| -> Result<(f64, f64, i16), String> {
+                match scale {
+                    Some(scale) => {
+                        let bus = u16::try_from(side.bus_raw[i])
+                            .map_err(|_| format!("bus register {} is out of range", side.bus_raw[i]))?;
+                        let current = register(side.current_raw[i])?;
+                        Ok((
+                            scale.bus_v(BusVoltageRaw(bus)),
+                            scale.current_a(CurrentRaw(current)),
+                            current,
+                        ))
+                    }
+                    None => Ok((side.bus_v[i], side.current_a[i], 0)),
+                }
+            };
+            let (bus_l, cur_l, reg_l) = electrical(&self.sides[0])?;
+            let (bus_r, cur_r, reg_r) = electrical(&self.sides[1])?;
+            let optional = |k: usize| self.optional[k].get(i).copied().filter(|v| !v.is_nan());
+            let sample = RunSample {
+                t_s: self.t_s[i],
+                bus_v: Sides::new(bus_l, bus_r),
+                current_a: Sides::new(cur_l, cur_r),
+                cmd_mps: Sides::new(self.sides[0].cmd_mps[i], self.sides[1].cmd_mps[i]),
+                yaw_rad: optional(0),
+                pitch_deg: optional(1),
+                x_m: optional(2),
+                y_m: optional(3),
+            };
+            let board = if self.has_board {
+                let current = Sides::new(reg_l, reg_r);
+                let shunt = |k: usize, current: i16| match self.shunt[k].get(i) {
+                    Some(&raw) => register(raw),
+                    None => Ok(current),
+                };
+                let stale = self.stale.get(i).copied().unwrap_or(0);
+                Some(BoardSample::new(
+                    self.t_us[i],
+                    u32::try_from(self.seq[i])
+                        .map_err(|_| format!("seq {} is out of range", self.seq[i]))?,
+                    Sides::new(shunt(0, reg_l)?, shunt(1, reg_r)?),
+                    current,
+                    Sides::new(stale & 1 != 0, stale & 2 != 0),
+                ))
+            } else {
+                None
+            };
+            out.push((sample, board));
+        }
+        Ok(())
+    }
+}
+
+impl SideColumns {
+    fn clear(&mut self) {
+        for column in [&mut self.bus_v, &mut self.current_a, &mut self.cmd_mps] {
+            column.clear();
+        }
+        self.bus_raw.clear();
+        self.current_raw.clear();
+    }
+
+    fn decode(&mut self, data: &[u8]) -> Result<(), String> {
+        for item in proto::Fields::of(data) {
+            let (field, value) = item?;
+            match field {
+                2 => doubles(value, &mut self.bus_v)?,
+                3 => doubles(value, &mut self.current_a)?,
+                4 => doubles(value, &mut self.cmd_mps)?,
+                5 => varints(value, &mut self.bus_raw)?,
+                6 => varints(value, &mut self.current_raw)?,
+                // 1: power_w, for viewers (bus × current is the reading).
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A `sint32` register value.
+fn register(zigzagged: u64) -> Result<i16, String> {
+    let v = proto::unzigzag(zigzagged);
+    i16::try_from(v).map_err(|_| format!("{v} is no register value"))
+}
+
+fn message(field: u32, value: Value<'_>) -> Result<&[u8], String> {
+    match value {
+        Value::Len(m) => Ok(m),
+        other => Err(format!("field {field}: expected a message, found {other:?}")),
+    }
+}
+
+/// Appends a `repeated double` field's values: packed, or one value (the unpacked form a
+/// protobuf reader must also take).
+fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
+    match value {
+        Value::Len(bytes) => {
+            let (values, rest) = bytes.as_chunks::<8>();
+            if !rest.is_empty() {
+                return Err(format!("packed doubles of {} bytes", bytes.len()));
+            }
+            into.extend(values.iter().map(|v| f64::from_le_bytes(*v)));
+        }
+        Value::Fixed64(bits) => into.push(f64::from_bits(bits)),
+        other => return Err(format!("expected doubles, found {other:?}")),
+    }
+    Ok(())
+}
+
+/// Appends a `repeated` varint field's values, packed or one.
+fn varints(value: Value<'_>, into: &mut Vec<u64>) -> Result<(), String> {
+    match value {
+        Value::Len(mut bytes) => {
+            while !bytes.is_empty() {
+                let (v, rest) = proto::varint(bytes).ok_or("a packed varint is cut short")?;
+                into.push(v);
+                bytes = rest;
+            }
+        }
+        Value::Varint(v) => into.push(v),
+        other => return Err(format!("expected varints, found {other:?}")),
+    }
+    Ok(())
+}
