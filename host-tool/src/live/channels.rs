@@ -1,5 +1,6 @@
 //! The channels the live view advertises: the run log's channels
-//! ([`crate::log::mcap::LogChannel`]), so a Foxglove layout made live reads an MCAP file too.
+//! ([`crate::log::mcap::LogChannel`]), so a Foxglove layout made live reads an MCAP file too;
+//! only the samples differ (one a message here, batched in a file), so a layout does not plot them.
 
 use super::protocol::Channel;
 use crate::log::mcap::{
@@ -10,7 +11,8 @@ use crate::log::mcap::{
 /// A live channel (advertised id = index + 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum LiveChannel {
-    /// Physical samples (`/rover_power/sample`).
+    /// Physical samples, one a message (`/rover_power/sample`; a log file batches them on
+    /// `/rover_power/sample_batch`).
     Sample,
     /// The board's model frames: power, energy, τ ∝ P/ω per side (`/rover_power/model`).
     Model,
@@ -157,19 +159,34 @@ mod tests {
             .try_fold(node, |node, name| node["properties"].get(name))
     }
 
+    /// Every path of the layout names a number field of a channel that the live view advertises
+    /// and a log file declares with the same schema, so one layout draws a file and the live
+    /// view alike (a file's samples are batched on another topic: live only, never in a path).
     #[test]
     fn the_foxglove_layout_plots_numbers_the_channels_schemas_define() {
         let layout: Value =
             serde_json::from_str(include_str!("../../../foxglove/rover-power.json"))
                 .expect("layout is JSON");
         let panels = layout["configById"].as_object().expect("panels");
+        // The channels of a log file as the recorder writes it.
+        let (run, _) = crate::log::mcap::tests::sim_run(200);
+        let file = crate::log::mcap::write_mcap_run(std::io::Cursor::new(Vec::new()), &run)
+            .expect("written")
+            .into_inner();
+        let summary = ::mcap::Summary::read(&file)
+            .expect("MCAP")
+            .expect("summary");
+        let in_file = |topic: &str, schema_name: &str| {
+            summary.channels.values().any(|c| {
+                c.topic == topic && c.schema.as_ref().is_some_and(|s| s.name == schema_name)
+            })
+        };
         let mut plotted = 0;
         for (id, config) in panels {
             if id.starts_with("RosOut!") {
-                assert_eq!(
-                    config["topicToRender"],
-                    LiveChannel::Event.log_channel().topic
-                );
+                let declared = LiveChannel::Event.log_channel();
+                assert_eq!(config["topicToRender"], declared.topic);
+                assert!(in_file(declared.topic, declared.schema_name));
                 continue;
             }
             assert!(id.starts_with("Plot!"), "{id}");
@@ -178,6 +195,10 @@ mod tests {
                 let (topic, fields) = value.split_once('.').expect("topic.field");
                 let channel = LiveChannel::from_topic(topic).expect(value);
                 let declared = channel.log_channel();
+                assert!(
+                    in_file(declared.topic, declared.schema_name),
+                    "{value}: not a channel of a log file"
+                );
                 match declared.encoding {
                     Encoding::Json(text) => {
                         let schema: Value = serde_json::from_str(text).expect("schema");

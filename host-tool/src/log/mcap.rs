@@ -9,7 +9,7 @@
 //!
 //! | topic | schema | what |
 //! |---|---|---|
-//! | `/rover_power/sample` | `rover_power.Sample` (protobuf) | the physical sample: `t_s`, per side (`left`, `right`) `bus_v`, `current_a`, `power_w` (= bus × current), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured; `x_m`, `y_m` when a tracker fix landed on the sample; `board`: its sample frame's part beyond these ([`board_sample`]), when the frame came just before and rebuilds from it exactly |
+//! | `/rover_power/sample_batch` | `rover_power.SampleBatch` (protobuf) | the physical samples in batches of about 20 (one model period), one packed column per value ([`sample_batch`]): `t_s`; per side (`left`, `right`) `power_w` (`float`, bus × current, for viewers), the bus and current registers `bus_raw`, `current_raw` at the batch's `current_lsb_na` (the exact doubles rebuilt from them; `bus_v`, `current_a` as doubles in a batch whose readings are not registers), `cmd_mps`; `yaw_rad`, `pitch_deg` when measured and `x_m`, `y_m` when a tracker fix landed on the sample (NaN for a sample without); `board`: each sample frame's part beyond these ([`board_sample`]), when the frames came just before their samples and rebuild from them exactly. Files written before held one `rover_power.Sample` a message on `/rover_power/sample` (as the live view still sends them), and before that JSON samples; all read |
 //! | `/rover_power/model` | `rover_power.Model` (protobuf) | the board's on-device model frame: per side `power_w`, `energy_j`, `tau_w_per_rad_s` (τ ∝ P/ω, Eq 5.14), in SI units at the board's scale |
 //! | `/rover_power/status` | `rover_power.Status` (protobuf) | the board's status frame (health counters) |
 //! | `/rover_power/command` | `rover_power.Command` (JSON) | commanded side speeds and tracked pose |
@@ -57,6 +57,7 @@
 mod ahead;
 mod board_sample;
 mod frame_proto;
+mod prepare;
 pub(crate) mod proto;
 mod read;
 #[cfg(test)]

@@ -4,6 +4,7 @@
 //! come in file order, as [`Walker`] gives them; memory holds at most [`AHEAD`] chunks beyond
 //! the one being read.
 
+use super::prepare::Prepared;
 use super::walk::{ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use ::mcap::records::op;
 use std::io::{self, Read, Seek};
@@ -12,9 +13,11 @@ use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 /// A step of the walk, owned, as the reader's state takes it.
 #[derive(Debug)]
 pub(super) enum Walked {
-    /// A chunk's records, decompressed and checked; `offset..end`: the chunk record's bytes.
+    /// A chunk's records, decompressed and checked, with its sample batches decoded;
+    /// `offset..end`: the chunk record's bytes.
     Chunk {
         records: Vec<u8>,
+        prepared: Prepared,
         offset: u64,
         end: u64,
     },
@@ -38,10 +41,10 @@ pub(super) enum Walked {
 /// Chunks decoded ahead of the reader, at most.
 const AHEAD: usize = 4;
 
-/// The walk's steps as they are read ahead, with the way back for a chunk's buffer.
+/// The walk's steps as they are read ahead, with the way back for a chunk's buffers.
 pub(super) struct Ahead {
     steps: Receiver<io::Result<Walked>>,
-    spare: Sender<Vec<u8>>,
+    spare: Sender<(Vec<u8>, Prepared)>,
 }
 
 impl Ahead {
@@ -51,10 +54,10 @@ impl Ahead {
         self.steps.recv().ok()
     }
 
-    /// Hands a chunk's buffer back to the walk, for a chunk to come.
-    pub(super) fn recycle(&self, buffer: Vec<u8>) {
-        // The walk may have ended: the buffer is then simply dropped.
-        let _ = self.spare.send(buffer);
+    /// Hands a chunk's buffers back to the walk, for a chunk to come.
+    pub(super) fn recycle(&self, records: Vec<u8>, prepared: Prepared) {
+        // The walk may have ended: the buffers are then simply dropped.
+        let _ = self.spare.send((records, prepared));
     }
 }
 
@@ -82,9 +85,11 @@ pub(super) fn walk_ahead<R: Read + Seek + Send, T>(
 fn walk<R: Read + Seek>(
     mut walker: Walker<R>,
     steps: &SyncSender<io::Result<Walked>>,
-    spare: &Receiver<Vec<u8>>,
+    spare: &Receiver<(Vec<u8>, Prepared)>,
 ) {
     let mut decoder = ChunkDecoder::default();
+    // The sample batch channels seen so far.
+    let mut batch_channels = Vec::new();
     // A chunk just failed: the message indexes that follow count what it held.
     let mut after_failed = false;
     // After the data end record: the summary section.
@@ -116,9 +121,12 @@ fn walk<R: Read + Seek>(
                 match decoder.decode(body) {
                     Ok(_) => {
                         after_failed = false;
-                        let records = decoder.take_records(spare.try_recv().unwrap_or_default());
+                        let (records, mut prepared) = spare.try_recv().unwrap_or_default();
+                        let records = decoder.take_records(records);
+                        prepared.chunk(&records, &mut batch_channels);
                         Walked::Chunk {
                             records,
+                            prepared,
                             offset,
                             end,
                         }

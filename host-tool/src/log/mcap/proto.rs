@@ -359,7 +359,9 @@ pub(crate) fn to_json(message: &str, data: &[u8]) -> Result<serde_json::Value, S
                             Float => rest
                                 .split_first_chunk::<4>()
                                 .map(|(v, t)| (serde_json::json!(f32::from_le_bytes(*v)), t)),
-                            Sint32 => varint(rest).map(|(v, t)| (serde_json::json!(unzigzag(v)), t)),
+                            Sint32 => {
+                                varint(rest).map(|(v, t)| (serde_json::json!(unzigzag(v)), t))
+                            }
                             _ => varint(rest).map(|(v, t)| (serde_json::json!(v), t)),
                         }
                         .ok_or_else(|| format!("{short}.{name}: a packed value is cut short"))?;
@@ -438,7 +440,11 @@ impl Writer {
     }
 
     /// A packed `repeated double` field; nothing for no values.
-    pub(crate) fn packed_doubles(&mut self, field: u32, values: impl ExactSizeIterator<Item = f64>) {
+    pub(crate) fn packed_doubles(
+        &mut self,
+        field: u32,
+        values: impl ExactSizeIterator<Item = f64>,
+    ) {
         if values.len() > 0 {
             self.key(field, LEN);
             put_varint(&mut self.out, 8 * values.len() as u64);

@@ -9,6 +9,7 @@
 
 use super::ahead::{walk_ahead, Walked};
 use super::board_sample::BoardSample;
+use super::prepare::{batch_samples, record_body, Checked, Prepared};
 use super::sample_batch::Columns;
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, Skipped, Walker};
@@ -16,8 +17,8 @@ use super::{
     frame_encoding, frame_proto, proto, CommandMsg, EventMsg, McapError, SampleMsg, TOPIC_COMMAND,
     TOPIC_EVENT, TOPIC_FRAME, TOPIC_SAMPLE, TOPIC_SAMPLE_BATCH,
 };
-use crate::log::run_csv::RunSample;
 use crate::log::run_csv::RigRange;
+use crate::log::run_csv::RunSample;
 use crate::log::run_log::{RunLog, RunLogSink};
 use crate::ros2::from_log::{decode_sample, SAMPLE_TYPE};
 use ::mcap::records::{op, Record};
@@ -25,6 +26,7 @@ use model_core::wire::{self, BoardFrame, Sample, MAX_FRAME};
 use std::collections::{BTreeSet, HashMap, VecDeque};
 use std::fmt;
 use std::io::{self, Read, Seek};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Where a file was cut short.
@@ -192,12 +194,13 @@ fn read_mcap<R: Read + Seek + Send>(
             match walked.map_err(io_err)? {
                 Walked::Chunk {
                     records,
+                    prepared,
                     offset,
                     end,
                 } => {
-                    state.chunk_records(&records, offset, end)?;
+                    state.chunk_records(&records, prepared, offset, end)?;
                     pending = None;
-                    ahead.recycle(records);
+                    ahead.recycle(records, state.take_prepared());
                 }
                 Walked::ChunkFailed(skipped) => {
                     state.skip(skipped);
@@ -476,10 +479,14 @@ struct State<'s> {
     skipped: Vec<Skip>,
     /// The sequence the next sample batch has when none was lost (0 before the first).
     next_batch_sequence: u32,
-    /// A sample batch's columns and samples, kept to be reused.
+    /// The sample batches of the chunk being read, decoded on the walk's thread.
+    prepared: Prepared,
+    /// The prepared batch of the message record being read.
+    prepared_batch: Option<Result<Range<usize>, String>>,
+    /// For a batch decoded here: its columns and samples, kept to be reused.
     columns: Columns,
-    batch: Vec<(RunSample, Option<BoardSample>)>,
-    batch_frames: Vec<Option<Sample>>,
+    scratch: Vec<(RunSample, Option<BoardSample>)>,
+    own_batch: Vec<Checked>,
 }
 
 impl<'s> State<'s> {
@@ -498,9 +505,11 @@ impl<'s> State<'s> {
             times: RecentTimes::default(),
             skipped: Vec::new(),
             next_batch_sequence: 0,
+            prepared: Prepared::default(),
+            prepared_batch: None,
             columns: Columns::default(),
-            batch: Vec::new(),
-            batch_frames: Vec::new(),
+            scratch: Vec::new(),
+            own_batch: Vec::new(),
         }
     }
 
@@ -569,31 +578,43 @@ impl<'s> State<'s> {
         }
     }
 
-    /// The records of a decoded chunk at bytes `offset..end` of the file. A record that does
-    /// not fit ends the chunk (the rest is skipped as damage); one that does not parse is
-    /// skipped alone ([`State::record_or_skip`]).
-    fn chunk_records(&mut self, records: &[u8], offset: u64, end: u64) -> Result<(), McapError> {
-        let mut rest = records;
-        while let Some((&opcode, after)) = rest.split_first() {
-            let body = after.split_first_chunk::<8>().and_then(|(len, after)| {
-                let len = u64::from_le_bytes(*len);
-                usize::try_from(len).ok().and_then(|n| after.get(..n))
-            });
-            let Some(body) = body else {
+    /// The records of a decoded chunk at bytes `offset..end` of the file, with its sample
+    /// batches `prepared` on the walk's thread. A record that does not fit ends the chunk (the
+    /// rest is skipped as damage); one that does not parse is skipped alone
+    /// ([`State::record_or_skip`]).
+    fn chunk_records(
+        &mut self,
+        records: &[u8],
+        prepared: Prepared,
+        offset: u64,
+        end: u64,
+    ) -> Result<(), McapError> {
+        self.prepared = prepared;
+        let mut at = 0;
+        while at < records.len() {
+            let Some(body) = record_body(&records[at..]) else {
                 self.skip(Skipped {
                     start_byte: offset,
                     end_byte: end,
-                    detail: format!(
-                        "the chunk's record at its byte {} does not fit in it",
-                        records.len() - rest.len()
-                    ),
+                    detail: format!("the chunk's record at its byte {at} does not fit in it"),
                 });
                 return Ok(());
             };
-            self.record_or_skip(opcode, body, offset, end)?;
-            rest = &after[8 + body.len()..];
+            let opcode = records[at];
+            if opcode == op::MESSAGE {
+                self.prepared_batch = self.prepared.take(at);
+            }
+            let read = self.record_or_skip(opcode, body, offset, end);
+            self.prepared_batch = None;
+            read?;
+            at += 9 + body.len();
         }
         Ok(())
+    }
+
+    /// The chunk's prepared batches, handed back for the walk to reuse.
+    fn take_prepared(&mut self) -> Prepared {
+        std::mem::take(&mut self.prepared)
     }
 
     /// Adds what a message index record after a damaged chunk says it held on the sample
@@ -602,7 +623,10 @@ impl<'s> State<'s> {
         let Ok(Record::MessageIndex(index)) = parse_record(op::MESSAGE_INDEX, body) else {
             return;
         };
-        let topic = self.channels.get(&index.channel_id).map(|(topic, _)| *topic);
+        let topic = self
+            .channels
+            .get(&index.channel_id)
+            .map(|(topic, _)| *topic);
         let is_sample = matches!(
             topic,
             Some(Topic::Sample | Topic::JsonSample | Topic::BagSample)
@@ -802,39 +826,30 @@ impl<'s> State<'s> {
                         None,
                     ),
                 };
-                let frame = Self::checked(&sample, board, topic, self.last_t_s)
-                    .map_err(|e| bad(self, e))?;
+                // The board's registers: its range, not a foreign rig's. A bag may hold any
+                // rig's run CSV (`convert run.csv bag --to ros2-bag`): any physical reading.
+                let range = match topic {
+                    Topic::BagSample => RigRange::Physical,
+                    _ => RigRange::Board,
+                };
+                let frame =
+                    check_sample(&sample, board, range, self.last_t_s).map_err(|e| bad(self, e))?;
                 self.take_sample(sample, frame)?;
             }
             Topic::SampleBatch => {
-                let mut batch = std::mem::take(&mut self.batch);
-                let mut frames = std::mem::take(&mut self.batch_frames);
-                batch.clear();
-                frames.clear();
-                self.columns
-                    .decode(data, &mut batch)
-                    .map_err(|e| bad(self, e))?;
-                // Every sample checked before any is handed on: a message that does not hold
-                // what its channel promises is skipped whole.
-                let mut last_t_s = self.last_t_s;
-                for (sample, board) in &batch {
-                    let frame = Self::checked(sample, *board, topic, last_t_s)
-                        .map_err(|e| bad(self, e))?;
-                    frames.push(frame);
-                    last_t_s = Some(sample.t_s);
-                }
-                // Samples lost since the previous batch (the sequence counts samples written).
-                let samples = self.samples;
-                if let Some(skip) = self.skipped.last_mut().filter(|s| s.at_sample == samples) {
-                    skip.sequence_gap =
-                        Some(u64::from(sequence.wrapping_sub(self.next_batch_sequence)));
-                }
-                self.next_batch_sequence = sequence.wrapping_add(batch.len() as u32);
-                for ((sample, _), frame) in batch.iter().zip(&frames) {
-                    self.take_sample(*sample, *frame)?;
-                }
-                self.batch = batch;
-                self.batch_frames = frames;
+                // Decoded on the walk's thread when it could, else here.
+                let prepared = std::mem::take(&mut self.prepared);
+                let mut own = std::mem::take(&mut self.own_batch);
+                own.clear();
+                let samples = match self.prepared_batch.take() {
+                    Some(result) => result.map(|range| prepared.samples(range)),
+                    None => batch_samples(&mut self.columns, &mut self.scratch, data, &mut own)
+                        .map(|()| &own[..]),
+                };
+                let result = self.sample_batch(sequence, samples, &bad);
+                self.prepared = prepared;
+                self.own_batch = own;
+                result?;
             }
             Topic::Command => {
                 let msg: CommandMsg =
@@ -889,44 +904,72 @@ impl<'s> State<'s> {
     }
 }
 
+/// `sample`'s board frame rebuilt from its part, once the sample is checked: within `range`
+/// (a log's samples are the board's; a bag may hold any rig's run CSV) and after `last_t_s`.
+/// The error says what is wrong with the message.
+pub(super) fn check_sample(
+    sample: &RunSample,
+    board: Option<BoardSample>,
+    range: RigRange,
+    last_t_s: Option<f64>,
+) -> Result<Option<Sample>, String> {
+    // Before the range check: a frame that does not rebuild is the message's fault.
+    let frame = match board {
+        Some(board) => Some(board.frame(sample).ok_or(
+            "its board part does not rebuild a sample frame (bus voltage off the register's \
+             steps or range)",
+        )?),
+        None => None,
+    };
+    if let Some((column, value)) = sample.out_of_range(range) {
+        let (bus_v_max, current_a_max) = range.limits();
+        let which = match range {
+            RigRange::Board => "the board's measuring",
+            _ => "physical",
+        };
+        return Err(format!(
+            "{column} = {value} is outside {which} range (bus 0 to {bus_v_max} V, current \
+             ±{current_a_max} A, all finite)"
+        ));
+    }
+    match last_t_s {
+        Some(previous) if sample.t_s <= previous => Err(format!(
+            "sample time {} is not after the previous sample's {previous}",
+            sample.t_s
+        )),
+        _ => Ok(frame),
+    }
+}
+
 impl State<'_> {
-    /// `sample`'s board frame rebuilt from its part, once the sample is checked: in the
-    /// board's range (any physical reading in a bag: it may hold any rig's run CSV) and after
-    /// `last_t_s`. The error says what is wrong with the message.
-    fn checked(
-        sample: &RunSample,
-        board: Option<BoardSample>,
-        topic: Topic,
-        last_t_s: Option<f64>,
-    ) -> Result<Option<Sample>, String> {
-        // Before the range check: a frame that does not rebuild is the message's fault.
-        let frame = match board {
-            Some(board) => Some(board.frame(sample).ok_or(
-                "its board part does not rebuild a sample frame (bus voltage off the register's \
-                 steps or range)",
-            )?),
-            None => None,
-        };
-        let (range, which) = match topic {
-            Topic::BagSample => (RigRange::Physical, "physical"),
-            _ => (RigRange::Board, "the board's measuring"),
-        };
-        if let Some((column, value)) = sample.out_of_range(range) {
-            let (bus_v_max, current_a_max) = range.limits();
-            return Err(format!(
-                "{column} = {value} is outside {which} range (bus 0 to {bus_v_max} V, current \
-                 ±{current_a_max} A, all finite)"
-            ));
-        }
-        if let Some(previous) = last_t_s {
-            if sample.t_s <= previous {
-                return Err(format!(
+    /// Hands on a batch's samples (checked but for their order after the previous batch), or
+    /// the error that says why its message does not hold them.
+    fn sample_batch(
+        &mut self,
+        sequence: u32,
+        samples: Result<&[Checked], String>,
+        bad: &dyn Fn(&Self, String) -> McapError,
+    ) -> Result<(), McapError> {
+        let samples = samples.map_err(|e| bad(self, e))?;
+        if let (Some((first, _)), Some(previous)) = (samples.first(), self.last_t_s) {
+            if first.t_s <= previous {
+                let e = format!(
                     "sample time {} is not after the previous sample's {previous}",
-                    sample.t_s
-                ));
+                    first.t_s
+                );
+                return Err(bad(self, e));
             }
         }
-        Ok(frame)
+        // Samples lost since the previous batch (the sequence counts samples written).
+        let read = self.samples;
+        if let Some(skip) = self.skipped.last_mut().filter(|s| s.at_sample == read) {
+            skip.sequence_gap = Some(u64::from(sequence.wrapping_sub(self.next_batch_sequence)));
+        }
+        self.next_batch_sequence = sequence.wrapping_add(samples.len() as u32);
+        for &(sample, frame) in samples {
+            self.take_sample(sample, frame)?;
+        }
+        Ok(())
     }
 
     /// Hands a checked sample on, after its board frame.
@@ -946,7 +989,7 @@ impl State<'_> {
 /// A message record's channel id, sequence, publish time [ns] and data, read in place from its fixed
 /// fields (channel id u16, sequence u32, log time u64, publish time u64, then the data; the
 /// `mcap` crate's parser took a tenth of a read); `None` for a body shorter than them.
-fn message_fields(body: &[u8]) -> Option<(u16, u32, u64, &[u8])> {
+pub(super) fn message_fields(body: &[u8]) -> Option<(u16, u32, u64, &[u8])> {
     let (channel_id, rest) = body.split_first_chunk::<2>()?;
     let (sequence, rest) = rest.split_first_chunk::<4>()?;
     let (_log_time, rest) = rest.split_first_chunk::<8>()?;

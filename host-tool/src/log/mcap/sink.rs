@@ -185,7 +185,9 @@ impl<W: Write + Seek> McapSink<W> {
 
     /// The MCAP writer (taken only by [`McapSink::finish`], which consumes the sink).
     fn writer(&mut self) -> &mut Writer<W> {
-        self.writer.as_mut().expect("the writer is taken only when the sink is consumed")
+        self.writer
+            .as_mut()
+            .expect("the writer is taken only when the sink is consumed")
     }
 
     /// Writes the summary section and footer and hands back the output, flushed. (Dropping the

@@ -1,0 +1,123 @@
+//! A chunk's sample batches decoded and checked on the walk's thread ([`super::ahead`]), so
+//! that the reader's thread, which hands every sample to its sink, does not decode them too:
+//! decoding was a third of its time, the walk's thread had room.
+//!
+//! Only an optimisation: the reader takes a prepared batch only for the very record it was
+//! made from, on a channel it reads as sample batches itself; any other batch (a channel
+//! record the walk did not see, a message outside a chunk) it decodes itself with the same
+//! function ([`batch_samples`]), so the result is the same either way.
+
+use super::board_sample::BoardSample;
+use super::read::{check_sample, message_fields};
+use super::sample_batch::Columns;
+use super::{proto, TOPIC_SAMPLE_BATCH};
+use crate::log::run_csv::{RigRange, RunSample};
+use ::mcap::records::{op, Record};
+use model_core::wire::Sample;
+use std::ops::Range;
+
+/// A sample with its board frame, rebuilt.
+pub(super) type Checked = (RunSample, Option<Sample>);
+
+/// The samples of a `rover_power.SampleBatch` message into `out`, checked as a sample message
+/// of ours is (in the board's measuring range, times increasing within the batch) with their
+/// board frames rebuilt; the error says what is wrong with the message. Whether the first
+/// sample comes after the previous batch's last is the reader's to check.
+pub(super) fn batch_samples(
+    columns: &mut Columns,
+    scratch: &mut Vec<(RunSample, Option<BoardSample>)>,
+    data: &[u8],
+    out: &mut Vec<Checked>,
+) -> Result<(), String> {
+    scratch.clear();
+    columns.decode(data, scratch)?;
+    let mut last_t_s = None;
+    for (sample, board) in scratch.iter() {
+        let frame = check_sample(sample, *board, RigRange::Board, last_t_s)?;
+        out.push((*sample, frame));
+        last_t_s = Some(sample.t_s);
+    }
+    Ok(())
+}
+
+/// The sample batches of one chunk, decoded and checked.
+#[derive(Debug, Default)]
+pub(super) struct Prepared {
+    /// Every batch's samples, one after the other.
+    samples: Vec<Checked>,
+    /// Each batch message: where its record starts in the chunk's records, and its samples in
+    /// `samples` (or why the message does not hold what it should).
+    batches: Vec<(usize, Result<Range<usize>, String>)>,
+    /// The first of `batches` not taken yet.
+    next: usize,
+    columns: Columns,
+    scratch: Vec<(RunSample, Option<BoardSample>)>,
+}
+
+impl Prepared {
+    /// Decodes the sample batches in `records` (a chunk's records), learning the batch
+    /// channels from the channel records among them.
+    pub(super) fn chunk(&mut self, records: &[u8], channels: &mut Vec<u16>) {
+        self.samples.clear();
+        self.batches.clear();
+        self.next = 0;
+        let mut at = 0;
+        while let Some(body) = record_body(&records[at..]) {
+            let opcode = records[at];
+            if opcode == op::MESSAGE {
+                if let Some((channel, _, _, data)) = message_fields(body) {
+                    if channels.contains(&channel) {
+                        let start = self.samples.len();
+                        let result = batch_samples(
+                            &mut self.columns,
+                            &mut self.scratch,
+                            data,
+                            &mut self.samples,
+                        );
+                        if result.is_err() {
+                            self.samples.truncate(start);
+                        }
+                        self.batches
+                            .push((at, result.map(|()| start..self.samples.len())));
+                    }
+                }
+            } else if opcode == op::CHANNEL {
+                if let Ok(Record::Channel(c)) = super::parse_record(opcode, body) {
+                    if c.topic == TOPIC_SAMPLE_BATCH && c.message_encoding == proto::ENCODING {
+                        channels.push(c.id);
+                    }
+                }
+            }
+            at += 9 + body.len();
+        }
+    }
+
+    /// The batch prepared from the message record at `at` in the chunk's records, if any
+    /// (records are asked for in order).
+    pub(super) fn take(&mut self, at: usize) -> Option<Result<Range<usize>, String>> {
+        while self.batches.get(self.next).is_some_and(|b| b.0 < at) {
+            self.next += 1;
+        }
+        let (start, _) = self.batches.get(self.next)?;
+        if *start != at {
+            return None;
+        }
+        self.next += 1;
+        Some(std::mem::replace(
+            &mut self.batches[self.next - 1].1,
+            Ok(0..0),
+        ))
+    }
+
+    /// The samples of a batch [`Prepared::take`] gave.
+    pub(super) fn samples(&self, range: Range<usize>) -> &[Checked] {
+        &self.samples[range]
+    }
+}
+
+/// The body of the record that starts `records` (opcode, u64 length, body), if it fits.
+pub(super) fn record_body(records: &[u8]) -> Option<&[u8]> {
+    let (_opcode, after) = records.split_first()?;
+    let (len, after) = after.split_first_chunk::<8>()?;
+    after.get(..usize::try_from(u64::from_le_bytes(*len)).ok()?)
+}
