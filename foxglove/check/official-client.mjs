@@ -2,7 +2,11 @@
 // Connects with Foxglove's official client (@foxglove/ws-protocol FoxgloveClient over `ws`),
 // subscribes to every advertised channel, counts `message` events per topic, and compares with
 // the MCAP file's per-topic message counts. Exit 0 only if every advertised topic's count equals
-// the file's, no per-channel timestamp went backwards, and the close code is 1000.
+// the file's, no per-channel timestamp went backwards, and the close code is 1000. A file's
+// samples are batched (`rover_power.SampleBatch` on /rover_power/sample_batch, packed columns, its
+// first sample's time); the live view sends them one a message on /rover_power/sample, so that
+// topic expects one message per sample of every batch, at the batch's time plus the sample's
+// `t_s` after the batch's first.
 import wsProtocol from "@foxglove/ws-protocol";
 const { FoxgloveClient } = wsProtocol;
 import { WebSocket } from "ws";
@@ -18,9 +22,39 @@ if (!url || !mcapPath) {
 const timeoutS = Number(timeoutArg ?? 120);
 
 // ---- expected counts from the MCAP file ----
+const SAMPLE = "/rover_power/sample", SAMPLE_BATCH = "/rover_power/sample_batch";
+// A SampleBatch's `t_s` column (field 1, packed doubles; unpacked ones read too), in seconds.
+function batchTimes(data) {
+  const view = new DataView(data.buffer, data.byteOffset, data.byteLength);
+  const times = [];
+  let i = 0;
+  const varint = () => {
+    let v = 0n, shift = 0n;
+    for (;;) {
+      if (i >= data.length) throw new Error("SampleBatch: varint past the end");
+      const b = data[i++];
+      v |= BigInt(b & 0x7f) << shift; shift += 7n;
+      if (!(b & 0x80)) return v;
+    }
+  };
+  while (i < data.length) {
+    const key = varint(), field = Number(key >> 3n), wire = Number(key & 7n);
+    if (wire === 0) varint();
+    else if (wire === 1) { if (field === 1) times.push(view.getFloat64(i, true)); i += 8; }
+    else if (wire === 5) i += 4;
+    else if (wire === 2) {
+      const n = Number(varint());
+      if (i + n > data.length) throw new Error("SampleBatch: field past the end");
+      if (field === 1) for (let k = i; k + 8 <= i + n; k += 8) times.push(view.getFloat64(k, true));
+      i += n;
+    } else throw new Error(`SampleBatch: wire type ${wire}`);
+  }
+  return times;
+}
 await zstd.isLoaded;
 const fileCounts = {};
 const fileTimes = {}; // topic -> array of logTime (bigint), file order
+const batches = { messages: 0, samples: 0 };
 {
   const r = new McapStreamReader({
     validateCrcs: true,
@@ -35,6 +69,12 @@ const fileTimes = {}; // topic -> array of logTime (bigint), file order
       const t = chans[rec.channelId].topic;
       fileCounts[t] = (fileCounts[t] ?? 0) + 1;
       (fileTimes[t] ??= []).push(rec.logTime);
+      if (t === SAMPLE_BATCH) {
+        const times = batchTimes(rec.data);
+        batches.messages++; batches.samples += times.length;
+        fileCounts[SAMPLE] = (fileCounts[SAMPLE] ?? 0) + times.length;
+        for (const t_s of times) (fileTimes[SAMPLE] ??= []).push(rec.logTime + BigInt(Math.round((t_s - times[0]) * 1e9)));
+      }
     }
   }
   if (!r.done()) console.error("warning: MCAP reader did not reach end of file cleanly");
@@ -158,6 +198,7 @@ const sec = (a, b) => (a != null && b != null ? +((b - a) / 1000).toFixed(3) : n
 const summary = {
   url, mcap: mcapPath, ok,
   expected, received, missing,
+  sampleBatches: batches,
   totals: {
     expected: Object.values(expected).reduce((x, y) => x + y, 0),
     received: advertisedTopics.reduce((x, t) => x + (received[t] ?? 0), 0),

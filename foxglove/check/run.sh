@@ -75,7 +75,7 @@ kill "$REPLAY" 2>/dev/null || true
 node -e '
 for (const f of process.argv.slice(1)) {
   const s = require(f);
-  const panels = s.panels.map((p) => `${p.id} ${p.status}${p.seriesWithValue ? " " + p.seriesWithValue : ""}${p.rows !== undefined ? " " + p.rows + " rows" : ""}`);
+  const panels = s.panels.map((p) => `${p.id} ${p.status}${p.seriesWithValue ? " " + p.seriesWithValue : ""}${p.coloredPixels !== undefined ? " " + p.coloredPixels + " px" : ""}${p.rows !== undefined ? " " + p.rows + " rows" : ""}`);
   console.log(`${f}: ok=${s.ok} problems=${s.problems.length} ${(s.timing.totalMs / 1000).toFixed(1)} s\n  ${panels.join("\n  ")}`);
 }
 const c = require(process.argv[1].replace("studio-file", "official-client"));
