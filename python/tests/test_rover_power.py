@@ -104,7 +104,8 @@ def test_mcap_log_reads_as_its_run_csv(host_tool, demo_runs, tmp_path):
 def test_every_message_of_a_log_decodes_with_the_official_mcap_decoders(demo_runs):
     """A reader with only the `mcap` package and `mcap-protobuf-support` (plus `json` for the
     command and event channels) decodes every message of a demo log from the schemas in the
-    file; the samples are `read_run`'s, to the bit."""
+    file; the sample batches' columns (the chips' registers turned into volts and amps as the
+    host tool does) are `read_run`'s samples, to the bit."""
     from mcap.decoder import DecoderFactory as JsonFactoryBase
     from mcap.reader import make_reader
     from mcap_protobuf.decoder import DecoderFactory
@@ -113,27 +114,45 @@ def test_every_message_of_a_log_decodes_with_the_official_mcap_decoders(demo_run
         def decoder_for(self, message_encoding, schema):
             return json.loads if message_encoding == "json" else None
 
-    counts, rows, models = {}, [], []
+    counts, batches, models = {}, [], []
+    samples = 0  # written before the batch at hand
     with open(demo_runs[0], "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory(), JsonFactory()])
-        for _schema, channel, _message, decoded in reader.iter_decoded_messages():
+        for _schema, channel, message, decoded in reader.iter_decoded_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
-            if channel.topic == "/rover_power/sample":
-                left, right = decoded.left, decoded.right
-                assert left.power_w == left.bus_v * left.current_a
-                rows.append((decoded.t_s, left.bus_v, left.current_a, right.bus_v,
-                             right.current_a, left.cmd_mps, right.cmd_mps))
+            if channel.topic == "/rover_power/sample_batch":
+                t_s = np.asarray(decoded.t_s)
+                n = len(t_s)
+                assert message.sequence == samples  # a batch's sequence counts samples
+                samples += n
+                # A demo's readings are the chips' registers.
+                assert decoded.HasField("current_lsb_na")
+                columns = [t_s]
+                for side in [decoded.left, decoded.right]:
+                    bus_v = np.asarray(side.bus_raw, dtype=np.float64) * 1250.0 / 1e6
+                    current_a = (np.asarray(side.current_raw, dtype=np.float64)
+                                 * float(decoded.current_lsb_na) / 1e9)
+                    assert len(side.bus_v) == len(side.current_a) == 0
+                    # The power is a float, for viewers: bus × current rounded.
+                    np.testing.assert_array_equal(np.asarray(side.power_w, dtype=np.float32),
+                                                  (bus_v * current_a).astype(np.float32))
+                    columns += [bus_v, current_a]
+                columns += [np.asarray(decoded.left.cmd_mps), np.asarray(decoded.right.cmd_mps)]
+                for name in ["yaw_rad", "pitch_deg", "x_m", "y_m"]:  # NaN where not measured
+                    column = np.asarray(getattr(decoded, name))
+                    columns.append(column if len(column) else np.full(n, np.nan))
+                assert all(len(column) == n for column in columns)
+                batches.append(np.column_stack(columns))
             elif channel.topic == "/rover_power/model":
                 models.append(decoded.total_energy_j)
     assert set(counts) == {"/rover_power/" + t for t in
-                           ["sample", "model", "status", "command", "event", "frame"]}, counts
+                           ["sample_batch", "model", "status", "command", "event", "frame"]}, counts
     df = rp.read_run(demo_runs[0])
-    ours = np.array(rows)
-    assert len(ours) == len(df)
+    ours = np.concatenate(batches)
+    assert len(ours) == len(df) == samples
+    assert len(batches) < len(df) / 10  # batched, not one sample a message
     np.testing.assert_array_equal(ours[:, 0], df.index.to_numpy())
-    columns = ["left_bus_v", "left_current_a", "right_bus_v", "right_current_a",
-               "cmd_left_mps", "cmd_right_mps"]
-    for i, column in enumerate(columns, start=1):
+    for i, column in enumerate(rp.COLUMNS[1:], start=1):
         np.testing.assert_array_equal(ours[:, i], df[column].to_numpy(), err_msg=column)
     # The board's energy only grows over a run that never resets.
     assert models == sorted(models) and models[-1] > 0

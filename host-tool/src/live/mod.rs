@@ -6,8 +6,9 @@
 //!   Publishing ([`LiveSink`], [`LiveTee`] beside the recording's file sink) never waits: a
 //!   message that does not fit a viewer's queue is dropped for that viewer and counted
 //!   ([`ViewerReport::dropped`]), so a slow or vanished viewer costs the file nothing.
-//! - Channels ([`LiveChannel`]): `/rover_power/sample`, `/model`, `/status`, `/command`,
-//!   `/event`, with the MCAP writer's schemas ([`crate::log::mcap::LogChannel`]).
+//! - Channels ([`LiveChannel`]): `/rover_power/sample` (one sample a message, where a file
+//!   batches them), `/model`, `/status`, `/command`, `/event`, with the MCAP writer's schemas
+//!   ([`crate::log::mcap::LogChannel`]).
 //! - Time stamps are wall-clock [Unix ns]: a recording's wall-clock anchor plus run time (the
 //!   MCAP file's `log_time`), a replay's start plus run time / speed.
 //! - Viewers subscribe and unsubscribe; nothing else is offered (no client publish, services or

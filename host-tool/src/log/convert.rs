@@ -3,7 +3,7 @@
 //!
 //! - MCAP → run CSV: the physical samples (with commanded speeds and pose); frames, commands
 //!   and events have no place in a run CSV and are dropped.
-//! - run CSV → MCAP: the samples exactly on `/rover_power/sample`, plus the wire frames the
+//! - run CSV → MCAP: the samples exactly on `/rover_power/sample_batch`, plus the wire frames the
 //!   board would have sent for them ([`crate::log::synthesis::synthesise_frames`]: a hello, sample
 //!   frames with the registers quantised at `Scale::BOARD` — 1.25 mV, 0.5 mA — and model
 //!   frames, and the board's status report of the commanded wheel rates wherever `cmd_*`

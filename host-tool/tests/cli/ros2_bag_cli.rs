@@ -76,15 +76,21 @@ fn a_demo_log_becomes_a_ros2_bag_with_every_sample_at_its_log_time() {
     assert_eq!(header.profile, "ros2");
     let messages = ros2_messages(&bytes);
 
-    // Every sample of the log, each at the log time the MCAP log gave it.
-    let in_log = log_times(
-        &mcap::MessageStream::new(&std::fs::read(&log).expect("log"))
-            .expect("log mcap")
-            .map(|m| m.expect("message"))
-            .map(|m| (m.channel.topic.clone(), m.log_time))
-            .collect::<Vec<_>>(),
-        "/rover_power/sample",
-    );
+    // Every sample of the log, each at the log time the MCAP log gives it: its batches are on
+    // one clock, log time = publish time (run time) + the wall-clock offset.
+    let offsets: Vec<i128> = mcap::MessageStream::new(&std::fs::read(&log).expect("log"))
+        .expect("log mcap")
+        .map(|m| m.expect("message"))
+        .filter(|m| m.channel.topic == "/rover_power/sample_batch")
+        .map(|m| i128::from(m.log_time) - i128::from(m.publish_time))
+        .collect();
+    assert!(offsets.windows(2).all(|w| w[0] == w[1]) && !offsets.is_empty());
+    let run = host_tool::log::mcap::read_mcap_run(&log).expect("log").run;
+    let in_log: Vec<u64> = run
+        .samples
+        .iter()
+        .map(|s| (offsets[0] + (s.t_s * 1e9).round() as i128) as u64)
+        .collect();
     assert!(in_log.len() > 1000, "{}", in_log.len());
     assert_eq!(log_times(&messages, "/rover_power/sample"), in_log);
 

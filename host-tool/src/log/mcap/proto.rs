@@ -15,7 +15,24 @@
 //! message Sample { optional double t_s = 1; optional SampleSide left = 2;
 //!                  optional SampleSide right = 3; optional double yaw_rad = 4;
 //!                  optional double pitch_deg = 5; optional double x_m = 6; optional double y_m = 7;
-//!                  optional BoardSample board = 8; }
+//!                  optional BoardSample board = 8; }  // the live view's; files before batches
+//! message SampleColumns {  // one side of a batch: one value per sample
+//!   repeated float power_w = 1 [packed = true];  // bus × current, for viewers
+//!   repeated double bus_v = 2 [packed = true]; repeated double current_a = 3 [packed = true];
+//!   repeated double cmd_mps = 4 [packed = true];
+//!   repeated uint32 bus_raw = 5 [packed = true]; repeated sint32 current_raw = 6 [packed = true]; }
+//! message BoardColumns { repeated uint64 t_us = 1 [packed = true]; repeated uint32 seq = 2 [packed = true];
+//!                        repeated sint32 shunt_left = 3 [packed = true];
+//!                        repeated sint32 shunt_right = 4 [packed = true];
+//!                        repeated uint32 stale = 5 [packed = true];
+//!                        repeated sint32 current_left = 6 [packed = true];
+//!                        repeated sint32 current_right = 7 [packed = true]; }
+//! message SampleBatch {  // a log file's samples: sample_batch.rs
+//!   repeated double t_s = 1 [packed = true];
+//!   optional SampleColumns left = 2; optional SampleColumns right = 3;
+//!   repeated double yaw_rad = 4 [packed = true]; repeated double pitch_deg = 5 [packed = true];
+//!   repeated double x_m = 6 [packed = true]; repeated double y_m = 7 [packed = true];
+//!   optional BoardColumns board = 8; optional uint32 current_lsb_na = 9; }
 //! message ModelSide { optional double power_w = 1; optional double energy_j = 2;
 //!                     optional float tau_w_per_rad_s = 3; }
 //! message Model { optional double t_s = 1; optional uint64 board_t_us = 2; optional uint32 seq = 3;
@@ -36,10 +53,11 @@
 //! ```
 //!
 //! proto2 because its `optional` keeps presence in every decoder (proto3's needs synthetic
-//! oneofs that not every reader of descriptors handles). The field names are the JSON channels'
-//! of earlier logs, so a Foxglove layout's message paths (`/rover_power/sample.left.power_w`)
-//! read old and new logs alike. Hand-written rather than generated: the messages are flat
-//! numbers, and the sample decoder is on the path that reads an hour of samples.
+//! oneofs that not every reader of descriptors handles); its repeated numbers are unpacked by
+//! default, so the columns say `packed`. The field names are the JSON channels' of earlier logs,
+//! so a Foxglove layout's message paths (`/rover_power/model.left.power_w`) read old and new
+//! logs alike. Hand-written rather than generated: the messages are flat numbers, and the
+//! sample decoder is on the path that reads an hour of samples.
 
 /// The message and schema encoding of every protobuf channel.
 pub(crate) const ENCODING: &str = "protobuf";
@@ -149,6 +167,8 @@ const MESSAGES: &[MessageDef] = &[
             ("shunt_left", 3, Packed(&Sint32)),
             ("shunt_right", 4, Packed(&Sint32)),
             ("stale", 5, Packed(&Uint32)),
+            ("current_left", 6, Packed(&Sint32)),
+            ("current_right", 7, Packed(&Sint32)),
         ],
     },
     MessageDef {

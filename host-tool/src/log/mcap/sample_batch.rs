@@ -149,11 +149,25 @@ impl Batch {
             w.message(8, |m| {
                 m.packed_varints(1, boards().map(|b| b.t_us));
                 m.packed_varints(2, boards().map(|b| u64::from(b.seq)));
-                // A shunt register is written only where it is not the current register.
-                for (field, pick) in [(3, Side::Left), (4, Side::Right)] {
-                    if boards().any(|b| pick.of(b.shunt) != pick.of(b.current_register())) {
+                // A register is written only where the batch's columns do not say it: the
+                // current register where it is not the reading's, the shunt register where it
+                // is not the current register (at our board's CAL they are equal).
+                for (shunt_field, current_field, pick) in [(3, 6, Side::Left), (4, 7, Side::Right)]
+                {
+                    let current = |b: &BoardSample| pick.of(b.current_register());
+                    let said = e.iter().all(|e| match (e.registers, e.board) {
+                        (Some(r), Some(b)) => pick.of(r).1 == current(&b),
+                        _ => false,
+                    });
+                    if !said {
                         m.packed_varints(
-                            field,
+                            current_field,
+                            boards().map(|b| proto::zigzag(i64::from(current(&b)))),
+                        );
+                    }
+                    if boards().any(|b| pick.of(b.shunt) != current(&b)) {
+                        m.packed_varints(
+                            shunt_field,
                             boards().map(|b| proto::zigzag(i64::from(pick.of(b.shunt)))),
                         );
                     }
@@ -201,6 +215,8 @@ pub(super) struct Columns {
     t_us: Vec<u64>,
     seq: Vec<u64>,
     shunt: [Vec<u64>; 2],
+    /// The frames' current registers, where the readings' are not theirs.
+    current: [Vec<u64>; 2],
     stale: Vec<u64>,
     has_board: bool,
     current_lsb_na: Option<u32>,
@@ -241,6 +257,7 @@ impl Columns {
                             2 => varints(value, &mut self.seq)?,
                             3 | 4 => varints(value, &mut self.shunt[field as usize - 3])?,
                             5 => varints(value, &mut self.stale)?,
+                            6 | 7 => varints(value, &mut self.current[field as usize - 6])?,
                             _ => {}
                         }
                     }
@@ -275,7 +292,16 @@ impl Columns {
             column.clear();
         }
         let [left, right] = &mut self.shunt;
-        for column in [&mut self.t_us, &mut self.seq, &mut self.stale, left, right] {
+        let [current_left, current_right] = &mut self.current;
+        for column in [
+            &mut self.t_us,
+            &mut self.seq,
+            &mut self.stale,
+            left,
+            right,
+            current_left,
+            current_right,
+        ] {
             column.clear();
         }
         self.has_board = false;
@@ -324,18 +350,18 @@ impl Columns {
             check(column.len(), false, &|| name.to_owned())?;
         }
         if self.has_board {
-            let columns: [(&[u64], bool, &str); 5] = [
+            // Without the readings' registers, the frames' current registers are needed.
+            let columns: [(&[u64], bool, &str); 7] = [
                 (&self.t_us, true, "t_us"),
                 (&self.seq, true, "seq"),
                 (&self.shunt[0], false, "shunt_left"),
                 (&self.shunt[1], false, "shunt_right"),
                 (&self.stale, false, "stale"),
+                (&self.current[0], !registers, "current_left"),
+                (&self.current[1], !registers, "current_right"),
             ];
             for (column, needed, field) in columns {
                 check(column.len(), needed, &|| format!("board.{field}"))?;
-            }
-            if !registers {
-                return Err("board frames in a batch without registers".into());
             }
         }
         out.reserve(n);
@@ -370,7 +396,11 @@ impl Columns {
                 y_m: optional(3),
             };
             let board = if self.has_board {
-                let current = Sides::new(reg_l, reg_r);
+                let current = |k: usize, reading: i16| match self.current[k].get(i) {
+                    Some(&raw) => register(raw),
+                    None => Ok(reading),
+                };
+                let current = Sides::new(current(0, reg_l)?, current(1, reg_r)?);
                 let shunt = |k: usize, current: i16| match self.shunt[k].get(i) {
                     Some(&raw) => register(raw),
                     None => Ok(current),
@@ -380,7 +410,7 @@ impl Columns {
                     self.t_us[i],
                     u32::try_from(self.seq[i])
                         .map_err(|_| format!("seq {} is out of range", self.seq[i]))?,
-                    Sides::new(shunt(0, reg_l)?, shunt(1, reg_r)?),
+                    Sides::new(shunt(0, current.left)?, shunt(1, current.right)?),
                     current,
                     Sides::new(stale & 1 != 0, stale & 2 != 0),
                 ))
@@ -598,6 +628,32 @@ mod tests {
             through_a_message(&mut batch).expect("decodes").len(),
             BATCH_MAX
         );
+    }
+
+    /// Frames whose current register is not the reading's (a foreign rig's CSV converted with
+    /// frames quantised at our scale, or another CAL) ride in the batch with that register.
+    #[test]
+    fn frames_with_their_own_current_register_ride_in_the_batch() {
+        let ours = register_sample(0.5, 19_200, 300, Scale::BOARD);
+        let foreign = RunSample {
+            t_s: 0.6,
+            current_a: Sides::new(0.150_2, -2.000_04),
+            ..ours
+        };
+        for (sample, registers) in [(ours, registers_of(&ours, Scale::BOARD)), (foreign, None)] {
+            let board = BoardSample::new(
+                77,
+                3,
+                Sides::new(-5, 9),
+                Sides::new(301, -4_000),
+                Sides::new(false, true),
+            );
+            let mut batch = Batch::new(Scale::BOARD);
+            assert!(batch.push(&sample, registers, Some(board), Scale::BOARD));
+            let got = through_a_message(&mut batch).expect("decodes");
+            assert_eq!(bits(&got[0].0), bits(&sample));
+            assert_eq!(got[0].1, Some(board));
+        }
     }
 
     #[test]

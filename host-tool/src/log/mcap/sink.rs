@@ -666,16 +666,12 @@ impl<W: Write + Seek> RunLogSink for McapSink<W> {
             }
         }
         let registers = registers_of(sample, self.scale);
-        // Its sample frame rides along when it came just before and rebuilds exactly from the
-        // registers.
+        // Its sample frame rides along when it came just before and rebuilds exactly.
         let board = match self.pending.take() {
             Some((t_s, frame)) => {
                 let board = (t_s.to_bits() == sample.t_s.to_bits())
                     .then(|| BoardSample::of(&frame, sample))
-                    .flatten()
-                    .filter(|b| {
-                        registers.is_some_and(|r| b.current_register() == r.map(|(_, c)| c))
-                    });
+                    .flatten();
                 if board.is_none() {
                     self.write_frame(t_s, &BoardFrame::Sample(frame))?;
                 }
