@@ -47,7 +47,8 @@
 //! `-- --seconds S` generates (or reuses) a log of S simulated seconds instead of an hour
 //! (`run-<S>s.*`); `-- --generate-only` stops after generating (e.g. the 4-hour log that
 //! `validate`'s memory is measured on: `-- --seconds 14400 --generate-only`); `-- --csv-only`
-//! times the Rust run-CSV path alone, printing each run's stages (to run under a profiler).
+//! (`-- --mcap-only`) times the Rust run-CSV (MCAP) path alone, printing each run's stages (to
+//! run under a profiler).
 
 use anyhow::{bail, ensure, Context, Result};
 use firmware::sampler::SamplerConfig;
@@ -112,7 +113,10 @@ fn main() -> Result<()> {
     }
     let csv_bytes = std::fs::metadata(&files.csv)?.len();
     if args.iter().any(|a| a == "--csv-only") {
-        return profile_csv(&files, repeats);
+        return profile_alone("run CSV", &files.csv, CSV_STAGES, repeats);
+    }
+    if args.iter().any(|a| a == "--mcap-only") {
+        return profile_alone("MCAP", &files.mcap, MCAP_STAGES, repeats);
     }
     let bin_bytes = std::fs::metadata(&files.bin)?.len();
     let mcap_bytes = std::fs::metadata(&files.mcap)?.len();
@@ -275,13 +279,19 @@ fn print_ratios(ratios: &[(&str, &str, f64)]) {
     }
 }
 
-/// `-- --csv-only`: the Rust run-CSV path alone, each run's stages printed (for a profiler).
-fn profile_csv(files: &Files, repeats: usize) -> Result<()> {
+/// `-- --csv-only`, `-- --mcap-only`: one Rust path alone, each run's stages printed (for a
+/// profiler).
+fn profile_alone(
+    what: &str,
+    path: &Path,
+    stages: [&'static str; 2],
+    repeats: usize,
+) -> Result<()> {
     let validate = ValidateSetup::load()?;
     for _ in 0..repeats {
-        let result = rust_validate(&files.csv, &validate, CSV_STAGES)?;
+        let result = rust_validate(path, &validate, stages)?;
         println!(
-            "Rust, run CSV: {:.1} ms ({})",
+            "Rust, {what}: {:.1} ms ({})",
             result.stages.total().as_secs_f64() * 1e3,
             result.stages
         );

@@ -80,13 +80,20 @@ impl BoardSample {
 
     /// The sample frame this part and `sample` make.
     pub(crate) fn frame(&self, sample: &RunSample) -> Option<Sample> {
-        let chip = |bus_v: f64, shunt: i16, current: Option<i16>, stale: bool| {
-            // The register's count back from volts (the writer checks it is the board's).
+        // The register's count back from volts (the writer checks it is the board's).
+        let bus = |bus_v: f64| {
             let bus = (bus_v * 1e6 / f64::from(BUS_LSB_UV)).round();
-            if !(0.0..=f64::from(u16::MAX)).contains(&bus) {
-                return None;
-            }
-            let bus = BusVoltageRaw(bus as u16);
+            (0.0..=f64::from(u16::MAX))
+                .contains(&bus)
+                .then_some(bus as u16)
+        };
+        self.frame_at(Sides::new(bus(sample.bus_v.left)?, bus(sample.bus_v.right)?))
+    }
+
+    /// The sample frame this part makes with these bus registers.
+    pub(crate) fn frame_at(&self, bus: Sides<u16>) -> Option<Sample> {
+        let chip = |bus: u16, shunt: i16, current: Option<i16>, stale: bool| {
+            let bus = BusVoltageRaw(bus);
             let current = CurrentRaw(current.unwrap_or(shunt));
             let registers = Registers {
                 shunt: ShuntVoltageRaw(shunt),
@@ -104,13 +111,13 @@ impl BoardSample {
             seq: self.seq,
             chips: Sides::new(
                 chip(
-                    sample.bus_v.left,
+                    bus.left,
                     self.shunt.left,
                     self.current.left,
                     self.stale.left,
                 )?,
                 chip(
-                    sample.bus_v.right,
+                    bus.right,
                     self.shunt.right,
                     self.current.right,
                     self.stale.right,

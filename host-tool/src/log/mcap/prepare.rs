@@ -5,40 +5,18 @@
 //! Only an optimisation: the reader takes a prepared batch only for the very record it was
 //! made from, on a channel it reads as sample batches itself; any other batch (a channel
 //! record the walk did not see, a message outside a chunk) it decodes itself with the same
-//! function ([`batch_samples`]), so the result is the same either way.
+//! function ([`Columns::decode`]), so the result is the same either way.
 
-use super::board_sample::BoardSample;
-use super::read::{check_sample, message_fields};
+use super::read::message_fields;
 use super::sample_batch::Columns;
 use super::{proto, TOPIC_SAMPLE_BATCH};
-use crate::log::run_csv::{RigRange, RunSample};
+use crate::log::run_csv::RunSample;
 use ::mcap::records::{op, Record};
 use model_core::wire::Sample;
 use std::ops::Range;
 
 /// A sample with its board frame, rebuilt.
 pub(super) type Checked = (RunSample, Option<Sample>);
-
-/// The samples of a `rover_power.SampleBatch` message into `out`, checked as a sample message
-/// of ours is (in the board's measuring range, times increasing within the batch) with their
-/// board frames rebuilt; the error says what is wrong with the message. Whether the first
-/// sample comes after the previous batch's last is the reader's to check.
-pub(super) fn batch_samples(
-    columns: &mut Columns,
-    scratch: &mut Vec<(RunSample, Option<BoardSample>)>,
-    data: &[u8],
-    out: &mut Vec<Checked>,
-) -> Result<(), String> {
-    scratch.clear();
-    columns.decode(data, scratch)?;
-    let mut last_t_s = None;
-    for (sample, board) in scratch.iter() {
-        let frame = check_sample(sample, *board, RigRange::Board, last_t_s)?;
-        out.push((*sample, frame));
-        last_t_s = Some(sample.t_s);
-    }
-    Ok(())
-}
 
 /// The sample batches of one chunk, decoded and checked.
 #[derive(Debug, Default)]
@@ -51,7 +29,6 @@ pub(super) struct Prepared {
     /// The first of `batches` not taken yet.
     next: usize,
     columns: Columns,
-    scratch: Vec<(RunSample, Option<BoardSample>)>,
 }
 
 impl Prepared {
@@ -68,12 +45,7 @@ impl Prepared {
                 if let Some((channel, _, _, data)) = message_fields(body) {
                     if channels.contains(&channel) {
                         let start = self.samples.len();
-                        let result = batch_samples(
-                            &mut self.columns,
-                            &mut self.scratch,
-                            data,
-                            &mut self.samples,
-                        );
+                        let result = self.columns.decode(data, &mut self.samples);
                         if result.is_err() {
                             self.samples.truncate(start);
                         }

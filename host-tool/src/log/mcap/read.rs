@@ -9,7 +9,7 @@
 
 use super::ahead::{walk_ahead, Walked};
 use super::board_sample::BoardSample;
-use super::prepare::{batch_samples, record_body, Checked, Prepared};
+use super::prepare::{record_body, Checked, Prepared};
 use super::sample_batch::Columns;
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, Skipped, Walker};
@@ -485,7 +485,6 @@ struct State<'s> {
     prepared_batch: Option<Result<Range<usize>, String>>,
     /// For a batch decoded here: its columns and samples, kept to be reused.
     columns: Columns,
-    scratch: Vec<(RunSample, Option<BoardSample>)>,
     own_batch: Vec<Checked>,
 }
 
@@ -508,7 +507,6 @@ impl<'s> State<'s> {
             prepared: Prepared::default(),
             prepared_batch: None,
             columns: Columns::default(),
-            scratch: Vec::new(),
             own_batch: Vec::new(),
         }
     }
@@ -843,8 +841,7 @@ impl<'s> State<'s> {
                 own.clear();
                 let samples = match self.prepared_batch.take() {
                     Some(result) => result.map(|range| prepared.samples(range)),
-                    None => batch_samples(&mut self.columns, &mut self.scratch, data, &mut own)
-                        .map(|()| &own[..]),
+                    None => self.columns.decode(data, &mut own).map(|()| &own[..]),
                 };
                 let result = self.sample_batch(sequence, samples, &bad);
                 self.prepared = prepared;
@@ -915,12 +912,26 @@ pub(super) fn check_sample(
 ) -> Result<Option<Sample>, String> {
     // Before the range check: a frame that does not rebuild is the message's fault.
     let frame = match board {
-        Some(board) => Some(board.frame(sample).ok_or(
-            "its board part does not rebuild a sample frame (bus voltage off the register's \
-             steps or range)",
-        )?),
+        Some(board) => Some(board.frame(sample).ok_or_else(no_frame)?),
         None => None,
     };
+    check_reading(sample, range, last_t_s)?;
+    Ok(frame)
+}
+
+/// Why a sample's board part is refused.
+pub(super) fn no_frame() -> String {
+    "its board part does not rebuild a sample frame (bus voltage off the register's steps or \
+     range)"
+        .into()
+}
+
+/// Whether `sample` is within `range` and after `last_t_s`; the error says what is wrong.
+pub(super) fn check_reading(
+    sample: &RunSample,
+    range: RigRange,
+    last_t_s: Option<f64>,
+) -> Result<(), String> {
     if let Some((column, value)) = sample.out_of_range(range) {
         let (bus_v_max, current_a_max) = range.limits();
         let which = match range {
@@ -937,7 +948,7 @@ pub(super) fn check_sample(
             "sample time {} is not after the previous sample's {previous}",
             sample.t_s
         )),
-        _ => Ok(frame),
+        _ => Ok(()),
     }
 }
 
@@ -951,14 +962,8 @@ impl State<'_> {
         bad: &dyn Fn(&Self, String) -> McapError,
     ) -> Result<(), McapError> {
         let samples = samples.map_err(|e| bad(self, e))?;
-        if let (Some((first, _)), Some(previous)) = (samples.first(), self.last_t_s) {
-            if first.t_s <= previous {
-                let e = format!(
-                    "sample time {} is not after the previous sample's {previous}",
-                    first.t_s
-                );
-                return Err(bad(self, e));
-            }
+        if let Some((first, _)) = samples.first() {
+            check_reading(first, RigRange::Board, self.last_t_s).map_err(|e| bad(self, e))?;
         }
         // Samples lost since the previous batch (the sequence counts samples written).
         let read = self.samples;

@@ -18,8 +18,10 @@
 //! loses a batch to damage knows exactly how many samples it lost.
 
 use super::board_sample::BoardSample;
+use super::prepare::Checked;
 use super::proto::{self, Value};
-use crate::log::run_csv::RunSample;
+use super::read::{check_reading, no_frame};
+use crate::log::run_csv::{RigRange, RunSample};
 use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale, BUS_LSB_UV};
 use model_core::Sides;
 
@@ -232,15 +234,13 @@ struct SideColumns {
 }
 
 impl Columns {
-    /// Decodes a `rover_power.SampleBatch` message into `out`: each sample with its board
-    /// frame's part when the batch carries them. Unknown fields are skipped (a later writer may
-    /// add some); columns of different lengths, a value that is not a register or a missing
-    /// column are errors.
-    pub(super) fn decode(
-        &mut self,
-        data: &[u8],
-        out: &mut Vec<(RunSample, Option<BoardSample>)>,
-    ) -> Result<(), String> {
+    /// Decodes a `rover_power.SampleBatch` message into `out`: each sample with its board frame
+    /// rebuilt when the batch carries them, checked as a sample message of ours is (in the
+    /// board's measuring range, times increasing within the batch; whether the first comes
+    /// after the previous batch's last is the reader's to check). Unknown fields are skipped (a
+    /// later writer may add some); columns of different lengths, a value that is not a register,
+    /// a missing column or a sample that fails its check are errors saying so.
+    pub(super) fn decode(&mut self, data: &[u8], out: &mut Vec<Checked>) -> Result<(), String> {
         self.clear();
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
@@ -308,8 +308,8 @@ impl Columns {
         self.current_lsb_na = None;
     }
 
-    /// The samples the decoded columns hold.
-    fn samples(&self, out: &mut Vec<(RunSample, Option<BoardSample>)>) -> Result<(), String> {
+    /// The samples the decoded columns hold, checked.
+    fn samples(&self, out: &mut Vec<Checked>) -> Result<(), String> {
         let n = self.t_s.len();
         // `name` is built only for the error.
         let check = |len: usize, needed: bool, name: &dyn Fn() -> String| match (len, needed) {
@@ -365,8 +365,10 @@ impl Columns {
             }
         }
         out.reserve(n);
+        let mut last_t_s = None;
         for i in 0..n {
-            let electrical = |side: &SideColumns| -> Result<(f64, f64, i16), String> {
+            // Volts, amps and the bus and current registers (0 for doubles).
+            let electrical = |side: &SideColumns| -> Result<(f64, f64, u16, i16), String> {
                 match scale {
                     Some(scale) => {
                         let bus = u16::try_from(side.bus_raw[i]).map_err(|_| {
@@ -376,14 +378,15 @@ impl Columns {
                         Ok((
                             scale.bus_v(BusVoltageRaw(bus)),
                             scale.current_a(CurrentRaw(current)),
+                            bus,
                             current,
                         ))
                     }
-                    None => Ok((side.bus_v[i], side.current_a[i], 0)),
+                    None => Ok((side.bus_v[i], side.current_a[i], 0, 0)),
                 }
             };
-            let (bus_l, cur_l, reg_l) = electrical(&self.sides[0])?;
-            let (bus_r, cur_r, reg_r) = electrical(&self.sides[1])?;
+            let (bus_l, cur_l, bus_reg_l, reg_l) = electrical(&self.sides[0])?;
+            let (bus_r, cur_r, bus_reg_r, reg_r) = electrical(&self.sides[1])?;
             let optional = |k: usize| self.optional[k].get(i).copied().filter(|v| !v.is_nan());
             let sample = RunSample {
                 t_s: self.t_s[i],
@@ -395,7 +398,7 @@ impl Columns {
                 x_m: optional(2),
                 y_m: optional(3),
             };
-            let board = if self.has_board {
+            let frame = if self.has_board {
                 let current = |k: usize, reading: i16| match self.current[k].get(i) {
                     Some(&raw) => register(raw),
                     None => Ok(reading),
@@ -406,18 +409,26 @@ impl Columns {
                     None => Ok(current),
                 };
                 let stale = self.stale.get(i).copied().unwrap_or(0);
-                Some(BoardSample::new(
+                let board = BoardSample::new(
                     self.t_us[i],
                     u32::try_from(self.seq[i])
                         .map_err(|_| format!("seq {} is out of range", self.seq[i]))?,
                     Sides::new(shunt(0, current.left)?, shunt(1, current.right)?),
                     current,
                     Sides::new(stale & 1 != 0, stale & 2 != 0),
-                ))
+                );
+                // From the bus registers when the batch has them (the volts are theirs).
+                let frame = match registers {
+                    true => board.frame_at(Sides::new(bus_reg_l, bus_reg_r)),
+                    false => board.frame(&sample),
+                };
+                Some(frame.ok_or_else(no_frame)?)
             } else {
                 None
             };
-            out.push((sample, board));
+            check_reading(&sample, RigRange::Board, last_t_s)?;
+            last_t_s = Some(sample.t_s);
+            out.push((sample, frame));
         }
         Ok(())
     }
@@ -510,9 +521,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    type Decoded = Vec<(RunSample, Option<BoardSample>)>;
-
-    fn through_a_message(batch: &mut Batch) -> Result<Decoded, String> {
+    fn through_a_message(batch: &mut Batch) -> Result<Vec<Checked>, String> {
         let bytes = batch.take_protobuf();
         let mut out = Vec::new();
         Columns::default().decode(&bytes, &mut out)?;
@@ -580,7 +589,7 @@ mod tests {
                     Sides::new(i == 1, false),
                 );
                 assert!(batch.push(&sample, Some(registers), Some(board), scale));
-                want.push((sample, Some(board)));
+                want.push((sample, board.frame(&sample)));
             }
             let got = through_a_message(&mut batch).expect("decodes");
             assert_eq!(got.len(), want.len());
@@ -652,7 +661,8 @@ mod tests {
             assert!(batch.push(&sample, registers, Some(board), Scale::BOARD));
             let got = through_a_message(&mut batch).expect("decodes");
             assert_eq!(bits(&got[0].0), bits(&sample));
-            assert_eq!(got[0].1, Some(board));
+            assert_eq!(got[0].1, board.frame(&sample));
+            assert!(got[0].1.is_some());
         }
     }
 
@@ -681,7 +691,7 @@ mod tests {
         /// Any register values round-trip; any bytes decode or fail, never panic.
         #[test]
         fn registers_round_trip_and_noise_never_panics(
-            regs in proptest::collection::vec((any::<u16>(), any::<i16>()), 1..30),
+            regs in proptest::collection::vec((0u16..=0x7FFF, any::<i16>()), 1..30),
             noise in proptest::collection::vec(any::<u8>(), 0..200),
         ) {
             let mut batch = Batch::new(Scale::BOARD);
