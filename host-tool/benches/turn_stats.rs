@@ -281,12 +281,7 @@ fn print_ratios(ratios: &[(&str, &str, f64)]) {
 
 /// `-- --csv-only`, `-- --mcap-only`: one Rust path alone, each run's stages printed (for a
 /// profiler).
-fn profile_alone(
-    what: &str,
-    path: &Path,
-    stages: [&'static str; 2],
-    repeats: usize,
-) -> Result<()> {
+fn profile_alone(what: &str, path: &Path, stages: [&'static str; 2], repeats: usize) -> Result<()> {
     let validate = ValidateSetup::load()?;
     for _ in 0..repeats {
         let result = rust_validate(path, &validate, stages)?;

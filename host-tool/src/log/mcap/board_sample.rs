@@ -87,7 +87,10 @@ impl BoardSample {
                 .contains(&bus)
                 .then_some(bus as u16)
         };
-        self.frame_at(Sides::new(bus(sample.bus_v.left)?, bus(sample.bus_v.right)?))
+        self.frame_at(Sides::new(
+            bus(sample.bus_v.left)?,
+            bus(sample.bus_v.right)?,
+        ))
     }
 
     /// The sample frame this part makes with these bus registers.

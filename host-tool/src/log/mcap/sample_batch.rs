@@ -496,18 +496,24 @@ fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
 fn varints(value: Value<'_>, into: &mut Vec<u64>) -> Result<(), String> {
     match value {
         Value::Len(bytes) => {
-            let mut at = 0;
-            while let Some(&first) = bytes.get(at) {
-                // Registers are one to three bytes: the common case without the general loop.
-                if first < 0x80 {
-                    into.push(u64::from(first));
-                    at += 1;
-                    continue;
+            // Inline rather than through `proto::varint`: a third of a batch's decoding.
+            let mut value = 0u64;
+            let mut shift = 0;
+            for &byte in bytes {
+                value |= u64::from(byte & 0x7f) << shift;
+                if byte < 0x80 {
+                    into.push(value);
+                    value = 0;
+                    shift = 0;
+                } else {
+                    shift += 7;
+                    if shift > 63 {
+                        return Err("a packed varint is longer than 64 bits".into());
+                    }
                 }
-                let (v, rest) =
-                    proto::varint(&bytes[at..]).ok_or("a packed varint is cut short")?;
-                into.push(v);
-                at = bytes.len() - rest.len();
+            }
+            if shift != 0 {
+                return Err("a packed varint is cut short".into());
             }
         }
         Value::Varint(v) => into.push(v),
@@ -688,6 +694,32 @@ mod tests {
     }
 
     proptest! {
+        /// The inlined packed-varint reader reads what `proto::varint` reads, value by value,
+        /// and fails where it fails.
+        #[test]
+        fn packed_varints_read_as_one_by_one(bytes in proptest::collection::vec(any::<u8>(), 0..40)) {
+            let mut one_by_one = Vec::new();
+            let mut rest = &bytes[..];
+            let expected = loop {
+                if rest.is_empty() {
+                    break Ok(());
+                }
+                match proto::varint(rest) {
+                    Some((v, tail)) => {
+                        one_by_one.push(v);
+                        rest = tail;
+                    }
+                    None => break Err(()),
+                }
+            };
+            let mut packed = Vec::new();
+            let got = varints(Value::Len(&bytes), &mut packed);
+            prop_assert_eq!(got.is_ok(), expected.is_ok());
+            if got.is_ok() {
+                prop_assert_eq!(packed, one_by_one);
+            }
+        }
+
         /// Any register values round-trip; any bytes decode or fail, never panic.
         #[test]
         fn registers_round_trip_and_noise_never_panics(

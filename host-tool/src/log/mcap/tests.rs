@@ -435,10 +435,26 @@ fn sink_on_a_file_is_readable_before_finish_and_finished_on_drop() {
     sink.flush().expect("flush");
     let got = read_mcap_run(&path).expect("flushed samples on disk");
     assert_eq!(got.run.samples, run.samples);
+    // Samples after the flush wait in a batch: dropping the sink writes them too.
+    let more: Vec<RunSample> = run
+        .samples
+        .iter()
+        .map(|s| RunSample {
+            t_s: s.t_s + 100.0,
+            ..*s
+        })
+        .collect();
+    for s in &more {
+        sink.sample(s).expect("sample");
+    }
     drop(sink);
     let got = read_mcap_run(&path).expect("finished");
     assert_eq!(got.truncated, None);
-    assert_eq!(got.run.samples, run.samples);
+    assert_eq!(got.run.samples[..run.samples.len()], run.samples[..]);
+    assert!(
+        got.run.samples[run.samples.len()..] == more[..],
+        "the last batch"
+    );
 }
 
 #[test]
