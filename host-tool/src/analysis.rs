@@ -8,10 +8,11 @@ use crate::diagnose::features::{RunSampleScan, TurnRow};
 use crate::diagnose::path_table::{self, PathDiagnosis};
 use crate::diagnose::{self, Diagnosis};
 use crate::log::csv_sink::{events_path, read_events};
-use crate::log::load::{load_salvaging, RunFormat};
+use crate::log::commands::CommandRow;
+use crate::log::load::{stream_salvaging, RunFormat};
 use crate::log::mcap::Truncation;
 use crate::log::run_csv::{visit_own_run_csv, Column, RigRange, RunSample};
-use crate::log::run_log::LogEvent;
+use crate::log::run_log::{LogEvent, RunLogSink};
 use crate::rover::RoverFile;
 use crate::runs::{damage_warnings, truncation_warning, Runs, StreamedRuns, StreamedRunsError};
 use crate::validate::{self, ValidateOptions, ValidationReport};
@@ -19,7 +20,8 @@ use anyhow::{anyhow, bail, Context, Result};
 use model_core::Rover;
 use std::fmt;
 use std::fs::File;
-use std::io::Read;
+use model_core::wire::BoardFrame;
+use std::io::{self, Read};
 use std::path::{Path, PathBuf};
 
 /// How run logs are read (`--salvage`, `--rig-range`), and where what reading them found goes.
@@ -120,6 +122,14 @@ impl RunColumns {
         }
     }
 
+    /// Room for the samples of a few more minutes when the columns are full: growing an hour's
+    /// columns a doubling at a time would copy them over and over.
+    fn make_room(&mut self) {
+        if self.values[0].len() == self.values[0].capacity() {
+            self.reserve(self.rows().max(1 << 16));
+        }
+    }
+
     /// The events as JSON: `[{"t_s": …, "kind": "started", "port": …}, …]`, the fields of a run
     /// CSV's events file.
     pub fn events_json(&self) -> serde_json::Value {
@@ -150,19 +160,17 @@ pub fn read_run_columns(path: &Path, reader: &mut Reader<'_>) -> Result<RunColum
     let own = format == RunFormat::Csv
         && visit_own_run_csv(path, reader.range, &mut |rows| columns.extend(rows))?;
     if !own {
-        // A file the fast path declined may have given it some rows: start over.
+        // A file the fast path declined may have given it some rows: start over. Streamed
+        // into the columns: the run's frames and commands are not kept.
         columns = RunColumns::default();
-        let loaded = load_salvaging(path, reader.salvage, reader.range)?;
-        let truncated: Vec<(PathBuf, Truncation)> = loaded
+        let found = stream_salvaging(path, reader.salvage, reader.range, &mut columns)?;
+        let truncated: Vec<(PathBuf, Truncation)> = found
             .truncated
             .iter()
             .map(|t| (path.to_owned(), *t))
             .collect();
-        let damage = damage_warnings(path, &loaded.losses, &loaded.dropped_rows);
-        reader.found(&truncated, &damage, loaded.lost_data());
-        columns.reserve(loaded.run.samples.len());
-        columns.extend(&loaded.run.samples);
-        columns.events = loaded.run.events;
+        let damage = damage_warnings(path, &found.losses, &found.dropped_rows);
+        reader.found(&truncated, &damage, found.lost_data());
     }
     let events = events_path(path);
     if format == RunFormat::Csv && events.exists() {
@@ -172,6 +180,28 @@ pub fn read_run_columns(path: &Path, reader: &mut Reader<'_>) -> Result<RunColum
         column.shrink_to_fit(); // a large vector's unused end is given back without a copy
     }
     Ok(columns)
+}
+
+/// A run streamed into columns: its samples and events (frames and commands have no column).
+impl RunLogSink for RunColumns {
+    fn frame(&mut self, _t_s: f64, _frame: &BoardFrame) -> io::Result<()> {
+        Ok(())
+    }
+
+    fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
+        self.make_room();
+        self.extend(std::slice::from_ref(sample));
+        Ok(())
+    }
+
+    fn command(&mut self, _row: &CommandRow) -> io::Result<()> {
+        Ok(())
+    }
+
+    fn event(&mut self, t_s: f64, event: &LogEvent) -> io::Result<()> {
+        self.events.push((t_s, event.clone()));
+        Ok(())
+    }
 }
 
 /// About how many rows the run CSV at `path` holds, a little more rather than less: its length

@@ -8,6 +8,7 @@ use super::prepare::Prepared;
 use super::walk::{ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
 use ::mcap::records::op;
 use std::io::{self, Read, Seek};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 
 /// A step of the walk, owned, as the reader's state takes it.
@@ -42,16 +43,20 @@ pub(super) enum Walked {
 const AHEAD: usize = 4;
 
 /// The walk's steps as they are read ahead, with the way back for a chunk's buffers.
-pub(super) struct Ahead {
+pub(super) struct Ahead<'q> {
     steps: Receiver<io::Result<Walked>>,
     spare: Sender<(Vec<u8>, Prepared)>,
+    /// Steps sent and not yet taken.
+    queued: &'q AtomicUsize,
 }
 
-impl Ahead {
+impl Ahead<'_> {
     /// The next step; `None` after the last (the footer, a cut end, or a read error given
     /// before).
     pub(super) fn next(&mut self) -> Option<io::Result<Walked>> {
-        self.steps.recv().ok()
+        let step = self.steps.recv().ok();
+        self.queued.fetch_sub(usize::from(step.is_some()), Ordering::Relaxed);
+        step
     }
 
     /// Hands a chunk's buffers back to the walk, for a chunk to come.
@@ -68,13 +73,19 @@ pub(super) fn walk_ahead<R: Read + Seek + Send, T>(
     walker: Walker<R>,
     read: impl FnOnce(&mut Ahead) -> T,
 ) -> io::Result<T> {
+    let queued = AtomicUsize::new(0);
     std::thread::scope(|scope| {
         let (steps_tx, steps) = mpsc::sync_channel(AHEAD);
         let (spare, spare_rx) = mpsc::channel();
+        let queue = &queued;
         std::thread::Builder::new()
             .name("mcap-walk".into())
-            .spawn_scoped(scope, move || walk(walker, &steps_tx, &spare_rx))?;
-        let mut ahead = Ahead { steps, spare };
+            .spawn_scoped(scope, move || walk(walker, &steps_tx, &spare_rx, queue))?;
+        let mut ahead = Ahead {
+            steps,
+            spare,
+            queued: &queued,
+        };
         Ok(read(&mut ahead))
         // `ahead` is dropped here: the walk's next send fails and it ends; the scope joins it.
     })
@@ -86,6 +97,7 @@ fn walk<R: Read + Seek>(
     mut walker: Walker<R>,
     steps: &SyncSender<io::Result<Walked>>,
     spare: &Receiver<(Vec<u8>, Prepared)>,
+    queued: &AtomicUsize,
 ) {
     let mut decoder = ChunkDecoder::default();
     // The sample batch channels seen so far.
@@ -99,6 +111,7 @@ fn walk<R: Read + Seek>(
             Ok(Some(step)) => step,
             Ok(None) => return,
             Err(e) => {
+                queued.fetch_add(1, Ordering::Relaxed);
                 let _ = steps.send(Err(e));
                 return;
             }
@@ -123,7 +136,11 @@ fn walk<R: Read + Seek>(
                         after_failed = false;
                         let (records, mut prepared) = spare.try_recv().unwrap_or_default();
                         let records = decoder.take_records(records);
-                        prepared.chunk(&records, &mut batch_channels);
+                        // A reader with steps still to take is the slower one: it gets this
+                        // chunk's batches decoded. One waiting for this chunk decodes them
+                        // itself, meanwhile the walk reads on.
+                        let reader_busy = queued.load(Ordering::Relaxed) > 0;
+                        prepared.chunk(&records, &mut batch_channels, reader_busy);
                         Walked::Chunk {
                             records,
                             prepared,
@@ -174,6 +191,7 @@ fn walk<R: Read + Seek>(
             Step::Footer => continue,
             Step::Truncated { complete_bytes } => Walked::Truncated { complete_bytes },
         };
+        queued.fetch_add(1, Ordering::Relaxed);
         if steps.send(Ok(walked)).is_err() {
             return; // the reader stopped
         }

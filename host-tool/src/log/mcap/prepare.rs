@@ -32,16 +32,17 @@ pub(super) struct Prepared {
 }
 
 impl Prepared {
-    /// Decodes the sample batches in `records` (a chunk's records), learning the batch
-    /// channels from the channel records among them.
-    pub(super) fn chunk(&mut self, records: &[u8], channels: &mut Vec<u16>) {
+    /// Decodes the sample batches in `records` (a chunk's records) if `decode`, else leaves
+    /// them to the reader; either way learns the batch channels from the channel records among
+    /// them.
+    pub(super) fn chunk(&mut self, records: &[u8], channels: &mut Vec<u16>, decode: bool) {
         self.samples.clear();
         self.batches.clear();
         self.next = 0;
         let mut at = 0;
         while let Some(body) = record_body(&records[at..]) {
             let opcode = records[at];
-            if opcode == op::MESSAGE {
+            if opcode == op::MESSAGE && decode {
                 if let Some((channel, _, _, data)) = message_fields(body) {
                     if channels.contains(&channel) {
                         let start = self.samples.len();
