@@ -55,7 +55,8 @@ impl Ahead<'_> {
     /// before).
     pub(super) fn next(&mut self) -> Option<io::Result<Walked>> {
         let step = self.steps.recv().ok();
-        self.queued.fetch_sub(usize::from(step.is_some()), Ordering::Relaxed);
+        self.queued
+            .fetch_sub(usize::from(step.is_some()), Ordering::Relaxed);
         step
     }
 

@@ -26,7 +26,8 @@
 //!                        repeated sint32 shunt_right = 4 [packed = true];
 //!                        repeated uint32 stale = 5 [packed = true];
 //!                        repeated sint32 current_left = 6 [packed = true];
-//!                        repeated sint32 current_right = 7 [packed = true]; }
+//!                        repeated sint32 current_right = 7 [packed = true];
+//!                        optional uint64 t_us_first = 8; optional uint32 seq_first = 9; }
 //! message SampleBatch {  // a log file's samples: sample_batch.rs
 //!   repeated double t_s = 1 [packed = true];
 //!   optional SampleColumns left = 2; optional SampleColumns right = 3;
@@ -169,6 +170,8 @@ const MESSAGES: &[MessageDef] = &[
             ("stale", 5, Packed(&Uint32)),
             ("current_left", 6, Packed(&Sint32)),
             ("current_right", 7, Packed(&Sint32)),
+            ("t_us_first", 8, Uint64),
+            ("seq_first", 9, Uint32),
         ],
     },
     MessageDef {

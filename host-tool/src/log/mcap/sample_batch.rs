@@ -149,8 +149,25 @@ impl Batch {
         if e.iter().all(|e| e.board.is_some()) && !e.is_empty() {
             let boards = || e.iter().filter_map(|e| e.board);
             w.message(8, |m| {
-                m.packed_varints(1, boards().map(|b| b.t_us));
-                m.packed_varints(2, boards().map(|b| u64::from(b.seq)));
+                // Board time and sample number as columns only where they do not follow from
+                // the first sample's (the board samples on a steady clock, one number each).
+                let first = e[0].board.map_or((0, 0), |b| (b.t_us, b.seq));
+                let t0_s = e[0].sample.t_s;
+                if e.iter().all(|e| {
+                    e.board.map(|b| b.t_us) == Some(board_time(first.0, t0_s, e.sample.t_s))
+                }) {
+                    m.varint(8, first.0);
+                } else {
+                    m.packed_varints(1, boards().map(|b| b.t_us));
+                }
+                if boards()
+                    .enumerate()
+                    .all(|(i, b)| b.seq == first.1.wrapping_add(i as u32))
+                {
+                    m.varint(9, u64::from(first.1));
+                } else {
+                    m.packed_varints(2, boards().map(|b| u64::from(b.seq)));
+                }
                 // A register is written only where the batch's columns do not say it: the
                 // current register where it is not the reading's, the shunt register where it
                 // is not the current register (at our board's CAL they are equal).
@@ -220,6 +237,9 @@ pub(super) struct Columns {
     /// The frames' current registers, where the readings' are not theirs.
     current: [Vec<u64>; 2],
     stale: Vec<u64>,
+    /// The first sample's board time and number, when the others follow from them.
+    t_us_first: Option<u64>,
+    seq_first: Option<u64>,
     has_board: bool,
     current_lsb_na: Option<u32>,
 }
@@ -258,6 +278,8 @@ impl Columns {
                             3 | 4 => varints(value, &mut self.shunt[field as usize - 3])?,
                             5 => varints(value, &mut self.stale)?,
                             6 | 7 => varints(value, &mut self.current[field as usize - 6])?,
+                            8 => self.t_us_first = Some(single(value, "t_us_first")?),
+                            9 => self.seq_first = Some(single(value, "seq_first")?),
                             _ => {}
                         }
                     }
@@ -305,6 +327,8 @@ impl Columns {
             column.clear();
         }
         self.has_board = false;
+        self.t_us_first = None;
+        self.seq_first = None;
         self.current_lsb_na = None;
     }
 
@@ -352,8 +376,8 @@ impl Columns {
         if self.has_board {
             // Without the readings' registers, the frames' current registers are needed.
             let columns: [(&[u64], bool, &str); 7] = [
-                (&self.t_us, true, "t_us"),
-                (&self.seq, true, "seq"),
+                (&self.t_us, self.t_us_first.is_none(), "t_us"),
+                (&self.seq, self.seq_first.is_none(), "seq"),
                 (&self.shunt[0], false, "shunt_left"),
                 (&self.shunt[1], false, "shunt_right"),
                 (&self.stale, false, "stale"),
@@ -410,9 +434,17 @@ impl Columns {
                 };
                 let stale = self.stale.get(i).copied().unwrap_or(0);
                 let board = BoardSample::new(
-                    self.t_us[i],
-                    u32::try_from(self.seq[i])
-                        .map_err(|_| format!("seq {} is out of range", self.seq[i]))?,
+                    match self.t_us_first {
+                        Some(first) => board_time(first, self.t_s[0], sample.t_s),
+                        None => self.t_us[i],
+                    },
+                    match self.seq_first {
+                        Some(first) => u32::try_from(first)
+                            .map_err(|_| format!("seq_first {first} is out of range"))?
+                            .wrapping_add(i as u32),
+                        None => u32::try_from(self.seq[i])
+                            .map_err(|_| format!("seq {} is out of range", self.seq[i]))?,
+                    },
                     Sides::new(shunt(0, current.left)?, shunt(1, current.right)?),
                     current,
                     Sides::new(stale & 1 != 0, stale & 2 != 0),
@@ -457,6 +489,21 @@ impl SideColumns {
             }
         }
         Ok(())
+    }
+}
+
+/// The board time of a sample at run time `t_s` in a batch whose first sample, at `t0_s`, was
+/// taken at board time `first_us` (µs, rounded; the writer keeps a column where this is not
+/// exact).
+fn board_time(first_us: u64, t0_s: f64, t_s: f64) -> u64 {
+    first_us.wrapping_add(((t_s - t0_s) * 1e6).round() as u64)
+}
+
+/// A single varint field's value.
+fn single(value: Value<'_>, name: &str) -> Result<u64, String> {
+    match value {
+        Value::Varint(v) => Ok(v),
+        other => Err(format!("{name}: expected a varint, found {other:?}")),
     }
 }
 
