@@ -455,9 +455,28 @@ enum Topic {
     Skipped,
 }
 
+/// The channels read so far, by id: what each carries and its topic. A table rather than a
+/// hash map: it is looked up for every record, and ids are small.
+#[derive(Debug, Default)]
+struct Channels(Vec<Option<(Topic, String)>>);
+
+impl Channels {
+    fn get(&self, id: u16) -> Option<&(Topic, String)> {
+        self.0.get(usize::from(id))?.as_ref()
+    }
+
+    fn insert(&mut self, id: u16, channel: (Topic, String)) {
+        let at = usize::from(id);
+        if self.0.len() <= at {
+            self.0.resize(at + 1, None);
+        }
+        self.0[at] = Some(channel);
+    }
+}
+
 struct State<'s> {
     path: PathBuf,
-    channels: HashMap<u16, (Topic, String)>,
+    channels: Channels,
     /// Schema names by id, to tell our bag's sample type from another type on its topic.
     schema_names: HashMap<u16, String>,
     /// Whether any rover-power channel was seen.
@@ -492,7 +511,7 @@ impl<'s> State<'s> {
     fn new(path: &Path, sink: &'s mut dyn RunLogSink) -> Self {
         State {
             path: path.to_owned(),
-            channels: HashMap::new(),
+            channels: Channels::default(),
             schema_names: HashMap::new(),
             ours: false,
             foreign_topics: BTreeSet::new(),
@@ -621,10 +640,7 @@ impl<'s> State<'s> {
         let Ok(Record::MessageIndex(index)) = parse_record(op::MESSAGE_INDEX, body) else {
             return;
         };
-        let topic = self
-            .channels
-            .get(&index.channel_id)
-            .map(|(topic, _)| *topic);
+        let topic = self.channels.get(index.channel_id).map(|(topic, _)| *topic);
         let is_sample = matches!(
             topic,
             Some(Topic::Sample | Topic::JsonSample | Topic::BagSample)
@@ -679,14 +695,14 @@ impl<'s> State<'s> {
         data: &[u8],
         offset: u64,
     ) -> Result<(), McapError> {
-        let topic = match self.channels.get(&channel_id) {
+        let topic = match self.channels.get(channel_id) {
             Some(&(topic, _)) => topic,
             None => {
                 // Its channel record was in a damaged chunk: the summary's copy stands in.
                 if let Some(channel) = self.fallback.remove(&channel_id) {
                     self.channel(channel, offset)?;
                 }
-                let Some(&(topic, _)) = self.channels.get(&channel_id) else {
+                let Some(&(topic, _)) = self.channels.get(channel_id) else {
                     self.orphan_channels.insert(channel_id);
                     return Err(self.corrupt(
                         offset,
@@ -800,7 +816,7 @@ impl<'s> State<'s> {
             path: state.path.clone(),
             topic: state
                 .channels
-                .get(&channel_id)
+                .get(channel_id)
                 .map(|(_, name)| name.clone())
                 .unwrap_or_default(),
             run_time_ns,
@@ -832,7 +848,7 @@ impl<'s> State<'s> {
                 };
                 let frame =
                     check_sample(&sample, board, range, self.last_t_s).map_err(|e| bad(self, e))?;
-                self.take_sample(sample, frame)?;
+                self.take_sample(&sample, frame.as_ref())?;
             }
             Topic::SampleBatch => {
                 // Decoded on the walk's thread when it could, else here.
@@ -971,23 +987,23 @@ impl State<'_> {
             skip.sequence_gap = Some(u64::from(sequence.wrapping_sub(self.next_batch_sequence)));
         }
         self.next_batch_sequence = sequence.wrapping_add(samples.len() as u32);
-        for &(sample, frame) in samples {
-            self.take_sample(sample, frame)?;
+        for (sample, frame) in samples {
+            self.take_sample(sample, frame.as_ref())?;
         }
         Ok(())
     }
 
     /// Hands a checked sample on, after its board frame.
-    fn take_sample(&mut self, sample: RunSample, frame: Option<Sample>) -> Result<(), McapError> {
+    fn take_sample(&mut self, sample: &RunSample, frame: Option<&Sample>) -> Result<(), McapError> {
         self.last_t_s = Some(sample.t_s);
         self.samples += 1;
         self.times.sample(sample.t_s);
         if let Some(frame) = frame {
             self.sink
-                .frame(sample.t_s, &BoardFrame::Sample(frame))
+                .frame(sample.t_s, &BoardFrame::Sample(*frame))
                 .map_err(|e| self.sink_err(e))?;
         }
-        self.sink.sample(&sample).map_err(|e| self.sink_err(e))
+        self.sink.sample(sample).map_err(|e| self.sink_err(e))
     }
 }
 

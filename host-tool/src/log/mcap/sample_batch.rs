@@ -24,6 +24,7 @@ use super::read::{check_reading, no_frame};
 use crate::log::run_csv::{RigRange, RunSample};
 use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale, BUS_LSB_UV};
 use model_core::Sides;
+use std::ops::Range;
 
 /// Most samples in one batch: a run without model frames (a converted CSV) still gets
 /// messages of a bounded size, a few per second.
@@ -227,10 +228,10 @@ impl Side {
 /// once they have grown.
 #[derive(Debug, Default)]
 pub(super) struct Columns {
-    t_s: Vec<f64>,
+    t_s: Doubles,
     sides: [SideColumns; 2],
     /// yaw, pitch, x, y.
-    optional: [Vec<f64>; 4],
+    optional: [Doubles; 4],
     t_us: Vec<u64>,
     seq: Vec<u64>,
     shunt: [Vec<u64>; 2],
@@ -246,9 +247,9 @@ pub(super) struct Columns {
 
 #[derive(Debug, Default)]
 struct SideColumns {
-    bus_v: Vec<f64>,
-    current_a: Vec<f64>,
-    cmd_mps: Vec<f64>,
+    bus_v: Doubles,
+    current_a: Doubles,
+    cmd_mps: Doubles,
     bus_raw: Vec<u64>,
     current_raw: Vec<u64>,
 }
@@ -265,9 +266,9 @@ impl Columns {
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
             match field {
-                1 => doubles(value, &mut self.t_s)?,
-                2 | 3 => self.sides[field as usize - 2].decode(message(field, value)?)?,
-                4..=7 => doubles(value, &mut self.optional[field as usize - 4])?,
+                1 => self.t_s.add(value, data)?,
+                2 | 3 => self.sides[field as usize - 2].decode(message(field, value)?, data)?,
+                4..=7 => self.optional[field as usize - 4].add(value, data)?,
                 8 => {
                     self.has_board = true;
                     for item in proto::Fields::of(message(field, value)?) {
@@ -302,7 +303,7 @@ impl Columns {
                 _ => {}
             }
         }
-        self.samples(out)
+        self.samples(data, out)
     }
 
     fn clear(&mut self) {
@@ -332,8 +333,8 @@ impl Columns {
         self.current_lsb_na = None;
     }
 
-    /// The samples the decoded columns hold, checked.
-    fn samples(&self, out: &mut Vec<Checked>) -> Result<(), String> {
+    /// The samples the decoded columns of `message` hold, checked.
+    fn samples(&self, message: &[u8], out: &mut Vec<Checked>) -> Result<(), String> {
         let n = self.t_s.len();
         // `name` is built only for the error.
         let check = |len: usize, needed: bool, name: &dyn Fn() -> String| match (len, needed) {
@@ -357,7 +358,7 @@ impl Columns {
             for (column, needed, field) in columns {
                 check(column.len(), needed, &|| format!("{name}.{field}"))?;
             }
-            let columns: [(&[f64], bool, &str); 3] = [
+            let columns: [(&Doubles, bool, &str); 3] = [
                 (&side.bus_v, !registers, "bus_v"),
                 (&side.current_a, !registers, "current_a"),
                 (&side.cmd_mps, true, "cmd_mps"),
@@ -406,17 +407,30 @@ impl Columns {
                             current,
                         ))
                     }
-                    None => Ok((side.bus_v[i], side.current_a[i], 0, 0)),
+                    None => Ok((
+                        side.bus_v.get(message, i),
+                        side.current_a.get(message, i),
+                        0,
+                        0,
+                    )),
                 }
             };
             let (bus_l, cur_l, bus_reg_l, reg_l) = electrical(&self.sides[0])?;
             let (bus_r, cur_r, bus_reg_r, reg_r) = electrical(&self.sides[1])?;
-            let optional = |k: usize| self.optional[k].get(i).copied().filter(|v| !v.is_nan());
+            let optional = |k: usize| {
+                let column = &self.optional[k];
+                (i < column.len())
+                    .then(|| column.get(message, i))
+                    .filter(|v| !v.is_nan())
+            };
             let sample = RunSample {
-                t_s: self.t_s[i],
+                t_s: self.t_s.get(message, i),
                 bus_v: Sides::new(bus_l, bus_r),
                 current_a: Sides::new(cur_l, cur_r),
-                cmd_mps: Sides::new(self.sides[0].cmd_mps[i], self.sides[1].cmd_mps[i]),
+                cmd_mps: Sides::new(
+                    self.sides[0].cmd_mps.get(message, i),
+                    self.sides[1].cmd_mps.get(message, i),
+                ),
                 yaw_rad: optional(0),
                 pitch_deg: optional(1),
                 x_m: optional(2),
@@ -435,7 +449,7 @@ impl Columns {
                 let stale = self.stale.get(i).copied().unwrap_or(0);
                 let board = BoardSample::new(
                     match self.t_us_first {
-                        Some(first) => board_time(first, self.t_s[0], sample.t_s),
+                        Some(first) => board_time(first, self.t_s.get(message, 0), sample.t_s),
                         None => self.t_us[i],
                     },
                     match self.seq_first {
@@ -475,13 +489,14 @@ impl SideColumns {
         self.current_raw.clear();
     }
 
-    fn decode(&mut self, data: &[u8]) -> Result<(), String> {
+    /// Decodes the side's columns in `data`, part of `message`.
+    fn decode(&mut self, data: &[u8], message: &[u8]) -> Result<(), String> {
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
             match field {
-                2 => doubles(value, &mut self.bus_v)?,
-                3 => doubles(value, &mut self.current_a)?,
-                4 => doubles(value, &mut self.cmd_mps)?,
+                2 => self.bus_v.add(value, message)?,
+                3 => self.current_a.add(value, message)?,
+                4 => self.cmd_mps.add(value, message)?,
                 5 => varints(value, &mut self.bus_raw)?,
                 6 => varints(value, &mut self.current_raw)?,
                 // 1: power_w, for viewers (bus × current is the reading).
@@ -489,6 +504,57 @@ impl SideColumns {
             }
         }
         Ok(())
+    }
+}
+
+/// A `repeated double` column of the message being decoded: its packed run read in place
+/// (bytes `packed` of the message: no copy), or the values of a column written unpacked or in
+/// several runs, copied.
+#[derive(Debug, Default)]
+struct Doubles {
+    packed: Option<Range<usize>>,
+    copied: Vec<f64>,
+}
+
+impl Doubles {
+    fn clear(&mut self) {
+        self.packed = None;
+        self.copied.clear();
+    }
+
+    /// Adds a field's value, found in `message`.
+    fn add(&mut self, value: Value<'_>, message: &[u8]) -> Result<(), String> {
+        if let Value::Len(bytes) = value {
+            if self.packed.is_none() && self.copied.is_empty() && bytes.len() % 8 == 0 {
+                let start = (bytes.as_ptr() as usize).wrapping_sub(message.as_ptr() as usize);
+                if message.get(start..start + bytes.len()).is_some() {
+                    self.packed = Some(start..start + bytes.len());
+                    return Ok(());
+                }
+            }
+        }
+        // Anything else is copied, after the run read in place so far.
+        if let Some(run) = self.packed.take() {
+            doubles(Value::Len(&message[run]), &mut self.copied)?;
+        }
+        doubles(value, &mut self.copied)
+    }
+
+    fn len(&self) -> usize {
+        self.packed
+            .as_ref()
+            .map_or(self.copied.len(), |run| run.len() / 8)
+    }
+
+    /// Value `i` (< [`Doubles::len`]) of the column in `message`.
+    fn get(&self, message: &[u8], i: usize) -> f64 {
+        match &self.packed {
+            Some(run) => message
+                .get(run.start + 8 * i..)
+                .and_then(|rest| rest.first_chunk::<8>())
+                .map_or(f64::NAN, |bytes| f64::from_le_bytes(*bytes)),
+            None => self.copied.get(i).copied().unwrap_or(f64::NAN),
+        }
     }
 }
 
@@ -717,6 +783,48 @@ mod tests {
             assert_eq!(got[0].1, board.frame(&sample));
             assert!(got[0].1.is_some());
         }
+    }
+
+    /// Columns written unpacked (one value a field) or in several packed runs, as any protobuf
+    /// writer may, read as the packed ones do.
+    #[test]
+    fn unpacked_and_split_columns_read_as_packed_ones() {
+        let mut w = proto::Writer::new();
+        w.double(1, 0.1);
+        w.double(1, 0.2);
+        for side in [2, 3] {
+            w.message(side, |m| {
+                m.packed_doubles(2, [24.0].into_iter());
+                m.packed_doubles(2, [24.5].into_iter());
+                m.packed_doubles(3, [1.5, -2.5].into_iter());
+                m.double(4, 0.3);
+                m.packed_doubles(4, [0.4].into_iter());
+            });
+        }
+        w.packed_doubles(4, [f64::NAN, 0.7].into_iter());
+        let mut out = Vec::new();
+        Columns::default()
+            .decode(&w.into_bytes(), &mut out)
+            .expect("decodes");
+        let got: Vec<_> = out
+            .iter()
+            .map(|(s, _)| {
+                (
+                    s.t_s,
+                    s.bus_v.left,
+                    s.current_a.right,
+                    s.cmd_mps.left,
+                    s.yaw_rad,
+                )
+            })
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (0.1, 24.0, 1.5, 0.3, None),
+                (0.2, 24.5, -2.5, 0.4, Some(0.7))
+            ]
+        );
     }
 
     #[test]
