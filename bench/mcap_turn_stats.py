@@ -94,7 +94,7 @@ def read(path):
 
 
 def main():
-    timed_main(read, "mcap + json + numpy", __doc__, "mcap")
+    timed_main(read, "mcap + protobuf + numpy", __doc__, "mcap")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,8 @@
 #    from the MCAP log, the page-cache read floor (the CSV's bytes read again), the Python peers
 #    on the same CSV (bench/numpy_turn_stats.py: numpy.loadtxt; bench/arrow_turn_stats.py:
 #    pyarrow.csv; bench/polars_turn_stats.py: polars) and bench/mcap_turn_stats.py (mcap reader +
-#    json + numpy) on the same MCAP log; prints rows/s, MB/s, every ratio from that one run and
+#    mcap-protobuf-support + numpy) on the same MCAP log; prints rows/s, MB/s, every ratio from
+#    that one run and
 #    how closely the per-span energies agree.
 #
 # Extra arguments go to cargo (e.g. `--offline`).

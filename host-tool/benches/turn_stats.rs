@@ -31,8 +31,9 @@
 //! 5. Python peers on the run CSV (subprocesses; their own timing): `bench/numpy_turn_stats.py`
 //!    (`numpy.loadtxt`), `bench/arrow_turn_stats.py` (`pyarrow.csv`, multi-threaded),
 //!    `bench/polars_turn_stats.py` (polars, multi-threaded).
-//! 6. `bench/mcap_turn_stats.py` on the MCAP log: the `mcap` package's reader, `json.loads` per
-//!    sample message, numpy arrays, the same statistics as 5.
+//! 6. `bench/mcap_turn_stats.py` on the MCAP log: the `mcap` package's reader with
+//!    `mcap-protobuf-support`'s decoder, each sample batch's columns as numpy arrays, the same
+//!    statistics as 5.
 //!
 //! Every ratio is printed from this one run, and each Rust path against its fastest peer.
 //!
