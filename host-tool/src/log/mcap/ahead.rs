@@ -18,7 +18,7 @@ pub(super) enum Walked {
     /// `offset..end`: the chunk record's bytes.
     Chunk {
         records: Vec<u8>,
-        prepared: Prepared,
+        prepared: Box<Prepared>,
         offset: u64,
         end: u64,
     },
@@ -45,7 +45,7 @@ const AHEAD: usize = 4;
 /// The walk's steps as they are read ahead, with the way back for a chunk's buffers.
 pub(super) struct Ahead<'q> {
     steps: Receiver<io::Result<Walked>>,
-    spare: Sender<(Vec<u8>, Prepared)>,
+    spare: Sender<(Vec<u8>, Box<Prepared>)>,
     /// Steps sent and not yet taken.
     queued: &'q AtomicUsize,
 }
@@ -61,7 +61,7 @@ impl Ahead<'_> {
     }
 
     /// Hands a chunk's buffers back to the walk, for a chunk to come.
-    pub(super) fn recycle(&self, records: Vec<u8>, prepared: Prepared) {
+    pub(super) fn recycle(&self, records: Vec<u8>, prepared: Box<Prepared>) {
         // The walk may have ended: the buffers are then simply dropped.
         let _ = self.spare.send((records, prepared));
     }
@@ -97,7 +97,7 @@ pub(super) fn walk_ahead<R: Read + Seek + Send, T>(
 fn walk<R: Read + Seek>(
     mut walker: Walker<R>,
     steps: &SyncSender<io::Result<Walked>>,
-    spare: &Receiver<(Vec<u8>, Prepared)>,
+    spare: &Receiver<(Vec<u8>, Box<Prepared>)>,
     queued: &AtomicUsize,
 ) {
     let mut decoder = ChunkDecoder::default();

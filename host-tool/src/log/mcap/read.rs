@@ -499,7 +499,7 @@ struct State<'s> {
     /// The sequence the next sample batch has when none was lost (0 before the first).
     next_batch_sequence: u32,
     /// The sample batches of the chunk being read, decoded on the walk's thread.
-    prepared: Prepared,
+    prepared: Box<Prepared>,
     /// The prepared batch of the message record being read.
     prepared_batch: Option<Result<Range<usize>, String>>,
     /// For a batch decoded here: its columns and samples, kept to be reused.
@@ -523,7 +523,7 @@ impl<'s> State<'s> {
             times: RecentTimes::default(),
             skipped: Vec::new(),
             next_batch_sequence: 0,
-            prepared: Prepared::default(),
+            prepared: Box::default(),
             prepared_batch: None,
             columns: Columns::default(),
             own_batch: Vec::new(),
@@ -602,7 +602,7 @@ impl<'s> State<'s> {
     fn chunk_records(
         &mut self,
         records: &[u8],
-        prepared: Prepared,
+        prepared: Box<Prepared>,
         offset: u64,
         end: u64,
     ) -> Result<(), McapError> {
@@ -630,7 +630,7 @@ impl<'s> State<'s> {
     }
 
     /// The chunk's prepared batches, handed back for the walk to reuse.
-    fn take_prepared(&mut self) -> Prepared {
+    fn take_prepared(&mut self) -> Box<Prepared> {
         std::mem::take(&mut self.prepared)
     }
 

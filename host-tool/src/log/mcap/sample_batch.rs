@@ -593,11 +593,15 @@ fn message(field: u32, value: Value<'_>) -> Result<&[u8], String> {
 fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
     match value {
         Value::Len(bytes) => {
-            let (values, rest) = bytes.as_chunks::<8>();
-            if !rest.is_empty() {
+            if bytes.len() % 8 != 0 {
                 return Err(format!("packed doubles of {} bytes", bytes.len()));
             }
-            into.extend(values.iter().map(|v| f64::from_le_bytes(*v)));
+            into.extend(
+                bytes
+                    .chunks_exact(8)
+                    .filter_map(|v| v.first_chunk::<8>())
+                    .map(|v| f64::from_le_bytes(*v)),
+            );
         }
         Value::Fixed64(bits) => into.push(f64::from_bits(bits)),
         other => return Err(format!("expected doubles, found {other:?}")),
