@@ -526,9 +526,11 @@ impl Doubles {
     fn add(&mut self, value: Value<'_>, message: &[u8]) -> Result<(), String> {
         if let Value::Len(bytes) = value {
             if self.packed.is_none() && self.copied.is_empty() && bytes.len() % 8 == 0 {
+                // Where the run lies in the message (it is part of it: `Fields` of its bytes).
                 let start = (bytes.as_ptr() as usize).wrapping_sub(message.as_ptr() as usize);
-                if message.get(start..start + bytes.len()).is_some() {
-                    self.packed = Some(start..start + bytes.len());
+                let run = start..start.saturating_add(bytes.len());
+                if message.get(run.clone()).is_some() {
+                    self.packed = Some(run);
                     return Ok(());
                 }
             }
