@@ -468,22 +468,25 @@ impl Writer {
         field: u32,
         values: impl ExactSizeIterator<Item = f64>,
     ) {
-        if values.len() > 0 {
-            self.key(field, LEN);
-            put_varint(&mut self.out, 8 * values.len() as u64);
-            for v in values {
-                self.out.extend_from_slice(&v.to_le_bytes());
-            }
-        }
+        self.packed_fixed(field, values.map(f64::to_le_bytes));
     }
 
     /// A packed `repeated float` field; nothing for no values.
     pub(crate) fn packed_floats(&mut self, field: u32, values: impl ExactSizeIterator<Item = f32>) {
+        self.packed_fixed(field, values.map(f32::to_le_bytes));
+    }
+
+    /// A packed field of fixed-size values (their little-endian bytes); nothing for no values.
+    fn packed_fixed<const N: usize>(
+        &mut self,
+        field: u32,
+        values: impl ExactSizeIterator<Item = [u8; N]>,
+    ) {
         if values.len() > 0 {
             self.key(field, LEN);
-            put_varint(&mut self.out, 4 * values.len() as u64);
+            put_varint(&mut self.out, (N * values.len()) as u64);
             for v in values {
-                self.out.extend_from_slice(&v.to_le_bytes());
+                self.out.extend_from_slice(&v);
             }
         }
     }

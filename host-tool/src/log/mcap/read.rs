@@ -392,12 +392,10 @@ fn losses(skips: Vec<Skip>) -> Vec<Loss> {
         .map(|s| {
             let after_t_s = s.times.before.last().copied();
             let before_t_s = s.times.after.first().copied();
-            let samples_lost = match (s.indexed, after_t_s, before_t_s) {
-                _ if s.sequence_gap.is_some() => {
-                    LostSamples::Exact(s.sequence_gap.unwrap_or_default())
-                }
-                (Some(ix), _, _) if ix.seen && !ix.batches => LostSamples::Exact(ix.samples),
-                (_, Some(a), Some(b)) => match typical_period_s(&s.times) {
+            let samples_lost = match (s.sequence_gap, s.indexed, after_t_s, before_t_s) {
+                (Some(gap), ..) => LostSamples::Exact(gap),
+                (_, Some(ix), _, _) if ix.seen && !ix.batches => LostSamples::Exact(ix.samples),
+                (_, _, Some(a), Some(b)) => match typical_period_s(&s.times) {
                     Some(period) => {
                         LostSamples::About((((b - a) / period).round() - 1.0).max(0.0) as u64)
                     }
