@@ -57,6 +57,7 @@
 mod ahead;
 mod board_sample;
 mod frame_proto;
+mod lz4_frame;
 mod prepare;
 pub(crate) mod proto;
 mod read;
@@ -263,7 +264,7 @@ pub enum McapError {
 /// Writes a whole [`RunLog`] as MCAP into `out`, records in time order (events, then frames,
 /// then samples at equal times); returns the finished writer.
 pub fn write_mcap_run<W: io::Write + io::Seek>(out: W, run: &RunLog) -> Result<W, McapError> {
-    write_mcap_run_with(out, run, Some(::mcap::Compression::Zstd))
+    write_mcap_run_with(out, run, Some(::mcap::Compression::Lz4))
 }
 
 /// [`write_mcap_run`] with the chunks' compression chosen (`None`: uncompressed).

@@ -21,7 +21,7 @@ use super::board_sample::BoardSample;
 use super::prepare::Checked;
 use super::proto::{self, Value};
 use super::read::{check_reading, no_frame};
-use crate::log::run_csv::{RigRange, RunSample};
+use crate::log::run_csv::{Column, RigRange, RunSample};
 use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale, BUS_LSB_UV};
 use model_core::Sides;
 use std::ops::Range;
@@ -222,6 +222,13 @@ impl Side {
             Side::Right => sides.right,
         }
     }
+
+    fn of_mut<T>(self, sides: &mut Sides<T>) -> &mut T {
+        match self {
+            Side::Left => &mut sides.left,
+            Side::Right => &mut sides.right,
+        }
+    }
 }
 
 /// The columns of a decoded batch, kept between messages so that reading allocates nothing
@@ -233,14 +240,14 @@ pub(super) struct Columns {
     /// yaw, pitch, x, y.
     optional: [Doubles; 4],
     t_us: Vec<u64>,
-    seq: Vec<u64>,
-    shunt: [Vec<u64>; 2],
+    seq: Vec<u32>,
+    shunt: [Vec<i16>; 2],
     /// The frames' current registers, where the readings' are not theirs.
-    current: [Vec<u64>; 2],
+    current: [Vec<i16>; 2],
     stale: Vec<u64>,
     /// The first sample's board time and number, when the others follow from them.
     t_us_first: Option<u64>,
-    seq_first: Option<u64>,
+    seq_first: Option<u32>,
     has_board: bool,
     current_lsb_na: Option<u32>,
 }
@@ -250,8 +257,8 @@ struct SideColumns {
     bus_v: Doubles,
     current_a: Doubles,
     cmd_mps: Doubles,
-    bus_raw: Vec<u64>,
-    current_raw: Vec<u64>,
+    bus_raw: Vec<u16>,
+    current_raw: Vec<i16>,
 }
 
 impl Columns {
@@ -274,13 +281,18 @@ impl Columns {
                     for item in proto::Fields::of(message(field, value)?) {
                         let (field, value) = item?;
                         match field {
-                            1 => varints(value, &mut self.t_us)?,
-                            2 => varints(value, &mut self.seq)?,
-                            3 | 4 => varints(value, &mut self.shunt[field as usize - 3])?,
-                            5 => varints(value, &mut self.stale)?,
-                            6 | 7 => varints(value, &mut self.current[field as usize - 6])?,
+                            1 => varints(value, &mut self.t_us, Ok)?,
+                            2 => varints(value, &mut self.seq, |v| sequence(v, "seq"))?,
+                            3 | 4 => varints(value, &mut self.shunt[field as usize - 3], register)?,
+                            5 => varints(value, &mut self.stale, Ok)?,
+                            6 | 7 => {
+                                varints(value, &mut self.current[field as usize - 6], register)?
+                            }
                             8 => self.t_us_first = Some(single(value, "t_us_first")?),
-                            9 => self.seq_first = Some(single(value, "seq_first")?),
+                            9 => {
+                                let first = single(value, "seq_first")?;
+                                self.seq_first = Some(sequence(first, "seq_first")?);
+                            }
                             _ => {}
                         }
                     }
@@ -314,17 +326,10 @@ impl Columns {
         for column in &mut self.optional {
             column.clear();
         }
-        let [left, right] = &mut self.shunt;
-        let [current_left, current_right] = &mut self.current;
-        for column in [
-            &mut self.t_us,
-            &mut self.seq,
-            &mut self.stale,
-            left,
-            right,
-            current_left,
-            current_right,
-        ] {
+        self.t_us.clear();
+        self.seq.clear();
+        self.stale.clear();
+        for column in self.shunt.iter_mut().chain(&mut self.current) {
             column.clear();
         }
         self.has_board = false;
@@ -351,20 +356,15 @@ impl Columns {
         });
         let registers = scale.is_some();
         for (side, name) in self.sides.iter().zip(["left", "right"]) {
-            let columns: [(&[u64], bool, &str); 2] = [
-                (&side.bus_raw, registers, "bus_raw"),
-                (&side.current_raw, registers, "current_raw"),
+            let columns = [
+                (side.bus_raw.len(), registers, "bus_raw"),
+                (side.current_raw.len(), registers, "current_raw"),
+                (side.bus_v.len(), !registers, "bus_v"),
+                (side.current_a.len(), !registers, "current_a"),
+                (side.cmd_mps.len(), true, "cmd_mps"),
             ];
-            for (column, needed, field) in columns {
-                check(column.len(), needed, &|| format!("{name}.{field}"))?;
-            }
-            let columns: [(&Doubles, bool, &str); 3] = [
-                (&side.bus_v, !registers, "bus_v"),
-                (&side.current_a, !registers, "current_a"),
-                (&side.cmd_mps, true, "cmd_mps"),
-            ];
-            for (column, needed, field) in columns {
-                check(column.len(), needed, &|| format!("{name}.{field}"))?;
+            for (len, needed, field) in columns {
+                check(len, needed, &|| format!("{name}.{field}"))?;
             }
         }
         for (column, name) in self
@@ -376,107 +376,190 @@ impl Columns {
         }
         if self.has_board {
             // Without the readings' registers, the frames' current registers are needed.
-            let columns: [(&[u64], bool, &str); 7] = [
-                (&self.t_us, self.t_us_first.is_none(), "t_us"),
-                (&self.seq, self.seq_first.is_none(), "seq"),
-                (&self.shunt[0], false, "shunt_left"),
-                (&self.shunt[1], false, "shunt_right"),
-                (&self.stale, false, "stale"),
-                (&self.current[0], !registers, "current_left"),
-                (&self.current[1], !registers, "current_right"),
+            let columns = [
+                (self.t_us.len(), self.t_us_first.is_none(), "t_us"),
+                (self.seq.len(), self.seq_first.is_none(), "seq"),
+                (self.shunt[0].len(), false, "shunt_left"),
+                (self.shunt[1].len(), false, "shunt_right"),
+                (self.stale.len(), false, "stale"),
+                (self.current[0].len(), !registers, "current_left"),
+                (self.current[1].len(), !registers, "current_right"),
             ];
-            for (column, needed, field) in columns {
-                check(column.len(), needed, &|| format!("board.{field}"))?;
+            for (len, needed, field) in columns {
+                check(len, needed, &|| format!("board.{field}"))?;
             }
         }
-        out.reserve(n);
-        let mut last_t_s = None;
-        for i in 0..n {
-            // Volts, amps and the bus and current registers (0 for doubles).
-            let electrical = |side: &SideColumns| -> Result<(f64, f64, u16, i16), String> {
-                match scale {
-                    Some(scale) => {
-                        let bus = u16::try_from(side.bus_raw[i]).map_err(|_| {
-                            format!("bus register {} is out of range", side.bus_raw[i])
-                        })?;
-                        let current = register(side.current_raw[i])?;
-                        Ok((
-                            scale.bus_v(BusVoltageRaw(bus)),
-                            scale.current_a(CurrentRaw(current)),
-                            bus,
-                            current,
-                        ))
+        // Column by column, each value read once with no branch of its own (the registers
+        // were checked as they were read); then the samples are checked as a whole, and only
+        // a batch that may hold a failing one sample by sample, to say which and why.
+        let start = out.len();
+        let empty = RunSample {
+            t_s: 0.0,
+            bus_v: Sides::new(0.0, 0.0),
+            current_a: Sides::new(0.0, 0.0),
+            cmd_mps: Sides::new(0.0, 0.0),
+            yaw_rad: None,
+            pitch_deg: None,
+            x_m: None,
+            y_m: None,
+        };
+        out.resize(start + n, (empty, None));
+        let rows = &mut out[start..];
+        self.t_s.each(message, rows, |(s, _), v| s.t_s = v);
+        for (columns, side) in self.sides.iter().zip([Side::Left, Side::Right]) {
+            match scale {
+                Some(scale) => {
+                    let registers = columns.bus_raw.iter().zip(&columns.current_raw);
+                    for ((s, _), (&bus, &current)) in rows.iter_mut().zip(registers) {
+                        *side.of_mut(&mut s.bus_v) = scale.bus_v(BusVoltageRaw(bus));
+                        *side.of_mut(&mut s.current_a) = scale.current_a(CurrentRaw(current));
                     }
-                    None => Ok((
-                        side.bus_v.get(message, i),
-                        side.current_a.get(message, i),
-                        0,
-                        0,
-                    )),
                 }
-            };
-            let (bus_l, cur_l, bus_reg_l, reg_l) = electrical(&self.sides[0])?;
-            let (bus_r, cur_r, bus_reg_r, reg_r) = electrical(&self.sides[1])?;
-            let optional = |k: usize| {
-                let column = &self.optional[k];
-                (i < column.len())
-                    .then(|| column.get(message, i))
-                    .filter(|v| !v.is_nan())
-            };
-            let sample = RunSample {
-                t_s: self.t_s.get(message, i),
-                bus_v: Sides::new(bus_l, bus_r),
-                current_a: Sides::new(cur_l, cur_r),
-                cmd_mps: Sides::new(
-                    self.sides[0].cmd_mps.get(message, i),
-                    self.sides[1].cmd_mps.get(message, i),
-                ),
-                yaw_rad: optional(0),
-                pitch_deg: optional(1),
-                x_m: optional(2),
-                y_m: optional(3),
-            };
-            let frame = if self.has_board {
-                let current = |k: usize, reading: i16| match self.current[k].get(i) {
-                    Some(&raw) => register(raw),
-                    None => Ok(reading),
-                };
-                let current = Sides::new(current(0, reg_l)?, current(1, reg_r)?);
-                let shunt = |k: usize, current: i16| match self.shunt[k].get(i) {
-                    Some(&raw) => register(raw),
-                    None => Ok(current),
-                };
-                let stale = self.stale.get(i).copied().unwrap_or(0);
-                let board = BoardSample::new(
-                    match self.t_us_first {
-                        Some(first) => board_time(first, self.t_s.get(message, 0), sample.t_s),
-                        None => self.t_us[i],
-                    },
-                    match self.seq_first {
-                        Some(first) => u32::try_from(first)
-                            .map_err(|_| format!("seq_first {first} is out of range"))?
-                            .wrapping_add(i as u32),
-                        None => u32::try_from(self.seq[i])
-                            .map_err(|_| format!("seq {} is out of range", self.seq[i]))?,
-                    },
-                    Sides::new(shunt(0, current.left)?, shunt(1, current.right)?),
-                    current,
-                    Sides::new(stale & 1 != 0, stale & 2 != 0),
-                );
-                // From the bus registers when the batch has them (the volts are theirs).
-                let frame = match registers {
-                    true => board.frame_at(Sides::new(bus_reg_l, bus_reg_r)),
-                    false => board.frame(&sample),
-                };
-                Some(frame.ok_or_else(no_frame)?)
-            } else {
-                None
-            };
-            check_reading(&sample, RigRange::Board, last_t_s)?;
+                None => {
+                    let bus_v = |(s, _): &mut Checked, v| *side.of_mut(&mut s.bus_v) = v;
+                    columns.bus_v.each(message, rows, bus_v);
+                    let current_a = |(s, _): &mut Checked, v| *side.of_mut(&mut s.current_a) = v;
+                    columns.current_a.each(message, rows, current_a);
+                }
+            }
+            let cmd_mps = |(s, _): &mut Checked, v| *side.of_mut(&mut s.cmd_mps) = v;
+            columns.cmd_mps.each(message, rows, cmd_mps);
+        }
+        let optional: [fn(&mut RunSample) -> &mut Option<f64>; 4] = [
+            |s| &mut s.yaw_rad,
+            |s| &mut s.pitch_deg,
+            |s| &mut s.x_m,
+            |s| &mut s.y_m,
+        ];
+        for (column, field) in self.optional.iter().zip(optional) {
+            // A sample without the value holds NaN.
+            column.each(message, rows, |(s, _), v| {
+                *field(s) = (!v.is_nan()).then_some(v);
+            });
+        }
+        if self.has_board {
+            self.frames(rows, registers);
+        }
+        let mut summary = Summary::new();
+        for (sample, _) in rows.iter() {
+            summary.add(sample);
+        }
+        let frames = !self.has_board || rows.iter().all(|(_, frame)| frame.is_some());
+        if frames && summary.passes(RigRange::Board) {
+            return Ok(());
+        }
+        // The first sample that fails, and why.
+        let mut last_t_s = None;
+        for (sample, frame) in rows.iter() {
+            if self.has_board && frame.is_none() {
+                return Err(no_frame());
+            }
+            check_reading(sample, RigRange::Board, last_t_s)?;
             last_t_s = Some(sample.t_s);
-            out.push((sample, frame));
         }
         Ok(())
+    }
+
+    /// Each row's board frame, rebuilt from its sample and the board columns (`None` where
+    /// they make no frame); from the bus registers if `registers` (the volts are theirs).
+    fn frames(&self, rows: &mut [Checked], registers: bool) {
+        let t0_s = rows.first().map_or(0.0, |(s, _)| s.t_s);
+        for (i, (sample, frame)) in rows.iter_mut().enumerate() {
+            // The readings' registers (0 for doubles: the frames' own are then given).
+            let reading = |k: usize| match registers {
+                true => (self.sides[k].bus_raw[i], self.sides[k].current_raw[i]),
+                false => (0, 0),
+            };
+            let ((bus_l, reading_l), (bus_r, reading_r)) = (reading(0), reading(1));
+            let current = |k: usize, reading: i16| *self.current[k].get(i).unwrap_or(&reading);
+            let current = Sides::new(current(0, reading_l), current(1, reading_r));
+            let shunt = |k: usize, current: i16| *self.shunt[k].get(i).unwrap_or(&current);
+            let stale = self.stale.get(i).copied().unwrap_or(0);
+            let board = BoardSample::new(
+                match self.t_us_first {
+                    Some(first) => board_time(first, t0_s, sample.t_s),
+                    None => self.t_us[i],
+                },
+                match self.seq_first {
+                    Some(first) => first.wrapping_add(i as u32),
+                    None => self.seq[i],
+                },
+                Sides::new(shunt(0, current.left), shunt(1, current.right)),
+                current,
+                Sides::new(stale & 1 != 0, stale & 2 != 0),
+            );
+            *frame = match registers {
+                true => board.frame_at(Sides::new(bus_l, bus_r)),
+                false => board.frame(sample),
+            };
+        }
+    }
+}
+
+/// What checking a batch's samples needs, gathered as they are built: the extremes of each
+/// reading, the sum of every value (finite only if each is) and whether the times increase.
+/// A reading's range is an interval, so its extremes decide it for all.
+#[derive(Debug)]
+struct Summary {
+    /// Lowest and highest bus voltage and current, per side.
+    bus_v: Sides<(f64, f64)>,
+    current_a: Sides<(f64, f64)>,
+    sum: f64,
+    increasing: bool,
+    last_t_s: f64,
+}
+
+impl Summary {
+    fn new() -> Self {
+        let none = Sides::new(
+            (f64::INFINITY, f64::NEG_INFINITY),
+            (f64::INFINITY, f64::NEG_INFINITY),
+        );
+        Summary {
+            bus_v: none,
+            current_a: none,
+            sum: 0.0,
+            increasing: true,
+            last_t_s: f64::NEG_INFINITY,
+        }
+    }
+
+    fn add(&mut self, sample: &RunSample) {
+        let extremes = |(lo, hi): &mut (f64, f64), v: f64| {
+            *lo = v.min(*lo);
+            *hi = v.max(*hi);
+        };
+        extremes(&mut self.bus_v.left, sample.bus_v.left);
+        extremes(&mut self.bus_v.right, sample.bus_v.right);
+        extremes(&mut self.current_a.left, sample.current_a.left);
+        extremes(&mut self.current_a.right, sample.current_a.right);
+        // An absent optional value adds nothing.
+        let optional = [sample.yaw_rad, sample.pitch_deg, sample.x_m, sample.y_m];
+        self.sum += sample.t_s
+            + sample.bus_v.left
+            + sample.bus_v.right
+            + sample.current_a.left
+            + sample.current_a.right
+            + sample.cmd_mps.left
+            + sample.cmd_mps.right
+            + optional.iter().map(|v| v.unwrap_or(0.0)).sum::<f64>();
+        self.increasing &= sample.t_s > self.last_t_s;
+        self.last_t_s = sample.t_s;
+    }
+
+    /// Whether every sample added passes [`check_reading`] in `range` (after none); `false`
+    /// where one may not (a sum that overflows is `false` too: the samples then tell).
+    fn passes(&self, range: RigRange) -> bool {
+        // `lo > hi`: no finite value was added (none at all, or NaN, which the sum holds).
+        let within = |column: Column, (lo, hi): (f64, f64)| {
+            lo > hi || (range.admits(column, lo) && range.admits(column, hi))
+        };
+        self.increasing
+            && self.sum.is_finite()
+            && within(Column::LeftBusV, self.bus_v.left)
+            && within(Column::RightBusV, self.bus_v.right)
+            && within(Column::LeftCurrentA, self.current_a.left)
+            && within(Column::RightCurrentA, self.current_a.right)
     }
 }
 
@@ -497,8 +580,10 @@ impl SideColumns {
                 2 => self.bus_v.add(value, message)?,
                 3 => self.current_a.add(value, message)?,
                 4 => self.cmd_mps.add(value, message)?,
-                5 => varints(value, &mut self.bus_raw)?,
-                6 => varints(value, &mut self.current_raw)?,
+                5 => varints(value, &mut self.bus_raw, |v| {
+                    u16::try_from(v).map_err(|_| format!("bus register {v} is out of range"))
+                })?,
+                6 => varints(value, &mut self.current_raw, register)?,
                 // 1: power_w, for viewers (bus × current is the reading).
                 _ => {}
             }
@@ -548,14 +633,22 @@ impl Doubles {
             .map_or(self.copied.len(), |run| run.len() / 8)
     }
 
-    /// Value `i` (< [`Doubles::len`]) of the column in `message`.
-    fn get(&self, message: &[u8], i: usize) -> f64 {
+    /// Calls `set` with each of `rows` and its value in `message`, as far as both go.
+    fn each<R>(&self, message: &[u8], rows: &mut [R], mut set: impl FnMut(&mut R, f64)) {
         match &self.packed {
-            Some(run) => message
-                .get(run.start + 8 * i..)
-                .and_then(|rest| rest.first_chunk::<8>())
-                .map_or(f64::NAN, |bytes| f64::from_le_bytes(*bytes)),
-            None => self.copied.get(i).copied().unwrap_or(f64::NAN),
+            Some(run) => {
+                let values = message.get(run.clone()).unwrap_or_default().chunks_exact(8);
+                for (row, bytes) in rows.iter_mut().zip(values) {
+                    if let Some(bytes) = bytes.first_chunk::<8>() {
+                        set(row, f64::from_le_bytes(*bytes));
+                    }
+                }
+            }
+            None => {
+                for (row, &v) in rows.iter_mut().zip(&self.copied) {
+                    set(row, v);
+                }
+            }
         }
     }
 }
@@ -573,6 +666,11 @@ fn single(value: Value<'_>, name: &str) -> Result<u64, String> {
         Value::Varint(v) => Ok(v),
         other => Err(format!("{name}: expected a varint, found {other:?}")),
     }
+}
+
+/// A `uint32` sample number.
+fn sequence(v: u64, name: &str) -> Result<u32, String> {
+    u32::try_from(v).map_err(|_| format!("{name} {v} is out of range"))
 }
 
 /// A `sint32` register value.
@@ -611,8 +709,12 @@ fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
     Ok(())
 }
 
-/// Appends a `repeated` varint field's values, packed or one.
-fn varints(value: Value<'_>, into: &mut Vec<u64>) -> Result<(), String> {
+/// Appends a `repeated` varint field's values, packed or one, each as `convert` makes it.
+fn varints<T>(
+    value: Value<'_>,
+    into: &mut Vec<T>,
+    convert: impl Fn(u64) -> Result<T, String>,
+) -> Result<(), String> {
     match value {
         Value::Len(bytes) => {
             // Inline rather than through `proto::varint`: a third of a batch's decoding.
@@ -621,7 +723,7 @@ fn varints(value: Value<'_>, into: &mut Vec<u64>) -> Result<(), String> {
             for &byte in bytes {
                 value |= u64::from(byte & 0x7f) << shift;
                 if byte < 0x80 {
-                    into.push(value);
+                    into.push(convert(value)?);
                     value = 0;
                     shift = 0;
                 } else {
@@ -635,7 +737,7 @@ fn varints(value: Value<'_>, into: &mut Vec<u64>) -> Result<(), String> {
                 return Err("a packed varint is cut short".into());
             }
         }
-        Value::Varint(v) => into.push(v),
+        Value::Varint(v) => into.push(convert(v)?),
         other => return Err(format!("expected varints, found {other:?}")),
     }
     Ok(())
@@ -644,6 +746,7 @@ fn varints(value: Value<'_>, into: &mut Vec<u64>) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::log::run_csv::{BUS_V_MAX, CURRENT_A_MAX};
     use proptest::prelude::*;
 
     fn through_a_message(batch: &mut Batch) -> Result<Vec<Checked>, String> {
@@ -854,6 +957,61 @@ mod tests {
         );
     }
 
+    /// A value for a summary's property: mostly in the board's range, sometimes at or past
+    /// its edges, or not finite.
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            6 => -20.0..45.0f64,
+            1 => prop::sample::select(vec![
+                0.0, -0.0, BUS_V_MAX, CURRENT_A_MAX, -CURRENT_A_MAX, 1e308, -1e308,
+                f64::NAN, f64::INFINITY, f64::NEG_INFINITY,
+            ]),
+        ]
+    }
+
+    proptest! {
+        /// A batch's summary passes only samples that each pass the per-sample check, and
+        /// passes them all unless a sum overflows.
+        #[test]
+        fn the_summary_passes_what_each_sample_check_passes(
+            rows in proptest::collection::vec(
+                (
+                    value(),
+                    proptest::array::uniform6(value()),
+                    proptest::array::uniform4(proptest::option::of(value())),
+                ),
+                0..12,
+            ),
+        ) {
+            let samples: Vec<RunSample> = rows
+                .iter()
+                .map(|&(t_s, [bl, br, cl, cr, ml, mr], [yaw, pitch, x, y])| RunSample {
+                    t_s,
+                    bus_v: Sides::new(bl, br),
+                    current_a: Sides::new(cl, cr),
+                    cmd_mps: Sides::new(ml, mr),
+                    yaw_rad: yaw,
+                    pitch_deg: pitch,
+                    x_m: x,
+                    y_m: y,
+                })
+                .collect();
+            let mut summary = Summary::new();
+            let mut last_t_s = None;
+            let mut each = true;
+            for sample in &samples {
+                summary.add(sample);
+                each &= check_reading(sample, RigRange::Board, last_t_s).is_ok();
+                last_t_s = Some(sample.t_s);
+            }
+            if summary.passes(RigRange::Board) {
+                prop_assert!(each);
+            } else if each {
+                prop_assert!(!summary.sum.is_finite());
+            }
+        }
+    }
+
     proptest! {
         /// The inlined packed-varint reader reads what `proto::varint` reads, value by value,
         /// and fails where it fails.
@@ -874,7 +1032,7 @@ mod tests {
                 }
             };
             let mut packed = Vec::new();
-            let got = varints(Value::Len(&bytes), &mut packed);
+            let got = varints(Value::Len(&bytes), &mut packed, Ok);
             prop_assert_eq!(got.is_ok(), expected.is_ok());
             if got.is_ok() {
                 prop_assert_eq!(packed, one_by_one);

@@ -5,6 +5,7 @@
 //! inside a chunk that failed, as inserted or deleted bytes move its end). Each skipped
 //! stretch is reported as a [`Skipped`] for the reader to turn into a loss report.
 
+use super::lz4_frame;
 use ::mcap::records::op;
 use std::io::{self, BufReader, Read, Seek, SeekFrom};
 
@@ -663,7 +664,6 @@ impl ChunkDecoder {
             )));
         }
         let size = header.uncompressed_size as usize;
-        self.chunk.clear();
         match header.compression.as_str() {
             "" => {
                 if data.len() != size {
@@ -672,9 +672,11 @@ impl ChunkDecoder {
                         data.len()
                     )));
                 }
+                self.chunk.clear();
                 self.chunk.extend_from_slice(&data);
             }
             "zstd" => {
+                self.chunk.clear();
                 self.chunk.reserve(size);
                 let zstd = match &mut self.zstd {
                     Some(z) => z,
@@ -692,7 +694,11 @@ impl ChunkDecoder {
                     )));
                 }
             }
+            "lz4"
+                if header.uncompressed_crc != 0
+                    && lz4_frame::decode(&data, size, &mut self.chunk).is_some() => {}
             "lz4" => {
+                self.chunk.clear();
                 self.chunk.reserve(size);
                 let mut decoder = lz4::Decoder::new(&data[..])
                     .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;

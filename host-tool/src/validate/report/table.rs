@@ -10,6 +10,7 @@ impl ValidationReport {
     /// The pose-track table: per turn R_ACT and what the track measured, per run the measured
     /// slip track.
     fn fmt_tracks(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = self.run_column_width();
         writeln!(
             f,
             "pose track (Section 5.1: Hampel filter and gap filling, circle fit; tracked point {} m right of the centre):",
@@ -20,7 +21,6 @@ impl ValidationReport {
             "{:<w$} {:>3} {:<5} {:>8} {:>8} {:>9} {:>7} {:>5} {:>4} {:>6} {:>7} {:>6} {:>6} {:>7}  note",
             "run", "seg", "dir", "R_cmd[m]", "R_ACT[m]", "R/R'_ACT", "rms[mm]", "fixes", "fill",
             "θ[°]", "s_ω[%]", "v_i", "v_o", "B_s[m]",
-            w = self.run_column_width()
         )?;
         for m in self.manoeuvres.iter().filter(|m| m.track.is_some()) {
             let Some(t) = &m.track else { continue };
@@ -44,8 +44,7 @@ impl ValidationReport {
                 num(t.wheel_speed_mps.map(|v| v.outer), 3),
                 num(t.slip_track_m, 3),
                 notes.join("; "),
-                w = self.run_column_width()
-            )?;
+                )?;
         }
         writeln!(f, "  (R'_ACT = measured slip track / 2; rms: fixes from the fitted circle; θ swept about its centre; s_ω Eq 6.3 from the track; v_i, v_o wheel speeds Eq 5.10–5.13 [m/s]; B_s Appendix D per turn)")?;
         for run in &self.runs {
@@ -143,13 +142,13 @@ impl ValidationReport {
 
     /// The manoeuvre table and its legend, then a blank line.
     fn fmt_manoeuvres(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = self.run_column_width();
         writeln!(
             f,
             "{:<w$} {:>3} {:<5} {:>8} {:>6} {:<16} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:<4}",
             "run", "seg", "dir", "R_cmd[m]", "R/R'", "regime", "dur[s]", "exp[s]", "s_ω[%]",
             "P_L[W]", "P_R[W]", "P[W]", "Pmax[W]", "E[J]", "τ_L", "τ_R", "θ[°]", "grow[W]",
             "pred[W]", "res[%]", "HG[%]", "flag",
-            w = self.run_column_width()
         )?;
         for m in &self.manoeuvres {
             let s = &m.stats;
@@ -179,8 +178,7 @@ impl ValidationReport {
                 pct(m.fit.and_then(|c| c.residual_fraction)),
                 pct(m.hard_ground_residual_fraction),
                 if m.fit.is_some_and(|c| c.flagged) { "DEP" } else if m.in_fit { "fit" } else { "" },
-                w = self.run_column_width()
-            )?;
+                )?;
         }
         writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second minus first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
         writeln!(f)?;
