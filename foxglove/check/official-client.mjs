@@ -11,6 +11,7 @@ import wsProtocol from "@foxglove/ws-protocol";
 const { FoxgloveClient } = wsProtocol;
 import { WebSocket } from "ws";
 import { McapStreamReader } from "@mcap/core";
+import lz4 from "@foxglove/wasm-lz4";
 import zstd from "@foxglove/wasm-zstd";
 import fs from "node:fs";
 
@@ -51,14 +52,17 @@ function batchTimes(data) {
   }
   return times;
 }
-await zstd.isLoaded;
+await Promise.all([lz4.isLoaded, zstd.isLoaded]);
 const fileCounts = {};
 const fileTimes = {}; // topic -> array of logTime (bigint), file order
 const batches = { messages: 0, samples: 0 };
 {
   const r = new McapStreamReader({
     validateCrcs: true,
-    decompressHandlers: { zstd: (b, n) => zstd.decompress(b, Number(n)) },
+    decompressHandlers: {
+      lz4: (b, n) => lz4(b, Number(n)),
+      zstd: (b, n) => zstd.decompress(b, Number(n)),
+    },
   });
   r.append(fs.readFileSync(mcapPath));
   const chans = {};

@@ -8,6 +8,7 @@
 import { parse } from "@foxglove/rosmsg";
 import { MessageReader } from "@foxglove/rosmsg2-serialization";
 import { McapStreamReader } from "@mcap/core";
+import lz4 from "@foxglove/wasm-lz4";
 import zstd from "@foxglove/wasm-zstd";
 import fs from "node:fs";
 import path from "node:path";
@@ -26,13 +27,16 @@ function mcapFiles(p) {
     .sort();
 }
 
-await zstd.isLoaded;
+await Promise.all([lz4.isLoaded, zstd.isLoaded]);
 let checked = 0;
 let failed = 0;
 for (const file of inputs.flatMap(mcapFiles)) {
   const reader = new McapStreamReader({
     validateCrcs: true,
-    decompressHandlers: { zstd: (b, n) => zstd.decompress(b, Number(n)) },
+    decompressHandlers: {
+      lz4: (b, n) => lz4(b, Number(n)),
+      zstd: (b, n) => zstd.decompress(b, Number(n)),
+    },
   });
   reader.append(fs.readFileSync(file));
   const schemas = new Map(); // id -> Schema record

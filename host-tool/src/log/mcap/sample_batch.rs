@@ -403,9 +403,10 @@ impl Columns {
             x_m: None,
             y_m: None,
         };
-        out.resize(start + n, (empty, None));
+        // A row for each time, then the other columns in place.
+        self.t_s
+            .rows(message, out, |t_s| (RunSample { t_s, ..empty }, None));
         let rows = &mut out[start..];
-        self.t_s.each(message, rows, |(s, _), v| s.t_s = v);
         for (columns, side) in self.sides.iter().zip([Side::Left, Side::Right]) {
             match scale {
                 Some(scale) => {
@@ -631,6 +632,21 @@ impl Doubles {
         self.packed
             .as_ref()
             .map_or(self.copied.len(), |run| run.len() / 8)
+    }
+
+    /// Appends to `rows` the row `row` makes of each value in `message`.
+    fn rows<R>(&self, message: &[u8], rows: &mut Vec<R>, row: impl Fn(f64) -> R) {
+        match &self.packed {
+            Some(run) => {
+                let values = message.get(run.clone()).unwrap_or_default().chunks_exact(8);
+                rows.extend(
+                    values
+                        .filter_map(|bytes| bytes.first_chunk::<8>())
+                        .map(|bytes| row(f64::from_le_bytes(*bytes))),
+                );
+            }
+            None => rows.extend(self.copied.iter().map(|&v| row(v))),
+        }
     }
 
     /// Calls `set` with each of `rows` and its value in `message`, as far as both go.
