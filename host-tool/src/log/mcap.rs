@@ -35,8 +35,8 @@
 //!
 //! # Crash safety
 //!
-//! Records are grouped in zstd-compressed chunks of at most [`CHUNK_BYTES`] (uncompressed and
-//! lz4 chunks, as other tools write them, read too); each
+//! Records are grouped in lz4-compressed chunks of at most [`CHUNK_BYTES`] (uncompressed and
+//! zstd chunks, as other tools and our earlier versions write them, read too); each
 //! [`RunLogSink::flush`] closes the current chunk and writes it whole, so a killed process
 //! leaves a file that holds every chunk flushed before it died. The summary section (indexes,
 //! statistics) and the footer are written by [`McapSink::finish`] or on drop. The reader does

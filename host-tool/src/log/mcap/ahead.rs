@@ -1,8 +1,8 @@
 //! The walk of an MCAP file read ahead on a second core: reading the file, decompressing and
-//! checking its chunks (a third of a read's time, most of it zstd) on one thread while the
-//! reader's state turns the previous chunk's records into the run on the caller's. The steps
-//! come in file order, as [`Walker`] gives them; memory holds at most [`AHEAD`] chunks beyond
-//! the one being read.
+//! checking its chunks (and decoding their sample batches while the reader is the slower) on
+//! one thread while the reader's state turns the previous chunk's records into the run on the
+//! caller's. The steps come in file order, as [`Walker`] gives them; memory holds at most
+//! [`AHEAD`] chunks beyond the one being read.
 
 use super::prepare::Prepared;
 use super::walk::{ChunkDecoder, ChunkProblem, Skipped, Step, Walker};
