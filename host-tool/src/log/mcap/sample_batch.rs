@@ -634,37 +634,29 @@ impl Doubles {
             .map_or(self.copied.len(), |run| run.len() / 8)
     }
 
+    /// The column's values in `message` (a packed run, or values copied: one is empty).
+    fn values<'a>(&'a self, message: &'a [u8]) -> impl Iterator<Item = f64> + 'a {
+        let packed = self.packed.clone().and_then(|run| message.get(run));
+        let copied = match self.packed {
+            Some(_) => &[][..],
+            None => &self.copied[..],
+        };
+        let packed = packed.unwrap_or_default().chunks_exact(8);
+        packed
+            .filter_map(|bytes| bytes.first_chunk::<8>())
+            .map(|bytes| f64::from_le_bytes(*bytes))
+            .chain(copied.iter().copied())
+    }
+
     /// Appends to `rows` the row `row` makes of each value in `message`.
     fn rows<R>(&self, message: &[u8], rows: &mut Vec<R>, row: impl Fn(f64) -> R) {
-        match &self.packed {
-            Some(run) => {
-                let values = message.get(run.clone()).unwrap_or_default().chunks_exact(8);
-                rows.extend(
-                    values
-                        .filter_map(|bytes| bytes.first_chunk::<8>())
-                        .map(|bytes| row(f64::from_le_bytes(*bytes))),
-                );
-            }
-            None => rows.extend(self.copied.iter().map(|&v| row(v))),
-        }
+        rows.extend(self.values(message).map(row));
     }
 
     /// Calls `set` with each of `rows` and its value in `message`, as far as both go.
     fn each<R>(&self, message: &[u8], rows: &mut [R], mut set: impl FnMut(&mut R, f64)) {
-        match &self.packed {
-            Some(run) => {
-                let values = message.get(run.clone()).unwrap_or_default().chunks_exact(8);
-                for (row, bytes) in rows.iter_mut().zip(values) {
-                    if let Some(bytes) = bytes.first_chunk::<8>() {
-                        set(row, f64::from_le_bytes(*bytes));
-                    }
-                }
-            }
-            None => {
-                for (row, &v) in rows.iter_mut().zip(&self.copied) {
-                    set(row, v);
-                }
-            }
+        for (row, v) in rows.iter_mut().zip(self.values(message)) {
+            set(row, v);
         }
     }
 }

@@ -138,7 +138,7 @@ impl<W: Write + Seek> McapSink<W> {
     pub fn with_compression(out: W, compression: Option<Compression>) -> Result<Self, McapError> {
         let options = WriteOptions::new()
             .compression(compression)
-            // One thread: chunks are small (256 KiB of JSON) and the recorder has its own work.
+            // One thread: chunks are small (256 KiB) and the recorder has its own work.
             .compression_threads(0)
             // lz4 rather than zstd: most of a chunk is the readings' noisy low bits, which
             // neither compresses, and lz4 copies them where zstd entropy-decodes them. An hour:

@@ -694,22 +694,25 @@ impl ChunkDecoder {
                     )));
                 }
             }
-            "lz4"
-                if header.uncompressed_crc != 0
-                    && lz4_frame::decode(&data, size, &mut self.chunk).is_some() => {}
             "lz4" => {
-                self.chunk.clear();
-                self.chunk.reserve(size);
-                let mut decoder = lz4::Decoder::new(&data[..])
-                    .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;
-                let n = (&mut decoder)
-                    .take(header.uncompressed_size + 1)
-                    .read_to_end(&mut self.chunk)
-                    .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;
-                if n != size {
-                    return Err(ChunkProblem::Damaged(format!(
-                        "lz4 chunk holds {n} bytes, its header claims {size}"
-                    )));
+                // Block by block, the CRC below standing for the frame's content hash; a
+                // chunk without a CRC, or a frame that reader does not take, through liblz4.
+                let decoded = header.uncompressed_crc != 0
+                    && lz4_frame::decode(&data, size, &mut self.chunk).is_some();
+                if !decoded {
+                    self.chunk.clear();
+                    self.chunk.reserve(size);
+                    let mut decoder = lz4::Decoder::new(&data[..])
+                        .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;
+                    let n = (&mut decoder)
+                        .take(header.uncompressed_size + 1)
+                        .read_to_end(&mut self.chunk)
+                        .map_err(|e| ChunkProblem::Damaged(format!("lz4 chunk: {e}")))?;
+                    if n != size {
+                        return Err(ChunkProblem::Damaged(format!(
+                            "lz4 chunk holds {n} bytes, its header claims {size}"
+                        )));
+                    }
                 }
             }
             other => return Err(ChunkProblem::Unsupported(other.to_owned())),

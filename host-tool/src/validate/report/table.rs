@@ -44,7 +44,7 @@ impl ValidationReport {
                 num(t.wheel_speed_mps.map(|v| v.outer), 3),
                 num(t.slip_track_m, 3),
                 notes.join("; "),
-                )?;
+            )?;
         }
         writeln!(f, "  (R'_ACT = measured slip track / 2; rms: fixes from the fitted circle; θ swept about its centre; s_ω Eq 6.3 from the track; v_i, v_o wheel speeds Eq 5.10–5.13 [m/s]; B_s Appendix D per turn)")?;
         for run in &self.runs {
@@ -178,7 +178,7 @@ impl ValidationReport {
                 pct(m.fit.and_then(|c| c.residual_fraction)),
                 pct(m.hard_ground_residual_fraction),
                 if m.fit.is_some_and(|c| c.flagged) { "DEP" } else if m.in_fit { "fit" } else { "" },
-                )?;
+            )?;
         }
         writeln!(f, "  (τ ∝ P/ω in W·s/rad; s_ω Eq 6.3; grow: second minus first half of the steady part; res vs fitted Eq 2.12; HG vs hard-ground paper Eq 21; fit: used in the fit; DEP: departs from the fit)")?;
         writeln!(f)?;
