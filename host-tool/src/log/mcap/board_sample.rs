@@ -17,6 +17,14 @@ use model_core::ina226::{BusVoltageRaw, CurrentRaw, Registers, ShuntVoltageRaw, 
 use model_core::wire::{ChipReading, Sample};
 use model_core::Sides;
 
+/// The bus register (a count of 1.25 mV steps) nearest `bus_v`; `None` outside its range.
+pub(super) fn bus_register(bus_v: f64) -> Option<u16> {
+    let bus = (bus_v * 1e6 / f64::from(BUS_LSB_UV)).round();
+    (0.0..=f64::from(u16::MAX))
+        .contains(&bus)
+        .then_some(bus as u16)
+}
+
 /// The frame's part beyond the physical sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct BoardSample {
@@ -80,16 +88,10 @@ impl BoardSample {
 
     /// The sample frame this part and `sample` make.
     pub(crate) fn frame(&self, sample: &RunSample) -> Option<Sample> {
-        // The register's count back from volts (the writer checks it is the board's).
-        let bus = |bus_v: f64| {
-            let bus = (bus_v * 1e6 / f64::from(BUS_LSB_UV)).round();
-            (0.0..=f64::from(u16::MAX))
-                .contains(&bus)
-                .then_some(bus as u16)
-        };
+        // The writer checks the volts are the register's.
         self.frame_at(Sides::new(
-            bus(sample.bus_v.left)?,
-            bus(sample.bus_v.right)?,
+            bus_register(sample.bus_v.left)?,
+            bus_register(sample.bus_v.right)?,
         ))
     }
 

@@ -17,12 +17,12 @@
 //! The message's MCAP `sequence` is the number of samples written before it, so a reader that
 //! loses a batch to damage knows exactly how many samples it lost.
 
-use super::board_sample::BoardSample;
+use super::board_sample::{bus_register, BoardSample};
 use super::prepare::Checked;
 use super::proto::{self, Value};
 use super::read::{check_reading, no_frame};
 use crate::log::run_csv::{Column, RigRange, RunSample};
-use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale, BUS_LSB_UV};
+use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale};
 use model_core::Sides;
 use std::ops::Range;
 
@@ -50,14 +50,12 @@ pub(super) struct Batch {
 /// The registers that rebuild `sample`'s bus voltages and currents bit for bit at `scale`.
 pub(super) fn registers_of(sample: &RunSample, scale: Scale) -> Option<Sides<(u16, i16)>> {
     let side = |bus_v: f64, current_a: f64| {
-        let bus = (bus_v * 1e6 / f64::from(BUS_LSB_UV)).round();
+        let bus = bus_register(bus_v)?;
         let current = (current_a * 1e9 / f64::from(scale.current_lsb_na)).round();
-        if !(0.0..=f64::from(u16::MAX)).contains(&bus)
-            || !(f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&current)
-        {
+        if !(f64::from(i16::MIN)..=f64::from(i16::MAX)).contains(&current) {
             return None;
         }
-        let (bus, current) = (bus as u16, current as i16);
+        let current = current as i16;
         let exact = scale.bus_v(BusVoltageRaw(bus)).to_bits() == bus_v.to_bits()
             && scale.current_a(CurrentRaw(current)).to_bits() == current_a.to_bits();
         exact.then_some((bus, current))
@@ -641,11 +639,7 @@ impl Doubles {
             Some(_) => &[][..],
             None => &self.copied[..],
         };
-        let packed = packed.unwrap_or_default().chunks_exact(8);
-        packed
-            .filter_map(|bytes| bytes.first_chunk::<8>())
-            .map(|bytes| f64::from_le_bytes(*bytes))
-            .chain(copied.iter().copied())
+        le_doubles(packed.unwrap_or_default()).chain(copied.iter().copied())
     }
 
     /// Appends to `rows` the row `row` makes of each value in `message`.
@@ -696,6 +690,14 @@ fn message(field: u32, value: Value<'_>) -> Result<&[u8], String> {
     }
 }
 
+/// The doubles of a packed run (little-endian, 8 bytes each; a cut-short last one left out).
+fn le_doubles(bytes: &[u8]) -> impl Iterator<Item = f64> + '_ {
+    bytes
+        .chunks_exact(8)
+        .filter_map(|v| v.first_chunk::<8>())
+        .map(|v| f64::from_le_bytes(*v))
+}
+
 /// Appends a `repeated double` field's values: packed, or one value (the unpacked form a
 /// protobuf reader must also take).
 fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
@@ -704,12 +706,7 @@ fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
             if bytes.len() % 8 != 0 {
                 return Err(format!("packed doubles of {} bytes", bytes.len()));
             }
-            into.extend(
-                bytes
-                    .chunks_exact(8)
-                    .filter_map(|v| v.first_chunk::<8>())
-                    .map(|v| f64::from_le_bytes(*v)),
-            );
+            into.extend(le_doubles(bytes));
         }
         Value::Fixed64(bits) => into.push(f64::from_bits(bits)),
         other => return Err(format!("expected doubles, found {other:?}")),
