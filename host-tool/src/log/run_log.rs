@@ -4,7 +4,7 @@
 
 use super::commands::CommandRow;
 use super::run_csv::RunSample;
-use model_core::wire::BoardFrame;
+use model_core::wire::{BoardFrame, Sample};
 use std::io;
 
 /// Something that happened to the stream, marked in the log at the run time it happened.
@@ -152,6 +152,18 @@ pub trait RunLogSink {
     }
     /// A physical sample on the run's time base.
     fn sample(&mut self, _sample: &RunSample) -> io::Result<()> {
+        Ok(())
+    }
+    /// Samples one after the other, each after its board frame when `frames` holds one for
+    /// each (empty: none has one): [`RunLogSink::frame`] then [`RunLogSink::sample`] for each,
+    /// unless a sink takes a stretch faster whole (a log's sample batches come so).
+    fn samples(&mut self, samples: &[RunSample], frames: &[Sample]) -> io::Result<()> {
+        for (i, sample) in samples.iter().enumerate() {
+            if let Some(frame) = frames.get(i) {
+                self.frame(sample.t_s, &BoardFrame::Sample(*frame))?;
+            }
+            self.sample(sample)?;
+        }
         Ok(())
     }
     /// A command row, logged when it was forwarded to the board.

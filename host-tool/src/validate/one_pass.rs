@@ -20,12 +20,13 @@ use super::{check_options, ManoeuvreRow, RunReport, ValidateError, ValidateOptio
 use crate::log::commands::CommandRow;
 use crate::log::run_csv::RunSample;
 use crate::log::run_log::RunLogSink;
-use model_core::wire::BoardFrame;
+use model_core::wire::{BoardFrame, Sample};
 use model_core::Rover;
 use std::io;
 
-/// Samples handed over one at a time are measured in stretches of this many (the first
-/// stretch gives the guess of the gap threshold: a run CSV's first job holds ≈ 11 000).
+/// Samples handed over as a sink are held until this many, the first stretch, which gives the
+/// guess of the gap threshold (a run CSV's first job, given to [`OnePass::push`], holds
+/// ≈ 11 000); later ones are measured as they come.
 const STRETCH: usize = 8192;
 
 /// A run's part of the report, as [`super::validate_run`] gives it: its report, its manoeuvre
@@ -42,7 +43,7 @@ pub struct OnePass<'a> {
     segmenter: Segmenter<'a>,
     /// The manoeuvres measured so far, with the guessed threshold (from the first stretch on).
     guess: Option<Guess<'a>>,
-    /// Samples handed over one at a time, not measured yet.
+    /// The first stretch's samples, until it is whole.
     held: Vec<RunSample>,
     /// The frames cross-checked as if no frame answers a command (dropped at the first that
     /// does), and as if one does.
@@ -75,6 +76,21 @@ impl<'a> OnePass<'a> {
             plain: Some(CrossChecker::new(&[], rover, false)),
             acked: CrossChecker::new(&[], rover, true),
         })
+    }
+
+    /// Samples handed over: held until the first stretch is whole (it gives the guess), then
+    /// measured as they come.
+    fn take(&mut self, samples: &[RunSample]) {
+        if self.guess.is_some() {
+            return self.push(samples);
+        }
+        let (first, rest) = samples.split_at(samples.len().min(STRETCH - self.held.len()));
+        self.held.extend_from_slice(first);
+        if self.held.len() == STRETCH {
+            let held = std::mem::take(&mut self.held);
+            self.push(&held);
+            self.push(rest);
+        }
     }
 
     /// The run's next samples, in order.
@@ -157,13 +173,17 @@ impl RunLogSink for OnePass<'_> {
     }
 
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
-        self.held.push(*sample);
-        if self.held.len() == STRETCH {
-            let held = std::mem::take(&mut self.held);
-            self.push(&held);
-            self.held = held;
-            self.held.clear();
+        self.take(std::slice::from_ref(sample));
+        Ok(())
+    }
+
+    fn samples(&mut self, samples: &[RunSample], frames: &[Sample]) -> io::Result<()> {
+        // The frames go to the cross-check and the samples to the manoeuvres, which do not
+        // look at each other: each kind in order is the order of the two.
+        for (sample, frame) in samples.iter().zip(frames) {
+            self.frame(sample.t_s, &BoardFrame::Sample(*frame))?;
         }
+        self.take(samples);
         Ok(())
     }
 

@@ -15,17 +15,58 @@ use ::mcap::records::{op, Record};
 use model_core::wire::Sample;
 use std::ops::Range;
 
-/// A sample with its board frame, rebuilt.
-pub(super) type Checked = (RunSample, Option<Sample>);
+/// Samples decoded from sample batches and checked, one batch after the other, with the board
+/// frames rebuilt for the batches that carry them.
+#[derive(Debug, Default)]
+pub(super) struct Decoded {
+    pub(super) samples: Vec<RunSample>,
+    pub(super) frames: Vec<Sample>,
+}
+
+/// Where one batch lies in a [`Decoded`]: its samples, and its frames (one a sample, or none).
+#[derive(Debug, Clone, Default)]
+pub(super) struct Span {
+    samples: Range<usize>,
+    frames: Range<usize>,
+}
+
+impl Decoded {
+    pub(super) fn clear(&mut self) {
+        self.samples.clear();
+        self.frames.clear();
+    }
+
+    fn end(&self) -> (usize, usize) {
+        (self.samples.len(), self.frames.len())
+    }
+
+    /// The span of what was added since `start` ([`Decoded::end`] then).
+    fn since(&self, start: (usize, usize)) -> Span {
+        Span {
+            samples: start.0..self.samples.len(),
+            frames: start.1..self.frames.len(),
+        }
+    }
+
+    /// Everything decoded, as one span.
+    pub(super) fn all(&self) -> Span {
+        self.since((0, 0))
+    }
+
+    /// The samples and frames of `span`.
+    pub(super) fn get(&self, span: Span) -> (&[RunSample], &[Sample]) {
+        (&self.samples[span.samples], &self.frames[span.frames])
+    }
+}
 
 /// The sample batches of one chunk, decoded and checked.
 #[derive(Debug, Default)]
 pub(super) struct Prepared {
-    /// Every batch's samples, one after the other.
-    samples: Vec<Checked>,
-    /// Each batch message: where its record starts in the chunk's records, and its samples in
-    /// `samples` (or why the message does not hold what it should).
-    batches: Vec<(usize, Result<Range<usize>, String>)>,
+    /// Every batch's samples and frames.
+    decoded: Decoded,
+    /// Each batch message: where its record starts in the chunk's records, and its part of
+    /// `decoded` (or why the message does not hold what it should).
+    batches: Vec<(usize, Result<Span, String>)>,
     /// The first of `batches` not taken yet.
     next: usize,
     columns: Columns,
@@ -36,7 +77,7 @@ impl Prepared {
     /// them to the reader; either way learns the batch channels from the channel records among
     /// them.
     pub(super) fn chunk(&mut self, records: &[u8], channels: &mut Vec<u16>, decode: bool) {
-        self.samples.clear();
+        self.decoded.clear();
         self.batches.clear();
         self.next = 0;
         let mut at = 0;
@@ -45,13 +86,10 @@ impl Prepared {
             if opcode == op::MESSAGE && decode {
                 if let Some((channel, _, _, data)) = message_fields(body) {
                     if channels.contains(&channel) {
-                        let start = self.samples.len();
-                        let result = self.columns.decode(data, &mut self.samples);
-                        if result.is_err() {
-                            self.samples.truncate(start);
-                        }
+                        let start = self.decoded.end();
+                        let result = self.columns.decode(data, &mut self.decoded);
                         self.batches
-                            .push((at, result.map(|()| start..self.samples.len())));
+                            .push((at, result.map(|()| self.decoded.since(start))));
                     }
                 }
             } else if opcode == op::CHANNEL {
@@ -67,7 +105,7 @@ impl Prepared {
 
     /// The batch prepared from the message record at `at` in the chunk's records, if any
     /// (records are asked for in order).
-    pub(super) fn take(&mut self, at: usize) -> Option<Result<Range<usize>, String>> {
+    pub(super) fn take(&mut self, at: usize) -> Option<Result<Span, String>> {
         while self.batches.get(self.next).is_some_and(|b| b.0 < at) {
             self.next += 1;
         }
@@ -78,13 +116,13 @@ impl Prepared {
         self.next += 1;
         Some(std::mem::replace(
             &mut self.batches[self.next - 1].1,
-            Ok(0..0),
+            Ok(Span::default()),
         ))
     }
 
-    /// The samples of a batch [`Prepared::take`] gave.
-    pub(super) fn samples(&self, range: Range<usize>) -> &[Checked] {
-        &self.samples[range]
+    /// The samples and frames of a batch [`Prepared::take`] gave.
+    pub(super) fn get(&self, span: Span) -> (&[RunSample], &[Sample]) {
+        self.decoded.get(span)
     }
 }
 

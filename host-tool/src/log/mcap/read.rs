@@ -9,7 +9,7 @@
 
 use super::ahead::{walk_ahead, Walked};
 use super::board_sample::BoardSample;
-use super::prepare::{record_body, Checked, Prepared};
+use super::prepare::{record_body, Decoded, Prepared, Span};
 use super::sample_batch::Columns;
 use super::sample_json::parse_sample_msg;
 use super::walk::{parse_record, Skipped, Walker};
@@ -26,7 +26,6 @@ use model_core::wire::{self, BoardFrame, Sample, MAX_FRAME};
 use std::collections::{BTreeSet, HashMap, VecDeque};
 use std::fmt;
 use std::io::{self, Read, Seek};
-use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Where a file was cut short.
@@ -499,10 +498,10 @@ struct State<'s> {
     /// The sample batches of the chunk being read, decoded on the walk's thread.
     prepared: Box<Prepared>,
     /// The prepared batch of the message record being read.
-    prepared_batch: Option<Result<Range<usize>, String>>,
+    prepared_batch: Option<Result<Span, String>>,
     /// For a batch decoded here: its columns and samples, kept to be reused.
     columns: Columns,
-    own_batch: Vec<Checked>,
+    own_batch: Decoded,
 }
 
 impl<'s> State<'s> {
@@ -524,7 +523,7 @@ impl<'s> State<'s> {
             prepared: Box::default(),
             prepared_batch: None,
             columns: Columns::default(),
-            own_batch: Vec::new(),
+            own_batch: Decoded::default(),
         }
     }
 
@@ -854,8 +853,8 @@ impl<'s> State<'s> {
                 let mut own = std::mem::take(&mut self.own_batch);
                 own.clear();
                 let samples = match self.prepared_batch.take() {
-                    Some(result) => result.map(|range| prepared.samples(range)),
-                    None => self.columns.decode(data, &mut own).map(|()| &own[..]),
+                    Some(result) => result.map(|span| prepared.get(span)),
+                    None => (self.columns.decode(data, &mut own)).map(|()| own.get(own.all())),
                 };
                 let result = self.sample_batch(sequence, samples, &bad);
                 self.prepared = prepared;
@@ -972,11 +971,11 @@ impl State<'_> {
     fn sample_batch(
         &mut self,
         sequence: u32,
-        samples: Result<&[Checked], String>,
+        batch: Result<(&[RunSample], &[Sample]), String>,
         bad: &dyn Fn(&Self, String) -> McapError,
     ) -> Result<(), McapError> {
-        let samples = samples.map_err(|e| bad(self, e))?;
-        if let Some((first, _)) = samples.first() {
+        let (samples, frames) = batch.map_err(|e| bad(self, e))?;
+        if let Some(first) = samples.first() {
             check_reading(first, RigRange::Board, self.last_t_s).map_err(|e| bad(self, e))?;
         }
         // Samples lost since the previous batch (the sequence counts samples written).
@@ -985,10 +984,14 @@ impl State<'_> {
             skip.sequence_gap = Some(u64::from(sequence.wrapping_sub(self.next_batch_sequence)));
         }
         self.next_batch_sequence = sequence.wrapping_add(samples.len() as u32);
-        for (sample, frame) in samples {
-            self.take_sample(sample, frame.as_ref())?;
+        self.last_t_s = samples.last().map_or(self.last_t_s, |s| Some(s.t_s));
+        self.samples += samples.len();
+        for sample in samples {
+            self.times.sample(sample.t_s);
         }
-        Ok(())
+        self.sink
+            .samples(samples, frames)
+            .map_err(|e| self.sink_err(e))
     }
 
     /// Hands a checked sample on, after its board frame.

@@ -18,11 +18,12 @@
 //! loses a batch to damage knows exactly how many samples it lost.
 
 use super::board_sample::{bus_register, BoardSample};
-use super::prepare::Checked;
+use super::prepare::Decoded;
 use super::proto::{self, Value};
 use super::read::{check_reading, no_frame};
 use crate::log::run_csv::{Column, RigRange, RunSample};
 use model_core::ina226::{BusVoltageRaw, CurrentRaw, Scale};
+use model_core::wire::Sample;
 use model_core::Sides;
 use std::ops::Range;
 
@@ -220,13 +221,6 @@ impl Side {
             Side::Right => sides.right,
         }
     }
-
-    fn of_mut<T>(self, sides: &mut Sides<T>) -> &mut T {
-        match self {
-            Side::Left => &mut sides.left,
-            Side::Right => &mut sides.right,
-        }
-    }
 }
 
 /// The columns of a decoded batch, kept between messages so that reading allocates nothing
@@ -266,7 +260,7 @@ impl Columns {
     /// after the previous batch's last is the reader's to check). Unknown fields are skipped (a
     /// later writer may add some); columns of different lengths, a value that is not a register,
     /// a missing column or a sample that fails its check are errors saying so.
-    pub(super) fn decode(&mut self, data: &[u8], out: &mut Vec<Checked>) -> Result<(), String> {
+    pub(super) fn decode(&mut self, data: &[u8], out: &mut Decoded) -> Result<(), String> {
         self.clear();
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
@@ -313,7 +307,13 @@ impl Columns {
                 _ => {}
             }
         }
-        self.samples(data, out)
+        let start = (out.samples.len(), out.frames.len());
+        let result = self.samples(data, out);
+        if result.is_err() {
+            out.samples.truncate(start.0);
+            out.frames.truncate(start.1);
+        }
+        result
     }
 
     fn clear(&mut self) {
@@ -336,8 +336,9 @@ impl Columns {
         self.current_lsb_na = None;
     }
 
-    /// The samples the decoded columns of `message` hold, checked.
-    fn samples(&self, message: &[u8], out: &mut Vec<Checked>) -> Result<(), String> {
+    /// The samples the decoded columns of `message` hold, checked (and their frames, if the
+    /// batch carries them), appended to `out`; on an error `out` may hold some of them.
+    fn samples(&self, message: &[u8], out: &mut Decoded) -> Result<(), String> {
         let n = self.t_s.len();
         // `name` is built only for the error.
         let check = |len: usize, needed: bool, name: &dyn Fn() -> String| match (len, needed) {
@@ -387,70 +388,62 @@ impl Columns {
                 check(len, needed, &|| format!("board.{field}"))?;
             }
         }
-        // Column by column, each value read once with no branch of its own (the registers
-        // were checked as they were read); then the samples are checked as a whole, and only
-        // a batch that may hold a failing one sample by sample, to say which and why.
-        let start = out.len();
-        let empty = RunSample {
-            t_s: 0.0,
-            bus_v: Sides::new(0.0, 0.0),
-            current_a: Sides::new(0.0, 0.0),
-            cmd_mps: Sides::new(0.0, 0.0),
-            yaw_rad: None,
-            pitch_deg: None,
-            x_m: None,
-            y_m: None,
-        };
-        // A row for each time, then the other columns in place.
-        self.t_s
-            .rows(message, out, |t_s| (RunSample { t_s, ..empty }, None));
-        let rows = &mut out[start..];
-        for (columns, side) in self.sides.iter().zip([Side::Left, Side::Right]) {
-            match scale {
-                Some(scale) => {
-                    let registers = columns.bus_raw.iter().zip(&columns.current_raw);
-                    for ((s, _), (&bus, &current)) in rows.iter_mut().zip(registers) {
-                        *side.of_mut(&mut s.bus_v) = scale.bus_v(BusVoltageRaw(bus));
-                        *side.of_mut(&mut s.current_a) = scale.current_a(CurrentRaw(current));
-                    }
-                }
-                None => {
-                    let bus_v = |(s, _): &mut Checked, v| *side.of_mut(&mut s.bus_v) = v;
-                    columns.bus_v.each(message, rows, bus_v);
-                    let current_a = |(s, _): &mut Checked, v| *side.of_mut(&mut s.current_a) = v;
-                    columns.current_a.each(message, rows, current_a);
+        // One pass, each sample built whole from its columns (the registers were checked as
+        // they were read); then the samples are checked as a whole, and only a batch that may
+        // hold a failing one sample by sample, to say which and why.
+        let start = out.samples.len();
+        out.samples.reserve(n);
+        if self.has_board {
+            out.frames.reserve(n);
+        }
+        let readings = self.sides.each_ref().map(|side| match scale {
+            Some(scale) => Readings::Registers(&side.bus_raw, &side.current_raw, scale),
+            None => Readings::Doubles(side.bus_v.bytes(message), side.current_a.bytes(message)),
+        });
+        let cmd_mps = [&self.sides[0].cmd_mps, &self.sides[1].cmd_mps].map(|c| c.bytes(message));
+        let optional = [0, 1, 2, 3].map(|k| self.optional[k].bytes(message));
+        let t = self.t_s.bytes(message);
+        let t0_s = le_double(t, 0).unwrap_or(0.0);
+        let mut summary = Summary::new();
+        // The first sample whose frame does not rebuild.
+        let mut no_frame_at = None;
+        for i in 0..n {
+            let ([bus_l, bus_r], [current_l, current_r]) = (
+                readings.map(|r| r.bus_v(i)),
+                readings.map(|r| r.current_a(i)),
+            );
+            // A sample without an optional value holds NaN.
+            let [yaw_rad, pitch_deg, x_m, y_m] =
+                optional.map(|c| le_double(c, i).filter(|v| !v.is_nan()));
+            let sample = RunSample {
+                t_s: le_double(t, i).unwrap_or_default(),
+                bus_v: Sides::new(bus_l, bus_r),
+                current_a: Sides::new(current_l, current_r),
+                cmd_mps: Sides::new(
+                    le_double(cmd_mps[0], i).unwrap_or_default(),
+                    le_double(cmd_mps[1], i).unwrap_or_default(),
+                ),
+                yaw_rad,
+                pitch_deg,
+                x_m,
+                y_m,
+            };
+            summary.add(&sample);
+            if self.has_board {
+                match self.frame(i, &sample, t0_s, &readings) {
+                    Some(frame) => out.frames.push(frame),
+                    None => _ = no_frame_at.get_or_insert(i),
                 }
             }
-            let cmd_mps = |(s, _): &mut Checked, v| *side.of_mut(&mut s.cmd_mps) = v;
-            columns.cmd_mps.each(message, rows, cmd_mps);
+            out.samples.push(sample);
         }
-        let optional: [fn(&mut RunSample) -> &mut Option<f64>; 4] = [
-            |s| &mut s.yaw_rad,
-            |s| &mut s.pitch_deg,
-            |s| &mut s.x_m,
-            |s| &mut s.y_m,
-        ];
-        for (column, field) in self.optional.iter().zip(optional) {
-            // A sample without the value holds NaN.
-            column.each(message, rows, |(s, _), v| {
-                *field(s) = (!v.is_nan()).then_some(v);
-            });
-        }
-        if self.has_board {
-            self.frames(rows, registers);
-        }
-        let mut summary = Summary::new();
-        for (sample, _) in rows.iter() {
-            summary.add(sample);
-        }
-        let frames = !self.has_board || rows.iter().all(|(_, frame)| frame.is_some());
-        if frames && summary.passes(RigRange::Board) {
+        if no_frame_at.is_none() && summary.passes(RigRange::Board) {
             return Ok(());
         }
         // The first sample that fails, and why.
         let mut last_t_s = None;
-        for (sample, frame) in rows.iter() {
-            if self.has_board && frame.is_none() {
+        for (i, sample) in out.samples[start..].iter().enumerate() {
+            if no_frame_at == Some(i) {
                 return Err(no_frame());
             }
             check_reading(sample, RigRange::Board, last_t_s)?;
@@ -459,38 +452,84 @@ impl Columns {
         Ok(())
     }
 
-    /// Each row's board frame, rebuilt from its sample and the board columns (`None` where
-    /// they make no frame); from the bus registers if `registers` (the volts are theirs).
-    fn frames(&self, rows: &mut [Checked], registers: bool) {
-        let t0_s = rows.first().map_or(0.0, |(s, _)| s.t_s);
-        for (i, (sample, frame)) in rows.iter_mut().enumerate() {
-            // The readings' registers (0 for doubles: the frames' own are then given).
-            let reading = |k: usize| match registers {
-                true => (self.sides[k].bus_raw[i], self.sides[k].current_raw[i]),
-                false => (0, 0),
-            };
-            let ((bus_l, reading_l), (bus_r, reading_r)) = (reading(0), reading(1));
-            let current = |k: usize, reading: i16| *self.current[k].get(i).unwrap_or(&reading);
-            let current = Sides::new(current(0, reading_l), current(1, reading_r));
-            let shunt = |k: usize, current: i16| *self.shunt[k].get(i).unwrap_or(&current);
-            let stale = self.stale.get(i).copied().unwrap_or(0);
-            let board = BoardSample::new(
-                match self.t_us_first {
-                    Some(first) => board_time(first, t0_s, sample.t_s),
-                    None => self.t_us[i],
-                },
-                match self.seq_first {
-                    Some(first) => first.wrapping_add(i as u32),
-                    None => self.seq[i],
-                },
-                Sides::new(shunt(0, current.left), shunt(1, current.right)),
-                current,
-                Sides::new(stale & 1 != 0, stale & 2 != 0),
-            );
-            *frame = match registers {
-                true => board.frame_at(Sides::new(bus_l, bus_r)),
-                false => board.frame(sample),
-            };
+    /// Sample `i`'s board frame, rebuilt from it and the board columns (`None` where they make
+    /// no frame; the batch's first sample was at `t0_s`): from the bus registers if the
+    /// readings are registers (the volts are theirs).
+    fn frame(
+        &self,
+        i: usize,
+        sample: &RunSample,
+        t0_s: f64,
+        readings: &[Readings; 2],
+    ) -> Option<Sample> {
+        // The readings' current registers (the frames' own are then given for doubles).
+        let current = |k: usize| {
+            self.current[k]
+                .get(i)
+                .copied()
+                .or_else(|| readings[k].current_raw(i))
+        };
+        let current = Sides::new(current(0)?, current(1)?);
+        let shunt = |k: usize, current: i16| *self.shunt[k].get(i).unwrap_or(&current);
+        let stale = self.stale.get(i).copied().unwrap_or(0);
+        let board = BoardSample::new(
+            match self.t_us_first {
+                Some(first) => board_time(first, t0_s, sample.t_s),
+                None => *self.t_us.get(i)?,
+            },
+            match self.seq_first {
+                Some(first) => first.wrapping_add(i as u32),
+                None => *self.seq.get(i)?,
+            },
+            Sides::new(shunt(0, current.left), shunt(1, current.right)),
+            current,
+            Sides::new(stale & 1 != 0, stale & 2 != 0),
+        );
+        match (readings[0].bus_raw(i), readings[1].bus_raw(i)) {
+            (Some(left), Some(right)) => board.frame_at(Sides::new(left, right)),
+            _ => board.frame(sample),
+        }
+    }
+}
+
+/// One side's readings in a batch: the chips' registers at a scale, or exact doubles (packed
+/// little-endian). Every column holds a value for each sample (checked before).
+#[derive(Debug, Clone, Copy)]
+enum Readings<'a> {
+    Registers(&'a [u16], &'a [i16], Scale),
+    Doubles(&'a [u8], &'a [u8]),
+}
+
+impl Readings<'_> {
+    fn bus_v(&self, i: usize) -> f64 {
+        match *self {
+            Readings::Registers(bus, _, scale) => {
+                bus.get(i).map_or(0.0, |&b| scale.bus_v(BusVoltageRaw(b)))
+            }
+            Readings::Doubles(bus, _) => le_double(bus, i).unwrap_or_default(),
+        }
+    }
+
+    fn current_a(&self, i: usize) -> f64 {
+        match *self {
+            Readings::Registers(_, current, scale) => current
+                .get(i)
+                .map_or(0.0, |&c| scale.current_a(CurrentRaw(c))),
+            Readings::Doubles(_, current) => le_double(current, i).unwrap_or_default(),
+        }
+    }
+
+    fn bus_raw(&self, i: usize) -> Option<u16> {
+        match *self {
+            Readings::Registers(bus, _, _) => bus.get(i).copied(),
+            Readings::Doubles(..) => None,
+        }
+    }
+
+    fn current_raw(&self, i: usize) -> Option<i16> {
+        match *self {
+            Readings::Registers(_, current, _) => current.get(i).copied(),
+            Readings::Doubles(..) => None,
         }
     }
 }
@@ -593,11 +632,11 @@ impl SideColumns {
 
 /// A `repeated double` column of the message being decoded: its packed run read in place
 /// (bytes `packed` of the message: no copy), or the values of a column written unpacked or in
-/// several runs, copied.
+/// several runs, copied (little-endian, as packed).
 #[derive(Debug, Default)]
 struct Doubles {
     packed: Option<Range<usize>>,
-    copied: Vec<f64>,
+    copied: Vec<u8>,
 }
 
 impl Doubles {
@@ -621,38 +660,38 @@ impl Doubles {
         }
         // Anything else is copied, after the run read in place so far.
         if let Some(run) = self.packed.take() {
-            doubles(Value::Len(&message[run]), &mut self.copied)?;
+            self.copied.extend_from_slice(&message[run]);
         }
-        doubles(value, &mut self.copied)
+        match value {
+            Value::Len(bytes) if bytes.len() % 8 == 0 => self.copied.extend_from_slice(bytes),
+            Value::Len(bytes) => return Err(format!("packed doubles of {} bytes", bytes.len())),
+            Value::Fixed64(bits) => self.copied.extend_from_slice(&bits.to_le_bytes()),
+            other => return Err(format!("expected doubles, found {other:?}")),
+        }
+        Ok(())
     }
 
     fn len(&self) -> usize {
         self.packed
             .as_ref()
-            .map_or(self.copied.len(), |run| run.len() / 8)
+            .map_or(self.copied.len(), |run| run.len())
+            / 8
     }
 
-    /// The column's values in `message` (a packed run, or values copied: one is empty).
-    fn values<'a>(&'a self, message: &'a [u8]) -> impl Iterator<Item = f64> + 'a {
-        let packed = self.packed.clone().and_then(|run| message.get(run));
-        let copied = match self.packed {
-            Some(_) => &[][..],
-            None => &self.copied[..],
-        };
-        le_doubles(packed.unwrap_or_default()).chain(copied.iter().copied())
-    }
-
-    /// Appends to `rows` the row `row` makes of each value in `message`.
-    fn rows<R>(&self, message: &[u8], rows: &mut Vec<R>, row: impl Fn(f64) -> R) {
-        rows.extend(self.values(message).map(row));
-    }
-
-    /// Calls `set` with each of `rows` and its value in `message`, as far as both go.
-    fn each<R>(&self, message: &[u8], rows: &mut [R], mut set: impl FnMut(&mut R, f64)) {
-        for (row, v) in rows.iter_mut().zip(self.values(message)) {
-            set(row, v);
+    /// The column's values in `message`, packed little-endian.
+    fn bytes<'a>(&'a self, message: &'a [u8]) -> &'a [u8] {
+        match &self.packed {
+            Some(run) => message.get(run.clone()).unwrap_or_default(),
+            None => &self.copied,
         }
     }
+}
+
+/// Value `i` of packed little-endian doubles, if there.
+fn le_double(bytes: &[u8], i: usize) -> Option<f64> {
+    let at = i.checked_mul(8)?;
+    let value = bytes.get(at..at.checked_add(8)?)?;
+    Some(f64::from_le_bytes(value.try_into().ok()?))
 }
 
 /// The board time of a sample at run time `t_s` in a batch whose first sample, at `t0_s`, was
@@ -688,30 +727,6 @@ fn message(field: u32, value: Value<'_>) -> Result<&[u8], String> {
             "field {field}: expected a message, found {other:?}"
         )),
     }
-}
-
-/// The doubles of a packed run (little-endian, 8 bytes each; a cut-short last one left out).
-fn le_doubles(bytes: &[u8]) -> impl Iterator<Item = f64> + '_ {
-    bytes
-        .chunks_exact(8)
-        .filter_map(|v| v.first_chunk::<8>())
-        .map(|v| f64::from_le_bytes(*v))
-}
-
-/// Appends a `repeated double` field's values: packed, or one value (the unpacked form a
-/// protobuf reader must also take).
-fn doubles(value: Value<'_>, into: &mut Vec<f64>) -> Result<(), String> {
-    match value {
-        Value::Len(bytes) => {
-            if bytes.len() % 8 != 0 {
-                return Err(format!("packed doubles of {} bytes", bytes.len()));
-            }
-            into.extend(le_doubles(bytes));
-        }
-        Value::Fixed64(bits) => into.push(f64::from_bits(bits)),
-        other => return Err(format!("expected doubles, found {other:?}")),
-    }
-    Ok(())
 }
 
 /// Appends a `repeated` varint field's values, packed or one, each as `convert` makes it.
@@ -754,11 +769,19 @@ mod tests {
     use crate::log::run_csv::{BUS_V_MAX, CURRENT_A_MAX};
     use proptest::prelude::*;
 
-    fn through_a_message(batch: &mut Batch) -> Result<Vec<Checked>, String> {
+    /// Each sample of `batch` with its frame (the frames are one a sample, or none).
+    fn through_a_message(batch: &mut Batch) -> Result<Vec<(RunSample, Option<Sample>)>, String> {
         let bytes = batch.take_protobuf();
-        let mut out = Vec::new();
+        let mut out = Decoded::default();
         Columns::default().decode(&bytes, &mut out)?;
-        Ok(out)
+        assert!(out.frames.is_empty() || out.frames.len() == out.samples.len());
+        let frames = out
+            .frames
+            .iter()
+            .copied()
+            .map(Some)
+            .chain(std::iter::repeat(None));
+        Ok(out.samples.iter().copied().zip(frames).collect())
     }
 
     /// A sample at `t_s` whose readings are the registers `bus` and `current` at `scale`.
@@ -916,13 +939,14 @@ mod tests {
             });
         }
         w.packed_doubles(4, [f64::NAN, 0.7].into_iter());
-        let mut out = Vec::new();
+        let mut out = Decoded::default();
         Columns::default()
             .decode(&w.into_bytes(), &mut out)
             .expect("decodes");
         let got: Vec<_> = out
+            .samples
             .iter()
-            .map(|(s, _)| {
+            .map(|s| {
                 (
                     s.t_s,
                     s.bus_v.left,
@@ -954,7 +978,7 @@ mod tests {
         }
         w.varint(9, 500_000);
         let e = Columns::default()
-            .decode(&w.into_bytes(), &mut Vec::new())
+            .decode(&w.into_bytes(), &mut Decoded::default())
             .expect_err("columns disagree");
         assert!(
             e.contains("left.current_raw holds 1 values for 2 samples"),
@@ -1062,7 +1086,7 @@ mod tests {
             let got = through_a_message(&mut batch).expect("decodes");
             prop_assert_eq!(got.iter().map(|(s, _)| bits(s)).collect::<Vec<_>>(),
                             want.iter().map(bits).collect::<Vec<_>>());
-            let _ = Columns::default().decode(&noise, &mut Vec::new());
+            let _ = Columns::default().decode(&noise, &mut Decoded::default());
         }
     }
 }
