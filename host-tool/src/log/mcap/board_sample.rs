@@ -25,6 +25,39 @@ pub(super) fn bus_register(bus_v: f64) -> Option<u16> {
         .then_some(bus as u16)
 }
 
+/// One chip's registers in a sample frame, and whether they are a stale read.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Chip {
+    pub(super) shunt: i16,
+    pub(super) bus: u16,
+    pub(super) current: i16,
+    pub(super) stale: bool,
+}
+
+/// The sample frame taken at board time `t_us` as sample `seq` with these chips' registers
+/// (the power register is the chip's Eq 4 on current and bus); `None` for a bus register out of
+/// the chip's range.
+pub(super) fn sample_frame(t_us: u64, seq: u32, chips: Sides<Chip>) -> Option<Sample> {
+    let chip = |c: Chip| {
+        let (bus, current) = (BusVoltageRaw(c.bus), CurrentRaw(c.current));
+        let registers = Registers {
+            shunt: ShuntVoltageRaw(c.shunt),
+            bus,
+            current,
+            power: Registers::power_of(current, bus)?,
+        };
+        Some(match c.stale {
+            true => ChipReading::Stale(registers),
+            false => ChipReading::Fresh(registers),
+        })
+    };
+    Some(Sample {
+        t_us,
+        seq,
+        chips: Sides::new(chip(chips.left)?, chip(chips.right)?),
+    })
+}
+
 /// The frame's part beyond the physical sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct BoardSample {
@@ -37,7 +70,8 @@ pub(crate) struct BoardSample {
 }
 
 impl BoardSample {
-    /// The part of a frame with these registers.
+    /// The part of a frame with these registers (tests build batches with it).
+    #[cfg(test)]
     pub(super) fn new(
         t_us: u64,
         seq: u32,
@@ -97,38 +131,30 @@ impl BoardSample {
 
     /// The sample frame this part makes with these bus registers.
     pub(crate) fn frame_at(&self, bus: Sides<u16>) -> Option<Sample> {
-        let chip = |bus: u16, shunt: i16, current: Option<i16>, stale: bool| {
-            let bus = BusVoltageRaw(bus);
-            let current = CurrentRaw(current.unwrap_or(shunt));
-            let registers = Registers {
-                shunt: ShuntVoltageRaw(shunt),
-                bus,
-                current,
-                power: Registers::power_of(current, bus)?,
-            };
-            Some(match stale {
-                true => ChipReading::Stale(registers),
-                false => ChipReading::Fresh(registers),
-            })
+        let chip = |bus, shunt: i16, current: Option<i16>, stale| Chip {
+            shunt,
+            bus,
+            current: current.unwrap_or(shunt),
+            stale,
         };
-        Some(Sample {
-            t_us: self.t_us,
-            seq: self.seq,
-            chips: Sides::new(
+        sample_frame(
+            self.t_us,
+            self.seq,
+            Sides::new(
                 chip(
                     bus.left,
                     self.shunt.left,
                     self.current.left,
                     self.stale.left,
-                )?,
+                ),
                 chip(
                     bus.right,
                     self.shunt.right,
                     self.current.right,
                     self.stale.right,
-                )?,
+                ),
             ),
-        })
+        )
     }
 
     /// Writes the part's fields into a `BoardSample` message.

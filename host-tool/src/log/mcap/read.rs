@@ -352,6 +352,19 @@ impl RecentTimes {
         }
     }
 
+    /// [`RecentTimes::sample`] for each of `samples` (a batch's).
+    fn samples(&mut self, samples: &[RunSample]) {
+        if self.first_open < self.collecting.len() {
+            return samples.iter().for_each(|s| self.sample(s.t_s));
+        }
+        // No skip is collecting times: only the recent ones change.
+        let keep = samples.len().min(AROUND);
+        let drop = (self.recent.len() + keep).saturating_sub(AROUND);
+        self.recent.drain(..drop);
+        self.recent
+            .extend(samples[samples.len() - keep..].iter().map(|s| s.t_s));
+    }
+
     /// Hands each skip the times read after it.
     fn close(&mut self, skips: &mut [Skip]) {
         for (&at, after) in self.open.iter().zip(&mut self.collecting) {
@@ -986,9 +999,7 @@ impl State<'_> {
         self.next_batch_sequence = sequence.wrapping_add(samples.len() as u32);
         self.last_t_s = samples.last().map_or(self.last_t_s, |s| Some(s.t_s));
         self.samples += samples.len();
-        for sample in samples {
-            self.times.sample(sample.t_s);
-        }
+        self.times.samples(samples);
         self.sink
             .samples(samples, frames)
             .map_err(|e| self.sink_err(e))

@@ -17,7 +17,7 @@
 //! The message's MCAP `sequence` is the number of samples written before it, so a reader that
 //! loses a batch to damage knows exactly how many samples it lost.
 
-use super::board_sample::{bus_register, BoardSample};
+use super::board_sample::{bus_register, sample_frame, BoardSample, Chip};
 use super::prepare::Decoded;
 use super::proto::{self, Value};
 use super::read::{check_reading, no_frame};
@@ -462,17 +462,26 @@ impl Columns {
         t0_s: f64,
         readings: &[Readings; 2],
     ) -> Option<Sample> {
-        // The readings' current registers (the frames' own are then given for doubles).
-        let current = |k: usize| {
-            self.current[k]
+        let stale = self.stale.get(i).copied().unwrap_or(0);
+        let chip = |k: usize| {
+            // The reading's current register, unless the frame's own is given (for doubles it
+            // must be).
+            let current = self.current[k]
                 .get(i)
                 .copied()
-                .or_else(|| readings[k].current_raw(i))
+                .or_else(|| readings[k].current_raw(i))?;
+            Some(Chip {
+                shunt: *self.shunt[k].get(i).unwrap_or(&current),
+                // Doubles: the volts' register.
+                bus: match readings[k].bus_raw(i) {
+                    Some(bus) => bus,
+                    None => bus_register([sample.bus_v.left, sample.bus_v.right][k])?,
+                },
+                current,
+                stale: stale & (1 << k) != 0,
+            })
         };
-        let current = Sides::new(current(0)?, current(1)?);
-        let shunt = |k: usize, current: i16| *self.shunt[k].get(i).unwrap_or(&current);
-        let stale = self.stale.get(i).copied().unwrap_or(0);
-        let board = BoardSample::new(
+        sample_frame(
             match self.t_us_first {
                 Some(first) => board_time(first, t0_s, sample.t_s),
                 None => *self.t_us.get(i)?,
@@ -481,14 +490,8 @@ impl Columns {
                 Some(first) => first.wrapping_add(i as u32),
                 None => *self.seq.get(i)?,
             },
-            Sides::new(shunt(0, current.left), shunt(1, current.right)),
-            current,
-            Sides::new(stale & 1 != 0, stale & 2 != 0),
-        );
-        match (readings[0].bus_raw(i), readings[1].bus_raw(i)) {
-            (Some(left), Some(right)) => board.frame_at(Sides::new(left, right)),
-            _ => board.frame(sample),
-        }
+            Sides::new(chip(0)?, chip(1)?),
+        )
     }
 }
 
