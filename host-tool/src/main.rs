@@ -32,5 +32,12 @@ fn main() -> ExitCode {
         Command::DiagnoseBench(args) => args.run(),
         Command::Plan(args) => args.run(),
     };
+    if host_tool::record::stop_signal::exiting() {
+        // A stop signal is removing the temporary paths (the command may have failed because
+        // they went) and exits with its own code: its exit, not this one.
+        loop {
+            std::thread::park();
+        }
+    }
     cli::exit_code(result)
 }

@@ -17,6 +17,17 @@ use std::sync::{Arc, OnceLock};
 /// 128 + SIGINT, as a shell reports it.
 pub const FORCED_EXIT_CODE: i32 = 130;
 
+/// Set when a signal exits the process, before the temporary paths are removed: a command
+/// that fails meanwhile (its staging directory removed under it) must not exit with its own
+/// code first ([`exiting`]).
+static EXITING: AtomicBool = AtomicBool::new(false);
+
+/// Whether a stop signal is exiting the process (its handler exits with
+/// [`FORCED_EXIT_CODE`] once the temporary paths are removed).
+pub fn exiting() -> bool {
+    EXITING.load(Ordering::SeqCst)
+}
+
 /// The flag of a command that stops cleanly, once it asked for one.
 static CLEAN_STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 
@@ -28,6 +39,7 @@ pub fn install_for_every_command() -> Result<(), ctrlc::Error> {
                 return;
             }
         }
+        EXITING.store(true, Ordering::SeqCst);
         crate::temp_paths::remove_all();
         std::process::exit(FORCED_EXIT_CODE);
     });
