@@ -17,7 +17,7 @@ use crate::rover::RoverFile;
 use crate::runs::{damage_warnings, truncation_warning, Runs, StreamedRuns, StreamedRunsError};
 use crate::validate::{self, ValidateOptions, ValidationReport};
 use anyhow::{anyhow, bail, Context, Result};
-use model_core::wire::BoardFrame;
+use model_core::wire::{BoardFrame, Sample};
 use model_core::Rover;
 use std::fmt;
 use std::fs::File;
@@ -122,11 +122,11 @@ impl RunColumns {
         }
     }
 
-    /// Room for the samples of a few more minutes when the columns are full: growing an hour's
-    /// columns a doubling at a time would copy them over and over.
-    fn make_room(&mut self) {
-        if self.values[0].len() == self.values[0].capacity() {
-            self.reserve(self.rows().max(1 << 16));
+    /// Room for `rows` more, and for a few more minutes of samples when the columns grow:
+    /// growing an hour's columns a doubling at a time would copy them over and over.
+    fn make_room(&mut self, rows: usize) {
+        if self.values[0].len() + rows > self.values[0].capacity() {
+            self.reserve(self.rows().max(1 << 16).max(rows));
         }
     }
 
@@ -189,8 +189,12 @@ impl RunLogSink for RunColumns {
     }
 
     fn sample(&mut self, sample: &RunSample) -> io::Result<()> {
-        self.make_room();
-        self.extend(std::slice::from_ref(sample));
+        self.samples(std::slice::from_ref(sample), &[])
+    }
+
+    fn samples(&mut self, samples: &[RunSample], _frames: &[Sample]) -> io::Result<()> {
+        self.make_room(samples.len());
+        self.extend(samples);
         Ok(())
     }
 

@@ -1,6 +1,8 @@
 //! A chunk's sample batches decoded and checked on the walk's thread ([`super::ahead`]), so
-//! that the reader's thread, which hands every sample to its sink, does not decode them too:
-//! decoding was a third of its time, the walk's thread had room.
+//! that the reader's thread, which hands every batch to its sink, does not decode them too:
+//! decoding was a third of its time, the walk's thread had room. A batch's samples and its
+//! frames lie in two vectors ([`Decoded`]), so a sink takes the samples as one slice
+//! ([`crate::log::run_log::RunLogSink::samples`]).
 //!
 //! Only an optimisation: the reader takes a prepared batch only for the very record it was
 //! made from, on a channel it reads as sample batches itself; any other batch (a channel
