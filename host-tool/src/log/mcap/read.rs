@@ -23,7 +23,7 @@ use crate::log::run_log::{RunLog, RunLogSink};
 use crate::ros2::from_log::{decode_sample, SAMPLE_TYPE};
 use ::mcap::records::{op, Record};
 use model_core::wire::{self, BoardFrame, Sample, MAX_FRAME};
-use std::collections::{BTreeSet, HashMap, VecDeque};
+use std::collections::{BTreeSet, HashMap};
 use std::fmt;
 use std::io::{self, Read, Seek};
 use std::path::{Path, PathBuf};
@@ -313,7 +313,9 @@ const AROUND: usize = 33;
 /// The recent sample times, and the skips still collecting times after them.
 #[derive(Debug, Default)]
 struct RecentTimes {
-    recent: VecDeque<f64>,
+    /// The last [`AROUND`] times (fewer at first), a ring whose oldest is at `next` once full.
+    recent: Vec<f64>,
+    next: usize,
     /// Every skip opened (by its place in the reader's list), in order.
     open: Vec<usize>,
     /// Times after each open skip, by its place in `open`.
@@ -330,16 +332,29 @@ impl RecentTimes {
         self.open.push(at);
         self.collecting.push(Vec::new());
         SkipTimes {
-            before: self.recent.iter().copied().collect(),
+            before: self.recent[self.next..]
+                .iter()
+                .chain(&self.recent[..self.next])
+                .copied()
+                .collect(),
             after: Vec::new(),
         }
     }
 
-    fn sample(&mut self, t_s: f64) {
-        if self.recent.len() == AROUND {
-            self.recent.pop_front();
+    fn recent(&mut self, t_s: f64) {
+        match self.recent.get_mut(self.next) {
+            Some(oldest) => *oldest = t_s,
+            None => self.recent.push(t_s),
         }
-        self.recent.push_back(t_s);
+        self.next = if self.next + 1 == AROUND {
+            0
+        } else {
+            self.next + 1
+        };
+    }
+
+    fn sample(&mut self, t_s: f64) {
+        self.recent(t_s);
         for after in &mut self.collecting[self.first_open..] {
             after.push(t_s);
         }
@@ -359,10 +374,9 @@ impl RecentTimes {
         }
         // No skip is collecting times: only the recent ones change.
         let keep = samples.len().min(AROUND);
-        let drop = (self.recent.len() + keep).saturating_sub(AROUND);
-        self.recent.drain(..drop);
-        self.recent
-            .extend(samples[samples.len() - keep..].iter().map(|s| s.t_s));
+        for s in &samples[samples.len() - keep..] {
+            self.recent(s.t_s);
+        }
     }
 
     /// Hands each skip the times read after it.
