@@ -881,7 +881,10 @@ impl<'s> State<'s> {
                 own.clear();
                 let samples = match self.prepared_batch.take() {
                     Some(result) => result.map(|span| prepared.get(span)),
-                    None => (self.columns.decode(data, &mut own)).map(|()| own.get(own.all())),
+                    None => self
+                        .columns
+                        .decode(data, &mut own)
+                        .map(|()| own.get(own.all())),
                 };
                 let result = self.sample_batch(sequence, samples, &bad);
                 self.prepared = prepared;
