@@ -99,6 +99,16 @@ impl RunColumns {
         }
     }
 
+    /// Room for an estimated `rows` samples, where there is memory for them (else the columns
+    /// grow as they fill).
+    fn presize(&mut self, rows: usize) {
+        for column in &mut self.values {
+            if column.try_reserve(rows).is_err() {
+                return;
+            }
+        }
+    }
+
     fn extend(&mut self, samples: &[RunSample]) {
         for s in samples {
             let nan = f64::NAN;
@@ -154,9 +164,10 @@ impl RunColumns {
 pub fn read_run_columns(path: &Path, reader: &mut Reader<'_>) -> Result<RunColumns> {
     let mut columns = RunColumns::default();
     let format = RunFormat::of(path)?;
-    if format == RunFormat::Csv {
-        columns.reserve(estimated_csv_rows(path));
-    }
+    columns.presize(match format {
+        RunFormat::Csv => estimated_csv_rows(path),
+        RunFormat::Mcap => estimated_mcap_samples(path),
+    });
     let own = format == RunFormat::Csv
         && visit_own_run_csv(path, reader.range, &mut |rows| columns.extend(rows))?;
     if !own {
@@ -224,6 +235,22 @@ fn estimated_csv_rows(path: &Path) -> usize {
     let rows = len as f64 / (head.len().max(1) as f64 / lines as f64);
     (rows * 1.05) as usize + 1024
 }
+
+/// About how many samples the MCAP log at `path` holds: its length over [`MCAP_BYTES_A_SAMPLE`]
+/// (0 when it cannot be read: the reader says why). Growing the columns a doubling at a time
+/// copied an hour's samples over and over, and touched twice the pages.
+fn estimated_mcap_samples(path: &Path) -> usize {
+    let len = std::fs::metadata(path).map_or(0, |m| m.len());
+    usize::try_from(len / MCAP_BYTES_A_SAMPLE).unwrap_or(usize::MAX)
+}
+
+/// A little less than a sample takes in an MCAP log as the recorder writes it, with its share of
+/// the frames and commands: 26 B in the simulated board's run (the test below), 46.6 B in the
+/// throughput bench's hour, which has tracker poses (41.7 with the zstd chunks of older logs,
+/// 85 with a message a sample, 135 as JSON). Reserving more than a log fills costs address
+/// space only (untouched pages, given back at the end); a log that takes fewer (readings that
+/// barely change compress further) grows its columns as they fill.
+const MCAP_BYTES_A_SAMPLE: u64 = 24;
 
 /// Loads `paths` whole and validates them with `options`: the sequence `plot` needs (it draws
 /// the samples).
@@ -544,6 +571,22 @@ mod tests {
         let estimate = estimated_csv_rows(&path);
         assert!((20_000..=24_000 + 1024).contains(&estimate), "{estimate}");
         assert_eq!(estimated_csv_rows(&dir.join("missing.csv")), 0);
+        std::fs::remove_dir_all(dir).expect("cleaned up");
+    }
+
+    /// The estimate of an MCAP log's samples is near their count for a run as the recorder
+    /// logs it (the simulated board's frames, model and status frames, commands, events), and
+    /// 0 for a file that cannot be read.
+    #[test]
+    fn an_mcap_logs_samples_are_estimated_from_its_length() {
+        let dir = scratch("estimate-mcap");
+        let path = dir.join("run.mcap");
+        let (run, _) = crate::log::mcap::tests::sim_run(20_000);
+        let file = std::fs::File::create(&path).expect("created");
+        crate::log::mcap::write_mcap_run(file, &run).expect("written");
+        let (n, estimate) = (run.samples.len(), estimated_mcap_samples(&path));
+        assert!((n / 2..=2 * n).contains(&estimate), "{estimate} for {n}");
+        assert_eq!(estimated_mcap_samples(&dir.join("missing.mcap")), 0);
         std::fs::remove_dir_all(dir).expect("cleaned up");
     }
 }
