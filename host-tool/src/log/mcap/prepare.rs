@@ -38,21 +38,27 @@ impl Decoded {
         self.frames.clear();
     }
 
-    fn end(&self) -> (usize, usize) {
-        (self.samples.len(), self.frames.len())
-    }
-
-    /// The span of what was added since `start` ([`Decoded::end`] then).
-    fn since(&self, start: (usize, usize)) -> Span {
+    /// An empty span at the end, to be [`Decoded::grown`] or [`Decoded::cut`] back to.
+    pub(super) fn end(&self) -> Span {
+        let (samples, frames) = (self.samples.len(), self.frames.len());
         Span {
-            samples: start.0..self.samples.len(),
-            frames: start.1..self.frames.len(),
+            samples: samples..samples,
+            frames: frames..frames,
         }
     }
 
-    /// Everything decoded, as one span.
-    pub(super) fn all(&self) -> Span {
-        self.since((0, 0))
+    /// `start` ([`Decoded::end`] then) with what was added since.
+    pub(super) fn grown(&self, start: Span) -> Span {
+        Span {
+            samples: start.samples.start..self.samples.len(),
+            frames: start.frames.start..self.frames.len(),
+        }
+    }
+
+    /// Drops what was added since `start` ([`Decoded::end`] then).
+    pub(super) fn cut(&mut self, start: Span) {
+        self.samples.truncate(start.samples.start);
+        self.frames.truncate(start.frames.start);
     }
 
     /// The samples and frames of `span`.
@@ -88,10 +94,8 @@ impl Prepared {
             if opcode == op::MESSAGE && decode {
                 if let Some((channel, _, _, data)) = message_fields(body) {
                     if channels.contains(&channel) {
-                        let start = self.decoded.end();
                         let result = self.columns.decode(data, &mut self.decoded);
-                        self.batches
-                            .push((at, result.map(|()| self.decoded.since(start))));
+                        self.batches.push((at, result));
                     }
                 }
             } else if opcode == op::CHANNEL {

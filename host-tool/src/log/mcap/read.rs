@@ -872,7 +872,7 @@ impl<'s> State<'s> {
                 };
                 let frame =
                     check_sample(&sample, board, range, self.last_t_s).map_err(|e| bad(self, e))?;
-                self.take_sample(&sample, frame.as_ref())?;
+                self.hand_on(std::slice::from_ref(&sample), frame.as_slice())?;
             }
             Topic::SampleBatch => {
                 // Decoded on the walk's thread when it could, else here.
@@ -884,7 +884,7 @@ impl<'s> State<'s> {
                     None => self
                         .columns
                         .decode(data, &mut own)
-                        .map(|()| own.get(own.all())),
+                        .map(|span| own.get(span)),
                 };
                 let result = self.sample_batch(sequence, samples, &bad);
                 self.prepared = prepared;
@@ -1014,25 +1014,17 @@ impl State<'_> {
             skip.sequence_gap = Some(u64::from(sequence.wrapping_sub(self.next_batch_sequence)));
         }
         self.next_batch_sequence = sequence.wrapping_add(samples.len() as u32);
+        self.hand_on(samples, frames)
+    }
+
+    /// Hands checked samples on, each after its board frame when `frames` holds one a sample.
+    fn hand_on(&mut self, samples: &[RunSample], frames: &[Sample]) -> Result<(), McapError> {
         self.last_t_s = samples.last().map_or(self.last_t_s, |s| Some(s.t_s));
         self.samples += samples.len();
         self.times.samples(samples);
         self.sink
             .samples(samples, frames)
             .map_err(|e| self.sink_err(e))
-    }
-
-    /// Hands a checked sample on, after its board frame.
-    fn take_sample(&mut self, sample: &RunSample, frame: Option<&Sample>) -> Result<(), McapError> {
-        self.last_t_s = Some(sample.t_s);
-        self.samples += 1;
-        self.times.sample(sample.t_s);
-        if let Some(frame) = frame {
-            self.sink
-                .frame(sample.t_s, &BoardFrame::Sample(*frame))
-                .map_err(|e| self.sink_err(e))?;
-        }
-        self.sink.sample(sample).map_err(|e| self.sink_err(e))
     }
 }
 

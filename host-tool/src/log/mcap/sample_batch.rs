@@ -18,7 +18,7 @@
 //! loses a batch to damage knows exactly how many samples it lost.
 
 use super::board_sample::{bus_register, sample_frame, BoardSample, Chip};
-use super::prepare::Decoded;
+use super::prepare::{Decoded, Span};
 use super::proto::{self, Value};
 use super::read::{check_reading, no_frame};
 use crate::log::run_csv::{Column, RigRange, RunSample};
@@ -259,8 +259,9 @@ impl Columns {
     /// board's measuring range, times increasing within the batch; whether the first comes
     /// after the previous batch's last is the reader's to check). Unknown fields are skipped (a
     /// later writer may add some); columns of different lengths, a value that is not a register,
-    /// a missing column or a sample that fails its check are errors saying so.
-    pub(super) fn decode(&mut self, data: &[u8], out: &mut Decoded) -> Result<(), String> {
+    /// a missing column or a sample that fails its check are errors saying so (and `out` is
+    /// left as it was). The batch's part of `out`.
+    pub(super) fn decode(&mut self, data: &[u8], out: &mut Decoded) -> Result<Span, String> {
         self.clear();
         for item in proto::Fields::of(data) {
             let (field, value) = item?;
@@ -307,13 +308,14 @@ impl Columns {
                 _ => {}
             }
         }
-        let start = (out.samples.len(), out.frames.len());
-        let result = self.samples(data, out);
-        if result.is_err() {
-            out.samples.truncate(start.0);
-            out.frames.truncate(start.1);
+        let start = out.end();
+        match self.samples(data, out) {
+            Ok(()) => Ok(out.grown(start)),
+            Err(e) => {
+                out.cut(start);
+                Err(e)
+            }
         }
-        result
     }
 
     fn clear(&mut self) {
@@ -400,8 +402,11 @@ impl Columns {
             Some(scale) => Readings::Registers(&side.bus_raw, &side.current_raw, scale),
             None => Readings::Doubles(side.bus_v.bytes(message), side.current_a.bytes(message)),
         });
-        let cmd_mps = [&self.sides[0].cmd_mps, &self.sides[1].cmd_mps].map(|c| c.bytes(message));
-        let optional = [0, 1, 2, 3].map(|k| self.optional[k].bytes(message));
+        let cmd_mps = self
+            .sides
+            .each_ref()
+            .map(|side| side.cmd_mps.bytes(message));
+        let optional = self.optional.each_ref().map(|column| column.bytes(message));
         let t = self.t_s.bytes(message);
         let t0_s = le_double(t, 0).unwrap_or(0.0);
         let mut summary = Summary::new();
